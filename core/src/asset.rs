@@ -1,0 +1,315 @@
+//! The runtime asset: an immutable, validated scene graph with skins, meshes,
+//! materials, images and clips, produced by [`crate::import()`].
+//!
+//! Invariants every consumer may rely on (established by the importer):
+//! - every index stored here (node, mesh, skin, material, image, joint) is in range;
+//! - [`Asset::order`] lists every node exactly once, parents before children
+//!   (the node graph is a forest: no cycles, at most one parent per node);
+//! - every vertex attribute of a [`Primitive`] has `vertex_count` entries (or is empty
+//!   when absent), every index is `< vertex_count`;
+//! - skin weights of every vertex are finite, non-negative and sum to 1;
+//!   joint indices are `< skin.joints.len()` of the skin the primitive is drawn with;
+//! - every quaternion is unit length and every float is finite.
+
+use crate::clip::Clip;
+use crate::math::Transform;
+use glam::Mat4;
+
+/// Index of a node in [`Asset::nodes`].
+pub type NodeIndex = u32;
+
+/// A whole imported glTF document, ready to animate and draw.
+#[derive(Clone, Debug, Default)]
+pub struct Asset {
+    /// All nodes by glTF index.
+    pub nodes: Vec<Node>,
+    /// Every node index once, parents before children.
+    pub order: Vec<NodeIndex>,
+    /// Scenes by glTF index.
+    pub scenes: Vec<Scene>,
+    /// The scene to show: `scene` from the file, else 0. `None` when the file has no scenes
+    /// (then every root node is shown).
+    pub default_scene: Option<usize>,
+    /// Meshes by glTF index.
+    pub meshes: Vec<Mesh>,
+    /// Skins by glTF index.
+    pub skins: Vec<Skin>,
+    /// Materials by glTF index.
+    pub materials: Vec<Material>,
+    /// Decoded images by glTF image index.
+    pub images: Vec<Image>,
+    /// Animations by glTF index.
+    pub clips: Vec<Clip>,
+    /// Start of each node's morph weights in a flat weights array
+    /// ([`crate::pose::Pose::weights`]); `weight_offsets[n]..weight_offsets[n] + node.weight_count()`.
+    pub weight_offsets: Vec<u32>,
+    /// Total length of the flat morph weights array.
+    pub weight_total: u32,
+}
+
+/// One glTF node.
+#[derive(Clone, Debug, Default)]
+pub struct Node {
+    /// `name` from the file.
+    pub name: Option<String>,
+    /// Parent node, `None` for a root.
+    pub parent: Option<NodeIndex>,
+    /// Children in file order.
+    pub children: Vec<NodeIndex>,
+    /// Local transform from the file (`matrix` decomposed, or TRS).
+    pub rest: Transform,
+    /// Mesh instanced by this node.
+    pub mesh: Option<u32>,
+    /// Skin deforming that mesh.
+    pub skin: Option<u32>,
+    /// Default morph weights of this node: `node.weights`, else `mesh.weights`, else zeros;
+    /// one per morph target of its mesh (empty without a mesh or targets).
+    pub weights: Vec<f32>,
+}
+
+/// A scene: a list of root nodes.
+#[derive(Clone, Debug, Default)]
+pub struct Scene {
+    /// `name` from the file.
+    pub name: Option<String>,
+    /// Root nodes of the scene.
+    pub roots: Vec<NodeIndex>,
+}
+
+/// A skin: joints and their inverse bind matrices.
+#[derive(Clone, Debug, Default)]
+pub struct Skin {
+    /// `name` from the file.
+    pub name: Option<String>,
+    /// Joint nodes; a vertex's joint index `j` means `joints[j]`.
+    pub joints: Vec<NodeIndex>,
+    /// One per joint (identity when the file has none).
+    pub inverse_bind: Vec<Mat4>,
+    /// `skeleton` hint from the file.
+    pub skeleton: Option<NodeIndex>,
+}
+
+/// A mesh: primitives plus default morph weights.
+#[derive(Clone, Debug, Default)]
+pub struct Mesh {
+    /// `name` from the file.
+    pub name: Option<String>,
+    /// Drawable parts.
+    pub primitives: Vec<Primitive>,
+    /// `mesh.weights`, or zeros, one per morph target.
+    pub weights: Vec<f32>,
+    /// Morph target names (`extras.targetNames`) when present.
+    pub target_names: Vec<String>,
+}
+
+/// Primitive topology. Triangle strips and fans are converted to lists on import.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Topology {
+    /// Point list.
+    Points,
+    /// Line list (line strips and loops are converted).
+    Lines,
+    /// Triangle list.
+    #[default]
+    Triangles,
+}
+
+/// One drawable primitive, de-indexed nothing: attributes are per vertex, `indices` index them.
+#[derive(Clone, Debug, Default)]
+pub struct Primitive {
+    /// Topology of `indices`.
+    pub topology: Topology,
+    /// Number of vertices.
+    pub vertex_count: u32,
+    /// POSITION, always present.
+    pub positions: Vec<[f32; 3]>,
+    /// NORMAL; empty when absent (the renderer then uses flat normals).
+    pub normals: Vec<[f32; 3]>,
+    /// TANGENT (xyz + handedness w); empty when absent.
+    pub tangents: Vec<[f32; 4]>,
+    /// TEXCOORD_0; empty when absent.
+    pub uv0: Vec<[f32; 2]>,
+    /// COLOR_0 as linear RGBA; empty when absent.
+    pub colors: Vec<[f32; 4]>,
+    /// Up to 8 influences per vertex (JOINTS_0 then JOINTS_1); unused slots have weight 0.
+    /// Empty for an unskinned primitive.
+    pub joints: Vec<[u16; 8]>,
+    /// Weights matching `joints`, normalized to sum 1.
+    pub weights: Vec<[f32; 8]>,
+    /// Vertex indices (generated 0..n when the file has none).
+    pub indices: Vec<u32>,
+    /// Material, `None` for the glTF default material.
+    pub material: Option<u32>,
+    /// Morph targets (deltas), one per target of the mesh.
+    pub targets: Vec<MorphTarget>,
+    /// Object-space bounds of `positions` (min, max).
+    pub bounds: ([f32; 3], [f32; 3]),
+}
+
+impl Primitive {
+    /// Whether this primitive carries skinning attributes.
+    pub fn is_skinned(&self) -> bool {
+        !self.joints.is_empty()
+    }
+}
+
+/// A morph target: per-vertex deltas. Absent attributes are empty.
+#[derive(Clone, Debug, Default)]
+pub struct MorphTarget {
+    /// POSITION deltas.
+    pub positions: Vec<[f32; 3]>,
+    /// NORMAL deltas.
+    pub normals: Vec<[f32; 3]>,
+    /// TANGENT deltas (xyz).
+    pub tangents: Vec<[f32; 3]>,
+}
+
+/// Alpha handling of a material.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum AlphaMode {
+    /// Alpha ignored.
+    #[default]
+    Opaque,
+    /// Alpha below the cutoff is discarded.
+    Mask(f32),
+    /// Alpha blended.
+    Blend,
+}
+
+/// `KHR_texture_transform` of a texture reference (identity by default).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TextureTransform {
+    /// UV offset.
+    pub offset: [f32; 2],
+    /// Rotation in radians.
+    pub rotation: f32,
+    /// UV scale.
+    pub scale: [f32; 2],
+}
+
+impl Default for TextureTransform {
+    fn default() -> Self {
+        Self { offset: [0.0, 0.0], rotation: 0.0, scale: [1.0, 1.0] }
+    }
+}
+
+impl TextureTransform {
+    /// The 3×3 UV matrix (column-major, as glTF's extension defines it).
+    pub fn matrix(&self) -> glam::Mat3 {
+        let t = glam::Mat3::from_translation(glam::Vec2::from(self.offset));
+        let (s, c) = self.rotation.sin_cos();
+        let r = glam::Mat3::from_cols(
+            glam::Vec3::new(c, -s, 0.0),
+            glam::Vec3::new(s, c, 0.0),
+            glam::Vec3::new(0.0, 0.0, 1.0),
+        );
+        let sc = glam::Mat3::from_scale(glam::Vec2::from(self.scale));
+        t * r * sc
+    }
+}
+
+/// A texture reference of a material.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TextureRef {
+    /// Index into [`Asset::images`].
+    pub image: u32,
+    /// `texCoord` set (only 0 is drawn today).
+    pub tex_coord: u32,
+    /// `KHR_texture_transform`.
+    pub transform: TextureTransform,
+    /// Sampler wraps/filters: true for repeat, false for clamp (per axis u, v).
+    pub repeat: [bool; 2],
+    /// Nearest (true) or linear (false) magnification.
+    pub nearest: bool,
+}
+
+/// A metallic-roughness material, reduced to what the viewer draws.
+#[derive(Clone, Debug)]
+pub struct Material {
+    /// `name` from the file.
+    pub name: Option<String>,
+    /// Linear RGBA base colour factor.
+    pub base_color: [f32; 4],
+    /// Base colour texture (sRGB).
+    pub base_color_texture: Option<TextureRef>,
+    /// Metallic factor.
+    pub metallic: f32,
+    /// Roughness factor.
+    pub roughness: f32,
+    /// Emissive factor (linear RGB).
+    pub emissive: [f32; 3],
+    /// Alpha mode.
+    pub alpha: AlphaMode,
+    /// Draw both faces.
+    pub double_sided: bool,
+    /// `KHR_materials_unlit`.
+    pub unlit: bool,
+}
+
+impl Default for Material {
+    fn default() -> Self {
+        Self {
+            name: None,
+            base_color: [1.0; 4],
+            base_color_texture: None,
+            metallic: 1.0,
+            roughness: 1.0,
+            emissive: [0.0; 3],
+            alpha: AlphaMode::Opaque,
+            double_sided: false,
+            unlit: false,
+        }
+    }
+}
+
+/// A decoded image, RGBA8 (sRGB-encoded as stored in the file).
+#[derive(Clone, Debug, Default)]
+pub struct Image {
+    /// `name` or URI from the file.
+    pub name: Option<String>,
+    /// Width in pixels (≥ 1).
+    pub width: u32,
+    /// Height in pixels (≥ 1).
+    pub height: u32,
+    /// `width * height * 4` bytes, row-major, top row first.
+    pub rgba8: Vec<u8>,
+}
+
+impl Asset {
+    /// Nodes of the default scene (or all roots), each with its whole subtree, in `order`.
+    pub fn scene_nodes(&self) -> Vec<NodeIndex> {
+        let mut in_scene = vec![false; self.nodes.len()];
+        let roots: Vec<NodeIndex> = match self.default_scene.and_then(|s| self.scenes.get(s)) {
+            Some(scene) => scene.roots.clone(),
+            None => (0..self.nodes.len() as u32)
+                .filter(|&n| self.nodes[n as usize].parent.is_none())
+                .collect(),
+        };
+        for r in roots {
+            if let Some(f) = in_scene.get_mut(r as usize) {
+                *f = true;
+            }
+        }
+        let mut out = Vec::new();
+        for &n in &self.order {
+            let node = &self.nodes[n as usize];
+            if let Some(p) = node.parent
+                && in_scene[p as usize]
+            {
+                in_scene[n as usize] = true;
+            }
+            if in_scene[n as usize] {
+                out.push(n);
+            }
+        }
+        out
+    }
+
+    /// Index of a clip by name, or by its decimal index.
+    pub fn find_clip(&self, name_or_index: &str) -> Option<usize> {
+        self.clips
+            .iter()
+            .position(|c| c.name.as_deref() == Some(name_or_index))
+            .or_else(|| name_or_index.parse::<usize>().ok().filter(|&i| i < self.clips.len()))
+    }
+}

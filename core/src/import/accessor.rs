@@ -1,0 +1,499 @@
+//! Buffer views and accessors: layouts validated with checked 64-bit arithmetic before
+//! anything is read, then decoded element by element (strides, matrix column padding,
+//! normalized integers, sparse substitution).
+
+use super::container::Budget;
+use super::json::{Obj, child, member_error, objects, opt_bool, opt_object, opt_u64, req_index, req_u64};
+use crate::error::ImportError;
+use std::borrow::Cow;
+
+/// An accessor component type.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Component {
+    I8,
+    U8,
+    I16,
+    U16,
+    U32,
+    F32,
+}
+
+impl Component {
+    fn from_gl(code: u64) -> Option<Self> {
+        Some(match code {
+            5120 => Self::I8,
+            5121 => Self::U8,
+            5122 => Self::I16,
+            5123 => Self::U16,
+            5125 => Self::U32,
+            5126 => Self::F32,
+            _ => return None,
+        })
+    }
+
+    fn size(self) -> u64 {
+        match self {
+            Self::I8 | Self::U8 => 1,
+            Self::I16 | Self::U16 => 2,
+            Self::U32 | Self::F32 => 4,
+        }
+    }
+
+    /// Whether this is an unsigned integer type (indices, joints).
+    fn is_unsigned_int(self) -> bool {
+        matches!(self, Self::U8 | Self::U16 | Self::U32)
+    }
+
+    /// One component as `f32` (normalized integers mapped to [0, 1] or [-1, 1]).
+    fn to_f32(self, b: &[u8], normalized: bool) -> f32 {
+        let (v, scale) = match self {
+            Self::F32 => return f32::from_le_bytes([b[0], b[1], b[2], b[3]]),
+            Self::U32 => return u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f32,
+            Self::I8 => (f32::from(b[0] as i8), 127.0),
+            Self::U8 => (f32::from(b[0]), 255.0),
+            Self::I16 => (f32::from(i16::from_le_bytes([b[0], b[1]])), 32767.0),
+            Self::U16 => (f32::from(u16::from_le_bytes([b[0], b[1]])), 65535.0),
+        };
+        if normalized { (v / scale).max(-1.0) } else { v }
+    }
+
+    /// One unsigned component as `u32` (0 for signed or float types, which callers refuse).
+    fn to_u32(self, b: &[u8]) -> u32 {
+        match self {
+            Self::U8 => u32::from(b[0]),
+            Self::U16 => u32::from(u16::from_le_bytes([b[0], b[1]])),
+            Self::U32 => u32::from_le_bytes([b[0], b[1], b[2], b[3]]),
+            _ => 0,
+        }
+    }
+}
+
+/// A validated buffer view.
+#[derive(Clone, Copy, Debug)]
+struct View {
+    buffer: usize,
+    offset: u64,
+    length: u64,
+    stride: Option<u64>,
+}
+
+/// A validated sparse substitution.
+#[derive(Clone, Copy, Debug)]
+struct Sparse {
+    count: u64,
+    indices_view: usize,
+    indices_offset: u64,
+    indices_component: Component,
+    values_view: usize,
+    values_offset: u64,
+}
+
+/// A validated accessor layout.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Accessor {
+    view: Option<usize>,
+    offset: u64,
+    /// Number of elements.
+    pub count: u64,
+    component: Component,
+    normalized: bool,
+    /// `"SCALAR"`, `"VEC3"`, `"MAT4"`…
+    pub type_name: &'static str,
+    rows: usize,
+    cols: usize,
+    column_stride: u64,
+    element_size: u64,
+    stride: u64,
+    sparse: Option<Sparse>,
+}
+
+impl Accessor {
+    /// Components per element.
+    pub fn components(&self) -> usize {
+        self.rows * self.cols
+    }
+}
+
+/// `(rows, cols)` of an accessor type.
+fn shape(type_name: &str) -> Option<(&'static str, usize, usize)> {
+    Some(match type_name {
+        "SCALAR" => ("SCALAR", 1, 1),
+        "VEC2" => ("VEC2", 2, 1),
+        "VEC3" => ("VEC3", 3, 1),
+        "VEC4" => ("VEC4", 4, 1),
+        "MAT2" => ("MAT2", 2, 2),
+        "MAT3" => ("MAT3", 3, 3),
+        "MAT4" => ("MAT4", 4, 4),
+        _ => return None,
+    })
+}
+
+/// All buffers, views and accessors of a document.
+#[derive(Debug)]
+pub(crate) struct Accessors<'a> {
+    buffers: Vec<Cow<'a, [u8]>>,
+    views: Vec<View>,
+    list: Vec<Accessor>,
+}
+
+/// `offset + stride * (count - 1) + element` (count ≥ 1) in u64, None on overflow.
+fn span(offset: u64, stride: u64, count: u64, element: u64) -> Option<u64> {
+    offset.checked_add(stride.checked_mul(count.checked_sub(1)?)?)?.checked_add(element)
+}
+
+impl<'a> Accessors<'a> {
+    /// Validates every buffer view and accessor of `root` against `buffers`.
+    pub fn new(root: &Obj, buffers: Vec<Cow<'a, [u8]>>, budget: &mut Budget) -> Result<Self, ImportError> {
+        let view_objects = objects(root, "bufferViews", "")?;
+        budget.take_items(view_objects.len() as u64, size_of::<View>() as u64, "/bufferViews", "buffer views")?;
+        let mut views = Vec::with_capacity(view_objects.len());
+        for (v, ptr) in &view_objects {
+            let buffer = req_index(v, "buffer", ptr, buffers.len(), "buffer")? as usize;
+            let offset = opt_u64(v, "byteOffset", ptr)?.unwrap_or(0);
+            let length = req_u64(v, "byteLength", ptr)?;
+            if length == 0 {
+                return Err(member_error(ptr, "byteLength", "byteLength must be at least 1"));
+            }
+            let stride = opt_u64(v, "byteStride", ptr)?;
+            if let Some(s) = stride
+                && (!(4..=252).contains(&s) || s % 4 != 0)
+            {
+                return Err(member_error(
+                    ptr,
+                    "byteStride",
+                    format!("byteStride {s} is not a multiple of 4 in 4..=252"),
+                ));
+            }
+            let buffer_len = buffers[buffer].len() as u64;
+            if offset.checked_add(length).is_none_or(|end| end > buffer_len) {
+                return Err(ImportError::new(
+                    ptr.as_str(),
+                    format!(
+                        "byteOffset {offset} + byteLength {length} does not fit buffer {buffer} ({buffer_len} bytes)"
+                    ),
+                ));
+            }
+            views.push(View { buffer, offset, length, stride });
+        }
+        let accessor_objects = objects(root, "accessors", "")?;
+        budget.take_items(accessor_objects.len() as u64, size_of::<Accessor>() as u64, "/accessors", "accessors")?;
+        let mut list = Vec::with_capacity(accessor_objects.len());
+        for (a, ptr) in &accessor_objects {
+            list.push(Self::accessor(a, ptr, &views)?);
+        }
+        Ok(Self { buffers, views, list })
+    }
+
+    fn accessor(a: &Obj, ptr: &str, views: &[View]) -> Result<Accessor, ImportError> {
+        let code = req_u64(a, "componentType", ptr)?;
+        let component = Component::from_gl(code)
+            .ok_or_else(|| member_error(ptr, "componentType", format!("{code} is not a valid component type")))?;
+        let type_value = a.get("type").and_then(|t| t.as_str()).unwrap_or("");
+        let (type_name, rows, cols) = shape(type_value)
+            .ok_or_else(|| member_error(ptr, "type", format!("'{type_value}' is not a valid accessor type")))?;
+        let count = req_u64(a, "count", ptr)?;
+        if count == 0 {
+            return Err(member_error(ptr, "count", "count must be at least 1, got 0"));
+        }
+        let normalized = opt_bool(a, "normalized", ptr)?.unwrap_or(false);
+        if normalized && matches!(component, Component::F32 | Component::U32) {
+            return Err(member_error(ptr, "normalized", "FLOAT and UNSIGNED_INT accessors cannot be normalized"));
+        }
+        let csize = component.size();
+        let column = rows as u64 * csize;
+        let column_stride = if cols > 1 { column.next_multiple_of(4) } else { column };
+        let element_size = column_stride * cols as u64;
+        let offset = opt_u64(a, "byteOffset", ptr)?.unwrap_or(0);
+        let view = super::json::opt_index(a, "bufferView", ptr, views.len(), "bufferView")?.map(|v| v as usize);
+        let mut stride = element_size;
+        if let Some(v) = view {
+            let vw = &views[v];
+            stride = vw.stride.unwrap_or(element_size);
+            if stride < element_size {
+                return Err(ImportError::new(
+                    ptr,
+                    format!("byteStride {stride} of bufferView {v} is smaller than its {element_size}-byte elements"),
+                ));
+            }
+            if span(offset, stride, count, element_size).is_none_or(|end| end > vw.length) {
+                return Err(ImportError::new(
+                    ptr,
+                    format!(
+                        "count {count} does not fit bufferView {v} ({count} elements of {element_size} bytes, stride {stride}, from byteOffset {offset}; the view has {} bytes)",
+                        vw.length
+                    ),
+                ));
+            }
+        }
+        let sparse = match opt_object(a, "sparse", ptr)? {
+            Some(s) => Some(Self::sparse(s, &child(ptr, "sparse"), count, element_size, views)?),
+            None => None,
+        };
+        Ok(Accessor {
+            view,
+            offset,
+            count,
+            component,
+            normalized,
+            type_name,
+            rows,
+            cols,
+            column_stride,
+            element_size,
+            stride,
+            sparse,
+        })
+    }
+
+    fn sparse(s: &Obj, ptr: &str, count: u64, element_size: u64, views: &[View]) -> Result<Sparse, ImportError> {
+        let sparse_count = req_u64(s, "count", ptr)?;
+        if sparse_count == 0 || sparse_count > count {
+            return Err(member_error(ptr, "count", format!("sparse count {sparse_count} must be in 1..={count}")));
+        }
+        let fits = |o: &Obj, p: &str, element: u64| -> Result<(usize, u64), ImportError> {
+            let v = req_index(o, "bufferView", p, views.len(), "bufferView")? as usize;
+            let offset = opt_u64(o, "byteOffset", p)?.unwrap_or(0);
+            if span(offset, element, sparse_count, element).is_none_or(|end| end > views[v].length) {
+                return Err(ImportError::new(
+                    p,
+                    format!(
+                        "{sparse_count} sparse elements of {element} bytes from byteOffset {offset} do not fit bufferView {v}"
+                    ),
+                ));
+            }
+            Ok((v, offset))
+        };
+        let ip = child(ptr, "indices");
+        let indices = opt_object(s, "indices", ptr)?.ok_or_else(|| ImportError::new(&ip, "missing"))?;
+        let code = req_u64(indices, "componentType", &ip)?;
+        let indices_component = Component::from_gl(code)
+            .filter(|c| c.is_unsigned_int())
+            .ok_or_else(|| member_error(&ip, "componentType", format!("{code} is not a valid sparse index type")))?;
+        let (indices_view, indices_offset) = fits(indices, &ip, indices_component.size())?;
+        let vp = child(ptr, "values");
+        let values = opt_object(s, "values", ptr)?.ok_or_else(|| ImportError::new(&vp, "missing"))?;
+        let (values_view, values_offset) = fits(values, &vp, element_size)?;
+        Ok(Sparse { count: sparse_count, indices_view, indices_offset, indices_component, values_view, values_offset })
+    }
+
+    /// Number of buffer views.
+    pub fn view_count(&self) -> usize {
+        self.views.len()
+    }
+
+    /// Number of accessors.
+    pub fn len(&self) -> usize {
+        self.list.len()
+    }
+
+    /// The accessor at `index` (validated by the caller against [`Accessors::len`]).
+    pub fn get(&self, index: u32) -> Result<&Accessor, ImportError> {
+        self.list
+            .get(index as usize)
+            .ok_or_else(|| ImportError::new(format!("/accessors/{index}"), "accessor does not exist"))
+    }
+
+    /// Bytes of a buffer view.
+    pub fn view_bytes(&self, view: usize) -> Result<&[u8], ImportError> {
+        let v =
+            self.views.get(view).ok_or_else(|| ImportError::new(format!("/bufferViews/{view}"), "does not exist"))?;
+        let start = usize::try_from(v.offset).ok();
+        let end = v.offset.checked_add(v.length).and_then(|e| usize::try_from(e).ok());
+        start
+            .zip(end)
+            .and_then(|(s, e)| self.buffers.get(v.buffer)?.get(s..e))
+            .ok_or_else(|| ImportError::new(format!("/bufferViews/{view}"), "does not fit its buffer"))
+    }
+
+    /// Refuses (at `use_ptr`) an accessor whose type is not one of `types`.
+    pub fn expect_type(&self, index: u32, use_ptr: &str, types: &[&str]) -> Result<&Accessor, ImportError> {
+        let a = self.get(index)?;
+        if types.contains(&a.type_name) {
+            Ok(a)
+        } else {
+            Err(ImportError::new(
+                use_ptr,
+                format!("accessor {index} is {}, expected {}", a.type_name, types.join(" or ")),
+            ))
+        }
+    }
+
+    /// Calls `f(element_index, components)` for every element, dense data or zeros with
+    /// sparse substitutions, decoding each component with `decode`.
+    fn visit<T: Copy + Default>(
+        &self,
+        index: u32,
+        decode: impl Fn(Component, &[u8]) -> T,
+        mut f: impl FnMut(u64, &[T]) -> Result<(), ImportError>,
+    ) -> Result<(), ImportError> {
+        let a = self.get(index)?;
+        let ptr = || format!("/accessors/{index}");
+        let out_of_bounds = || ImportError::new(ptr(), "element outside its buffer view");
+        let dense = a.view.map(|v| self.view_bytes(v)).transpose()?;
+        let sparse = match &a.sparse {
+            Some(s) => Some((s, self.view_bytes(s.indices_view)?, self.view_bytes(s.values_view)?)),
+            None => None,
+        };
+        let sparse_index = |k: u64| -> Result<u64, ImportError> {
+            let (s, indices, _) = sparse.as_ref().ok_or_else(out_of_bounds)?;
+            let size = s.indices_component.size();
+            let at = s.indices_offset + k * size;
+            let bytes = slice(indices, at, size).ok_or_else(out_of_bounds)?;
+            Ok(u64::from(s.indices_component.to_u32(bytes)))
+        };
+        let mut next_sparse = 0u64;
+        let mut next_index = match &sparse {
+            Some(_) => Some(sparse_index(0)?),
+            None => None,
+        };
+        let mut values = [T::default(); 16];
+        let n = a.components();
+        let csize = a.component.size();
+        for i in 0..a.count {
+            let element = match (next_index, &sparse) {
+                (Some(si), Some((s, _, sparse_values))) if si == i => {
+                    let bytes = slice(sparse_values, s.values_offset + next_sparse * a.element_size, a.element_size);
+                    next_sparse += 1;
+                    next_index = None;
+                    if next_sparse < s.count {
+                        let following = sparse_index(next_sparse)?;
+                        if following <= i {
+                            return Err(ImportError::new(
+                                format!("{}/sparse/indices", ptr()),
+                                format!("sparse indices must be strictly increasing: {following} follows {i}"),
+                            ));
+                        }
+                        next_index = Some(following);
+                    }
+                    Some(bytes.ok_or_else(out_of_bounds)?)
+                }
+                _ => match dense {
+                    Some(d) => Some(slice(d, a.offset + i * a.stride, a.element_size).ok_or_else(out_of_bounds)?),
+                    None => None,
+                },
+            };
+            match element {
+                Some(bytes) => {
+                    for (j, v) in values[..n].iter_mut().enumerate() {
+                        let at = (j / a.rows) as u64 * a.column_stride + (j % a.rows) as u64 * csize;
+                        *v = decode(a.component, slice(bytes, at, csize).ok_or_else(out_of_bounds)?);
+                    }
+                }
+                None => values[..n].fill(T::default()),
+            }
+            f(i, &values[..n])?;
+        }
+        if let Some(si) = next_index {
+            return Err(ImportError::new(
+                format!("{}/sparse/indices", ptr()),
+                format!("sparse index {si} is out of range (count {})", a.count),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Takes `count × N × 4` bytes from the budget and returns an empty vector with that capacity.
+    fn allocate<T>(&self, index: u32, count: u64, budget: &mut Budget) -> Result<Vec<T>, ImportError> {
+        let ptr = format!("/accessors/{index}");
+        budget.take_items(count, size_of::<T>() as u64, &ptr, &format!("accessor {index} ({count} elements)"))?;
+        let n = usize::try_from(count).map_err(|_| ImportError::new(&ptr, format!("count {count} is too large")))?;
+        Ok(Vec::with_capacity(n))
+    }
+
+    /// Reads an accessor of `N` components per element as floats. When `finite` is set,
+    /// a NaN or infinite component is refused.
+    pub fn read_f32<const N: usize>(
+        &self,
+        index: u32,
+        use_ptr: &str,
+        types: &[&str],
+        finite: bool,
+        budget: &mut Budget,
+    ) -> Result<Vec<[f32; N]>, ImportError> {
+        let a = self.expect_type(index, use_ptr, types)?;
+        if a.components() != N {
+            return Err(ImportError::new(
+                use_ptr,
+                format!("accessor {index} has {} components, expected {N}", a.components()),
+            ));
+        }
+        let normalized = a.normalized;
+        let mut out = self.allocate::<[f32; N]>(index, a.count, budget)?;
+        self.visit(
+            index,
+            |c, b| c.to_f32(b, normalized),
+            |i, v| {
+                let mut e = [0.0; N];
+                e.copy_from_slice(v);
+                if finite && !e.iter().all(|x| x.is_finite()) {
+                    return Err(ImportError::new(
+                        format!("/accessors/{index}"),
+                        format!("element {i} is not finite: {e:?}"),
+                    ));
+                }
+                out.push(e);
+                Ok(())
+            },
+        )?;
+        Ok(out)
+    }
+
+    /// Reads any accessor as a flat float array (`count × components`), non-finite values included.
+    pub fn read_flat(&self, index: u32, budget: &mut Budget) -> Result<(Vec<f32>, usize), ImportError> {
+        let a = self.get(index)?;
+        let n = a.components();
+        let normalized = a.normalized;
+        let total = a.count.checked_mul(n as u64);
+        let mut out = self.allocate::<f32>(index, total.unwrap_or(u64::MAX), budget)?;
+        self.visit(
+            index,
+            |c, b| c.to_f32(b, normalized),
+            |_, v| {
+                out.extend_from_slice(v);
+                Ok(())
+            },
+        )?;
+        Ok((out, n))
+    }
+
+    /// Reads an accessor of unsigned integers (indices, joints) with `N` components.
+    pub fn read_u32<const N: usize>(
+        &self,
+        index: u32,
+        use_ptr: &str,
+        types: &[&str],
+        budget: &mut Budget,
+    ) -> Result<Vec<[u32; N]>, ImportError> {
+        let a = self.expect_type(index, use_ptr, types)?;
+        if !a.component.is_unsigned_int() || a.normalized || a.components() != N {
+            return Err(ImportError::new(
+                use_ptr,
+                format!("accessor {index} must hold {N} unnormalized unsigned integers per element"),
+            ));
+        }
+        let mut out = self.allocate::<[u32; N]>(index, a.count, budget)?;
+        self.visit(
+            index,
+            |c, b| c.to_u32(b),
+            |_, v| {
+                let mut e = [0; N];
+                e.copy_from_slice(v);
+                out.push(e);
+                Ok(())
+            },
+        )?;
+        Ok(out)
+    }
+
+    /// Whether the accessor holds 8- or 16-bit unsigned integers (JOINTS_n).
+    pub fn is_small_uint(&self, index: u32) -> bool {
+        self.get(index).is_ok_and(|a| matches!(a.component, Component::U8 | Component::U16))
+    }
+}
+
+/// `bytes[at..at + len]` with checked arithmetic.
+fn slice(bytes: &[u8], at: u64, len: u64) -> Option<&[u8]> {
+    let start = usize::try_from(at).ok()?;
+    let end = usize::try_from(at.checked_add(len)?).ok()?;
+    bytes.get(start..end)
+}

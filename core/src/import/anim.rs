@@ -1,0 +1,139 @@
+//! Animations → clips: channels validated against their nodes, keyframes repaired.
+
+use super::Cx;
+use super::json::{child, member_error, objects, opt_index, opt_object, opt_str, req_index};
+use crate::asset::Node;
+use crate::clip::{Channel, ChannelTarget, Clip, Interpolation};
+use crate::error::ImportError;
+use crate::math::{Quat, QuatExt};
+
+/// Parses every animation.
+pub(crate) fn clips(cx: &mut Cx<'_>, nodes: &[Node]) -> Result<Vec<Clip>, ImportError> {
+    let mut clips = Vec::new();
+    for (anim, ptr) in objects(cx.root, "animations", "")? {
+        let samplers = objects(anim, "samplers", &ptr)?;
+        let mut channels = Vec::new();
+        for (channel, cptr) in objects(anim, "channels", &ptr)? {
+            let sampler = req_index(channel, "sampler", &cptr, samplers.len(), "sampler")? as usize;
+            let tptr = child(&cptr, "target");
+            let target = opt_object(channel, "target", &cptr)?.ok_or_else(|| ImportError::new(&tptr, "missing"))?;
+            let path = opt_str(target, "path", &tptr)?.ok_or_else(|| member_error(&tptr, "path", "missing"))?;
+            let Some(node) = opt_index(target, "node", &tptr, nodes.len(), "node")? else {
+                cx.warn(&tptr, "channel without a target node; ignored");
+                continue;
+            };
+            let (target, width) = match path {
+                "translation" => (ChannelTarget::Translation, 3),
+                "rotation" => (ChannelTarget::Rotation, 4),
+                "scale" => (ChannelTarget::Scale, 3),
+                "weights" => (ChannelTarget::Weights, nodes[node as usize].weights.len()),
+                other => {
+                    cx.warn(
+                        child(&tptr, "path"),
+                        format!("animation path '{other}' is not supported; channel ignored"),
+                    );
+                    continue;
+                }
+            };
+            if width == 0 {
+                cx.warn(&tptr, format!("node {node} has no morph targets to animate; channel ignored"));
+                continue;
+            }
+            let (s, sptr) = &samplers[sampler];
+            if let Some(c) = channel_from_sampler(cx, s, sptr, node, target, width)? {
+                channels.push(c);
+            }
+        }
+        let duration = channels.iter().filter_map(|c| c.times.last().copied()).fold(0.0f32, f32::max);
+        clips.push(Clip { name: super::json::name(anim), duration, channels });
+    }
+    Ok(clips)
+}
+
+/// Reads a sampler for one channel; drops keyframes with non-finite times or values or
+/// non-increasing times (one warning), normalizes STEP/LINEAR rotations.
+fn channel_from_sampler(
+    cx: &mut Cx<'_>,
+    s: &super::json::Obj,
+    sptr: &str,
+    node: u32,
+    target: ChannelTarget,
+    width: usize,
+) -> Result<Option<Channel>, ImportError> {
+    let interpolation = match opt_str(s, "interpolation", sptr)?.unwrap_or("LINEAR") {
+        "STEP" => Interpolation::Step,
+        "LINEAR" => Interpolation::Linear,
+        "CUBICSPLINE" => Interpolation::CubicSpline,
+        other => return Err(member_error(sptr, "interpolation", format!("unknown interpolation '{other}'"))),
+    };
+    let input = req_index(s, "input", sptr, cx.accessors.len(), "accessor")?;
+    let output = req_index(s, "output", sptr, cx.accessors.len(), "accessor")?;
+    let iptr = child(sptr, "input");
+    let optr = child(sptr, "output");
+    let mut times: Vec<f32> = cx
+        .accessors
+        .read_f32::<1>(input, &iptr, &["SCALAR"], false, &mut cx.budget)?
+        .into_iter()
+        .map(|[t]| t)
+        .collect();
+    let (mut values, components) = cx.accessors.read_flat(output, &mut cx.budget)?;
+    let expected_components = if target == ChannelTarget::Weights { 1 } else { width };
+    if components != expected_components {
+        return Err(ImportError::new(
+            optr,
+            format!("accessor {output} has {components} components per element, expected {expected_components}"),
+        ));
+    }
+    let per_key = width * if interpolation == Interpolation::CubicSpline { 3 } else { 1 };
+    let keys = times.len();
+    if values.len() as u64 != keys as u64 * per_key as u64 {
+        return Err(ImportError::new(
+            optr,
+            format!("{} output values for {keys} keyframes; expected {per_key} per keyframe", values.len()),
+        ));
+    }
+
+    // Compact the keys in place, dropping bad ones.
+    let normalize = target == ChannelTarget::Rotation && interpolation != Interpolation::CubicSpline;
+    let (mut kept, mut dropped, mut renormalized) = (0usize, 0usize, 0usize);
+    let mut last: Option<f32> = None;
+    for k in 0..keys {
+        let t = times[k];
+        let range = k * per_key..(k + 1) * per_key;
+        let mut ok = t.is_finite() && last.is_none_or(|l| t > l) && values[range.clone()].iter().all(|v| v.is_finite());
+        if ok && normalize {
+            let q = Quat::from_slice(&values[range.clone()]);
+            match q.try_normalize_quat() {
+                Some(unit) => {
+                    renormalized += usize::from((q.length() - 1.0).abs() > 1e-3);
+                    values[range.clone()].copy_from_slice(&unit.to_array());
+                }
+                None => ok = false,
+            }
+        }
+        if !ok {
+            dropped += 1;
+            continue;
+        }
+        times[kept] = t;
+        values.copy_within(range, kept * per_key);
+        kept += 1;
+        last = Some(t);
+    }
+    times.truncate(kept);
+    values.truncate(kept * per_key);
+    if renormalized > 0 {
+        cx.warn(&optr, format!("{renormalized} rotation keyframes were not unit quaternions; normalized"));
+    }
+    if dropped > 0 {
+        cx.warn(
+            sptr,
+            format!("dropped {dropped} of {keys} keyframes (non-finite or non-increasing time, or non-finite value)"),
+        );
+    }
+    if kept == 0 {
+        cx.warn(sptr, "no usable keyframes; channel ignored");
+        return Ok(None);
+    }
+    Ok(Some(Channel { node, target, interpolation, times, values, width: width as u32 }))
+}

@@ -1,0 +1,159 @@
+//! Typed, pointer-carrying reads from the glTF JSON tree (`serde_json::Value`).
+//!
+//! Every reader takes the JSON pointer of the object it reads from; errors name the
+//! pointer of the offending member.
+
+use crate::error::ImportError;
+use serde_json::{Map, Value};
+use std::fmt::Display;
+
+/// A JSON object.
+pub(crate) type Obj = Map<String, Value>;
+
+/// `"{ptr}/{key}"`.
+pub(crate) fn child(ptr: &str, key: impl Display) -> String {
+    format!("{ptr}/{key}")
+}
+
+/// An error at `{ptr}/{key}`.
+pub(crate) fn member_error(ptr: &str, key: &str, message: impl Into<String>) -> ImportError {
+    ImportError::new(child(ptr, key), message)
+}
+
+/// `v` as an object.
+pub(crate) fn object<'a>(v: &'a Value, ptr: &str) -> Result<&'a Obj, ImportError> {
+    v.as_object().ok_or_else(|| ImportError::new(ptr, "expected a JSON object"))
+}
+
+/// The array `obj[key]`; empty when absent.
+pub(crate) fn array<'a>(obj: &'a Obj, key: &str, ptr: &str) -> Result<&'a [Value], ImportError> {
+    match obj.get(key) {
+        None => Ok(&[]),
+        Some(Value::Array(items)) => Ok(items),
+        Some(_) => Err(member_error(ptr, key, "expected an array")),
+    }
+}
+
+/// The objects of the array `obj[key]`, each with its pointer `"{ptr}/{key}/{i}"`.
+pub(crate) fn objects<'a>(obj: &'a Obj, key: &str, ptr: &str) -> Result<Vec<(&'a Obj, String)>, ImportError> {
+    let base = child(ptr, key);
+    array(obj, key, ptr)?
+        .iter()
+        .enumerate()
+        .map(|(i, v)| {
+            let p = child(&base, i);
+            object(v, &p).map(|o| (o, p))
+        })
+        .collect()
+}
+
+/// The optional object `obj[key]`.
+pub(crate) fn opt_object<'a>(obj: &'a Obj, key: &str, ptr: &str) -> Result<Option<&'a Obj>, ImportError> {
+    obj.get(key).map(|v| object(v, &child(ptr, key))).transpose()
+}
+
+/// The optional non-negative integer `obj[key]`.
+pub(crate) fn opt_u64(obj: &Obj, key: &str, ptr: &str) -> Result<Option<u64>, ImportError> {
+    obj.get(key)
+        .map(|v| v.as_u64().ok_or_else(|| member_error(ptr, key, format!("expected a non-negative integer, got {v}"))))
+        .transpose()
+}
+
+/// The required non-negative integer `obj[key]`.
+pub(crate) fn req_u64(obj: &Obj, key: &str, ptr: &str) -> Result<u64, ImportError> {
+    opt_u64(obj, key, ptr)?.ok_or_else(|| member_error(ptr, key, "missing"))
+}
+
+/// The optional index `obj[key]` into an array of `len` `what`s, checked to be in range.
+pub(crate) fn opt_index(obj: &Obj, key: &str, ptr: &str, len: usize, what: &str) -> Result<Option<u32>, ImportError> {
+    opt_u64(obj, key, ptr)?.map(|i| check_index(i, len, what, &child(ptr, key))).transpose()
+}
+
+/// The required index `obj[key]` into an array of `len` `what`s.
+pub(crate) fn req_index(obj: &Obj, key: &str, ptr: &str, len: usize, what: &str) -> Result<u32, ImportError> {
+    opt_index(obj, key, ptr, len, what)?.ok_or_else(|| member_error(ptr, key, "missing"))
+}
+
+/// `i` as an index into `len` `what`s (error at `ptr` otherwise).
+pub(crate) fn check_index(i: u64, len: usize, what: &str, ptr: &str) -> Result<u32, ImportError> {
+    match u32::try_from(i) {
+        Ok(n) if (n as u64) < len as u64 => Ok(n),
+        _ => Err(ImportError::new(ptr, format!("{what} index {i} is out of range (the document has {len})"))),
+    }
+}
+
+/// A finite JSON number as `f32`.
+fn to_f32(v: &Value, ptr: &str) -> Result<f32, ImportError> {
+    let x = v.as_f64().ok_or_else(|| ImportError::new(ptr, format!("expected a number, got {v}")))? as f32;
+    if x.is_finite() { Ok(x) } else { Err(ImportError::new(ptr, format!("number {v} does not fit a 32-bit float"))) }
+}
+
+/// The optional number `obj[key]`.
+pub(crate) fn opt_f32(obj: &Obj, key: &str, ptr: &str) -> Result<Option<f32>, ImportError> {
+    obj.get(key).map(|v| to_f32(v, &child(ptr, key))).transpose()
+}
+
+/// The optional array of numbers `obj[key]`.
+pub(crate) fn opt_f32_list(obj: &Obj, key: &str, ptr: &str) -> Result<Option<Vec<f32>>, ImportError> {
+    let Some(v) = obj.get(key) else { return Ok(None) };
+    let p = child(ptr, key);
+    let items = v.as_array().ok_or_else(|| ImportError::new(&p, "expected an array of numbers"))?;
+    items.iter().enumerate().map(|(i, x)| to_f32(x, &child(&p, i))).collect::<Result<_, _>>().map(Some)
+}
+
+/// The optional array of exactly `N` numbers `obj[key]`.
+pub(crate) fn opt_f32_array<const N: usize>(obj: &Obj, key: &str, ptr: &str) -> Result<Option<[f32; N]>, ImportError> {
+    let Some(list) = opt_f32_list(obj, key, ptr)? else { return Ok(None) };
+    <[f32; N]>::try_from(list.as_slice())
+        .map(Some)
+        .map_err(|_| member_error(ptr, key, format!("expected {N} numbers, got {}", list.len())))
+}
+
+/// The optional string `obj[key]`.
+pub(crate) fn opt_str<'a>(obj: &'a Obj, key: &str, ptr: &str) -> Result<Option<&'a str>, ImportError> {
+    obj.get(key)
+        .map(|v| v.as_str().ok_or_else(|| member_error(ptr, key, format!("expected a string, got {v}"))))
+        .transpose()
+}
+
+/// The optional boolean `obj[key]`.
+pub(crate) fn opt_bool(obj: &Obj, key: &str, ptr: &str) -> Result<Option<bool>, ImportError> {
+    obj.get(key)
+        .map(|v| v.as_bool().ok_or_else(|| member_error(ptr, key, format!("expected true or false, got {v}"))))
+        .transpose()
+}
+
+/// `name` of an element (a non-string name is ignored).
+pub(crate) fn name(obj: &Obj) -> Option<String> {
+    obj.get("name").and_then(Value::as_str).map(str::to_owned)
+}
+
+/// The optional extension object `obj.extensions[extension]`.
+pub(crate) fn extension<'a>(obj: &'a Obj, extension: &str, ptr: &str) -> Result<Option<&'a Obj>, ImportError> {
+    match opt_object(obj, "extensions", ptr)? {
+        Some(ext) => opt_object(ext, extension, &child(ptr, "extensions")),
+        None => Ok(None),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    #[test]
+    fn readers_name_the_member() {
+        let v = json!({"a": -1, "b": [1, 2], "c": 1e300, "d": "x", "i": 5});
+        let o = v.as_object().expect("object");
+        assert_eq!(opt_u64(o, "a", "/x").expect_err("negative").pointer, "/x/a");
+        assert_eq!(opt_f32(o, "c", "/x").expect_err("too large").pointer, "/x/c");
+        assert_eq!(opt_f32_array::<3>(o, "b", "/x").expect_err("short").pointer, "/x/b");
+        assert_eq!(opt_f32_array::<2>(o, "b", "/x").expect("two"), Some([1.0, 2.0]));
+        assert_eq!(opt_str(o, "d", "/x").expect("str"), Some("x"));
+        let e = opt_index(o, "i", "/x", 5, "node").expect_err("out of range");
+        assert_eq!(e.to_string(), "/x/i: node index 5 is out of range (the document has 5)");
+        assert_eq!(opt_index(o, "i", "/x", 6, "node").expect("in range"), Some(5));
+        assert_eq!(array(o, "missing", "/x").expect("absent").len(), 0);
+        assert!(objects(o, "b", "/x").is_err());
+    }
+}

@@ -1,0 +1,299 @@
+//! Meshes and primitives: vertex attributes, skin influences (renormalized), indices
+//! (strips, fans and loops converted to lists), morph targets, bounds.
+
+use super::Cx;
+use super::json::{Obj, child, member_error, objects, opt_f32_list, opt_index, opt_object, opt_u64};
+use crate::asset::{Mesh, MorphTarget, Primitive, Topology};
+use crate::error::ImportError;
+use serde_json::Value;
+
+/// Largest deviation of a weight sum from 1 accepted without a warning (quantized
+/// weights round to about 1/255 per component).
+const WEIGHT_SUM_TOLERANCE: f32 = 8e-3;
+
+/// A mesh plus, per primitive, its largest weighted joint index (checked against the
+/// skins of the nodes that draw it).
+pub(crate) struct ImportedMesh {
+    pub mesh: Mesh,
+    pub max_joints: Vec<Option<u16>>,
+}
+
+/// Parses every mesh.
+pub(crate) fn meshes(cx: &mut Cx<'_>, material_count: usize) -> Result<Vec<ImportedMesh>, ImportError> {
+    let mut out = Vec::new();
+    for (mesh, ptr) in objects(cx.root, "meshes", "")? {
+        out.push(parse_mesh(cx, mesh, &ptr, material_count)?);
+    }
+    Ok(out)
+}
+
+fn parse_mesh(cx: &mut Cx<'_>, mesh: &Obj, ptr: &str, material_count: usize) -> Result<ImportedMesh, ImportError> {
+    let prims = objects(mesh, "primitives", ptr)?;
+    if prims.is_empty() {
+        return Err(member_error(ptr, "primitives", "a mesh needs at least one primitive"));
+    }
+    let mut primitives = Vec::with_capacity(prims.len());
+    let mut max_joints = Vec::with_capacity(prims.len());
+    for (prim, pptr) in &prims {
+        let (p, max_joint) = parse_primitive(cx, prim, pptr, material_count)?;
+        if let Some(first) = primitives.first().map(|f: &Primitive| f.targets.len())
+            && p.targets.len() != first
+        {
+            return Err(member_error(
+                pptr,
+                "targets",
+                format!("{} morph targets, but primitive 0 has {first}", p.targets.len()),
+            ));
+        }
+        primitives.push(p);
+        max_joints.push(max_joint);
+    }
+    let target_count = primitives.first().map_or(0, |p| p.targets.len());
+    let weights = match opt_f32_list(mesh, "weights", ptr)? {
+        Some(w) if w.len() != target_count => {
+            return Err(member_error(ptr, "weights", format!("{} weights for {target_count} morph targets", w.len())));
+        }
+        Some(w) => w,
+        None => vec![0.0; target_count],
+    };
+    let target_names = mesh
+        .get("extras")
+        .and_then(|e| e.get("targetNames"))
+        .and_then(Value::as_array)
+        .map(|names| names.iter().filter_map(Value::as_str).map(str::to_owned).collect())
+        .unwrap_or_default();
+    Ok(ImportedMesh { mesh: Mesh { name: super::json::name(mesh), primitives, weights, target_names }, max_joints })
+}
+
+/// Refuses an attribute accessor whose count differs from the vertex count.
+fn check_count(cx: &Cx<'_>, accessor: u32, vertex_count: usize, ptr: &str) -> Result<(), ImportError> {
+    let count = cx.accessors.get(accessor)?.count;
+    if count != vertex_count as u64 {
+        return Err(ImportError::new(
+            ptr,
+            format!("accessor {accessor} has {count} elements, POSITION has {vertex_count}"),
+        ));
+    }
+    Ok(())
+}
+
+/// Reads the optional float attribute `name` of `attributes` (checked against the vertex count).
+fn attribute<const N: usize>(
+    cx: &mut Cx<'_>,
+    attributes: &Obj,
+    ptr: &str,
+    name: &str,
+    types: &[&str],
+    vertex_count: usize,
+) -> Result<Vec<[f32; N]>, ImportError> {
+    let Some(a) = opt_index(attributes, name, ptr, cx.accessors.len(), "accessor")? else { return Ok(Vec::new()) };
+    let p = child(ptr, name);
+    check_count(cx, a, vertex_count, &p)?;
+    cx.accessors.read_f32::<N>(a, &p, types, true, &mut cx.budget)
+}
+
+fn parse_primitive(
+    cx: &mut Cx<'_>,
+    prim: &Obj,
+    ptr: &str,
+    material_count: usize,
+) -> Result<(Primitive, Option<u16>), ImportError> {
+    let aptr = child(ptr, "attributes");
+    let attributes = opt_object(prim, "attributes", ptr)?.ok_or_else(|| ImportError::new(&aptr, "missing"))?;
+    let position = opt_index(attributes, "POSITION", &aptr, cx.accessors.len(), "accessor")?
+        .ok_or_else(|| member_error(&aptr, "POSITION", "missing (primitives without positions are not supported)"))?;
+    let position_ptr = child(&aptr, "POSITION");
+    let positions = cx.accessors.read_f32::<3>(position, &position_ptr, &["VEC3"], true, &mut cx.budget)?;
+    let vertex_count = positions.len();
+    let vertex_count_u32 =
+        u32::try_from(vertex_count).map_err(|_| ImportError::new(&position_ptr, "more than 2^32 vertices"))?;
+    let normals = attribute::<3>(cx, attributes, &aptr, "NORMAL", &["VEC3"], vertex_count)?;
+    let tangents = attribute::<4>(cx, attributes, &aptr, "TANGENT", &["VEC4"], vertex_count)?;
+    let uv0 = attribute::<2>(cx, attributes, &aptr, "TEXCOORD_0", &["VEC2"], vertex_count)?;
+    let color_type = match opt_index(attributes, "COLOR_0", &aptr, cx.accessors.len(), "accessor")? {
+        Some(a) => Some(cx.accessors.get(a)?.type_name),
+        None => None,
+    };
+    let colors = match color_type {
+        Some("VEC3") => attribute::<3>(cx, attributes, &aptr, "COLOR_0", &["VEC3"], vertex_count)?
+            .into_iter()
+            .map(|[r, g, b]| [r, g, b, 1.0])
+            .collect(),
+        _ => attribute::<4>(cx, attributes, &aptr, "COLOR_0", &["VEC4"], vertex_count)?,
+    };
+    let (joints, weights, max_joint) = influences(cx, attributes, &aptr, vertex_count)?;
+
+    let mode = opt_u64(prim, "mode", ptr)?.unwrap_or(4);
+    let indices_ptr = child(ptr, "indices");
+    let raw: Vec<u32> = match opt_index(prim, "indices", ptr, cx.accessors.len(), "accessor")? {
+        Some(a) => {
+            let list = cx.accessors.read_u32::<1>(a, &indices_ptr, &["SCALAR"], &mut cx.budget)?;
+            let list: Vec<u32> = list.into_iter().map(|[i]| i).collect();
+            if let Some((k, &i)) = list.iter().enumerate().find(|&(_, &i)| i >= vertex_count_u32) {
+                return Err(ImportError::new(
+                    indices_ptr,
+                    format!("index {i} at position {k} is out of range (vertex count {vertex_count})"),
+                ));
+            }
+            list
+        }
+        None => {
+            cx.budget.take_items(vertex_count as u64, 4, ptr, "generated indices")?;
+            (0..vertex_count_u32).collect()
+        }
+    };
+    let (topology, indices) = to_list(cx, mode, raw, ptr)?;
+
+    let mut targets = Vec::new();
+    for (target, tptr) in objects(prim, "targets", ptr)? {
+        targets.push(MorphTarget {
+            positions: attribute::<3>(cx, target, &tptr, "POSITION", &["VEC3"], vertex_count)?,
+            normals: attribute::<3>(cx, target, &tptr, "NORMAL", &["VEC3"], vertex_count)?,
+            tangents: attribute::<3>(cx, target, &tptr, "TANGENT", &["VEC3"], vertex_count)?,
+        });
+    }
+    let material = opt_index(prim, "material", ptr, material_count, "material")?;
+    let bounds = positions.iter().fold(([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]), |(lo, hi), p| {
+        ([lo[0].min(p[0]), lo[1].min(p[1]), lo[2].min(p[2])], [hi[0].max(p[0]), hi[1].max(p[1]), hi[2].max(p[2])])
+    });
+    let primitive = Primitive {
+        topology,
+        vertex_count: vertex_count_u32,
+        positions,
+        normals,
+        tangents,
+        uv0,
+        colors,
+        joints,
+        weights,
+        indices,
+        material,
+        targets,
+        bounds,
+    };
+    Ok((primitive, max_joint))
+}
+
+/// Joints and weights per vertex, and the largest weighted joint index.
+type Influences = (Vec<[u16; 8]>, Vec<[f32; 8]>, Option<u16>);
+
+/// Skin influences from JOINTS_0/WEIGHTS_0 (and _1): up to 8 per vertex, renormalized
+/// (one warning per primitive), zero-weight slots pointing at joint 0. Returns the largest
+/// weighted joint index.
+fn influences(cx: &mut Cx<'_>, attributes: &Obj, aptr: &str, vertex_count: usize) -> Result<Influences, ImportError> {
+    let mut joints: Vec<[u16; 8]> = Vec::new();
+    let mut weights: Vec<[f32; 8]> = Vec::new();
+    for set in 0..2 {
+        let (jname, wname) = (format!("JOINTS_{set}"), format!("WEIGHTS_{set}"));
+        let j = opt_index(attributes, &jname, aptr, cx.accessors.len(), "accessor")?;
+        let w = opt_index(attributes, &wname, aptr, cx.accessors.len(), "accessor")?;
+        let (j, w) = match (j, w) {
+            (None, None) => break,
+            (Some(j), Some(w)) => (j, w),
+            _ => return Err(ImportError::new(aptr, format!("{jname} and {wname} must come together"))),
+        };
+        let (jptr, wptr) = (child(aptr, &jname), child(aptr, &wname));
+        check_count(cx, j, vertex_count, &jptr)?;
+        check_count(cx, w, vertex_count, &wptr)?;
+        if !cx.accessors.is_small_uint(j) {
+            return Err(ImportError::new(&jptr, "joints must be UNSIGNED_BYTE or UNSIGNED_SHORT"));
+        }
+        if set == 0 {
+            cx.budget.take_items(vertex_count as u64, 64, aptr, "skin influences")?;
+            joints = vec![[0; 8]; vertex_count];
+            weights = vec![[0.0; 8]; vertex_count];
+        }
+        let js = cx.accessors.read_u32::<4>(j, &jptr, &["VEC4"], &mut cx.budget)?;
+        let ws = cx.accessors.read_f32::<4>(w, &wptr, &["VEC4"], false, &mut cx.budget)?;
+        let slots = set * 4..set * 4 + 4;
+        for (v, (jv, wv)) in js.iter().zip(&ws).enumerate() {
+            for (k, slot) in slots.clone().enumerate() {
+                // JOINTS are 8 or 16 bits (checked above), so they fit u16.
+                joints[v][slot] = u16::try_from(jv[k]).unwrap_or(u16::MAX);
+                weights[v][slot] = wv[k];
+            }
+        }
+    }
+    let mut repaired = 0usize;
+    let mut max_joint: Option<u16> = None;
+    for (j, w) in joints.iter_mut().zip(weights.iter_mut()) {
+        let mut defect = false;
+        for x in w.iter_mut() {
+            if !x.is_finite() || *x < 0.0 {
+                *x = 0.0;
+                defect = true;
+            }
+        }
+        let sum: f32 = w.iter().sum();
+        if sum <= 0.0 || !sum.is_finite() {
+            *w = [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+            defect = true;
+        } else {
+            defect |= (sum - 1.0).abs() > WEIGHT_SUM_TOLERANCE;
+            for x in w.iter_mut() {
+                *x /= sum;
+            }
+        }
+        repaired += usize::from(defect);
+        for (joint, &weight) in j.iter_mut().zip(w.iter()) {
+            if weight == 0.0 {
+                *joint = 0;
+            } else {
+                max_joint = Some(max_joint.map_or(*joint, |m| m.max(*joint)));
+            }
+        }
+    }
+    if repaired > 0 {
+        cx.warn(
+            child(aptr, "WEIGHTS_0"),
+            format!(
+                "skin weights of {repaired} of {vertex_count} vertices did not sum to 1 (or were negative, non-finite or all zero); renormalized, all-zero vertices bound to their first joint"
+            ),
+        );
+    }
+    Ok((joints, weights, max_joint))
+}
+
+/// Converts `mode` (glTF primitive mode) and its index sequence into a list topology.
+fn to_list(cx: &mut Cx<'_>, mode: u64, raw: Vec<u32>, ptr: &str) -> Result<(Topology, Vec<u32>), ImportError> {
+    let n = raw.len();
+    let take = |cx: &mut Cx<'_>, count: usize| cx.budget.take_items(count as u64, 4, ptr, "converted indices");
+    let (topology, mut list) = match mode {
+        0 => (Topology::Points, raw),
+        1 => (Topology::Lines, raw),
+        2 | 3 => {
+            // Line loop (2) or strip (3) -> segments.
+            let segments = if mode == 2 && n > 2 { n } else { n.saturating_sub(1) };
+            take(cx, 2 * segments)?;
+            let list = (0..segments).flat_map(|i| [raw[i], raw[(i + 1) % n]]).collect();
+            (Topology::Lines, list)
+        }
+        4 => (Topology::Triangles, raw),
+        5 | 6 => {
+            let triangles = n.saturating_sub(2);
+            take(cx, 3 * triangles)?;
+            let list = (0..triangles)
+                .flat_map(|i| match (mode, i % 2) {
+                    (5, 0) => [raw[i], raw[i + 1], raw[i + 2]],
+                    (5, _) => [raw[i], raw[i + 2], raw[i + 1]],
+                    _ => [raw[i + 1], raw[i + 2], raw[0]],
+                })
+                .collect();
+            (Topology::Triangles, list)
+        }
+        _ => return Err(member_error(ptr, "mode", format!("{mode} is not a valid primitive mode"))),
+    };
+    let per = match topology {
+        Topology::Points => 1,
+        Topology::Lines => 2,
+        Topology::Triangles => 3,
+    };
+    if list.len() % per != 0 {
+        cx.warn(
+            ptr,
+            format!("{} indices do not form whole {topology:?}; the last {} dropped", list.len(), list.len() % per),
+        );
+        list.truncate(list.len() - list.len() % per);
+    }
+    Ok((topology, list))
+}

@@ -1,0 +1,268 @@
+//! glTF 2.0 import: bytes (GLB or .gltf JSON) → validated [`Asset`] plus warnings.
+//!
+//! Every size the document declares is checked before anything is allocated: buffer
+//! lengths and decoded accessors against [`ImportOptions::budget_bytes`], accessor
+//! layouts against their buffer views with checked 64-bit arithmetic, image dimensions
+//! from their headers. Every index is checked, the node graph must be a forest no deeper
+//! than [`ImportOptions::max_node_depth`]. Errors name the JSON pointer of the offending
+//! element; repairable defects become [`Warning`]s.
+
+mod accessor;
+mod anim;
+mod container;
+mod json;
+mod material;
+mod mesh;
+mod scene;
+
+use crate::asset::Asset;
+use crate::error::{ImportError, Warning};
+use accessor::Accessors;
+use container::Budget;
+use json::{Obj, array, child, opt_object, opt_str};
+use std::collections::HashMap;
+
+/// Extensions a file may require: everything else in `extensionsRequired` is refused.
+pub const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] =
+    &["KHR_texture_transform", "KHR_mesh_quantization", "KHR_materials_unlit"];
+
+/// Bytes charged per JSON value (a `serde_json::Value` plus, in objects, its key and map
+/// entry): a JSON bomb of tiny values is refused before it is parsed.
+const JSON_VALUE_BYTES: u64 = 96;
+
+/// An upper estimate of the memory of the parsed JSON tree: the text itself plus
+/// [`JSON_VALUE_BYTES`] per value (values are at most the separators and openers outside
+/// strings, plus one).
+fn json_tree_estimate(json: &[u8]) -> u64 {
+    let (mut values, mut in_string, mut escaped) = (1u64, false, false);
+    for &b in json {
+        if in_string {
+            match b {
+                _ if escaped => escaped = false,
+                b'\\' => escaped = true,
+                b'"' => in_string = false,
+                _ => {}
+            }
+        } else {
+            match b {
+                b'"' => in_string = true,
+                b',' | b'[' | b'{' | b':' => values += 1,
+                _ => {}
+            }
+        }
+    }
+    (json.len() as u64).saturating_add(values.saturating_mul(JSON_VALUE_BYTES))
+}
+
+/// Supplies the bytes of external files a .gltf refers to (buffers, images).
+pub trait Resolver {
+    /// The bytes of `uri` (the raw glTF uri, never a `data:` URI), or a message why not.
+    fn resolve(&self, uri: &str) -> Result<Vec<u8>, String>;
+}
+
+/// A resolver without files: every external uri fails.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct NoResolver;
+
+impl Resolver for NoResolver {
+    fn resolve(&self, _uri: &str) -> Result<Vec<u8>, String> {
+        Err("external files are not available".into())
+    }
+}
+
+/// An in-memory resolver: files by relative path (e.g. dropped together with the .gltf).
+#[derive(Clone, Debug, Default)]
+pub struct MapResolver {
+    files: HashMap<String, Vec<u8>>,
+}
+
+impl MapResolver {
+    /// An empty resolver.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Adds a file under its relative path (or bare file name).
+    pub fn insert(&mut self, name: impl Into<String>, bytes: Vec<u8>) {
+        self.files.insert(name.into(), bytes);
+    }
+}
+
+/// `path` with `\\` as `/`, without `.` segments and with `..` applied.
+fn normalize_path(path: &str) -> String {
+    let mut parts: Vec<&str> = Vec::new();
+    for segment in path.split(['/', '\\']) {
+        match segment {
+            "" | "." => {}
+            ".." => {
+                parts.pop();
+            }
+            s => parts.push(s),
+        }
+    }
+    parts.join("/")
+}
+
+impl Resolver for MapResolver {
+    /// Resolves the percent-decoded `uri` by exact relative path, else by file name
+    /// (when exactly one file has that name).
+    fn resolve(&self, uri: &str) -> Result<Vec<u8>, String> {
+        let wanted = normalize_path(&container::percent_decode(uri));
+        if let Some((_, bytes)) = self.files.iter().find(|(k, _)| normalize_path(k) == wanted) {
+            return Ok(bytes.clone());
+        }
+        let file_name = |p: &str| p.rsplit(['/', '\\']).next().unwrap_or("").to_owned();
+        let name = file_name(&wanted);
+        let mut matches = self.files.iter().filter(|(k, _)| file_name(k) == name);
+        match (matches.next(), matches.next()) {
+            (Some((_, bytes)), None) => Ok(bytes.clone()),
+            (Some(_), Some(_)) => Err(format!("several files are named '{name}'")),
+            _ => Err(format!("file '{wanted}' was not provided")),
+        }
+    }
+}
+
+/// Import limits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ImportOptions {
+    /// Most bytes the document may declare (buffers, decoded accessors, images) before
+    /// anything is allocated. Default 512 MiB.
+    pub budget_bytes: u64,
+    /// Deepest node hierarchy accepted. Default 1024.
+    pub max_node_depth: u32,
+}
+
+impl Default for ImportOptions {
+    fn default() -> Self {
+        Self { budget_bytes: 512 << 20, max_node_depth: 1024 }
+    }
+}
+
+/// A successfully imported document.
+#[derive(Clone, Debug)]
+pub struct Imported {
+    /// The validated asset.
+    pub asset: Asset,
+    /// Defects that were repaired, in document order.
+    pub warnings: Vec<Warning>,
+}
+
+/// Import state shared by the element parsers.
+pub(crate) struct Cx<'a> {
+    root: &'a Obj,
+    accessors: Accessors<'a>,
+    budget: Budget,
+    warnings: Vec<Warning>,
+    resolver: &'a dyn Resolver,
+    options: &'a ImportOptions,
+}
+
+impl Cx<'_> {
+    /// Records a repaired defect.
+    fn warn(&mut self, pointer: impl Into<String>, message: impl Into<String>) {
+        self.warnings.push(Warning::new(pointer, message));
+    }
+}
+
+/// Imports a GLB or a .gltf JSON document (detected by the `glTF` magic).
+pub fn import(bytes: &[u8], resolver: &dyn Resolver, options: &ImportOptions) -> Result<Imported, ImportError> {
+    let mut warnings = Vec::new();
+    let mut budget = Budget::new(options.budget_bytes);
+    let container = container::split(bytes, &mut warnings)?;
+    budget.take(Some(json_tree_estimate(container.json)), "", "the parsed JSON document")?;
+    let value: serde_json::Value =
+        serde_json::from_slice(container.json).map_err(|e| ImportError::new("", format!("invalid JSON: {e}")))?;
+    let root = json::object(&value, "")?;
+    check_version(root)?;
+    check_required_extensions(root)?;
+    let buffers = container::load_buffers(root, &container, resolver, &mut budget)?;
+    let accessors = Accessors::new(root, buffers, &mut budget)?;
+    let mut cx = Cx { root, accessors, budget, warnings, resolver, options };
+
+    let (images, usable_images) = material::images(&mut cx)?;
+    let materials = material::materials(&mut cx, &usable_images)?;
+    let mesh_count = array(root, "meshes", "")?.len();
+    let skin_count = array(root, "skins", "")?.len();
+    let scene::Graph { mut nodes, order, file_weights } = scene::nodes(&mut cx, mesh_count, skin_count)?;
+    let (scenes, default_scene) = scene::scenes(&mut cx, &nodes)?;
+    let imported_meshes = mesh::meshes(&mut cx, materials.len())?;
+    let skins = scene::skins(&mut cx, nodes.len())?;
+
+    // Joint indices against the skin each node draws its mesh with.
+    for (n, node) in nodes.iter().enumerate() {
+        let (Some(m), Some(s)) = (node.mesh, node.skin) else { continue };
+        let joint_count = skins[s as usize].joints.len();
+        for (p, max_joint) in imported_meshes[m as usize].max_joints.iter().enumerate() {
+            if let Some(j) = max_joint.filter(|&j| usize::from(j) >= joint_count) {
+                return Err(ImportError::new(
+                    format!("/meshes/{m}/primitives/{p}/attributes/JOINTS_0"),
+                    format!(
+                        "joint index {j} is outside skin {s} ({joint_count} joints), which node {n} draws this mesh with"
+                    ),
+                ));
+            }
+        }
+    }
+
+    // Default morph weights per node, and their place in the flat weights array.
+    let mut weight_offsets = Vec::with_capacity(nodes.len());
+    let mut total = 0u64;
+    for (n, (node, file)) in nodes.iter_mut().zip(file_weights).enumerate() {
+        let defaults = node.mesh.map(|m| imported_meshes[m as usize].mesh.weights.clone()).unwrap_or_default();
+        node.weights = match file {
+            Some(w) if node.mesh.is_some() && w.len() != defaults.len() => {
+                cx.warn(
+                    format!("/nodes/{n}/weights"),
+                    format!("{} weights for {} morph targets; the mesh's weights are used", w.len(), defaults.len()),
+                );
+                defaults
+            }
+            Some(w) if node.mesh.is_some() => w,
+            _ => defaults,
+        };
+        weight_offsets.push(u32::try_from(total).map_err(|_| ImportError::new("/nodes", "too many morph weights"))?);
+        total += node.weights.len() as u64;
+    }
+    let weight_total = u32::try_from(total).map_err(|_| ImportError::new("/nodes", "too many morph weights"))?;
+
+    let clips = anim::clips(&mut cx, &nodes)?;
+    let asset = Asset {
+        nodes,
+        order,
+        scenes,
+        default_scene,
+        meshes: imported_meshes.into_iter().map(|m| m.mesh).collect(),
+        skins,
+        materials,
+        images,
+        clips,
+        weight_offsets,
+        weight_total,
+    };
+    Ok(Imported { asset, warnings: cx.warnings })
+}
+
+/// Refuses documents that are not glTF 2.x.
+fn check_version(root: &Obj) -> Result<(), ImportError> {
+    let asset = opt_object(root, "asset", "")?.ok_or_else(|| ImportError::new("/asset", "missing"))?;
+    let version = opt_str(asset, "version", "/asset")?.ok_or_else(|| ImportError::new("/asset/version", "missing"))?;
+    if version.split('.').next() != Some("2") {
+        return Err(ImportError::new("/asset/version", format!("glTF version {version} is not supported (only 2.x)")));
+    }
+    Ok(())
+}
+
+/// Refuses documents that require an extension Kloub does not implement.
+fn check_required_extensions(root: &Obj) -> Result<(), ImportError> {
+    for (i, ext) in array(root, "extensionsRequired", "")?.iter().enumerate() {
+        let ptr = child("/extensionsRequired", i);
+        let name = ext.as_str().ok_or_else(|| ImportError::new(&ptr, "expected an extension name"))?;
+        if !SUPPORTED_REQUIRED_EXTENSIONS.contains(&name) {
+            return Err(ImportError::new(ptr, format!("required extension {name} is not supported")));
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,724 @@
+//! Import tests: real sample files, and one hand-made broken document per defect class.
+
+use super::*;
+use crate::clip::{ChannelTarget, Interpolation};
+use serde_json::{Value, json};
+use std::path::{Path, PathBuf};
+
+/// `../shared/assets`, or `$KLOUB_SHARED_ASSETS`.
+fn shared_assets() -> PathBuf {
+    std::env::var_os("KLOUB_SHARED_ASSETS")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/assets"))
+}
+
+/// Imports a file with its sibling files available through a [`MapResolver`].
+fn import_file(path: &Path) -> Result<Imported, ImportError> {
+    let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut resolver = MapResolver::new();
+    let dir = path.parent().expect("a file has a folder");
+    for entry in std::fs::read_dir(dir).expect("readable folder").flatten() {
+        if entry.path().is_file() {
+            let name = entry.file_name().to_string_lossy().into_owned();
+            resolver.insert(name, std::fs::read(entry.path()).expect("readable file"));
+        }
+    }
+    import(&bytes, &resolver, &ImportOptions::default())
+}
+
+fn model_files(dir: &Path, out: &mut Vec<PathBuf>) {
+    for entry in std::fs::read_dir(dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display())).flatten() {
+        let path = entry.path();
+        if path.is_dir() {
+            model_files(&path, out);
+        } else if path.extension().is_some_and(|e| e == "glb" || e == "gltf") {
+            out.push(path);
+        }
+    }
+}
+
+fn asset(relative: &str) -> Imported {
+    let path = shared_assets().join(relative);
+    import_file(&path).unwrap_or_else(|e| panic!("{relative}: {e}"))
+}
+
+#[test]
+fn every_shared_asset_imports_except_draco() {
+    let mut files = Vec::new();
+    model_files(&shared_assets(), &mut files);
+    files.sort();
+    assert!(files.len() >= 30, "expected the shared sample assets, found {} files", files.len());
+    for path in files {
+        let result = import_file(&path);
+        if path.components().any(|c| c.as_os_str() == "glTF-Draco") {
+            let e = result.expect_err("Draco must be refused");
+            assert_eq!(e.pointer, "/extensionsRequired/0");
+            assert!(e.message.contains("KHR_draco_mesh_compression"), "{e}");
+            continue;
+        }
+        let imported = result.unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        for w in &imported.warnings {
+            eprintln!("{}: {w}", path.display());
+        }
+        let a = &imported.asset;
+        assert_eq!(a.order.len(), a.nodes.len(), "{}", path.display());
+        assert!(a.meshes.iter().flat_map(|m| &m.primitives).all(|p| p.positions.len() == p.vertex_count as usize));
+    }
+}
+
+#[test]
+fn fox_has_its_three_clips() {
+    let fox = asset("khronos/Fox/glTF-Binary/Fox.glb").asset;
+    let names: Vec<_> = fox.clips.iter().map(|c| c.name.as_deref().unwrap_or("")).collect();
+    assert_eq!(names, ["Survey", "Walk", "Run"]);
+    assert_eq!(fox.skins.len(), 1);
+    assert_eq!(fox.images.len(), 1);
+    assert!(
+        fox.images[0].width > 1
+            && fox.images[0].rgba8.len() == (fox.images[0].width * fox.images[0].height * 4) as usize
+    );
+    let split = asset("khronos/Fox/glTF/Fox.gltf").asset;
+    assert_eq!(split.clips.len(), 3);
+    assert_eq!(split.meshes[0].primitives[0].positions, fox.meshes[0].primitives[0].positions);
+}
+
+#[test]
+fn robot_expressive_weights_are_renormalized_with_a_warning() {
+    let robot = asset("threejs/RobotExpressive/RobotExpressive.glb");
+    assert!(
+        robot
+            .warnings
+            .iter()
+            .any(|w| w.message.contains("skin weights") && w.pointer.ends_with("/attributes/WEIGHTS_0")),
+        "{:?}",
+        robot.warnings
+    );
+    for p in robot.asset.meshes.iter().flat_map(|m| &m.primitives) {
+        for w in &p.weights {
+            assert!((w.iter().sum::<f32>() - 1.0).abs() < 1e-5);
+        }
+    }
+    let head = robot.asset.meshes.iter().find(|m| !m.target_names.is_empty()).expect("a mesh with target names");
+    assert_eq!(head.target_names, ["Angry", "Surprised", "Sad"]);
+}
+
+#[test]
+fn clean_samples_load_without_warnings() {
+    for file in [
+        "khronos/Fox/glTF-Binary/Fox.glb",
+        "khronos/CesiumMan/glTF-Binary/CesiumMan.glb",
+        "khronos/InterpolationTest/glTF-Binary/InterpolationTest.glb",
+        "khronos/AnimatedMorphCube/glTF-Quantized/AnimatedMorphCube.gltf",
+        "kaykit/Knight/Knight.glb",
+    ] {
+        let imported = asset(file);
+        assert!(imported.warnings.is_empty(), "{file}: {:?}", imported.warnings);
+    }
+}
+
+#[test]
+fn interpolation_test_has_every_mode() {
+    let a = asset("khronos/InterpolationTest/glTF-Binary/InterpolationTest.glb").asset;
+    assert_eq!(a.clips.len(), 9);
+    for mode in [Interpolation::Step, Interpolation::Linear, Interpolation::CubicSpline] {
+        assert!(a.clips.iter().flat_map(|c| &c.channels).any(|c| c.interpolation == mode));
+    }
+}
+
+/// Sampling every channel of InterpolationTest at each of its key times, in order and
+/// with the cursor cache, returns exactly that key's value (for every interpolation).
+#[test]
+fn interpolation_test_samples_its_keys_exactly() {
+    use crate::job::sample::{SampleContext, SampleJob};
+    let a = asset("khronos/InterpolationTest/glTF-Binary/InterpolationTest.glb").asset;
+    let mut pose = crate::pose::Pose::rest(&a);
+    for clip in &a.clips {
+        let mut context = SampleContext::new(clip);
+        for channel in &clip.channels {
+            let w = channel.width as usize;
+            let per_key = if channel.interpolation == Interpolation::CubicSpline { 3 } else { 1 };
+            for (k, &t) in channel.times.iter().enumerate() {
+                SampleJob {
+                    clip,
+                    time: t,
+                    context: &mut context,
+                    weight_offsets: &a.weight_offsets,
+                    locals: &mut pose.locals,
+                    weights: &mut pose.weights,
+                }
+                .run()
+                .expect("valid");
+                let value = &channel.values[(k * per_key + per_key / 2) * w..][..w];
+                let local = pose.locals[channel.node as usize];
+                let got: Vec<f32> = match channel.target {
+                    ChannelTarget::Translation => local.translation.to_array().to_vec(),
+                    ChannelTarget::Scale => local.scale.to_array().to_vec(),
+                    ChannelTarget::Rotation => local.rotation.to_array().to_vec(),
+                    ChannelTarget::Weights => unreachable!("InterpolationTest has no morph targets"),
+                };
+                for (g, v) in got.iter().zip(value) {
+                    assert!((g - v).abs() < 1e-6, "{:?} {:?} key {k}: {got:?} vs {value:?}", clip.name, channel.target);
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn quantized_morph_weights_are_normalized_integers() {
+    let a = asset("khronos/AnimatedMorphCube/glTF-Quantized/AnimatedMorphCube.gltf").asset;
+    let weights = a.clips[0].channels.iter().find(|c| c.target == ChannelTarget::Weights).expect("weights channel");
+    assert!(weights.values.iter().all(|&v| (0.0..=1.0).contains(&v)));
+    assert!(weights.values.iter().any(|&v| v > 0.5));
+}
+
+// ---- Hand-made documents -------------------------------------------------------------
+
+/// Little-endian bytes of floats.
+fn f32s(v: &[f32]) -> Vec<u8> {
+    v.iter().flat_map(|x| x.to_le_bytes()).collect()
+}
+
+/// A valid GLB document: a triangle (positions, u16 indices), one translation clip.
+/// BIN layout: positions 0..36, indices 36..42 (+2 pad), times 44..52, values 52..76.
+fn base() -> (Value, Vec<u8>) {
+    let mut bin = f32s(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]);
+    bin.extend([0u16, 1, 2].iter().flat_map(|i| i.to_le_bytes()));
+    bin.extend([0, 0]);
+    bin.extend(f32s(&[0.0, 1.0]));
+    bin.extend(f32s(&[0.0, 0.0, 0.0, 2.0, 4.0, 6.0]));
+    let doc = json!({
+        "asset": {"version": "2.0"},
+        "buffers": [{"byteLength": bin.len()}],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": 36},
+            {"buffer": 0, "byteOffset": 36, "byteLength": 6},
+            {"buffer": 0, "byteOffset": 44, "byteLength": 8},
+            {"buffer": 0, "byteOffset": 52, "byteLength": 24}
+        ],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3"},
+            {"bufferView": 1, "componentType": 5123, "count": 3, "type": "SCALAR"},
+            {"bufferView": 2, "componentType": 5126, "count": 2, "type": "SCALAR"},
+            {"bufferView": 3, "componentType": 5126, "count": 2, "type": "VEC3"}
+        ],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
+        "nodes": [{"mesh": 0, "name": "tri"}],
+        "scenes": [{"nodes": [0]}],
+        "scene": 0,
+        "animations": [{"name": "move", "samplers": [{"input": 2, "output": 3}],
+                        "channels": [{"sampler": 0, "target": {"node": 0, "path": "translation"}}]}]
+    });
+    (doc, bin)
+}
+
+fn glb_of(doc: &Value, bin: &[u8]) -> Vec<u8> {
+    container::tests::glb(doc.to_string().as_bytes(), Some(bin))
+}
+
+fn run(doc: &Value, bin: &[u8]) -> Result<Imported, ImportError> {
+    import(&glb_of(doc, bin), &NoResolver, &ImportOptions::default())
+}
+
+fn refused(doc: &Value, bin: &[u8]) -> ImportError {
+    match run(doc, bin) {
+        Ok(_) => panic!("document was accepted"),
+        Err(e) => e,
+    }
+}
+
+/// Appends `bytes` (4-byte aligned) to the BIN buffer and a view of them; returns the view index.
+fn add_view(doc: &mut Value, bin: &mut Vec<u8>, bytes: &[u8], stride: Option<u32>) -> usize {
+    while !bin.len().is_multiple_of(4) {
+        bin.push(0);
+    }
+    let offset = bin.len();
+    bin.extend(bytes);
+    doc["buffers"][0]["byteLength"] = json!(bin.len());
+    let views = doc["bufferViews"].as_array_mut().expect("views");
+    let mut view = json!({"buffer": 0, "byteOffset": offset, "byteLength": bytes.len()});
+    if let Some(s) = stride {
+        view["byteStride"] = json!(s);
+    }
+    views.push(view);
+    views.len() - 1
+}
+
+fn add_accessor(doc: &mut Value, accessor: Value) -> usize {
+    let list = doc["accessors"].as_array_mut().expect("accessors");
+    list.push(accessor);
+    list.len() - 1
+}
+
+#[test]
+fn base_document_imports() {
+    let (doc, bin) = base();
+    let imported = run(&doc, &bin).expect("valid");
+    assert!(imported.warnings.is_empty(), "{:?}", imported.warnings);
+    let a = imported.asset;
+    assert_eq!(a.meshes[0].primitives[0].positions[1], [1.0, 0.0, 0.0]);
+    assert_eq!(a.meshes[0].primitives[0].indices, [0, 1, 2]);
+    assert_eq!(a.meshes[0].primitives[0].bounds, ([0.0; 3], [1.0, 1.0, 0.0]));
+    assert_eq!(a.clips[0].duration, 1.0);
+    assert_eq!(a.clips[0].channels[0].values, [0.0, 0.0, 0.0, 2.0, 4.0, 6.0]);
+    assert_eq!(a.default_scene, Some(0));
+    assert_eq!(a.find_clip("move"), Some(0));
+}
+
+#[test]
+fn truncated_or_inconsistent_glb_is_refused() {
+    let (doc, bin) = base();
+    let file = glb_of(&doc, &bin);
+    let e = import(&file[..file.len() - 8], &NoResolver, &ImportOptions::default()).expect_err("truncated");
+    assert!(e.message.contains("does not match the file size"), "{e}");
+    let e = import(&file[..7], &NoResolver, &ImportOptions::default()).expect_err("header");
+    assert!(e.message.contains("truncated header"), "{e}");
+    let mut short_bin = doc.clone();
+    short_bin["buffers"][0]["byteLength"] = json!(bin.len() + 100);
+    let e = refused(&short_bin, &bin);
+    assert_eq!(e.pointer, "/buffers/0");
+    let e = import(b"{not json", &NoResolver, &ImportOptions::default()).expect_err("json");
+    assert!(e.message.starts_with("invalid JSON"), "{e}");
+}
+
+#[test]
+fn deeply_nested_json_is_refused_without_overflowing_the_stack() {
+    let nested = format!("{}{}", "[".repeat(100_000), "]".repeat(100_000));
+    let e = import(nested.as_bytes(), &NoResolver, &ImportOptions::default()).expect_err("too deep");
+    assert!(e.message.contains("recursion limit"), "{e}");
+}
+
+#[test]
+fn accessor_outside_its_view_is_refused() {
+    let (mut doc, bin) = base();
+    doc["accessors"][0]["byteOffset"] = json!(4);
+    let e = refused(&doc, &bin);
+    assert_eq!(e.pointer, "/accessors/0");
+    assert!(e.message.starts_with("count 3 does not fit bufferView 0"), "{e}");
+    let (mut doc, bin) = base();
+    doc["bufferViews"][3]["byteLength"] = json!(1000);
+    assert_eq!(refused(&doc, &bin).pointer, "/bufferViews/3");
+}
+
+#[test]
+fn count_overflow_and_zero_are_refused() {
+    let (mut doc, bin) = base();
+    doc["accessors"][0]["count"] = json!(1u64 << 62);
+    let e = refused(&doc, &bin);
+    assert_eq!(e.pointer, "/accessors/0");
+    assert!(e.message.starts_with("count 4611686018427387904 does not fit bufferView 0"), "{e}");
+    doc["accessors"][0]["count"] = json!(u64::MAX);
+    assert_eq!(refused(&doc, &bin).pointer, "/accessors/0");
+    doc["accessors"][0]["count"] = json!(0);
+    let e = refused(&doc, &bin);
+    assert_eq!(e.pointer, "/accessors/0/count");
+    doc["accessors"][0]["count"] = json!(-1);
+    assert_eq!(refused(&doc, &bin).pointer, "/accessors/0/count");
+}
+
+#[test]
+fn index_out_of_range_is_refused() {
+    let (mut doc, mut bin) = base();
+    bin[38..40].copy_from_slice(&7u16.to_le_bytes());
+    let e = refused(&doc, &bin);
+    assert_eq!(e.pointer, "/meshes/0/primitives/0/indices");
+    assert!(e.message.contains("index 7 at position 1"), "{e}");
+    let (_, bin) = base();
+    doc["meshes"][0]["primitives"][0]["material"] = json!(0);
+    let e = refused(&doc, &bin);
+    assert_eq!(e.pointer, "/meshes/0/primitives/0/material");
+    let (mut doc, _) = base();
+    doc["nodes"][0]["mesh"] = json!(3);
+    assert_eq!(refused(&doc, &bin).pointer, "/nodes/0/mesh");
+    let (mut doc, _) = base();
+    doc["animations"][0]["channels"][0]["target"]["node"] = json!(1);
+    assert_eq!(refused(&doc, &bin).pointer, "/animations/0/channels/0/target/node");
+}
+
+#[test]
+fn node_cycles_and_multiple_parents_are_refused() {
+    let (mut doc, bin) = base();
+    doc["nodes"] = json!([{"mesh": 0}, {"children": [2]}, {"children": [1]}]);
+    let e = refused(&doc, &bin);
+    assert_eq!(e.pointer, "/nodes/1");
+    assert!(e.message.contains("cycle"), "{e}");
+    doc["nodes"] = json!([{"mesh": 0, "children": [0]}]);
+    assert_eq!(refused(&doc, &bin).pointer, "/nodes/0/children/0");
+    doc["nodes"] = json!([{"mesh": 0, "children": [2]}, {"children": [2]}, {}]);
+    let e = refused(&doc, &bin);
+    assert_eq!(e.pointer, "/nodes/1/children/0");
+    assert!(e.message.contains("only one parent"), "{e}");
+}
+
+#[test]
+fn deep_chain_is_refused_quickly() {
+    let (mut doc, bin) = base();
+    let n = 100_000;
+    let nodes: Vec<Value> =
+        (0..n).map(|i| if i + 1 < n { json!({"children": [i + 1]}) } else { json!({"mesh": 0}) }).collect();
+    doc["nodes"] = Value::Array(nodes);
+    doc["animations"] = json!([]);
+    let file = glb_of(&doc, &bin);
+    let e = import(&file, &NoResolver, &ImportOptions::default()).expect_err("too deep");
+    assert_eq!(e.pointer, "/nodes/1024");
+    assert!(e.message.contains("deeper than the limit of 1024"), "{e}");
+    // Within the limit, the same shape is fine.
+    let options = ImportOptions { max_node_depth: n as u32, ..ImportOptions::default() };
+    let a = import(&file, &NoResolver, &options).expect("deep but allowed").asset;
+    assert_eq!(a.order.first(), Some(&0));
+    assert_eq!(a.order.last(), Some(&(n as u32 - 1)));
+}
+
+/// A resolver that must never be asked.
+struct Forbidden;
+impl Resolver for Forbidden {
+    fn resolve(&self, uri: &str) -> Result<Vec<u8>, String> {
+        panic!("resolver called for {uri}")
+    }
+}
+
+#[test]
+fn byte_length_bombs_are_refused_before_allocating() {
+    let doc = json!({"asset": {"version": "2.0"}, "buffers": [{"byteLength": 1u64 << 50, "uri": "bomb.bin"}]});
+    let e = import(doc.to_string().as_bytes(), &Forbidden, &ImportOptions::default()).expect_err("bomb");
+    assert_eq!(e.pointer, "/buffers/0");
+    assert!(e.message.contains("import budget"), "{e}");
+    // Many buffers each under the budget, together over it.
+    let many = json!({"asset": {"version": "2.0"},
+        "buffers": [{"byteLength": 400u64 << 20, "uri": "a.bin"}, {"byteLength": 400u64 << 20, "uri": "b.bin"}]});
+    let e = import(many.to_string().as_bytes(), &Forbidden, &ImportOptions::default()).expect_err("bomb");
+    assert_eq!(e.pointer, "/buffers/1");
+    // An accessor without a buffer view (zeros) declaring 2^40 elements.
+    let (mut doc, bin) = base();
+    doc["accessors"][0] = json!({"componentType": 5126, "count": 1u64 << 40, "type": "VEC3"});
+    let e = refused(&doc, &bin);
+    assert_eq!(e.pointer, "/accessors/0");
+    assert!(e.message.contains("import budget"), "{e}");
+    // A JSON document of many tiny values is charged for its parsed tree, not its text.
+    let tiny_values = format!("[{}0]", "0,".repeat(1 << 20));
+    let estimate = json_tree_estimate(tiny_values.as_bytes());
+    assert!(estimate > 64 << 20, "{estimate}");
+    let small = ImportOptions { budget_bytes: 32 << 20, ..ImportOptions::default() };
+    let e = import(tiny_values.as_bytes(), &NoResolver, &small).expect_err("JSON bomb");
+    assert!(e.message.contains("parsed JSON document"), "{e}");
+    assert_eq!(json_tree_estimate(br#"{"a":"x,[{:"}"#), 13 + 3 * JSON_VALUE_BYTES);
+    // A small budget refuses the JSON itself.
+    let tiny = ImportOptions { budget_bytes: 1000, ..ImportOptions::default() };
+    assert!(import(&glb_of(&doc, &bin), &NoResolver, &tiny).is_err());
+}
+
+#[test]
+fn bad_data_uris_are_refused() {
+    let doc = |uri: &str, len: u64| json!({"asset": {"version": "2.0"}, "buffers": [{"byteLength": len, "uri": uri}]});
+    let go = |d: Value| import(d.to_string().as_bytes(), &NoResolver, &ImportOptions::default());
+    let e = go(doc("data:application/octet-stream;base64,AQID", 8)).expect_err("short");
+    assert_eq!(e.pointer, "/buffers/0");
+    assert!(e.message.contains("exceeds the 3 bytes"), "{e}");
+    let e = go(doc("data:application/octet-stream;base64,AQ!D", 3)).expect_err("bad char");
+    assert_eq!(e.pointer, "/buffers/0/uri");
+    let e = go(doc("data:application/octet-stream,AQID", 3)).expect_err("not base64");
+    assert_eq!(e.pointer, "/buffers/0/uri");
+    assert!(go(doc("data:application/octet-stream;base64,AQID", 3)).is_ok());
+    let e = go(doc("../../x", 3)).expect_err("outside");
+    assert_eq!(e.pointer, "/buffers/0/uri");
+    let e = go(doc("missing.bin", 3)).expect_err("no resolver");
+    assert!(e.message.contains("external files are not available"), "{e}");
+}
+
+/// The base document with a 2-joint skin; JOINTS_0 (u8) and WEIGHTS_0 (float) given per vertex.
+fn skinned(joints: [[u8; 4]; 3], weights: [[f32; 4]; 3]) -> (Value, Vec<u8>) {
+    let (mut doc, mut bin) = base();
+    let jv = add_view(&mut doc, &mut bin, &joints.concat(), None);
+    let wv = add_view(&mut doc, &mut bin, &f32s(&weights.concat()), None);
+    let j = add_accessor(&mut doc, json!({"bufferView": jv, "componentType": 5121, "count": 3, "type": "VEC4"}));
+    let w = add_accessor(&mut doc, json!({"bufferView": wv, "componentType": 5126, "count": 3, "type": "VEC4"}));
+    doc["meshes"][0]["primitives"][0]["attributes"]["JOINTS_0"] = json!(j);
+    doc["meshes"][0]["primitives"][0]["attributes"]["WEIGHTS_0"] = json!(w);
+    doc["nodes"] = json!([{"mesh": 0, "skin": 0}, {"children": [2]}, {}]);
+    doc["scenes"] = json!([{"nodes": [0, 1]}]);
+    doc["skins"] = json!([{"joints": [1, 2]}]);
+    (doc, bin)
+}
+
+#[test]
+fn joint_index_outside_the_skin_is_refused() {
+    let (doc, bin) = skinned(
+        [[0, 1, 0, 0], [5, 0, 0, 0], [1, 0, 0, 0]],
+        [[0.5, 0.5, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0]],
+    );
+    let e = refused(&doc, &bin);
+    assert_eq!(e.pointer, "/meshes/0/primitives/0/attributes/JOINTS_0");
+    assert!(e.message.contains("joint index 5 is outside skin 0 (2 joints)"), "{e}");
+    // An out-of-range joint with zero weight is harmless and reset to joint 0.
+    let (doc, bin) = skinned([[0, 9, 0, 0], [1, 0, 0, 0], [1, 0, 0, 0]], [[1.0, 0.0, 0.0, 0.0]; 3]);
+    let a = run(&doc, &bin).expect("valid").asset;
+    assert_eq!(a.meshes[0].primitives[0].joints[0], [0; 8]);
+}
+
+#[test]
+fn skin_weights_are_renormalized_with_one_warning() {
+    let (doc, bin) =
+        skinned([[0, 1, 0, 0], [1, 0, 0, 0], [0, 1, 0, 0]], [[0.5, 0.25, 0.0, 0.0], [0.0; 4], [0.3, 0.7, 0.0, 0.0]]);
+    let imported = run(&doc, &bin).expect("repaired");
+    assert_eq!(imported.warnings.len(), 1, "{:?}", imported.warnings);
+    assert_eq!(imported.warnings[0].pointer, "/meshes/0/primitives/0/attributes/WEIGHTS_0");
+    assert!(imported.warnings[0].message.contains("2 of 3 vertices"), "{}", imported.warnings[0]);
+    let p = &imported.asset.meshes[0].primitives[0];
+    assert!((p.weights[0][0] - 2.0 / 3.0).abs() < 1e-6 && (p.weights[0][1] - 1.0 / 3.0).abs() < 1e-6);
+    assert_eq!(p.weights[1], [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+    assert_eq!(p.joints[1][0], 1, "all-zero weights go to the vertex's first joint");
+    assert_eq!(p.weights[2][..2], [0.3, 0.7]);
+}
+
+#[test]
+fn nan_and_non_increasing_keys_are_dropped_with_a_warning() {
+    let (doc, mut bin) = base();
+    bin[48..52].copy_from_slice(&f32::NAN.to_le_bytes());
+    let imported = run(&doc, &bin).expect("repaired");
+    let c = &imported.asset.clips[0].channels[0];
+    assert_eq!(c.times, [0.0]);
+    assert_eq!(c.values, [0.0, 0.0, 0.0]);
+    assert_eq!(imported.asset.clips[0].duration, 0.0);
+    assert!(
+        imported
+            .warnings
+            .iter()
+            .any(|w| w.pointer == "/animations/0/samplers/0" && w.message.contains("dropped 1 of 2"))
+    );
+
+    // Times 0, 2, 1, 3: the key at 1 is dropped; an infinite value drops its key too.
+    let (mut doc, mut bin) = base();
+    let tv = add_view(&mut doc, &mut bin, &f32s(&[0.0, 2.0, 1.0, 3.0]), None);
+    let vv = add_view(
+        &mut doc,
+        &mut bin,
+        &f32s(&[0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 2.0, 2.0, 2.0, f32::INFINITY, 0.0, 0.0]),
+        None,
+    );
+    let t = add_accessor(&mut doc, json!({"bufferView": tv, "componentType": 5126, "count": 4, "type": "SCALAR"}));
+    let v = add_accessor(&mut doc, json!({"bufferView": vv, "componentType": 5126, "count": 4, "type": "VEC3"}));
+    doc["animations"][0]["samplers"][0] = json!({"input": t, "output": v, "interpolation": "STEP"});
+    let imported = run(&doc, &bin).expect("repaired");
+    let c = &imported.asset.clips[0].channels[0];
+    assert_eq!(c.times, [0.0, 2.0]);
+    assert_eq!(c.values, [0.0, 0.0, 0.0, 1.0, 1.0, 1.0]);
+    assert_eq!(c.interpolation, Interpolation::Step);
+    assert!(imported.warnings.iter().any(|w| w.message.contains("dropped 2 of 4")), "{:?}", imported.warnings);
+}
+
+#[test]
+fn unsupported_required_extension_is_refused() {
+    let e = import_file(&shared_assets().join("khronos/RiggedSimple/glTF-Draco/RiggedSimple.gltf")).expect_err("draco");
+    assert_eq!(e.to_string(), "/extensionsRequired/0: required extension KHR_draco_mesh_compression is not supported");
+    let (mut doc, bin) = base();
+    doc["extensionsRequired"] = json!(["KHR_texture_transform", "EXT_meshopt_compression"]);
+    assert_eq!(refused(&doc, &bin).pointer, "/extensionsRequired/1");
+    doc["extensionsRequired"] = json!(["KHR_mesh_quantization", "KHR_materials_unlit"]);
+    assert!(run(&doc, &bin).is_ok());
+    doc["asset"]["version"] = json!("1.0");
+    assert_eq!(refused(&doc, &bin).pointer, "/asset/version");
+}
+
+#[test]
+fn sparse_accessors_substitute_and_are_checked() {
+    let (mut doc, mut bin) = base();
+    let iv = add_view(&mut doc, &mut bin, &[2u16, 0].iter().flat_map(|i| i.to_le_bytes()).collect::<Vec<_>>(), None);
+    let idx = add_view(&mut doc, &mut bin, &[0u16, 2].iter().flat_map(|i| i.to_le_bytes()).collect::<Vec<_>>(), None);
+    let vv = add_view(&mut doc, &mut bin, &f32s(&[9.0, 9.0, 9.0, 5.0, 5.0, 5.0]), None);
+    let sparse = |indices_view: usize| json!({"count": 2, "indices": {"bufferView": indices_view, "componentType": 5123}, "values": {"bufferView": vv}});
+    // Sparse on a dense accessor.
+    doc["accessors"][0]["sparse"] = sparse(idx);
+    let p = run(&doc, &bin).expect("valid").asset.meshes[0].primitives[0].clone();
+    assert_eq!(p.positions, [[9.0, 9.0, 9.0], [1.0, 0.0, 0.0], [5.0, 5.0, 5.0]]);
+    // Sparse without a buffer view: zeros elsewhere.
+    doc["accessors"][0] = json!({"componentType": 5126, "count": 3, "type": "VEC3", "sparse": sparse(idx)});
+    let p = run(&doc, &bin).expect("valid").asset.meshes[0].primitives[0].clone();
+    assert_eq!(p.positions, [[9.0, 9.0, 9.0], [0.0; 3], [5.0, 5.0, 5.0]]);
+    // Decreasing indices.
+    doc["accessors"][0]["sparse"] = sparse(iv);
+    let e = refused(&doc, &bin);
+    assert_eq!(e.pointer, "/accessors/0/sparse/indices");
+    assert!(e.message.contains("strictly increasing"), "{e}");
+    // Index beyond the count.
+    doc["accessors"][0]["count"] = json!(2);
+    doc["accessors"][0]["sparse"] = sparse(idx);
+    doc["meshes"][0]["primitives"][0].as_object_mut().expect("prim").remove("indices");
+    let e = refused(&doc, &bin);
+    assert_eq!(e.pointer, "/accessors/0/sparse/indices");
+    assert!(e.message.contains("out of range"), "{e}");
+    // Sparse count above the accessor count.
+    doc["accessors"][0]["count"] = json!(1);
+    assert_eq!(refused(&doc, &bin).pointer, "/accessors/0/sparse/count");
+}
+
+#[test]
+fn strided_and_normalized_data_is_decoded() {
+    let (mut doc, mut bin) = base();
+    // Interleaved: position (3 floats) + 4 bytes of padding per vertex, stride 16.
+    let mut interleaved = Vec::new();
+    for p in [[0.0f32, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 2.0, 0.0]] {
+        interleaved.extend(f32s(&p));
+        interleaved.extend([0xAA; 4]);
+    }
+    let v = add_view(&mut doc, &mut bin, &interleaved, Some(16));
+    doc["accessors"][0] = json!({"bufferView": v, "componentType": 5126, "count": 3, "type": "VEC3"});
+    // Normalized shorts and bytes for UVs.
+    let uv: Vec<u8> = [32767i16, -32768, 0, 16384, 0, 0].iter().flat_map(|x| x.to_le_bytes()).collect();
+    let uvv = add_view(&mut doc, &mut bin, &uv, None);
+    let uva = add_accessor(
+        &mut doc,
+        json!({"bufferView": uvv, "componentType": 5122, "normalized": true, "count": 3, "type": "VEC2"}),
+    );
+    doc["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = json!(uva);
+    let colors = add_view(&mut doc, &mut bin, &[255, 0, 51, 255, 0, 0, 0, 0, 255, 255, 255, 255], None);
+    let ca = add_accessor(
+        &mut doc,
+        json!({"bufferView": colors, "componentType": 5121, "normalized": true, "count": 3, "type": "VEC4"}),
+    );
+    doc["meshes"][0]["primitives"][0]["attributes"]["COLOR_0"] = json!(ca);
+    let p = run(&doc, &bin).expect("valid").asset.meshes[0].primitives[0].clone();
+    assert_eq!(p.positions, [[0.0; 3], [2.0, 0.0, 0.0], [0.0, 2.0, 0.0]]);
+    assert_eq!(p.uv0[0], [1.0, -1.0]);
+    assert!((p.uv0[1][1] - 16384.0 / 32767.0).abs() < 1e-7);
+    assert_eq!(p.colors[0], [1.0, 0.0, 0.2, 1.0]);
+    // A stride smaller than the element is refused.
+    doc["bufferViews"][v]["byteStride"] = json!(8);
+    assert_eq!(refused(&doc, &bin).pointer, "/accessors/0");
+    doc["bufferViews"][v]["byteStride"] = json!(6);
+    assert_eq!(refused(&doc, &bin).pointer, format!("/bufferViews/{v}/byteStride"));
+}
+
+#[test]
+fn strips_fans_and_loops_become_lists() {
+    let (mut doc, bin) = base();
+    let prim = &mut doc["meshes"][0]["primitives"][0];
+    prim.as_object_mut().expect("prim").remove("indices");
+    prim["mode"] = json!(5);
+    let a = run(&doc, &bin).expect("strip").asset;
+    assert_eq!(a.meshes[0].primitives[0].indices, [0, 1, 2]);
+    doc["accessors"][0]["count"] = json!(3);
+    // Four vertices via a longer position view.
+    let (mut doc, mut bin) = base();
+    let v = add_view(&mut doc, &mut bin, &f32s(&[0.0; 12]), None);
+    doc["accessors"][0] = json!({"bufferView": v, "componentType": 5126, "count": 4, "type": "VEC3"});
+    let prim = &mut doc["meshes"][0]["primitives"][0];
+    prim.as_object_mut().expect("prim").remove("indices");
+    for (mode, topology, expected) in [
+        (5, crate::asset::Topology::Triangles, vec![0, 1, 2, 1, 3, 2]),
+        (6, crate::asset::Topology::Triangles, vec![1, 2, 0, 2, 3, 0]),
+        (2, crate::asset::Topology::Lines, vec![0, 1, 1, 2, 2, 3, 3, 0]),
+        (3, crate::asset::Topology::Lines, vec![0, 1, 1, 2, 2, 3]),
+        (0, crate::asset::Topology::Points, vec![0, 1, 2, 3]),
+    ] {
+        doc["meshes"][0]["primitives"][0]["mode"] = json!(mode);
+        let p = run(&doc, &bin).expect("valid").asset.meshes[0].primitives[0].clone();
+        assert_eq!((p.topology, p.indices), (topology, expected), "mode {mode}");
+    }
+    doc["meshes"][0]["primitives"][0]["mode"] = json!(4);
+    let imported = run(&doc, &bin).expect("valid");
+    assert_eq!(imported.asset.meshes[0].primitives[0].indices, [0, 1, 2], "incomplete triangle dropped");
+    assert_eq!(imported.warnings.len(), 1);
+    doc["meshes"][0]["primitives"][0]["mode"] = json!(7);
+    assert_eq!(refused(&doc, &bin).pointer, "/meshes/0/primitives/0/mode");
+}
+
+#[test]
+fn node_transforms_are_decomposed_and_repaired() {
+    let (mut doc, bin) = base();
+    let m = crate::math::Mat4::from_scale_rotation_translation(
+        crate::math::Vec3::new(1.0, 2.0, 3.0),
+        crate::math::Quat::from_rotation_x(0.5),
+        crate::math::Vec3::new(4.0, 5.0, 6.0),
+    );
+    doc["nodes"] = json!([
+        {"mesh": 0, "matrix": m.to_cols_array()},
+        {"matrix": vec![0.0; 16]},
+        {"rotation": [0.0, 0.0, 0.0, 2.0]},
+        {"rotation": [0.0, 0.0, 0.0, 0.0]}
+    ]);
+    doc["scenes"] = json!([{"nodes": [0, 1, 2, 3]}]);
+    let imported = run(&doc, &bin).expect("repaired");
+    let nodes = &imported.asset.nodes;
+    assert!(nodes[0].rest.to_mat4().abs_diff_eq(m, 1e-5));
+    assert_eq!(nodes[1].rest, crate::math::Transform::IDENTITY);
+    assert_eq!(nodes[2].rest.rotation, crate::math::Quat::IDENTITY);
+    assert_eq!(nodes[3].rest.rotation, crate::math::Quat::IDENTITY);
+    let pointers: Vec<_> = imported.warnings.iter().map(|w| w.pointer.as_str()).collect();
+    assert_eq!(pointers, ["/nodes/1/matrix", "/nodes/2/rotation", "/nodes/3/rotation"]);
+}
+
+#[test]
+fn morph_targets_weights_and_names() {
+    let (mut doc, mut bin) = base();
+    let dv = add_view(&mut doc, &mut bin, &f32s(&[0.0, 0.0, 1.0, 0.0, 0.0, 2.0, 0.0, 0.0, 3.0]), None);
+    let d = add_accessor(&mut doc, json!({"bufferView": dv, "componentType": 5126, "count": 3, "type": "VEC3"}));
+    doc["meshes"][0]["primitives"][0]["targets"] = json!([{"POSITION": d}, {"NORMAL": d}]);
+    doc["meshes"][0]["weights"] = json!([0.25, 0.5]);
+    doc["meshes"][0]["extras"] = json!({"targetNames": ["up", "tilt"]});
+    doc["nodes"] = json!([{"mesh": 0, "weights": [1.0, 0.0]}, {"mesh": 0}, {"mesh": 0, "weights": [1.0]}]);
+    doc["scenes"] = json!([{"nodes": [0, 1, 2]}]);
+    let imported = run(&doc, &bin).expect("valid");
+    let a = &imported.asset;
+    assert_eq!(a.meshes[0].target_names, ["up", "tilt"]);
+    assert_eq!(a.meshes[0].primitives[0].targets[0].positions[2], [0.0, 0.0, 3.0]);
+    assert!(a.meshes[0].primitives[0].targets[0].normals.is_empty());
+    assert_eq!(a.nodes[0].weights, [1.0, 0.0]);
+    assert_eq!(a.nodes[1].weights, [0.25, 0.5]);
+    assert_eq!(a.nodes[2].weights, [0.25, 0.5], "wrong-length node weights fall back to the mesh's");
+    assert_eq!(a.weight_offsets, [0, 2, 4]);
+    assert_eq!(a.weight_total, 6);
+    assert_eq!(imported.warnings.len(), 1);
+    doc["meshes"][0]["weights"] = json!([0.25]);
+    assert_eq!(refused(&doc, &bin).pointer, "/meshes/0/weights");
+}
+
+#[test]
+fn undecodable_images_are_skipped_with_a_warning() {
+    let (mut doc, mut bin) = base();
+    let garbage = add_view(&mut doc, &mut bin, b"\x89PNG\r\n\x1a\nnot really a png", None);
+    let mut png = Vec::new();
+    image::RgbaImage::from_pixel(2, 1, image::Rgba([10, 20, 30, 255]))
+        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .expect("encode");
+    let good = add_view(&mut doc, &mut bin, &png, None);
+    doc["images"] =
+        json!([{"bufferView": garbage, "mimeType": "image/png"}, {"bufferView": good, "mimeType": "image/png"}]);
+    doc["textures"] = json!([{"source": 0}, {"source": 1, "sampler": 0}]);
+    doc["samplers"] = json!([{"wrapS": 33071, "magFilter": 9728}]);
+    doc["materials"] = json!([
+        {"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}},
+        {"pbrMetallicRoughness": {"baseColorFactor": [1, 0.5, 0.25, 1], "baseColorTexture": {"index": 1,
+            "extensions": {"KHR_texture_transform": {"offset": [0.5, 0], "scale": [2, 2], "texCoord": 0}}}},
+         "alphaMode": "MASK", "alphaCutoff": 0.3, "doubleSided": true, "extensions": {"KHR_materials_unlit": {}}}
+    ]);
+    let imported = run(&doc, &bin).expect("image skipped");
+    assert_eq!(imported.warnings.len(), 1, "{:?}", imported.warnings);
+    assert_eq!(imported.warnings[0].pointer, "/images/0");
+    let a = &imported.asset;
+    assert_eq!((a.images[0].width, a.images[0].height), (1, 1));
+    assert_eq!(a.images[1].rgba8, [10, 20, 30, 255, 10, 20, 30, 255]);
+    assert!(a.materials[0].base_color_texture.is_none());
+    let m = &a.materials[1];
+    let t = m.base_color_texture.expect("texture");
+    assert_eq!((t.image, t.repeat, t.nearest), (1, [false, true], true));
+    assert_eq!((t.transform.offset, t.transform.scale), ([0.5, 0.0], [2.0, 2.0]));
+    assert_eq!(m.base_color, [1.0, 0.5, 0.25, 1.0]);
+    assert_eq!((m.alpha, m.double_sided, m.unlit), (crate::asset::AlphaMode::Mask(0.3), true, true));
+    doc["textures"][0]["source"] = json!(5);
+    assert_eq!(refused(&doc, &bin).pointer, "/textures/0/source");
+}
+
+#[test]
+fn map_resolver_finds_files_by_path_then_name() {
+    let mut r = MapResolver::new();
+    r.insert("textures/a b.png", vec![1]);
+    r.insert("x.bin", vec![2]);
+    assert_eq!(r.resolve("textures/a%20b.png"), Ok(vec![1]));
+    assert_eq!(r.resolve("./textures/../textures/a b.png"), Ok(vec![1]));
+    assert_eq!(r.resolve("buffers/x.bin"), Ok(vec![2]));
+    assert!(r.resolve("y.bin").is_err());
+    r.insert("other/x.bin", vec![3]);
+    assert_eq!(r.resolve("x.bin"), Ok(vec![2]), "an exact path wins");
+    assert!(r.resolve("elsewhere/x.bin").is_err(), "ambiguous by name");
+    assert!(NoResolver.resolve("x.bin").is_err());
+}

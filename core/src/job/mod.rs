@@ -1,0 +1,31 @@
+//! Per-frame jobs in the ozz-animation style: each job borrows its inputs, writes into a
+//! caller-owned output slice, checks its inputs in `validate()` and does the work in
+//! `run()` (which validates first). Jobs never allocate.
+//!
+//! - [`sample::SampleJob`]: clip at a time → node-local transforms and morph weights;
+//! - [`world::WorldJob`]: locals → world matrices;
+//! - [`skin::PaletteJob`]: world matrices → skinning palette;
+//! - [`morph::MorphJob`]: base + weighted morph deltas;
+//! - [`skin::LbsJob`]: linear blend skinning of positions and normals (CPU reference).
+
+pub mod morph;
+pub mod sample;
+pub mod skin;
+pub mod world;
+
+use crate::error::JobError;
+
+/// `Err(BufferTooSmall)` when `got < needed`.
+pub(crate) fn check_len(what: &'static str, needed: usize, got: usize) -> Result<(), JobError> {
+    if got < needed { Err(JobError::BufferTooSmall { what, needed, got }) } else { Ok(()) }
+}
+
+/// `Err(LengthMismatch)` when `got != expected`.
+pub(crate) fn check_eq(what: &'static str, expected: usize, got: usize) -> Result<(), JobError> {
+    if got != expected { Err(JobError::LengthMismatch { what, expected, got }) } else { Ok(()) }
+}
+
+/// `Err(IndexOutOfRange)` when `index >= len`.
+pub(crate) fn check_index(what: &'static str, index: usize, len: usize) -> Result<(), JobError> {
+    if index >= len { Err(JobError::IndexOutOfRange { what, index, len }) } else { Ok(()) }
+}

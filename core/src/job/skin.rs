@@ -1,0 +1,219 @@
+//! Skinning: the joint palette and linear blend skinning (the CPU reference of the GPU path).
+
+use super::{check_eq, check_index, check_len};
+use crate::error::JobError;
+use crate::math::{Mat3, Mat4, Vec3};
+
+/// Computes `palette[j] = worlds[joints[j]] * inverse_bind[j]` for one skin.
+#[derive(Debug)]
+pub struct PaletteJob<'a> {
+    /// Joint nodes of the skin.
+    pub joints: &'a [u32],
+    /// Inverse bind matrix of each joint.
+    pub inverse_bind: &'a [Mat4],
+    /// World matrix of each node.
+    pub worlds: &'a [Mat4],
+    /// Output: one matrix per joint.
+    pub palette: &'a mut [Mat4],
+}
+
+impl PaletteJob<'_> {
+    /// Checks lengths and joint indices.
+    pub fn validate(&self) -> Result<(), JobError> {
+        check_eq("inverse_bind", self.joints.len(), self.inverse_bind.len())?;
+        check_len("palette", self.joints.len(), self.palette.len())?;
+        for &j in self.joints {
+            check_index("joints", j as usize, self.worlds.len())?;
+        }
+        Ok(())
+    }
+
+    /// Validates, then writes `palette`.
+    pub fn run(&mut self) -> Result<(), JobError> {
+        self.validate()?;
+        for ((out, &joint), ibm) in self.palette.iter_mut().zip(self.joints).zip(self.inverse_bind) {
+            *out = self.worlds[joint as usize] * *ibm;
+        }
+        Ok(())
+    }
+}
+
+/// Linear blend skinning of positions and normals with up to 8 influences per vertex:
+/// `p' = Σ w_i · palette[j_i] · p`; normals use the inverse transpose of the blended
+/// matrix and are renormalized.
+#[derive(Debug)]
+pub struct LbsJob<'a> {
+    /// Bind-pose positions.
+    pub positions: &'a [[f32; 3]],
+    /// Bind-pose normals; empty to skip normals.
+    pub normals: &'a [[f32; 3]],
+    /// Joint indices (into `palette`) per vertex.
+    pub joints: &'a [[u16; 8]],
+    /// Weights per vertex (summing to 1; zero-weight slots are ignored).
+    pub weights: &'a [[f32; 8]],
+    /// Skinning matrices ([`PaletteJob`]).
+    pub palette: &'a [Mat4],
+    /// Output positions, at least `positions.len()`.
+    pub out_positions: &'a mut [[f32; 3]],
+    /// Output normals, at least `normals.len()`.
+    pub out_normals: &'a mut [[f32; 3]],
+}
+
+impl LbsJob<'_> {
+    /// Checks lengths. Joint indices are checked while running.
+    pub fn validate(&self) -> Result<(), JobError> {
+        let n = self.positions.len();
+        if !self.normals.is_empty() {
+            check_eq("normals", n, self.normals.len())?;
+        }
+        check_eq("joints", n, self.joints.len())?;
+        check_eq("weights", n, self.weights.len())?;
+        check_len("out_positions", n, self.out_positions.len())?;
+        check_len("out_normals", self.normals.len(), self.out_normals.len())?;
+        Ok(())
+    }
+
+    /// Validates, then skins every vertex. Stops with `IndexOutOfRange` at the first
+    /// weighted joint index outside `palette`.
+    pub fn run(&mut self) -> Result<(), JobError> {
+        self.validate()?;
+        for v in 0..self.positions.len() {
+            let mut m = Mat4::ZERO;
+            for (&j, &w) in self.joints[v].iter().zip(&self.weights[v]) {
+                if w != 0.0 {
+                    let joint = self.palette.get(j as usize).ok_or(JobError::IndexOutOfRange {
+                        what: "joints",
+                        index: j as usize,
+                        len: self.palette.len(),
+                    })?;
+                    m += *joint * w;
+                }
+            }
+            self.out_positions[v] = m.transform_point3(Vec3::from(self.positions[v])).to_array();
+            if let Some(n) = self.normals.get(v) {
+                self.out_normals[v] = transform_normal(&m, Vec3::from(*n)).to_array();
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Transforms a normal by the inverse transpose of `m`'s upper 3×3 (as its cofactor
+/// matrix, signed by the determinant) and renormalizes; zero stays zero.
+pub fn transform_normal(m: &Mat4, n: Vec3) -> Vec3 {
+    let a = Mat3::from_mat4(*m);
+    let (c0, c1, c2) = (a.x_axis, a.y_axis, a.z_axis);
+    let cofactor = Mat3::from_cols(c1.cross(c2), c2.cross(c0), c0.cross(c1));
+    let sign = if a.determinant() < 0.0 { -1.0 } else { 1.0 };
+    (cofactor * n * sign).normalize_or_zero()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::{Quat, Transform};
+
+    #[test]
+    fn palette_multiplies_world_by_inverse_bind() {
+        let worlds = [Mat4::from_translation(Vec3::X), Mat4::from_rotation_z(1.0)];
+        let ibm = [Mat4::from_translation(-Vec3::Y), Mat4::from_scale(Vec3::splat(2.0))];
+        let mut palette = [Mat4::ZERO; 2];
+        PaletteJob { joints: &[1, 0], inverse_bind: &ibm, worlds: &worlds, palette: &mut palette }
+            .run()
+            .expect("valid");
+        assert_eq!(palette[0], worlds[1] * ibm[0]);
+        assert_eq!(palette[1], worlds[0] * ibm[1]);
+        let mut job = PaletteJob { joints: &[2], inverse_bind: &ibm[..1], worlds: &worlds, palette: &mut palette };
+        assert!(matches!(job.run(), Err(JobError::IndexOutOfRange { .. })));
+    }
+
+    #[test]
+    fn normals_use_inverse_transpose() {
+        let m = Mat4::from_scale(Vec3::new(2.0, 1.0, 1.0));
+        // A 45° normal in xy under x-scale 2 tilts towards y.
+        let n = transform_normal(&m, Vec3::new(1.0, 1.0, 0.0).normalize());
+        assert!(n.abs_diff_eq(Vec3::new(1.0, 2.0, 0.0).normalize(), 1e-6), "{n}");
+        let mirrored = transform_normal(&Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)), Vec3::X);
+        assert!(mirrored.abs_diff_eq(-Vec3::X, 1e-6));
+    }
+
+    /// A two-joint rig by hand: joint 0 at the origin, joint 1 one unit up, bent 90° about z.
+    #[test]
+    fn two_joint_rig_matches_hand_computation() {
+        let rest = [Transform::IDENTITY, Transform { translation: Vec3::Y, ..Transform::IDENTITY }];
+        let posed = [
+            Transform::IDENTITY,
+            Transform {
+                translation: Vec3::Y,
+                rotation: Quat::from_rotation_z(std::f32::consts::FRAC_PI_2),
+                ..Transform::IDENTITY
+            },
+        ];
+        let parents = [None, Some(0)];
+        let mut bind = [Mat4::IDENTITY; 2];
+        crate::job::world::WorldJob { parents: &parents, order: &[0, 1], locals: &rest, worlds: &mut bind }
+            .run()
+            .expect("valid");
+        let inverse_bind = [bind[0].inverse(), bind[1].inverse()];
+        let mut worlds = [Mat4::IDENTITY; 2];
+        crate::job::world::WorldJob { parents: &parents, order: &[0, 1], locals: &posed, worlds: &mut worlds }
+            .run()
+            .expect("valid");
+        let mut palette = [Mat4::ZERO; 2];
+        PaletteJob { joints: &[0, 1], inverse_bind: &inverse_bind, worlds: &worlds, palette: &mut palette }
+            .run()
+            .expect("valid");
+        // Vertex 0 at (1, 2, 0) fully on joint 1: rotating (1, 1, 0) about z by 90° around (0, 1, 0)
+        // gives (-1, 1, 0) + (0, 1, 0) = (-1, 2, 0). Vertex 1 half on each: mean of (1, 2) and (-1, 2)
+        // = (0, 2, 0). Normal +x on joint 1 becomes +y; half/half: (1,0)+(0,1) normalized.
+        let positions = [[1.0, 2.0, 0.0], [1.0, 2.0, 0.0]];
+        let normals = [[1.0, 0.0, 0.0], [1.0, 0.0, 0.0]];
+        let joints = [[1, 0, 0, 0, 0, 0, 0, 0], [0, 1, 0, 0, 0, 0, 0, 0]];
+        let weights = [[1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], [0.5, 0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]];
+        let mut out_p = [[0.0; 3]; 2];
+        let mut out_n = [[0.0; 3]; 2];
+        LbsJob {
+            positions: &positions,
+            normals: &normals,
+            joints: &joints,
+            weights: &weights,
+            palette: &palette,
+            out_positions: &mut out_p,
+            out_normals: &mut out_n,
+        }
+        .run()
+        .expect("valid");
+        let close = |a: [f32; 3], b: [f32; 3]| Vec3::from(a).abs_diff_eq(Vec3::from(b), 1e-5);
+        assert!(close(out_p[0], [-1.0, 2.0, 0.0]), "{:?}", out_p[0]);
+        assert!(close(out_p[1], [0.0, 2.0, 0.0]), "{:?}", out_p[1]);
+        assert!(close(out_n[0], [0.0, 1.0, 0.0]), "{:?}", out_n[0]);
+        let h = std::f32::consts::FRAC_1_SQRT_2;
+        assert!(close(out_n[1], [h, h, 0.0]), "{:?}", out_n[1]);
+    }
+
+    #[test]
+    fn lbs_refuses_bad_joints_and_short_outputs() {
+        let palette = [Mat4::IDENTITY];
+        let mut out = [[0.0; 3]; 1];
+        let mut job = LbsJob {
+            positions: &[[0.0; 3]],
+            normals: &[],
+            joints: &[[3, 0, 0, 0, 0, 0, 0, 0]],
+            weights: &[[1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]],
+            palette: &palette,
+            out_positions: &mut out,
+            out_normals: &mut [],
+        };
+        assert!(matches!(job.run(), Err(JobError::IndexOutOfRange { index: 3, .. })));
+        let mut job = LbsJob {
+            positions: &[[0.0; 3]; 2],
+            normals: &[],
+            joints: &[[0; 8]; 2],
+            weights: &[[0.0; 8]; 2],
+            palette: &palette,
+            out_positions: &mut out,
+            out_normals: &mut [],
+        };
+        assert!(matches!(job.run(), Err(JobError::BufferTooSmall { .. })));
+    }
+}

@@ -1,0 +1,42 @@
+#!/usr/bin/env bash
+# The README's test command: the whole suite.
+#   1. lints (clippy, deny unwrap outside tests)  2. Rust tests, native (unit, contracts, golden images on lavapipe,
+#   shader validation)  3. web bundle build  4. browser tests on WebGPU and WebGL2 against the real `kloub serve`.
+# Ends with one line "tests: N passed, M failed" and exits non-zero on any failure.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
+export CARGO_TERM_COLOR=never
+
+bash scripts/setup.sh
+
+step() { printf '\n== %s\n' "$*"; }
+log=$(mktemp)
+trap 'rm -f "$log"' EXIT
+
+step "clippy"
+cargo clippy --workspace --all-targets --quiet -- -D warnings
+
+step "cargo test (native)"
+set +e
+cargo test --workspace 2>&1 | tee "$log"
+cargo_rc=${PIPESTATUS[0]}
+set -e
+read -r rust_pass rust_fail < <(awk '/^test result:/ { for (i = 1; i <= NF; i++) { if ($(i+1) ~ /^passed/) p += $i; if ($(i+1) ~ /^failed/) f += $i } } END { print p + 0, f + 0 }' "$log")
+if [ "$cargo_rc" != 0 ] && [ "$rust_fail" = 0 ]; then rust_fail=1; fi  # a build failure counts as a failure
+
+step "web bundle"
+bash scripts/build-web.sh
+cargo build --quiet -p kloub-server
+
+step "browser tests"
+set +e
+node tests/browser/run.mjs 2>&1 | tee "$log"
+browser_rc=${PIPESTATUS[0]}
+set -e
+read -r web_pass web_fail < <(awk '/^browser: [0-9]+ passed, [0-9]+ failed/ { p = $2; f = $4 } END { print p + 0, f + 0 }' "$log")
+if [ "$browser_rc" != 0 ] && [ "$web_fail" = 0 ]; then web_fail=1; fi
+
+printf '\nrust: %s passed, %s failed; browser: %s passed, %s failed\n' "$rust_pass" "$rust_fail" "$web_pass" "$web_fail"
+printf 'tests: %s passed, %s failed\n' "$((rust_pass + web_pass))" "$((rust_fail + web_fail))"
+[ "$((rust_fail + web_fail))" = 0 ]

@@ -1,0 +1,103 @@
+// Kloub environment: background gradient and the ground grid.
+//
+// Valid on WebGPU, native and WebGL2 (wgpu downlevel). No vertex buffers: both passes
+// generate their vertices from the vertex index.
+// The Frame struct is shared with mesh.wgsl and must stay identical.
+
+struct Frame {
+    view_proj: mat4x4<f32>,
+    // xyz: eye position in world space.
+    camera_pos: vec4<f32>,
+    // xyz: unit direction towards the key light, w: its intensity.
+    light_dir: vec4<f32>,
+    light_color: vec4<f32>,
+    sky_color: vec4<f32>,
+    ground_color: vec4<f32>,
+    // x: ground height, y: grid cell size, z: fade radius, w: half extent of the grid quad.
+    grid: vec4<f32>,
+    // xyz: centre of the grid (on the ground plane).
+    grid_center: vec4<f32>,
+    background_top: vec4<f32>,
+    background_bottom: vec4<f32>,
+}
+
+@group(0) @binding(0) var<uniform> frame: Frame;
+
+struct BackgroundOut {
+    @builtin(position) clip: vec4<f32>,
+    // 0 at the bottom of the view, 1 at the top.
+    @location(0) height: f32,
+}
+
+/// One triangle covering the whole viewport.
+@vertex
+fn vs_background(@builtin(vertex_index) index: u32) -> BackgroundOut {
+    let x = f32((index << 1u) & 2u) * 2.0 - 1.0;
+    let y = f32(index & 2u) * 2.0 - 1.0;
+    var out: BackgroundOut;
+    out.clip = vec4<f32>(x, y, 0.0, 1.0);
+    out.height = y * 0.5 + 0.5;
+    return out;
+}
+
+@fragment
+fn fs_background(in: BackgroundOut) -> @location(0) vec4<f32> {
+    let t = clamp(in.height, 0.0, 1.0);
+    return vec4<f32>(mix(frame.background_bottom.rgb, frame.background_top.rgb, t * t), 1.0);
+}
+
+struct GridOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) world_pos: vec3<f32>,
+}
+
+/// A square on the ground plane (two triangles), centred on `frame.grid_center`.
+@vertex
+fn vs_grid(@builtin(vertex_index) index: u32) -> GridOut {
+    // Corners of the two triangles: (0,1,2) and (2,1,3) of the unit square.
+    var corners = array<vec2<f32>, 6>(
+        vec2<f32>(-1.0, -1.0),
+        vec2<f32>(-1.0, 1.0),
+        vec2<f32>(1.0, -1.0),
+        vec2<f32>(1.0, -1.0),
+        vec2<f32>(-1.0, 1.0),
+        vec2<f32>(1.0, 1.0),
+    );
+    let c = corners[index % 6u] * frame.grid.w;
+    let world = vec3<f32>(frame.grid_center.x + c.x, frame.grid.x, frame.grid_center.z + c.y);
+    var out: GridOut;
+    out.clip = frame.view_proj * vec4<f32>(world, 1.0);
+    out.world_pos = world;
+    return out;
+}
+
+/// Coverage of anti-aliased lines at integer values of `coord`, about one pixel wide.
+fn line_coverage(coord: vec2<f32>) -> f32 {
+    let width = max(fwidth(coord), vec2<f32>(1e-6));
+    let distance = abs(fract(coord - 0.5) - 0.5) / width;
+    return 1.0 - min(min(distance.x, distance.y), 1.0);
+}
+
+@fragment
+fn fs_grid(in: GridOut) -> @location(0) vec4<f32> {
+    let cell = frame.grid.y;
+    let coord = in.world_pos.xz / cell;
+    // Minor lines fade out where cells shrink to a few pixels (no moire in the distance).
+    let density = max(fwidth(coord).x, fwidth(coord).y);
+    let minor = line_coverage(coord) * (1.0 - smoothstep(0.15, 0.4, density));
+    let major = line_coverage(coord / 10.0);
+    // The world axes through the origin: X reddish, Z bluish.
+    let axis_width = max(fwidth(coord), vec2<f32>(1e-6));
+    let on_z_axis = 1.0 - min(abs(coord.x) / axis_width.x, 1.0);
+    let on_x_axis = 1.0 - min(abs(coord.y) / axis_width.y, 1.0);
+
+    let distance = length(in.world_pos.xz - frame.grid_center.xz);
+    let fade = 1.0 - smoothstep(frame.grid.z * 0.25, frame.grid.z, distance);
+
+    var color = vec3<f32>(0.55, 0.57, 0.6);
+    var alpha = max(minor * 0.35, major * 0.7);
+    color = mix(color, vec3<f32>(0.8, 0.3, 0.3), on_x_axis);
+    color = mix(color, vec3<f32>(0.3, 0.45, 0.85), on_z_axis);
+    alpha = max(alpha, max(on_x_axis, on_z_axis) * 0.85);
+    return vec4<f32>(color, alpha * fade);
+}

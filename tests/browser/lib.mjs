@@ -1,0 +1,130 @@
+// Shared helpers for Kloub's browser tests: the real `kloub serve`, Debian chromium via playwright-core.
+import { spawn } from 'node:child_process';
+import { mkdirSync, readFileSync, writeFileSync } from 'node:fs';
+import { basename, join, resolve } from 'node:path';
+import { chromium } from 'playwright-core';
+import { PNG } from 'pngjs';
+
+export const ROOT = resolve(import.meta.dirname, '../..');
+export const SHARED = process.env.KLOUB_SHARED_ASSETS ?? resolve(ROOT, '../shared/assets');
+
+const BASE_FLAGS = [
+  '--headless', '--no-sandbox', '--disable-quic', '--no-first-run', '--disable-background-networking',
+  '--disable-component-update', '--disable-sync', '--enable-unsafe-swiftshader',
+];
+// All four are needed for WebGPU on SwiftShader (see TOOLCHAIN.md).
+const WEBGPU_FLAGS = ['--enable-unsafe-webgpu', '--use-angle=swiftshader', '--enable-features=Vulkan', '--use-vulkan=swiftshader'];
+
+/** Starts `kloub serve` on a free loopback port; resolves to { url, stop() }. */
+export async function startServer() {
+  const bin = join(ROOT, 'target/debug/kloub');
+  const child = spawn(bin, ['serve', '--addr', '127.0.0.1:0', '--dist', join(ROOT, 'web/dist'), '--assets', join(ROOT, 'web/assets')], {
+    stdio: ['ignore', 'pipe', 'pipe'],
+  });
+  const url = await new Promise((ok, fail) => {
+    let out = '';
+    const timer = setTimeout(() => fail(new Error(`kloub serve did not start: ${out}`)), 20000);
+    const onData = (d) => {
+      out += d;
+      const m = out.match(/listening on (http:\/\/[0-9.:]+)/);
+      if (m) { clearTimeout(timer); ok(m[1]); }
+    };
+    child.stdout.on('data', onData);
+    child.stderr.on('data', onData);
+    child.on('exit', (code) => fail(new Error(`kloub serve exited with ${code}: ${out}`)));
+  });
+  return { url, stop: () => child.kill('SIGINT') };
+}
+
+/** Launches chromium for one backend ('webgpu' | 'webgl2'); returns { browser, page, close() }. */
+export async function openBrowser() {
+  // playwright gives every launch a fresh, empty profile directory of its own.
+  const browser = await chromium.launch({
+    executablePath: process.env.KLOUB_CHROMIUM ?? '/usr/bin/chromium',
+    headless: true,
+    args: [...BASE_FLAGS, ...WEBGPU_FLAGS],
+  });
+  const page = await browser.newPage({ viewport: { width: 1024, height: 640 } });
+  const logs = [];
+  page.on('console', (m) => logs.push(`[${m.type()}] ${m.text()}`));
+  page.on('pageerror', (e) => logs.push(`[pageerror] ${e.message}`));
+  return {
+    browser, page, logs,
+    async close() { await browser.close(); },
+  };
+}
+
+/** The page URL for a backend: WebGL2 is forced with ?backend=gl even though WebGPU is available. */
+export function pageUrl(base, backend) {
+  return backend === 'webgl2' ? `${base}/?backend=gl` : `${base}/`;
+}
+
+/** Waits until `predicate(document.body.dataset)` holds (evaluated in the page). */
+export async function waitForDataset(page, predicate, what, timeout = 60000) {
+  try {
+    await page.waitForFunction(predicate, null, { timeout, polling: 100 });
+  } catch (e) {
+    const ds = await page.evaluate(() => ({ ...document.body.dataset }));
+    throw new Error(`timed out waiting for ${what}; dataset = ${JSON.stringify(ds)}`);
+  }
+}
+
+export async function dataset(page) {
+  return page.evaluate(() => ({ ...document.body.dataset }));
+}
+
+/** Drops files on the canvas the way a user's drag and drop does (dragenter, dragover, drop). */
+export async function dropFiles(page, files) {
+  const payload = files.map((f) => ({
+    name: f.name ?? basename(f.path),
+    b64: (f.bytes ?? readFileSync(f.path)).toString('base64'),
+  }));
+  await page.evaluate(async (payload) => {
+    const dt = new DataTransfer();
+    for (const f of payload) {
+      const bin = Uint8Array.from(atob(f.b64), (c) => c.charCodeAt(0));
+      dt.items.add(new File([bin], f.name, { type: 'application/octet-stream' }));
+    }
+    const target = document.querySelector('canvas');
+    for (const type of ['dragenter', 'dragover', 'drop']) {
+      target.dispatchEvent(new DragEvent(type, { dataTransfer: dt, bubbles: true, cancelable: true }));
+    }
+  }, payload);
+}
+
+/** Screenshot of the 3D viewport (its rect is published by the app in dataset.viewport as "x,y,w,h" CSS px). */
+export async function viewportShot(page) {
+  const ds = await dataset(page);
+  const [x, y, width, height] = (ds.viewport ?? '').split(',').map(Number);
+  const clip = width > 0 && height > 0 ? { x, y, width, height } : undefined;
+  return PNG.sync.read(await page.screenshot({ clip }));
+}
+
+/** Fraction of pixels whose largest channel difference exceeds `threshold`. */
+export function diffFraction(a, b, threshold = 16) {
+  if (a.width !== b.width || a.height !== b.height) return 1;
+  let n = 0;
+  for (let i = 0; i < a.data.length; i += 4) {
+    const d = Math.max(Math.abs(a.data[i] - b.data[i]), Math.abs(a.data[i + 1] - b.data[i + 1]), Math.abs(a.data[i + 2] - b.data[i + 2]));
+    if (d > threshold) n++;
+  }
+  return n / (a.width * a.height);
+}
+
+/** Fraction of pixels that differ from the most common colour (how much of the view is not background). */
+export function nonBackgroundFraction(img) {
+  const counts = new Map();
+  for (let i = 0; i < img.data.length; i += 4 * 7) {
+    const key = (img.data[i] >> 3) << 10 | (img.data[i + 1] >> 3) << 5 | (img.data[i + 2] >> 3);
+    counts.set(key, (counts.get(key) ?? 0) + 1);
+  }
+  const total = Math.ceil(img.data.length / (4 * 7));
+  return 1 - Math.max(...counts.values()) / total;
+}
+
+/** Writes a screenshot under tests/out/browser/ for a person to look at after a failure. */
+export function savePng(img, name) {
+  const dir = join(ROOT, 'tests/out/browser');
+  mkdirSync(dir, { recursive: true });
+  writeFileSync(join(dir, name), PNG.sync.write(img));
+}

@@ -1,0 +1,272 @@
+//! Golden images: the app's own renderer ([`kloub_web::render::SceneRenderer`]) drawing
+//! models headless (lavapipe on a machine without a GPU), compared with committed PNGs.
+//!
+//! Each folder `tests/golden/<case>/` holds `manifest.json` and `expected.png`:
+//! ```text
+//! { "model": "khronos/CesiumMan/glTF-Binary/CesiumMan.glb",   // under the shared assets
+//!   "clip": 0, "time": 0.5, "size": [256, 256],
+//!   "max_channel_diff": 12,            // a pixel differs when a channel is off by more than this
+//!   "max_differing_fraction": 0.005 }  // ... and at most this fraction of pixels may differ
+//! ```
+//! The camera is [`Camera::frame_to_fit`] of the posed scene bounds with the default yaw and
+//! pitch. On failure `tests/out/<case>/actual.png` and `diff.png` are written. A missing
+//! `expected.png` is written and the test fails; `KLOUB_BLESS=1` rewrites every
+//! `expected.png` and passes.
+
+use std::path::{Path, PathBuf};
+
+use image::{Rgba, RgbaImage};
+use kloub_core::{Asset, ImportOptions, Instance, NoResolver};
+use kloub_web::render::offscreen::Offscreen;
+use kloub_web::render::{Camera, SkinningPath};
+
+/// Cases that must exist (so deleting a folder cannot make the suite pass).
+const REQUIRED_CASES: [&str; 2] = ["cesiumman_t0.5", "riggedsimple_t1.0"];
+
+fn load(model: &str) -> Asset {
+    let path = kloub_tests::shared_assets().join(model);
+    let bytes = std::fs::read(&path).unwrap_or_else(|e| panic!("reading {}: {e}", path.display()));
+    kloub_core::import(&bytes, &NoResolver, &ImportOptions::default())
+        .unwrap_or_else(|e| panic!("importing {}: {e}", path.display()))
+        .asset
+}
+
+/// The instance posed at `clip`/`time` and a camera framing it.
+fn pose(asset: &Asset, clip: Option<usize>, time: f32) -> (Instance, Camera) {
+    let mut instance = Instance::new(asset);
+    instance
+        .evaluate(asset, clip, time)
+        .expect("evaluating a valid clip");
+    let (min, max) = instance
+        .scene_bounds(asset)
+        .expect("the model has drawable meshes");
+    let mut camera = Camera::default();
+    camera.frame_to_fit(min, max);
+    (instance, camera)
+}
+
+/// How two images differ.
+struct Comparison {
+    largest_channel_diff: u8,
+    differing_fraction: f64,
+    diff: RgbaImage,
+}
+
+/// Compares `actual` with `expected`; a pixel differs when a channel is off by more than
+/// `threshold`. The diff image shows the actual frame dimmed, differing pixels in red.
+fn compare(expected: &RgbaImage, actual: &RgbaImage, threshold: u8) -> Comparison {
+    let mut diff = RgbaImage::new(actual.width(), actual.height());
+    let mut largest = 0u8;
+    let mut differing = 0usize;
+    for ((e, a), d) in expected
+        .pixels()
+        .zip(actual.pixels())
+        .zip(diff.pixels_mut())
+    {
+        let delta =
+            e.0.iter()
+                .zip(a.0)
+                .map(|(&x, y)| x.abs_diff(y))
+                .max()
+                .unwrap_or(0);
+        largest = largest.max(delta);
+        let grey = ((u16::from(a.0[0]) + u16::from(a.0[1]) + u16::from(a.0[2])) / 12) as u8;
+        *d = if delta > threshold {
+            differing += 1;
+            Rgba([255, 0, 0, 255])
+        } else {
+            Rgba([grey, grey, grey, 255])
+        };
+    }
+    let total = (actual.width() as usize * actual.height() as usize).max(1);
+    Comparison {
+        largest_channel_diff: largest,
+        differing_fraction: differing as f64 / total as f64,
+        diff,
+    }
+}
+
+fn write_png(image: &RgbaImage, path: &Path) {
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).unwrap_or_else(|e| panic!("creating {}: {e}", dir.display()));
+    }
+    image
+        .save(path)
+        .unwrap_or_else(|e| panic!("writing {}: {e}", path.display()));
+}
+
+fn case_dirs() -> Vec<PathBuf> {
+    let root = kloub_tests::repo_root().join("tests/golden");
+    let mut dirs: Vec<PathBuf> = std::fs::read_dir(&root)
+        .unwrap_or_else(|e| panic!("reading {}: {e}", root.display()))
+        .filter_map(|entry| entry.ok().map(|e| e.path()))
+        .filter(|path| path.join("manifest.json").is_file())
+        .collect();
+    dirs.sort();
+    dirs
+}
+
+/// Renders one case; returns a failure message, or `None` when it passes.
+fn run_case(offscreen: &Offscreen, dir: &Path, bless: bool) -> Option<String> {
+    let name = dir
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let manifest_path = dir.join("manifest.json");
+    let manifest: serde_json::Value = std::fs::read_to_string(&manifest_path)
+        .map_err(|e| e.to_string())
+        .and_then(|text| serde_json::from_str(&text).map_err(|e| e.to_string()))
+        .unwrap_or_else(|e| panic!("{}: {e}", manifest_path.display()));
+    let field = |key: &str| {
+        manifest
+            .get(key)
+            .unwrap_or_else(|| panic!("{name}: manifest lacks {key:?}"))
+    };
+    let model = field("model").as_str().expect("model is a string");
+    let clip = field("clip").as_u64().map(|c| c as usize);
+    let time = field("time").as_f64().expect("time is a number") as f32;
+    let size = field("size").as_array().expect("size is [width, height]");
+    let dimension = |i: usize| {
+        size.get(i)
+            .and_then(|v| v.as_u64())
+            .expect("size holds two integers") as u32
+    };
+    let (width, height) = (dimension(0), dimension(1));
+    let threshold = field("max_channel_diff")
+        .as_u64()
+        .expect("max_channel_diff is an integer")
+        .min(255) as u8;
+    let max_fraction = field("max_differing_fraction")
+        .as_f64()
+        .expect("max_differing_fraction is a number");
+
+    let asset = load(model);
+    let (mut instance, camera) = pose(&asset, clip, time);
+    let mut renderer = offscreen
+        .scene_renderer(&asset)
+        .unwrap_or_else(|e| panic!("{name}: uploading: {e}"));
+    let actual = offscreen
+        .render(&mut renderer, &asset, &mut instance, &camera, width, height)
+        .unwrap_or_else(|e| panic!("{name}: rendering: {e}"));
+
+    let expected_path = dir.join("expected.png");
+    if bless || !expected_path.exists() {
+        write_png(&actual, &expected_path);
+        return (!bless).then(|| {
+            format!(
+                "{name}: no expected.png; wrote {} (check it, then commit)",
+                expected_path.display()
+            )
+        });
+    }
+    let expected = image::open(&expected_path)
+        .unwrap_or_else(|e| panic!("reading {}: {e}", expected_path.display()))
+        .to_rgba8();
+    if expected.dimensions() != actual.dimensions() {
+        return Some(format!(
+            "{name}: expected {:?} pixels, rendered {:?}",
+            expected.dimensions(),
+            actual.dimensions()
+        ));
+    }
+    let comparison = compare(&expected, &actual, threshold);
+    if comparison.differing_fraction <= max_fraction {
+        return None;
+    }
+    let out = kloub_tests::repo_root().join("tests/out").join(&name);
+    write_png(&actual, &out.join("actual.png"));
+    write_png(&comparison.diff, &out.join("diff.png"));
+    Some(format!(
+        "{name}: {:.3}% of pixels differ by more than {threshold} (allowed {:.3}%), largest channel difference {}; \
+         see {}",
+        comparison.differing_fraction * 100.0,
+        max_fraction * 100.0,
+        comparison.largest_channel_diff,
+        out.display()
+    ))
+}
+
+#[test]
+fn golden_images_match() {
+    let dirs = case_dirs();
+    for required in REQUIRED_CASES {
+        assert!(
+            dirs.iter()
+                .any(|d| d.file_name().is_some_and(|n| n == required)),
+            "golden case {required} is missing from tests/golden"
+        );
+    }
+    let bless = std::env::var_os("KLOUB_BLESS").is_some_and(|v| v == "1");
+    let offscreen =
+        Offscreen::new().expect("a wgpu adapter (install Mesa lavapipe on machines without a GPU)");
+    eprintln!("golden images on {:?}", offscreen.adapter_info());
+    let failures: Vec<String> = dirs
+        .iter()
+        .filter_map(|dir| run_case(&offscreen, dir, bless))
+        .collect();
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// The vertex-shader skinning (palette texture) draws the same picture as kloub_core's CPU
+/// reference skinning. RecursiveSkeletons has 84 skins, so it checks each draw's palette offset.
+#[test]
+fn gpu_skinning_matches_cpu_reference() {
+    let offscreen = Offscreen::new().expect("a wgpu adapter");
+    let mut failures = Vec::new();
+    for (model, time) in [
+        ("khronos/CesiumMan/glTF-Binary/CesiumMan.glb", 0.5),
+        ("khronos/Fox/glTF-Binary/Fox.glb", 1.0),
+        (
+            "khronos/RecursiveSkeletons/glTF-Binary/RecursiveSkeletons.glb",
+            1.0,
+        ),
+    ] {
+        let asset = load(model);
+        let (mut instance, camera) = pose(&asset, Some(0), time);
+        let mut renderer = offscreen.scene_renderer(&asset).expect("uploading");
+        let mut frame = |path| {
+            renderer.set_skinning_path(path);
+            offscreen
+                .render(&mut renderer, &asset, &mut instance, &camera, 192, 192)
+                .expect("rendering")
+        };
+        let gpu = frame(SkinningPath::Gpu);
+        let cpu = frame(SkinningPath::Cpu);
+        // The same view without the model: the model must cover a fair part of the frame.
+        let ground = renderer.ground();
+        renderer.clear_asset();
+        renderer.set_ground(ground);
+        let empty = offscreen
+            .render(&mut renderer, &asset, &mut instance, &camera, 192, 192)
+            .expect("rendering");
+        let covered = compare(&empty, &gpu, 24).differing_fraction;
+        let comparison = compare(&cpu, &gpu, 24);
+        eprintln!(
+            "{model}: GPU vs CPU skinning: {:.4}% of pixels differ, largest channel difference {}; model covers {:.1}%",
+            comparison.differing_fraction * 100.0,
+            comparison.largest_channel_diff,
+            covered * 100.0
+        );
+        if comparison.differing_fraction > 0.002 || covered < 0.02 {
+            let name = Path::new(model)
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            let out = kloub_tests::repo_root()
+                .join("tests/out/skinning")
+                .join(&name);
+            write_png(&gpu, &out.join("gpu.png"));
+            write_png(&cpu, &out.join("cpu.png"));
+            write_png(&comparison.diff, &out.join("diff.png"));
+            failures.push(format!(
+                "{model}: {:.3}% of pixels differ between GPU and CPU skinning (largest {}); the model covers \
+                 {:.1}% of the frame (at least 2% expected); see {}",
+                comparison.differing_fraction * 100.0,
+                comparison.largest_channel_diff,
+                covered * 100.0,
+                out.display()
+            ));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}

@@ -1,0 +1,156 @@
+//! Every `shaders/*.wgsl` file must parse and validate with naga, and translate to GLSL ES
+//! 3.00 (what wgpu's WebGL2 backend feeds the browser) for every entry point. Structs with
+//! the same name in different files (the shared `Frame` uniform) must have the same layout.
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+use naga::back::glsl;
+use naga::valid::{Capabilities, ModuleInfo, ValidationFlags, Validator};
+
+/// The WGSL files, sorted.
+fn shader_files() -> Vec<PathBuf> {
+    let dir = kloub_tests::repo_root().join("shaders");
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap_or_else(|e| panic!("reading {}: {e}", dir.display()))
+        .filter_map(|entry| entry.ok().map(|e| e.path()))
+        .filter(|path| path.extension().is_some_and(|ext| ext == "wgsl"))
+        .collect();
+    files.sort();
+    files
+}
+
+/// Parses and validates with no optional capabilities (WebGL2 has none of them).
+fn validate(source: &str) -> Result<(naga::Module, ModuleInfo), String> {
+    let module = naga::front::wgsl::parse_str(source).map_err(|e| e.emit_to_string(source))?;
+    let info = Validator::new(ValidationFlags::all(), Capabilities::empty())
+        .validate(&module)
+        .map_err(|e| e.emit_to_string(source))?;
+    Ok((module, info))
+}
+
+/// Writes GLSL ES 3.00 for WebGL2 for every entry point.
+fn translate_for_webgl2(module: &naga::Module, info: &ModuleInfo) -> Result<(), String> {
+    let options = glsl::Options {
+        version: glsl::Version::Embedded {
+            version: 300,
+            is_webgl: true,
+        },
+        writer_flags: glsl::WriterFlags::ADJUST_COORDINATE_SPACE,
+        ..Default::default()
+    };
+    for entry in &module.entry_points {
+        let pipeline = glsl::PipelineOptions {
+            shader_stage: entry.stage,
+            entry_point: entry.name.clone(),
+            multiview: None,
+        };
+        let mut out = String::new();
+        glsl::Writer::new(
+            &mut out,
+            module,
+            info,
+            &options,
+            &pipeline,
+            naga::proc::BoundsCheckPolicies::default(),
+        )
+        .and_then(|mut writer| writer.write())
+        .map_err(|e| format!("entry point {}: GLSL ES 3.00: {e}", entry.name))?;
+    }
+    Ok(())
+}
+
+/// A struct's members (name, offset) and its size.
+type Layout = (Vec<(String, u32)>, u32);
+
+/// Named structs of a module by name.
+fn struct_layouts(module: &naga::Module) -> BTreeMap<String, Layout> {
+    let mut out = BTreeMap::new();
+    for (_, ty) in module.types.iter() {
+        if let (Some(name), naga::TypeInner::Struct { members, span }) = (&ty.name, &ty.inner) {
+            let members = members
+                .iter()
+                .map(|m| (m.name.clone().unwrap_or_default(), m.offset))
+                .collect();
+            out.insert(name.clone(), (members, *span));
+        }
+    }
+    out
+}
+
+#[test]
+fn every_wgsl_file_validates_for_webgpu_and_webgl2() {
+    let files = shader_files();
+    assert!(
+        files.len() >= 2,
+        "expected the mesh and environment shaders, found {files:?}"
+    );
+    let mut failures = Vec::new();
+    for path in &files {
+        let result = std::fs::read_to_string(path)
+            .map_err(|e| e.to_string())
+            .and_then(|source| validate(&source))
+            .and_then(|(module, info)| translate_for_webgl2(&module, &info).map(|()| module));
+        match result {
+            Ok(module) => assert!(
+                !module.entry_points.is_empty(),
+                "{}: no entry points",
+                path.display()
+            ),
+            Err(e) => failures.push(format!("{}:\n{e}", path.display())),
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "{} shader file(s) failed:\n\n{}",
+        failures.len(),
+        failures.join("\n\n")
+    );
+}
+
+#[test]
+fn shared_structs_have_one_layout() {
+    let mut seen: BTreeMap<String, (PathBuf, Layout)> = BTreeMap::new();
+    let mut failures = Vec::new();
+    for path in shader_files() {
+        let source =
+            std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let Ok((module, _)) = validate(&source) else {
+            continue;
+        }; // reported by the test above
+        for (name, layout) in struct_layouts(&module) {
+            match seen.get(&name) {
+                Some((first, known)) if *known != layout => failures.push(format!(
+                    "struct {name}: {} has {:?}, {} has {:?}",
+                    first.display(),
+                    known,
+                    path.display(),
+                    layout
+                )),
+                Some(_) => {}
+                None => {
+                    seen.insert(name, (path.clone(), layout));
+                }
+            }
+        }
+    }
+    assert!(
+        seen.contains_key("Frame"),
+        "the shared Frame uniform struct was not found"
+    );
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+#[test]
+fn validation_catches_a_broken_shader() {
+    // Guards the test itself: a type error and a storage buffer in a vertex shader
+    // (not available on WebGL2) must both be reported.
+    assert!(validate("@vertex fn main() -> @builtin(position) vec4<f32> { return 1.0; }").is_err());
+    let storage = "@group(0) @binding(0) var<storage, read> data: array<vec4<f32>>;\n\
+                   @vertex fn main(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> { return data[i]; }";
+    let (module, info) = validate(storage).expect("valid WGSL");
+    assert!(
+        translate_for_webgl2(&module, &info).is_err(),
+        "storage buffers must not pass for WebGL2"
+    );
+}

@@ -1,0 +1,21 @@
+//! # kloub-web
+//!
+//! Kloub's viewer: an eframe app ([`app::App`]) that imports glTF/GLB with `kloub-core`,
+//! plays its clips, and draws it with the wgpu [`render::SceneRenderer`] into a texture shown
+//! in egui's central panel. On `wasm32` the exported `start(canvas_id)` runs it in a page.
+//!
+//! Modules: [`app`] (frame loop, model state), [`ui`] (side panel), [`load`] (fetch, drop,
+//! import), [`dom`] (`document.body.dataset` mirror and error overlay; no-ops natively),
+//! [`backend`] (`?backend=` choice), [`render`] (GPU renderer and camera).
+
+pub mod app;
+pub mod backend;
+pub mod dom;
+#[cfg(target_arch = "wasm32")]
+mod entry;
+pub mod load;
+pub mod render;
+pub mod ui;
+
+#[cfg(target_arch = "wasm32")]
+pub use entry::start;

@@ -1,0 +1,251 @@
+//! Getting model bytes into the app: fetching a URL, reading dropped files, and turning a
+//! set of files into an imported [`Asset`].
+//!
+//! Reading is asynchronous in the browser, so every source delivers its files into an
+//! [`Inbox`] that the app drains once per frame. Importing is platform independent and runs
+//! on the frame that drains the delivery.
+
+use std::cell::RefCell;
+use std::rc::Rc;
+
+use kloub_core::{Asset, ImportOptions, MapResolver, NoResolver, Resolver, Warning, import};
+
+/// One file's name (no directories on the web) and contents.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SourceFile {
+    /// File name, e.g. `Fox.glb`.
+    pub name: String,
+    /// Whole contents.
+    pub bytes: Vec<u8>,
+}
+
+/// Files read from one source (a URL, or one drop), or why they could not be read.
+#[derive(Debug)]
+pub struct Delivery {
+    /// Where the files came from, for messages (a URL or "dropped files").
+    pub origin: String,
+    /// The files, or the read error.
+    pub files: Result<Vec<SourceFile>, String>,
+}
+
+/// A successfully imported model.
+#[derive(Debug)]
+pub struct LoadedModel {
+    /// Display name: the model file's name.
+    pub name: String,
+    /// The imported asset.
+    pub asset: Asset,
+    /// Defects the importer repaired.
+    pub warnings: Vec<Warning>,
+}
+
+/// Deliveries waiting for the app, shared between the app and the async readers.
+#[derive(Clone, Debug, Default)]
+pub struct Inbox(Rc<RefCell<Vec<Delivery>>>);
+
+impl Inbox {
+    /// Queues a delivery.
+    pub fn push(&self, delivery: Delivery) {
+        self.0.borrow_mut().push(delivery);
+    }
+
+    /// Takes every queued delivery, oldest first.
+    pub fn take(&self) -> Vec<Delivery> {
+        std::mem::take(&mut *self.0.borrow_mut())
+    }
+}
+
+/// Whether a file name looks like a glTF model (`.glb` or `.gltf`, any case).
+pub fn is_model_name(name: &str) -> bool {
+    let lower = name.to_ascii_lowercase();
+    lower.ends_with(".glb") || lower.ends_with(".gltf")
+}
+
+/// The last path segment of a URL without query or fragment, e.g. `default.glb`.
+pub fn file_name_of_url(url: &str) -> &str {
+    let path = url.split(['?', '#']).next().unwrap_or(url);
+    path.rsplit('/').find(|s| !s.is_empty()).unwrap_or(path)
+}
+
+/// Imports the model among `files`: the first `.glb`/`.gltf` (or the only file when none is
+/// named so); the other files resolve its external URIs (`.bin`, textures).
+///
+/// # Errors
+/// A message naming the file: nothing to import, or the importer's error with its JSON pointer.
+pub fn import_files(files: Vec<SourceFile>) -> Result<LoadedModel, String> {
+    let main = match files.iter().position(|f| is_model_name(&f.name)) {
+        Some(i) => i,
+        None if files.len() == 1 => 0,
+        None if files.is_empty() => return Err("no files to open".to_owned()),
+        None => return Err("none of the dropped files is a .glb or .gltf model".to_owned()),
+    };
+    let mut files = files;
+    let model = files.swap_remove(main);
+    let resolver: Box<dyn Resolver> = if files.is_empty() {
+        Box::new(NoResolver)
+    } else {
+        let mut map = MapResolver::new();
+        for file in files {
+            map.insert(file.name, file.bytes);
+        }
+        Box::new(map)
+    };
+    let imported = import(&model.bytes, resolver.as_ref(), &ImportOptions::default()).map_err(|e| {
+        if e.pointer.is_empty() {
+            format!("{}: {}", model.name, e.message)
+        } else {
+            format!("{}: {}: {}", model.name, e.pointer, e.message)
+        }
+    })?;
+    Ok(LoadedModel { name: model.name, asset: imported.asset, warnings: imported.warnings })
+}
+
+/// Fetches `url` and delivers its bytes to `inbox`, then asks `ctx` for a repaint.
+#[cfg(target_arch = "wasm32")]
+pub fn fetch_into(url: String, inbox: Inbox, ctx: egui::Context) {
+    wasm_bindgen_futures::spawn_local(async move {
+        let name = file_name_of_url(&url).to_owned();
+        let files = fetch_bytes(&url).await.map(|bytes| vec![SourceFile { name, bytes }]);
+        inbox.push(Delivery { origin: url, files });
+        ctx.request_repaint();
+    });
+}
+
+/// Fetching needs a browser; natively the delivery is an error.
+#[cfg(not(target_arch = "wasm32"))]
+pub fn fetch_into(url: String, inbox: Inbox, ctx: egui::Context) {
+    inbox.push(Delivery {
+        files: Err(format!("{url}: fetching URLs is only available in the browser")),
+        origin: url,
+    });
+    ctx.request_repaint();
+}
+
+#[cfg(target_arch = "wasm32")]
+async fn fetch_bytes(url: &str) -> Result<Vec<u8>, String> {
+    use wasm_bindgen::JsCast;
+    use wasm_bindgen_futures::JsFuture;
+
+    let window = web_sys::window().ok_or("no window")?;
+    let response = JsFuture::from(window.fetch_with_str(url))
+        .await
+        .map_err(|e| format!("{url}: {}", crate::dom::js_error_text(&e)))?;
+    let response: web_sys::Response =
+        response.dyn_into().map_err(|_| format!("{url}: fetch did not return a Response"))?;
+    if !response.ok() {
+        return Err(format!("{url}: HTTP {} {}", response.status(), response.status_text()));
+    }
+    let buffer = response.array_buffer().map_err(|e| format!("{url}: {}", crate::dom::js_error_text(&e)))?;
+    let buffer =
+        JsFuture::from(buffer).await.map_err(|e| format!("{url}: {}", crate::dom::js_error_text(&e)))?;
+    Ok(js_sys::Uint8Array::new(&buffer).to_vec())
+}
+
+/// Reads dropped files (asynchronously in the browser) and delivers them together.
+pub fn read_dropped_into(dropped: Vec<egui::DroppedFileHandle>, inbox: Inbox, ctx: egui::Context) {
+    let origin = "dropped files".to_owned();
+    #[cfg(target_arch = "wasm32")]
+    wasm_bindgen_futures::spawn_local(async move {
+        let mut files = Vec::with_capacity(dropped.len());
+        let mut error = None;
+        for file in &dropped {
+            let name = file_name_of_path(file.path());
+            match file.bytes_async().await {
+                Ok(bytes) => files.push(SourceFile { name, bytes }),
+                Err(e) => {
+                    error = Some(format!("{name}: {e}"));
+                    break;
+                }
+            }
+        }
+        inbox.push(Delivery { origin, files: error.map_or(Ok(files), Err) });
+        ctx.request_repaint();
+    });
+    #[cfg(not(target_arch = "wasm32"))]
+    {
+        let files = dropped
+            .iter()
+            .map(|file| {
+                let name = file_name_of_path(file.path());
+                file.bytes().map(|bytes| SourceFile { name: name.clone(), bytes }).map_err(|e| format!("{name}: {e}"))
+            })
+            .collect();
+        inbox.push(Delivery { origin, files });
+        ctx.request_repaint();
+    }
+}
+
+fn file_name_of_path(path: &std::path::Path) -> String {
+    path.file_name().map_or_else(|| path.to_string_lossy(), |n| n.to_string_lossy()).into_owned()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn url_file_names() {
+        assert_eq!(file_name_of_url("/models/default.glb"), "default.glb");
+        assert_eq!(file_name_of_url("http://h/a/Fox.glb?x=1#y"), "Fox.glb");
+        assert_eq!(file_name_of_url("dir/"), "dir");
+        assert_eq!(file_name_of_url("plain"), "plain");
+    }
+
+    #[test]
+    fn model_names() {
+        assert!(is_model_name("Fox.GLB"));
+        assert!(is_model_name("a.gltf"));
+        assert!(!is_model_name("a.bin"));
+        assert!(!is_model_name("glb"));
+    }
+
+    #[test]
+    fn nothing_to_import() {
+        let err = import_files(Vec::new()).err();
+        assert_eq!(err.as_deref(), Some("no files to open"));
+        let two = vec![
+            SourceFile { name: "a.bin".into(), bytes: vec![1] },
+            SourceFile { name: "b.png".into(), bytes: vec![2] },
+        ];
+        assert!(import_files(two).err().is_some_and(|e| e.contains(".glb or .gltf")));
+    }
+
+    #[test]
+    fn bad_file_is_an_error_naming_the_file() {
+        let bad = vec![SourceFile { name: "broken.glb".into(), bytes: b"glTF\x02\0\0\0garbage".to_vec() }];
+        let err = import_files(bad).err();
+        assert!(err.as_deref().is_some_and(|e| e.starts_with("broken.glb: ")), "{err:?}");
+    }
+
+    fn shared(path: &str) -> SourceFile {
+        let full = format!("{}/../../shared/assets/khronos/{path}", env!("CARGO_MANIFEST_DIR"));
+        let bytes = std::fs::read(&full).unwrap_or_else(|e| panic!("{full}: {e}"));
+        let name = path.rsplit('/').next().unwrap_or(path).to_owned();
+        SourceFile { name, bytes }
+    }
+
+    #[test]
+    fn gltf_with_its_bin_in_any_order() {
+        let files = vec![shared("RiggedSimple/glTF/RiggedSimple0.bin"), shared("RiggedSimple/glTF/RiggedSimple.gltf")];
+        let model = import_files(files).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(model.name, "RiggedSimple.gltf");
+        assert_eq!(model.asset.clips.len(), 1);
+        assert_eq!(model.asset.skins.len(), 1);
+    }
+
+    #[test]
+    fn gltf_without_its_bin_names_the_buffer() {
+        let err = import_files(vec![shared("RiggedSimple/glTF/RiggedSimple.gltf")]).err();
+        assert!(err.as_deref().is_some_and(|e| e.starts_with("RiggedSimple.gltf: /buffers/0")), "{err:?}");
+    }
+
+    #[test]
+    fn inbox_is_fifo() {
+        let inbox = Inbox::default();
+        inbox.push(Delivery { origin: "a".into(), files: Ok(Vec::new()) });
+        inbox.push(Delivery { origin: "b".into(), files: Err("x".into()) });
+        let got: Vec<String> = inbox.take().into_iter().map(|d| d.origin).collect();
+        assert_eq!(got, ["a", "b"]);
+        assert!(inbox.take().is_empty());
+    }
+}

@@ -1,0 +1,149 @@
+//! GPU copies of a primitive's vertex streams (see [`super::pipelines`] for their layouts).
+
+use bytemuck::{Pod, Zeroable};
+use kloub_core::asset::Primitive;
+use wgpu::util::DeviceExt;
+
+/// One vertex of the geometry stream.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GeometryVertex {
+    /// Position.
+    pub position: [f32; 3],
+    /// Normal (zero when the primitive has none).
+    pub normal: [f32; 3],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct AttributeVertex {
+    uv: [f32; 2],
+    color: [f32; 4],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct SkinVertex {
+    joints: [u16; 8],
+    weights: [f32; 8],
+}
+
+/// Byte stride of the geometry stream: position, normal (`f32x3` each). Skinned on the CPU,
+/// this is the stream rewritten every frame.
+pub const GEOMETRY_STRIDE: u64 = size_of::<GeometryVertex>() as u64;
+/// Byte stride of the attribute stream: uv (`f32x2`), colour (`f32x4`).
+pub const ATTRIBUTE_STRIDE: u64 = size_of::<AttributeVertex>() as u64;
+/// Byte stride of the skin stream: 8 joints (`u16`), 8 weights (`f32`).
+pub const SKIN_STRIDE: u64 = size_of::<SkinVertex>() as u64;
+
+/// Interleaves positions and normals (zeros where normals are missing) into `out`.
+pub fn interleave(positions: &[[f32; 3]], normals: &[[f32; 3]], out: &mut Vec<GeometryVertex>) {
+    out.clear();
+    out.extend(
+        positions
+            .iter()
+            .enumerate()
+            .map(|(i, &position)| GeometryVertex {
+                position,
+                normal: normals.get(i).copied().unwrap_or_default(),
+            }),
+    );
+}
+
+/// A primitive's buffers on the GPU.
+pub struct GpuPrimitive {
+    /// Rest positions and normals.
+    pub geometry: wgpu::Buffer,
+    /// UVs and colours.
+    pub attributes: wgpu::Buffer,
+    /// Joints and weights, for skinned primitives.
+    pub skin: Option<wgpu::Buffer>,
+    /// `u32` indices.
+    pub indices: wgpu::Buffer,
+    /// Number of indices.
+    pub index_count: u32,
+    /// Number of vertices.
+    pub vertex_count: u32,
+    /// Whether the primitive has normals (else the fragment shader makes flat ones).
+    pub has_normals: bool,
+}
+
+impl GpuPrimitive {
+    /// Uploads `primitive`; `None` when it has nothing to draw.
+    pub fn new(device: &wgpu::Device, primitive: &Primitive) -> Option<Self> {
+        let n = primitive.positions.len();
+        if n == 0 || primitive.indices.is_empty() {
+            return None;
+        }
+        let mut geometry = Vec::new();
+        interleave(&primitive.positions, &primitive.normals, &mut geometry);
+        let attributes: Vec<AttributeVertex> = (0..n)
+            .map(|i| AttributeVertex {
+                uv: primitive.uv0.get(i).copied().unwrap_or_default(),
+                color: primitive.colors.get(i).copied().unwrap_or([1.0; 4]),
+            })
+            .collect();
+        let skin = primitive.is_skinned().then(|| {
+            let skin: Vec<SkinVertex> = (0..n)
+                .map(|i| SkinVertex {
+                    joints: primitive.joints.get(i).copied().unwrap_or_default(),
+                    weights: primitive.weights.get(i).copied().unwrap_or_default(),
+                })
+                .collect();
+            buffer(
+                device,
+                "kloub skin",
+                bytemuck::cast_slice(&skin),
+                wgpu::BufferUsages::VERTEX,
+            )
+        });
+        let has_normals = primitive.normals.len() == n;
+        Some(Self {
+            geometry: buffer(
+                device,
+                "kloub geometry",
+                bytemuck::cast_slice(&geometry),
+                wgpu::BufferUsages::VERTEX,
+            ),
+            attributes: buffer(
+                device,
+                "kloub attributes",
+                bytemuck::cast_slice(&attributes),
+                wgpu::BufferUsages::VERTEX,
+            ),
+            skin,
+            indices: buffer(
+                device,
+                "kloub indices",
+                bytemuck::cast_slice(&primitive.indices),
+                wgpu::BufferUsages::INDEX,
+            ),
+            index_count: primitive.indices.len() as u32,
+            vertex_count: n as u32,
+            has_normals,
+        })
+    }
+
+    /// A geometry-stream buffer for vertices deformed on the CPU and rewritten every frame.
+    pub fn deform_buffer(&self, device: &wgpu::Device) -> wgpu::Buffer {
+        device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("kloub cpu-deformed geometry"),
+            size: u64::from(self.vertex_count) * GEOMETRY_STRIDE,
+            usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        })
+    }
+}
+
+fn buffer(
+    device: &wgpu::Device,
+    label: &str,
+    contents: &[u8],
+    usage: wgpu::BufferUsages,
+) -> wgpu::Buffer {
+    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(label),
+        contents,
+        usage,
+    })
+}

@@ -1,0 +1,162 @@
+//! Native headless rendering (tests, CLI): a device of its own, the same [`SceneRenderer`]
+//! as the app, and a readback of the target into an [`image::RgbaImage`].
+//!
+//! The device is created under WebGL2's downlevel limits (raised to the adapter's texture
+//! size and alignment) so native tests catch a renderer that would not fit WebGL2.
+
+use image::RgbaImage;
+use kloub_core::Instance;
+use kloub_core::asset::Asset;
+
+use super::camera::Camera;
+use super::scene::{SceneRenderer, msaa_samples};
+
+/// A headless wgpu device (the adapter `WGPU_ADAPTER_NAME`/`WGPU_BACKEND` select, else the
+/// default one: lavapipe on a machine without a GPU).
+pub struct Offscreen {
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    sample_count: u32,
+    adapter: wgpu::AdapterInfo,
+}
+
+impl Offscreen {
+    /// Opens the adapter and device.
+    pub fn new() -> Result<Self, String> {
+        let instance =
+            wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        let adapter = pollster::block_on(wgpu::util::initialize_adapter_from_env_or_default(
+            &instance, None,
+        ))
+        .map_err(|e| format!("no wgpu adapter: {e}"))?;
+        let limits = wgpu::Limits::downlevel_webgl2_defaults()
+            .using_resolution(adapter.limits())
+            .using_alignment(adapter.limits());
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("kloub offscreen"),
+            required_limits: limits,
+            ..Default::default()
+        }))
+        .map_err(|e| format!("no wgpu device: {e}"))?;
+        Ok(Self {
+            sample_count: msaa_samples(&adapter),
+            adapter: adapter.get_info(),
+            device,
+            queue,
+        })
+    }
+
+    /// The device.
+    pub fn device(&self) -> &wgpu::Device {
+        &self.device
+    }
+
+    /// The queue.
+    pub fn queue(&self) -> &wgpu::Queue {
+        &self.queue
+    }
+
+    /// Name and backend of the adapter, for logs.
+    pub fn adapter_info(&self) -> &wgpu::AdapterInfo {
+        &self.adapter
+    }
+
+    /// A renderer on this device with `asset` uploaded.
+    pub fn scene_renderer(&self, asset: &Asset) -> Result<SceneRenderer, String> {
+        let mut renderer = SceneRenderer::new(&self.device, &self.queue, self.sample_count);
+        renderer.set_asset(&self.device, &self.queue, asset)?;
+        Ok(renderer)
+    }
+
+    /// Renders a frame with `renderer` and reads it back.
+    pub fn render(
+        &self,
+        renderer: &mut SceneRenderer,
+        asset: &Asset,
+        instance: &mut Instance,
+        camera: &Camera,
+        width: u32,
+        height: u32,
+    ) -> Result<RgbaImage, String> {
+        renderer.render(
+            &self.device,
+            &self.queue,
+            asset,
+            instance,
+            camera,
+            [width, height],
+        )?;
+        let texture = renderer.target_texture().ok_or("nothing rendered")?;
+        self.read_texture(texture)
+    }
+
+    /// Copies an `Rgba8Unorm(Srgb)` texture into an image (bytes as stored: sRGB-encoded).
+    pub fn read_texture(&self, texture: &wgpu::Texture) -> Result<RgbaImage, String> {
+        let (width, height) = (texture.width(), texture.height());
+        let row = width * 4;
+        let padded =
+            row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+        let buffer = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("kloub readback"),
+            size: u64::from(padded) * u64::from(height),
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        });
+        let mut encoder = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("kloub readback"),
+            });
+        encoder.copy_texture_to_buffer(
+            texture.as_image_copy(),
+            wgpu::TexelCopyBufferInfo {
+                buffer: &buffer,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(padded),
+                    rows_per_image: Some(height),
+                },
+            },
+            texture.size(),
+        );
+        self.queue.submit([encoder.finish()]);
+        let (sender, receiver) = std::sync::mpsc::channel();
+        buffer.map_async(wgpu::MapMode::Read, .., move |result| {
+            // The receiver waits below; a send error only means it is gone.
+            let _ = sender.send(result);
+        });
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| format!("device poll: {e}"))?;
+        receiver
+            .recv()
+            .map_err(|e| format!("readback: {e}"))?
+            .map_err(|e| format!("readback map: {e}"))?;
+        let mut pixels = Vec::with_capacity((row * height) as usize);
+        {
+            let mapped = buffer
+                .get_mapped_range(..)
+                .map_err(|e| format!("readback range: {e}"))?;
+            for chunk in mapped.chunks_exact(padded as usize).take(height as usize) {
+                pixels.extend_from_slice(&chunk[..row as usize]);
+            }
+        }
+        buffer.unmap();
+        RgbaImage::from_raw(width, height, pixels)
+            .ok_or_else(|| "readback size mismatch".to_string())
+    }
+}
+
+/// One-shot: opens a device, uploads `asset`, renders `instance` (already evaluated) from
+/// `camera` at `width`×`height` and returns the pixels (sRGB-encoded RGBA8).
+pub fn render_to_image(
+    asset: &Asset,
+    instance: &mut Instance,
+    camera: &Camera,
+    width: u32,
+    height: u32,
+) -> Result<RgbaImage, String> {
+    let offscreen = Offscreen::new()?;
+    let mut renderer = offscreen.scene_renderer(asset)?;
+    offscreen.render(&mut renderer, asset, instance, camera, width, height)
+}

@@ -1,0 +1,337 @@
+//! Bind group layouts, shader modules and render pipelines (mesh variants built on demand).
+
+use std::collections::HashMap;
+
+use kloub_core::asset::Topology;
+
+/// The wgpu topology of a glTF primitive.
+pub fn topology(topology: Topology) -> wgpu::PrimitiveTopology {
+    match topology {
+        Topology::Points => wgpu::PrimitiveTopology::PointList,
+        Topology::Lines => wgpu::PrimitiveTopology::LineList,
+        Topology::Triangles => wgpu::PrimitiveTopology::TriangleList,
+    }
+}
+
+use super::mesh::{ATTRIBUTE_STRIDE, GEOMETRY_STRIDE, SKIN_STRIDE};
+use super::texture::COLOR_FORMAT;
+use super::uniforms::{DrawUniform, FrameUniform, MaterialUniform};
+
+/// Depth buffer format.
+pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+/// `shaders/mesh.wgsl`.
+pub const MESH_WGSL: &str = include_str!("../../../shaders/mesh.wgsl");
+/// `shaders/environment.wgsl`.
+pub const ENVIRONMENT_WGSL: &str = include_str!("../../../shaders/environment.wgsl");
+
+const GEOMETRY_ATTRIBUTES: [wgpu::VertexAttribute; 2] =
+    wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3];
+const ATTRIBUTE_ATTRIBUTES: [wgpu::VertexAttribute; 2] =
+    wgpu::vertex_attr_array![2 => Float32x2, 3 => Float32x4];
+const SKIN_ATTRIBUTES: [wgpu::VertexAttribute; 4] =
+    wgpu::vertex_attr_array![4 => Uint16x4, 5 => Uint16x4, 6 => Float32x4, 7 => Float32x4];
+
+fn uniform_entry(
+    binding: u32,
+    visibility: wgpu::ShaderStages,
+    size: usize,
+    dynamic: bool,
+) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: dynamic,
+            min_binding_size: wgpu::BufferSize::new(size as u64),
+        },
+        count: None,
+    }
+}
+
+fn texture_entry(
+    binding: u32,
+    visibility: wgpu::ShaderStages,
+    sample_type: wgpu::TextureSampleType,
+) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Texture {
+            sample_type,
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
+/// The bind group layouts shared by all pipelines.
+pub struct Layouts {
+    /// Group 0: frame uniform + joint palette texture.
+    pub frame: wgpu::BindGroupLayout,
+    /// Group 1: material uniform + base colour texture + sampler.
+    pub material: wgpu::BindGroupLayout,
+    /// Group 2: draw uniform (dynamic offset).
+    pub draw: wgpu::BindGroupLayout,
+}
+
+impl Layouts {
+    /// Creates the layouts.
+    pub fn new(device: &wgpu::Device) -> Self {
+        let vf = wgpu::ShaderStages::VERTEX_FRAGMENT;
+        let frame = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("kloub frame"),
+            entries: &[
+                uniform_entry(0, vf, size_of::<FrameUniform>(), false),
+                texture_entry(
+                    1,
+                    wgpu::ShaderStages::VERTEX,
+                    wgpu::TextureSampleType::Float { filterable: false },
+                ),
+            ],
+        });
+        let material = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("kloub material"),
+            entries: &[
+                uniform_entry(
+                    0,
+                    wgpu::ShaderStages::FRAGMENT,
+                    size_of::<MaterialUniform>(),
+                    false,
+                ),
+                texture_entry(
+                    1,
+                    wgpu::ShaderStages::FRAGMENT,
+                    wgpu::TextureSampleType::Float { filterable: true },
+                ),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 2,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                    count: None,
+                },
+            ],
+        });
+        let draw = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("kloub draw"),
+            entries: &[uniform_entry(0, vf, size_of::<DrawUniform>(), true)],
+        });
+        Self {
+            frame,
+            material,
+            draw,
+        }
+    }
+}
+
+/// How a mesh draw's vertices reach world space.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum VertexPath {
+    /// Transformed by the draw's model matrix (`vs_static`).
+    Static,
+    /// Linear blend skinning with the palette texture (`vs_skinned`).
+    Skinned,
+}
+
+/// Everything that selects a mesh pipeline.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct PipelineKey {
+    /// Vertex shader entry and vertex buffers.
+    pub vertex: VertexPath,
+    /// Primitive topology.
+    pub topology: wgpu::PrimitiveTopology,
+    /// Alpha blended (drawn after opaque, no depth writes).
+    pub blend: bool,
+    /// No back-face culling.
+    pub double_sided: bool,
+    /// Clockwise front faces (a world matrix with negative determinant mirrors the winding).
+    pub mirrored: bool,
+}
+
+/// Shader modules and pipelines for one sample count.
+pub struct Pipelines {
+    sample_count: u32,
+    mesh_module: wgpu::ShaderModule,
+    mesh_layout: wgpu::PipelineLayout,
+    /// Background gradient (full-screen triangle).
+    pub background: wgpu::RenderPipeline,
+    /// Ground grid (blended quad).
+    pub grid: wgpu::RenderPipeline,
+    mesh: HashMap<PipelineKey, wgpu::RenderPipeline>,
+}
+
+fn depth_state(compare: wgpu::CompareFunction, write: bool) -> Option<wgpu::DepthStencilState> {
+    Some(wgpu::DepthStencilState {
+        format: DEPTH_FORMAT,
+        depth_write_enabled: Some(write),
+        depth_compare: Some(compare),
+        stencil: wgpu::StencilState::default(),
+        bias: wgpu::DepthBiasState::default(),
+    })
+}
+
+fn color_target(blend: bool) -> [Option<wgpu::ColorTargetState>; 1] {
+    let blend = blend.then_some(wgpu::BlendState {
+        color: wgpu::BlendComponent {
+            src_factor: wgpu::BlendFactor::SrcAlpha,
+            dst_factor: wgpu::BlendFactor::OneMinusSrcAlpha,
+            operation: wgpu::BlendOperation::Add,
+        },
+        alpha: wgpu::BlendComponent {
+            src_factor: wgpu::BlendFactor::One,
+            dst_factor: wgpu::BlendFactor::OneMinusSrcAlpha,
+            operation: wgpu::BlendOperation::Add,
+        },
+    });
+    [Some(wgpu::ColorTargetState {
+        format: COLOR_FORMAT,
+        blend,
+        write_mask: wgpu::ColorWrites::ALL,
+    })]
+}
+
+impl Pipelines {
+    /// Compiles the shaders and the environment pipelines for `sample_count` samples.
+    pub fn new(device: &wgpu::Device, layouts: &Layouts, sample_count: u32) -> Self {
+        let mesh_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("kloub mesh.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(MESH_WGSL.into()),
+        });
+        let env_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("kloub environment.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(ENVIRONMENT_WGSL.into()),
+        });
+        let mesh_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("kloub mesh"),
+            bind_group_layouts: &[
+                Some(&layouts.frame),
+                Some(&layouts.material),
+                Some(&layouts.draw),
+            ],
+            immediate_size: 0,
+        });
+        let env_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("kloub environment"),
+            bind_group_layouts: &[Some(&layouts.frame)],
+            immediate_size: 0,
+        });
+        let environment = |label: &str, vs: &str, fs: &str, depth, blend| {
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(label),
+                layout: Some(&env_layout),
+                vertex: wgpu::VertexState {
+                    module: &env_module,
+                    entry_point: Some(vs),
+                    compilation_options: Default::default(),
+                    buffers: &[],
+                },
+                primitive: wgpu::PrimitiveState::default(),
+                depth_stencil: depth,
+                multisample: wgpu::MultisampleState {
+                    count: sample_count,
+                    ..Default::default()
+                },
+                fragment: Some(wgpu::FragmentState {
+                    module: &env_module,
+                    entry_point: Some(fs),
+                    compilation_options: Default::default(),
+                    targets: &color_target(blend),
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        let background = environment(
+            "kloub background",
+            "vs_background",
+            "fs_background",
+            depth_state(wgpu::CompareFunction::Always, false),
+            false,
+        );
+        let grid = environment(
+            "kloub grid",
+            "vs_grid",
+            "fs_grid",
+            depth_state(wgpu::CompareFunction::LessEqual, false),
+            true,
+        );
+        Self {
+            sample_count,
+            mesh_module,
+            mesh_layout,
+            background,
+            grid,
+            mesh: HashMap::new(),
+        }
+    }
+
+    /// Builds the mesh pipeline of `key` if it does not exist yet.
+    pub fn prepare(&mut self, device: &wgpu::Device, key: PipelineKey) {
+        if self.mesh.contains_key(&key) {
+            return;
+        }
+        let geometry = wgpu::VertexBufferLayout {
+            array_stride: GEOMETRY_STRIDE,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &GEOMETRY_ATTRIBUTES,
+        };
+        let attributes = wgpu::VertexBufferLayout {
+            array_stride: ATTRIBUTE_STRIDE,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &ATTRIBUTE_ATTRIBUTES,
+        };
+        let skin = wgpu::VertexBufferLayout {
+            array_stride: SKIN_STRIDE,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &SKIN_ATTRIBUTES,
+        };
+        let (entry, buffers) = match key.vertex {
+            VertexPath::Static => ("vs_static", vec![Some(geometry), Some(attributes)]),
+            VertexPath::Skinned => (
+                "vs_skinned",
+                vec![Some(geometry), Some(attributes), Some(skin)],
+            ),
+        };
+        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("kloub mesh"),
+            layout: Some(&self.mesh_layout),
+            vertex: wgpu::VertexState {
+                module: &self.mesh_module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                buffers: &buffers,
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: key.topology,
+                front_face: if key.mirrored {
+                    wgpu::FrontFace::Cw
+                } else {
+                    wgpu::FrontFace::Ccw
+                },
+                cull_mode: (!key.double_sided).then_some(wgpu::Face::Back),
+                ..Default::default()
+            },
+            depth_stencil: depth_state(wgpu::CompareFunction::Less, !key.blend),
+            multisample: wgpu::MultisampleState {
+                count: self.sample_count,
+                ..Default::default()
+            },
+            fragment: Some(wgpu::FragmentState {
+                module: &self.mesh_module,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                targets: &color_target(key.blend),
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        self.mesh.insert(key, pipeline);
+    }
+
+    /// The mesh pipeline of `key`, if [`Pipelines::prepare`] built it.
+    pub fn mesh(&self, key: &PipelineKey) -> Option<&wgpu::RenderPipeline> {
+        self.mesh.get(key)
+    }
+}

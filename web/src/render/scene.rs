@@ -1,0 +1,780 @@
+//! [`SceneRenderer`]: one loaded asset on the GPU, drawn into its own offscreen target.
+
+use std::collections::HashMap;
+
+use glam::{Mat4, Vec3};
+use kloub_core::Instance;
+use kloub_core::asset::{AlphaMode, Asset, Material};
+
+use super::camera::Camera;
+use super::mesh::{GeometryVertex, GpuPrimitive, interleave};
+use super::palette::PaletteTexture;
+use super::pipelines::{DEPTH_FORMAT, Layouts, PipelineKey, Pipelines, VertexPath, topology};
+use super::texture::{COLOR_FORMAT, SamplerKey, upload_image, white_texture};
+use super::uniforms::{DrawUniform, FrameUniform, Ground, MaterialUniform};
+
+/// Where skinned (and morphed) vertices are deformed.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SkinningPath {
+    /// Linear blend skinning in the vertex shader with the palette texture. Primitives with
+    /// morph targets are still deformed on the CPU (GPU morphing is not implemented yet).
+    #[default]
+    Gpu,
+    /// `kloub_core`'s CPU reference ([`Instance::deform_primitive`]: morph, then skin),
+    /// uploaded every frame.
+    Cpu,
+}
+
+/// Sample count to use with `adapter`: 4× MSAA when both the colour and depth formats
+/// support it, else 1.
+pub fn msaa_samples(adapter: &wgpu::Adapter) -> u32 {
+    let supports = |format| {
+        adapter
+            .get_texture_format_features(format)
+            .flags
+            .sample_count_supported(4)
+    };
+    if supports(COLOR_FORMAT) && supports(DEPTH_FORMAT) {
+        4
+    } else {
+        1
+    }
+}
+
+/// The render target: resolved colour (sampled by egui, copied by tests), MSAA colour, depth.
+struct Target {
+    size: [u32; 2],
+    texture: wgpu::Texture,
+    view: wgpu::TextureView,
+    msaa: Option<wgpu::TextureView>,
+    depth: wgpu::TextureView,
+}
+
+impl Target {
+    fn new(device: &wgpu::Device, size: [u32; 2], sample_count: u32) -> Self {
+        let extent = wgpu::Extent3d {
+            width: size[0],
+            height: size[1],
+            depth_or_array_layers: 1,
+        };
+        let texture = |label, format, samples, usage| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size: extent,
+                mip_level_count: 1,
+                sample_count: samples,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage,
+                view_formats: &[],
+            })
+        };
+        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT;
+        let resolved = texture(
+            "kloub scene colour",
+            COLOR_FORMAT,
+            1,
+            usage | wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC,
+        );
+        let msaa = (sample_count > 1).then(|| {
+            texture("kloub scene msaa", COLOR_FORMAT, sample_count, usage)
+                .create_view(&wgpu::TextureViewDescriptor::default())
+        });
+        let depth = texture("kloub scene depth", DEPTH_FORMAT, sample_count, usage)
+            .create_view(&wgpu::TextureViewDescriptor::default());
+        let view = resolved.create_view(&wgpu::TextureViewDescriptor::default());
+        Self {
+            size,
+            texture: resolved,
+            view,
+            msaa,
+            depth,
+        }
+    }
+}
+
+/// One (node, primitive) pair of the scene.
+struct DrawItem {
+    node: u32,
+    mesh: usize,
+    primitive: usize,
+    /// Skin of the node when the primitive is skinned.
+    skin: Option<usize>,
+    /// Index into [`GpuScene::materials`].
+    material: usize,
+    blend: bool,
+    double_sided: bool,
+    morphed: bool,
+    /// Geometry stream rewritten each frame when deformed on the CPU (created on first use).
+    deformed: Option<wgpu::Buffer>,
+    /// Set each frame.
+    key: Option<PipelineKey>,
+    /// Set each frame: vertices come from `deformed`.
+    on_cpu: bool,
+}
+
+/// GPU resources of one asset.
+struct GpuScene {
+    primitives: Vec<Vec<Option<GpuPrimitive>>>,
+    materials: Vec<wgpu::BindGroup>,
+    draws: Vec<DrawItem>,
+    draw_buffer: wgpu::Buffer,
+    draw_bind_group: wgpu::BindGroup,
+    /// First palette joint of each skin.
+    skin_base: Vec<u32>,
+    palette: PaletteTexture,
+    frame_bind_group: wgpu::BindGroup,
+    node_count: usize,
+}
+
+/// Per-frame scratch space, kept to avoid allocating every frame.
+#[derive(Default)]
+struct Scratch {
+    positions: Vec<[f32; 3]>,
+    normals: Vec<[f32; 3]>,
+    geometry: Vec<GeometryVertex>,
+    draw_bytes: Vec<u8>,
+    blend_order: Vec<(f32, usize)>,
+}
+
+/// Renders one loaded [`Asset`] posed by an [`Instance`] into an offscreen texture.
+///
+/// See the [module docs](super) for the frame flow and how the app and the tests use it.
+pub struct SceneRenderer {
+    sample_count: u32,
+    draw_stride: u64,
+    layouts: Layouts,
+    pipelines: Pipelines,
+    frame_buffer: wgpu::Buffer,
+    white: wgpu::TextureView,
+    samplers: HashMap<SamplerKey, wgpu::Sampler>,
+    material_buffer: Option<wgpu::Buffer>,
+    empty: GpuScene,
+    scene: Option<GpuScene>,
+    target: Option<Target>,
+    target_version: u64,
+    skinning: SkinningPath,
+    ground: Ground,
+    scratch: Scratch,
+}
+
+impl SceneRenderer {
+    /// Creates the pipelines and shared resources. `sample_count` is 1 or 4
+    /// (see [`msaa_samples`]); anything else is treated as 1.
+    pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, sample_count: u32) -> Self {
+        let sample_count = if sample_count == 4 { 4 } else { 1 };
+        let layouts = Layouts::new(device);
+        let pipelines = Pipelines::new(device, &layouts, sample_count);
+        let frame_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("kloub frame"),
+            size: size_of::<FrameUniform>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let align = u64::from(device.limits().min_uniform_buffer_offset_alignment).max(1);
+        let draw_stride = (size_of::<DrawUniform>() as u64).div_ceil(align) * align;
+        let white =
+            white_texture(device, queue).create_view(&wgpu::TextureViewDescriptor::default());
+        let empty = GpuScene::empty(device, &layouts, &frame_buffer, draw_stride);
+        Self {
+            sample_count,
+            draw_stride,
+            layouts,
+            pipelines,
+            frame_buffer,
+            white,
+            samplers: HashMap::new(),
+            material_buffer: None,
+            empty,
+            scene: None,
+            target: None,
+            target_version: 0,
+            skinning: SkinningPath::Gpu,
+            ground: Ground::default(),
+            scratch: Scratch::default(),
+        }
+    }
+
+    /// Uploads `asset` (meshes of the default scene, materials, textures with mips, a palette
+    /// texture sized for all skins) and places the ground under its rest pose. On error the
+    /// previous asset stays loaded.
+    pub fn set_asset(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        asset: &Asset,
+    ) -> Result<(), String> {
+        let mut primitives = Vec::with_capacity(asset.meshes.len());
+        for mesh in &asset.meshes {
+            primitives.push(
+                mesh.primitives
+                    .iter()
+                    .map(|p| GpuPrimitive::new(device, p))
+                    .collect::<Vec<_>>(),
+            );
+        }
+        let materials = self.upload_materials(device, queue, asset)?;
+        let default_material = materials.len() - 1;
+
+        let mut skin_base = Vec::with_capacity(asset.skins.len());
+        let mut joints = 0u32;
+        for skin in &asset.skins {
+            skin_base.push(joints);
+            joints = u32::try_from(skin.joints.len())
+                .ok()
+                .and_then(|n| joints.checked_add(n))
+                .ok_or("too many joints")?;
+        }
+        let palette = PaletteTexture::new(device, joints)?;
+
+        let mut draws = Vec::new();
+        for node_index in asset.scene_nodes() {
+            let Some(node) = asset.nodes.get(node_index as usize) else {
+                continue;
+            };
+            let Some(mesh_index) = node.mesh.map(|m| m as usize) else {
+                continue;
+            };
+            let Some(mesh) = asset.meshes.get(mesh_index) else {
+                continue;
+            };
+            for (p, primitive) in mesh.primitives.iter().enumerate() {
+                if primitives
+                    .get(mesh_index)
+                    .and_then(|m| m.get(p))
+                    .is_none_or(Option::is_none)
+                {
+                    continue;
+                }
+                let material_index = primitive
+                    .material
+                    .map(|m| m as usize)
+                    .filter(|&m| m < default_material);
+                let material = material_index.and_then(|m| asset.materials.get(m));
+                let skin = node
+                    .skin
+                    .map(|s| s as usize)
+                    .filter(|&s| s < asset.skins.len() && primitive.is_skinned());
+                draws.push(DrawItem {
+                    node: node_index,
+                    mesh: mesh_index,
+                    primitive: p,
+                    skin,
+                    material: material_index.unwrap_or(default_material),
+                    blend: material.is_some_and(|m| m.alpha == AlphaMode::Blend),
+                    double_sided: material.is_some_and(|m| m.double_sided),
+                    morphed: !primitive.targets.is_empty(),
+                    deformed: None,
+                    key: None,
+                    on_cpu: false,
+                });
+            }
+        }
+        let (draw_buffer, draw_bind_group) =
+            draw_resources(device, &self.layouts, draws.len(), self.draw_stride);
+        let frame_bind_group =
+            frame_bind_group(device, &self.layouts, &self.frame_buffer, &palette);
+
+        let mut rest = Instance::new(asset);
+        self.ground = match rest
+            .evaluate(asset, None, 0.0)
+            .ok()
+            .and_then(|()| rest.scene_bounds(asset))
+        {
+            Some((min, max)) => Ground::under(min, max),
+            None => Ground::default(),
+        };
+        self.scene = Some(GpuScene {
+            primitives,
+            materials,
+            draws,
+            draw_buffer,
+            draw_bind_group,
+            skin_base,
+            palette,
+            frame_bind_group,
+            node_count: asset.nodes.len(),
+        });
+        Ok(())
+    }
+
+    /// Drops the loaded asset (the view then shows only the background and grid).
+    pub fn clear_asset(&mut self) {
+        self.scene = None;
+        self.ground = Ground::default();
+    }
+
+    /// Chooses where skinned vertices are deformed (takes effect at the next render).
+    pub fn set_skinning_path(&mut self, path: SkinningPath) {
+        self.skinning = path;
+    }
+
+    /// Where skinned vertices are deformed.
+    pub fn skinning_path(&self) -> SkinningPath {
+        self.skinning
+    }
+
+    /// The ground the grid is drawn on (under the rest pose of the loaded asset).
+    pub fn ground(&self) -> Ground {
+        self.ground
+    }
+
+    /// Places the ground grid explicitly.
+    pub fn set_ground(&mut self, ground: Ground) {
+        self.ground = ground;
+    }
+
+    /// Sample count of the scene pipelines (1 or 4).
+    pub fn sample_count(&self) -> u32 {
+        self.sample_count
+    }
+
+    /// The resolved colour texture of the last render (`Rgba8UnormSrgb`,
+    /// `TEXTURE_BINDING | COPY_SRC`), `None` before the first render.
+    pub fn target_texture(&self) -> Option<&wgpu::Texture> {
+        self.target.as_ref().map(|t| &t.texture)
+    }
+
+    /// The view of [`SceneRenderer::target_texture`].
+    pub fn target_view(&self) -> Option<&wgpu::TextureView> {
+        self.target.as_ref().map(|t| &t.view)
+    }
+
+    /// Incremented whenever the target texture is recreated (its size changed): re-register
+    /// the view with egui when this changes.
+    pub fn target_version(&self) -> u64 {
+        self.target_version
+    }
+
+    /// Draws `asset`, posed by `instance` (already evaluated by the caller), seen by
+    /// `camera`, into the target of `size` pixels (clamped to 1..=device limit), and submits
+    /// the work to `queue`. Returns the resolved target view.
+    ///
+    /// `asset` must be the one passed to [`SceneRenderer::set_asset`] and `instance` must
+    /// be an instance of it; otherwise an error is returned.
+    pub fn render(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        asset: &Asset,
+        instance: &mut Instance,
+        camera: &Camera,
+        size: [u32; 2],
+    ) -> Result<&wgpu::TextureView, String> {
+        let max = device.limits().max_texture_dimension_2d;
+        let size = [size[0].clamp(1, max), size[1].clamp(1, max)];
+        if self.target.as_ref().is_none_or(|t| t.size != size) {
+            self.target = Some(Target::new(device, size, self.sample_count));
+            self.target_version += 1;
+        }
+
+        let aspect = size[0] as f32 / size[1] as f32;
+        let frame = FrameUniform::new(
+            camera.view_proj(aspect),
+            camera.eye(),
+            camera.target,
+            &self.ground,
+        );
+        queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&frame));
+
+        if let Some(scene) = self.scene.as_mut() {
+            scene.prepare(
+                device,
+                queue,
+                asset,
+                instance,
+                camera,
+                self.skinning,
+                self.draw_stride,
+                &mut self.scratch,
+            )?;
+            for draw in &scene.draws {
+                if let Some(key) = draw.key {
+                    self.pipelines.prepare(device, key);
+                }
+            }
+        }
+
+        let target = self.target.as_ref().ok_or("render target missing")?;
+        let scene = self.scene.as_ref().unwrap_or(&self.empty);
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("kloub scene"),
+        });
+        {
+            let (view, resolve_target) = match &target.msaa {
+                Some(msaa) => (msaa, Some(&target.view)),
+                None => (&target.view, None),
+            };
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("kloub scene"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view,
+                    depth_slice: None,
+                    resolve_target,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(FrameUniform::clear_color()),
+                        store: if resolve_target.is_some() {
+                            wgpu::StoreOp::Discard
+                        } else {
+                            wgpu::StoreOp::Store
+                        },
+                    },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &target.depth,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(1.0),
+                        store: wgpu::StoreOp::Discard,
+                    }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_bind_group(0, &scene.frame_bind_group, &[]);
+            pass.set_pipeline(&self.pipelines.background);
+            pass.draw(0..3, 0..1);
+
+            let opaque = scene
+                .draws
+                .iter()
+                .enumerate()
+                .filter(|(_, d)| !d.blend)
+                .map(|(i, _)| i);
+            scene.encode(&mut pass, &self.pipelines, opaque, self.draw_stride);
+            pass.set_pipeline(&self.pipelines.grid);
+            pass.draw(0..6, 0..1);
+            let blended = self.scratch.blend_order.iter().map(|&(_, i)| i);
+            scene.encode(&mut pass, &self.pipelines, blended, self.draw_stride);
+        }
+        queue.submit([encoder.finish()]);
+        Ok(&target.view)
+    }
+
+    /// One bind group per material plus a last one for the glTF default material.
+    fn upload_materials(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        asset: &Asset,
+    ) -> Result<Vec<wgpu::BindGroup>, String> {
+        let mut images: Vec<Option<wgpu::TextureView>> = vec![None; asset.images.len()];
+        for material in &asset.materials {
+            if let Some(t) = &material.base_color_texture {
+                let slot = images
+                    .get_mut(t.image as usize)
+                    .ok_or("material references a missing image")?;
+                if slot.is_none() {
+                    let image = &asset.images[t.image as usize];
+                    let label = image.name.as_deref().unwrap_or("kloub image");
+                    let texture = upload_image(device, queue, image, label)
+                        .map_err(|e| format!("image {}: {e}", t.image))?;
+                    *slot = Some(texture.create_view(&wgpu::TextureViewDescriptor::default()));
+                }
+            }
+        }
+        let default_material = Material::default();
+        let all: Vec<&Material> = asset
+            .materials
+            .iter()
+            .chain(std::iter::once(&default_material))
+            .collect();
+        let align = u64::from(device.limits().min_uniform_buffer_offset_alignment).max(1);
+        let stride = (size_of::<MaterialUniform>() as u64).div_ceil(align) * align;
+        let mut bytes = vec![0u8; stride as usize * all.len()];
+        for (i, material) in all.iter().enumerate() {
+            let start = i * stride as usize;
+            let uniform = MaterialUniform::new(material);
+            bytes[start..start + size_of::<MaterialUniform>()]
+                .copy_from_slice(bytemuck::bytes_of(&uniform));
+        }
+        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("kloub materials"),
+            size: bytes.len() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        queue.write_buffer(&buffer, 0, &bytes);
+        let mut groups = Vec::with_capacity(all.len());
+        for (i, material) in all.iter().enumerate() {
+            let texture = material.base_color_texture.as_ref();
+            let view = texture
+                .and_then(|t| images.get(t.image as usize))
+                .and_then(Option::as_ref)
+                .unwrap_or(&self.white);
+            let key = SamplerKey::of(texture);
+            let sampler = self
+                .samplers
+                .entry(key)
+                .or_insert_with(|| key.create(device));
+            groups.push(device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: material.name.as_deref(),
+                layout: &self.layouts.material,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                            buffer: &buffer,
+                            offset: i as u64 * stride,
+                            size: wgpu::BufferSize::new(size_of::<MaterialUniform>() as u64),
+                        }),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: wgpu::BindingResource::TextureView(view),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: wgpu::BindingResource::Sampler(sampler),
+                    },
+                ],
+            }));
+        }
+        self.material_buffer = Some(buffer);
+        Ok(groups)
+    }
+}
+
+fn draw_resources(
+    device: &wgpu::Device,
+    layouts: &Layouts,
+    draws: usize,
+    stride: u64,
+) -> (wgpu::Buffer, wgpu::BindGroup) {
+    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("kloub draws"),
+        size: stride * draws.max(1) as u64,
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("kloub draws"),
+        layout: &layouts.draw,
+        entries: &[wgpu::BindGroupEntry {
+            binding: 0,
+            resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                buffer: &buffer,
+                offset: 0,
+                size: wgpu::BufferSize::new(size_of::<DrawUniform>() as u64),
+            }),
+        }],
+    });
+    (buffer, group)
+}
+
+fn frame_bind_group(
+    device: &wgpu::Device,
+    layouts: &Layouts,
+    frame: &wgpu::Buffer,
+    palette: &PaletteTexture,
+) -> wgpu::BindGroup {
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("kloub frame"),
+        layout: &layouts.frame,
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: frame.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: wgpu::BindingResource::TextureView(palette.view()),
+            },
+        ],
+    })
+}
+
+impl GpuScene {
+    /// A scene with nothing to draw (background and grid only).
+    fn empty(device: &wgpu::Device, layouts: &Layouts, frame: &wgpu::Buffer, stride: u64) -> Self {
+        let palette = PaletteTexture::with_rows(device, 1);
+        let (draw_buffer, draw_bind_group) = draw_resources(device, layouts, 0, stride);
+        let frame_bind_group = frame_bind_group(device, layouts, frame, &palette);
+        Self {
+            primitives: Vec::new(),
+            materials: Vec::new(),
+            draws: Vec::new(),
+            draw_buffer,
+            draw_bind_group,
+            skin_base: Vec::new(),
+            palette,
+            frame_bind_group,
+            node_count: 0,
+        }
+    }
+
+    /// Uploads this frame's palette and draw uniforms, deforms CPU-path primitives, picks
+    /// each draw's pipeline and orders the blended draws back to front.
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "one call site; the pieces are disjoint borrows of the renderer"
+    )]
+    fn prepare(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        asset: &Asset,
+        instance: &mut Instance,
+        camera: &Camera,
+        path: SkinningPath,
+        stride: u64,
+        scratch: &mut Scratch,
+    ) -> Result<(), String> {
+        if asset.nodes.len() != self.node_count
+            || asset.skins.len() != self.skin_base.len()
+            || instance.worlds().len() != self.node_count
+        {
+            return Err(
+                "the asset or instance does not match the one uploaded with set_asset".into(),
+            );
+        }
+        for (skin, &base) in self.skin_base.iter().enumerate() {
+            self.palette.set(base, instance.palette(skin))?;
+        }
+        if !self.skin_base.is_empty() {
+            self.palette.upload(queue);
+        }
+
+        let eye = camera.eye();
+        scratch.draw_bytes.clear();
+        scratch
+            .draw_bytes
+            .resize(stride as usize * self.draws.len(), 0);
+        scratch.blend_order.clear();
+        for (i, draw) in self.draws.iter_mut().enumerate() {
+            let primitive = self
+                .primitives
+                .get(draw.mesh)
+                .and_then(|m| m.get(draw.primitive))
+                .and_then(Option::as_ref);
+            let (Some(gpu), Some(source)) = (
+                primitive,
+                asset
+                    .meshes
+                    .get(draw.mesh)
+                    .and_then(|m| m.primitives.get(draw.primitive)),
+            ) else {
+                draw.key = None;
+                continue;
+            };
+            let world = instance.worlds()[draw.node as usize];
+            draw.on_cpu = draw.morphed || (draw.skin.is_some() && path == SkinningPath::Cpu);
+            let (uniform, vertex, mirrored) = if draw.on_cpu {
+                instance
+                    .deform_primitive(
+                        asset,
+                        draw.node,
+                        draw.primitive,
+                        &mut scratch.positions,
+                        &mut scratch.normals,
+                    )
+                    .map_err(|e| {
+                        format!(
+                            "deforming node {} primitive {}: {e}",
+                            draw.node, draw.primitive
+                        )
+                    })?;
+                if scratch.positions.len() != gpu.vertex_count as usize {
+                    return Err(format!(
+                        "node {} primitive {}: deformed vertex count differs",
+                        draw.node, draw.primitive
+                    ));
+                }
+                interleave(&scratch.positions, &scratch.normals, &mut scratch.geometry);
+                let buffer = draw
+                    .deformed
+                    .get_or_insert_with(|| gpu.deform_buffer(device));
+                queue.write_buffer(buffer, 0, bytemuck::cast_slice(&scratch.geometry));
+                let has_normals = scratch.normals.len() == scratch.positions.len();
+                (
+                    DrawUniform::new(Mat4::IDENTITY, 0, has_normals),
+                    VertexPath::Static,
+                    false,
+                )
+            } else if let Some(skin) = draw.skin {
+                let base = self.skin_base[skin];
+                (
+                    DrawUniform::new(Mat4::IDENTITY, base, gpu.has_normals),
+                    VertexPath::Skinned,
+                    false,
+                )
+            } else {
+                (
+                    DrawUniform::new(world, 0, gpu.has_normals),
+                    VertexPath::Static,
+                    world.determinant() < 0.0,
+                )
+            };
+            let start = i * stride as usize;
+            scratch.draw_bytes[start..start + size_of::<DrawUniform>()]
+                .copy_from_slice(bytemuck::bytes_of(&uniform));
+            draw.key = Some(PipelineKey {
+                vertex,
+                topology: topology(source.topology),
+                blend: draw.blend,
+                double_sided: draw.double_sided,
+                mirrored,
+            });
+            if draw.blend {
+                let (min, max) = source.bounds;
+                let center = world.transform_point3(0.5 * (Vec3::from(min) + Vec3::from(max)));
+                scratch
+                    .blend_order
+                    .push((-(center - eye).length_squared(), i));
+            }
+        }
+        scratch.blend_order.sort_by(|a, b| a.0.total_cmp(&b.0));
+        if !scratch.draw_bytes.is_empty() {
+            queue.write_buffer(&self.draw_buffer, 0, &scratch.draw_bytes);
+        }
+        Ok(())
+    }
+
+    /// Records the draws `indices` (those prepared this frame).
+    fn encode(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        pipelines: &Pipelines,
+        indices: impl Iterator<Item = usize>,
+        stride: u64,
+    ) {
+        for i in indices {
+            let Some(draw) = self.draws.get(i) else {
+                continue;
+            };
+            let Some(pipeline) = draw.key.as_ref().and_then(|k| pipelines.mesh(k)) else {
+                continue;
+            };
+            let Some(gpu) = self
+                .primitives
+                .get(draw.mesh)
+                .and_then(|m| m.get(draw.primitive))
+                .and_then(Option::as_ref)
+            else {
+                continue;
+            };
+            let Some(material) = self.materials.get(draw.material) else {
+                continue;
+            };
+            let geometry = if draw.on_cpu {
+                draw.deformed.as_ref()
+            } else {
+                Some(&gpu.geometry)
+            };
+            let Some(geometry) = geometry else { continue };
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(1, material, &[]);
+            // `i * stride` is within the draw buffer sized `draws.len() * stride`.
+            pass.set_bind_group(2, &self.draw_bind_group, &[(i as u64 * stride) as u32]);
+            pass.set_vertex_buffer(0, geometry.slice(..));
+            pass.set_vertex_buffer(1, gpu.attributes.slice(..));
+            if draw.key.is_some_and(|k| k.vertex == VertexPath::Skinned) {
+                let Some(skin) = &gpu.skin else { continue };
+                pass.set_vertex_buffer(2, skin.slice(..));
+            }
+            pass.set_index_buffer(gpu.indices.slice(..), wgpu::IndexFormat::Uint32);
+            pass.draw_indexed(0..gpu.index_count, 0, 0..1);
+        }
+    }
+}

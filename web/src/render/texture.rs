@@ -1,0 +1,298 @@
+//! Base-colour textures: sRGB-correct mip chains built on the CPU (works on WebGL2 without
+//! a render-to-texture blit) and sampler creation from glTF sampler settings.
+
+use kloub_core::asset::{Image, TextureRef};
+
+/// The sRGB texture format every colour image is uploaded as.
+pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
+
+/// One level of a mip chain: RGBA8 sRGB bytes, row-major.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MipLevel {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// `width * height * 4` bytes.
+    pub rgba8: Vec<u8>,
+}
+
+fn srgb_to_linear(c: u8) -> f32 {
+    let c = f32::from(c) / 255.0;
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+fn linear_to_srgb(c: f32) -> u8 {
+    let c = c.clamp(0.0, 1.0);
+    let s = if c <= 0.003_130_8 {
+        c * 12.92
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    };
+    // In 0..=255 after the clamp above, so the cast cannot truncate.
+    (s * 255.0 + 0.5) as u8
+}
+
+/// Halves a level (box filter in linear light for RGB, plain average for alpha). Odd sizes
+/// fold the last row/column in by clamping.
+fn downsample(level: &MipLevel, to_linear: &[f32; 256]) -> MipLevel {
+    let (w, h) = (level.width as usize, level.height as usize);
+    let (nw, nh) = ((w / 2).max(1), (h / 2).max(1));
+    let mut rgba8 = vec![0u8; nw * nh * 4];
+    for y in 0..nh {
+        for x in 0..nw {
+            let mut sum = [0.0f32; 4];
+            for (sx, sy) in [
+                (2 * x, 2 * y),
+                (2 * x + 1, 2 * y),
+                (2 * x, 2 * y + 1),
+                (2 * x + 1, 2 * y + 1),
+            ] {
+                let i = (sy.min(h - 1) * w + sx.min(w - 1)) * 4;
+                for c in 0..3 {
+                    sum[c] += to_linear[usize::from(level.rgba8[i + c])];
+                }
+                sum[3] += f32::from(level.rgba8[i + 3]);
+            }
+            let o = (y * nw + x) * 4;
+            for c in 0..3 {
+                rgba8[o + c] = linear_to_srgb(sum[c] * 0.25);
+            }
+            // Average of four bytes: at most 255.
+            rgba8[o + 3] = (sum[3] * 0.25 + 0.5) as u8;
+        }
+    }
+    MipLevel {
+        width: nw as u32,
+        height: nh as u32,
+        rgba8,
+    }
+}
+
+/// The full mip chain of `image` down to 1×1, skipping the levels larger than `max_size`
+/// on either side (so oversized images still load on WebGL2's 2048 limit).
+/// Returns an error when the image's byte count does not match its size.
+pub fn mip_chain(image: &Image, max_size: u32) -> Result<Vec<MipLevel>, String> {
+    let expected = u64::from(image.width) * u64::from(image.height) * 4;
+    if image.width == 0 || image.height == 0 || image.rgba8.len() as u64 != expected {
+        return Err(format!(
+            "image {}x{} has {} bytes, expected {expected}",
+            image.width,
+            image.height,
+            image.rgba8.len()
+        ));
+    }
+    let mut to_linear = [0.0f32; 256];
+    for (i, v) in to_linear.iter_mut().enumerate() {
+        *v = srgb_to_linear(i as u8);
+    }
+    let mut levels = Vec::new();
+    let mut level = MipLevel {
+        width: image.width,
+        height: image.height,
+        rgba8: image.rgba8.clone(),
+    };
+    loop {
+        let next = (level.width > 1 || level.height > 1).then(|| downsample(&level, &to_linear));
+        if level.width <= max_size && level.height <= max_size {
+            levels.push(level);
+        }
+        match next {
+            Some(n) => level = n,
+            None => break,
+        }
+    }
+    Ok(levels)
+}
+
+/// Creates the texture of `image` with all its mips and uploads them.
+pub fn upload_image(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    image: &Image,
+    label: &str,
+) -> Result<wgpu::Texture, String> {
+    let max = device.limits().max_texture_dimension_2d;
+    let levels = mip_chain(image, max)?;
+    let first = levels
+        .first()
+        .ok_or("image has no level that fits the device")?;
+    let texture = device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d {
+            width: first.width,
+            height: first.height,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: levels.len() as u32,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: COLOR_FORMAT,
+        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+        view_formats: &[],
+    });
+    for (mip, level) in levels.iter().enumerate() {
+        write_level(queue, &texture, mip as u32, level);
+    }
+    Ok(texture)
+}
+
+/// Writes one mip level.
+pub fn write_level(queue: &wgpu::Queue, texture: &wgpu::Texture, mip: u32, level: &MipLevel) {
+    queue.write_texture(
+        wgpu::TexelCopyTextureInfo {
+            texture,
+            mip_level: mip,
+            origin: wgpu::Origin3d::ZERO,
+            aspect: wgpu::TextureAspect::All,
+        },
+        &level.rgba8,
+        wgpu::TexelCopyBufferLayout {
+            offset: 0,
+            bytes_per_row: Some(level.width * 4),
+            rows_per_image: Some(level.height),
+        },
+        wgpu::Extent3d {
+            width: level.width,
+            height: level.height,
+            depth_or_array_layers: 1,
+        },
+    );
+}
+
+/// A 1×1 white texture, bound where a material has no base colour texture.
+pub fn white_texture(device: &wgpu::Device, queue: &wgpu::Queue) -> wgpu::Texture {
+    let texture = device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("kloub white"),
+        size: wgpu::Extent3d {
+            width: 1,
+            height: 1,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: COLOR_FORMAT,
+        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+        view_formats: &[],
+    });
+    write_level(
+        queue,
+        &texture,
+        0,
+        &MipLevel {
+            width: 1,
+            height: 1,
+            rgba8: vec![255; 4],
+        },
+    );
+    texture
+}
+
+/// Sampler settings of a texture reference: (repeat u, repeat v, nearest magnification).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct SamplerKey {
+    /// Repeat (true) or clamp (false) along u and v.
+    pub repeat: [bool; 2],
+    /// Nearest magnification.
+    pub nearest: bool,
+}
+
+impl SamplerKey {
+    /// The key of a material's texture reference; linear repeat when there is none.
+    pub fn of(texture: Option<&TextureRef>) -> Self {
+        texture.map_or(
+            Self {
+                repeat: [true; 2],
+                nearest: false,
+            },
+            |t| Self {
+                repeat: t.repeat,
+                nearest: t.nearest,
+            },
+        )
+    }
+
+    /// Creates the sampler (trilinear minification).
+    pub fn create(&self, device: &wgpu::Device) -> wgpu::Sampler {
+        let mode = |repeat: bool| {
+            if repeat {
+                wgpu::AddressMode::Repeat
+            } else {
+                wgpu::AddressMode::ClampToEdge
+            }
+        };
+        device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("kloub base colour"),
+            address_mode_u: mode(self.repeat[0]),
+            address_mode_v: mode(self.repeat[1]),
+            mag_filter: if self.nearest {
+                wgpu::FilterMode::Nearest
+            } else {
+                wgpu::FilterMode::Linear
+            },
+            min_filter: wgpu::FilterMode::Linear,
+            mipmap_filter: wgpu::MipmapFilterMode::Linear,
+            ..Default::default()
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mip_chain_goes_to_one_pixel_and_averages_in_linear_light() {
+        // 3x2: black and white columns; odd width exercises the clamped edge.
+        let mut rgba8 = Vec::new();
+        for _ in 0..2 {
+            for v in [0u8, 255, 0] {
+                rgba8.extend_from_slice(&[v, v, v, 255]);
+            }
+        }
+        let image = Image {
+            name: None,
+            width: 3,
+            height: 2,
+            rgba8,
+        };
+        let chain = mip_chain(&image, 4096).expect("valid image");
+        let sizes: Vec<(u32, u32)> = chain.iter().map(|l| (l.width, l.height)).collect();
+        assert_eq!(sizes, vec![(3, 2), (1, 1)]);
+        // Half black, half white in linear light is sRGB ~188, not 128.
+        let v = chain[1].rgba8[0];
+        assert!((186..=190).contains(&v), "got {v}");
+        assert_eq!(chain[1].rgba8[3], 255);
+    }
+
+    #[test]
+    fn oversized_levels_are_skipped_and_bad_sizes_refused() {
+        let image = Image {
+            name: None,
+            width: 8,
+            height: 2,
+            rgba8: vec![128; 8 * 2 * 4],
+        };
+        let chain = mip_chain(&image, 4).expect("valid image");
+        assert_eq!((chain[0].width, chain[0].height), (4, 1));
+        let bad = Image {
+            name: None,
+            width: 8,
+            height: 2,
+            rgba8: vec![0; 3],
+        };
+        assert!(mip_chain(&bad, 4096).is_err());
+    }
+
+    #[test]
+    fn srgb_round_trip() {
+        for i in 0..=255u8 {
+            assert_eq!(linear_to_srgb(srgb_to_linear(i)), i);
+        }
+    }
+}

@@ -1,0 +1,225 @@
+//! CPU mirrors of the uniform structs in `shaders/*.wgsl` (WGSL uniform layout: every
+//! field is a 16-byte vector or a matrix, so `repr(C)` matches without padding surprises).
+
+use bytemuck::{Pod, Zeroable};
+use glam::{Mat4, Vec3};
+use kloub_core::asset::{AlphaMode, Material};
+
+/// `Frame` in mesh.wgsl and environment.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct FrameUniform {
+    /// World to clip.
+    pub view_proj: [[f32; 4]; 4],
+    /// Eye position (xyz).
+    pub camera_pos: [f32; 4],
+    /// Unit direction towards the key light (xyz), intensity (w).
+    pub light_dir: [f32; 4],
+    /// Key light colour.
+    pub light_color: [f32; 4],
+    /// Hemisphere light from above.
+    pub sky_color: [f32; 4],
+    /// Hemisphere light from below.
+    pub ground_color: [f32; 4],
+    /// Ground height, grid cell size, fade radius, half extent of the grid quad.
+    pub grid: [f32; 4],
+    /// Grid centre (xyz).
+    pub grid_center: [f32; 4],
+    /// Background colour at the top of the view.
+    pub background_top: [f32; 4],
+    /// Background colour at the bottom of the view.
+    pub background_bottom: [f32; 4],
+}
+
+/// Where the ground grid lies and how dense it is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ground {
+    /// Height of the ground plane.
+    pub height: f32,
+    /// Radius of the scene the grid is sized for.
+    pub radius: f32,
+    /// Centre of the scene (the grid is centred below it).
+    pub center: Vec3,
+}
+
+impl Ground {
+    /// Ground under the box `min..max`.
+    pub fn under(min: Vec3, max: Vec3) -> Self {
+        Self {
+            height: min.y,
+            radius: (0.5 * (max - min).length()).max(1e-3),
+            center: 0.5 * (min + max),
+        }
+    }
+
+    /// Grid cell size: a power of ten, about a tenth of the scene radius or finer.
+    pub fn cell_size(&self) -> f32 {
+        10f32.powf((self.radius * 0.25).log10().floor())
+    }
+}
+
+impl Default for Ground {
+    fn default() -> Self {
+        Self {
+            height: 0.0,
+            radius: 1.0,
+            center: Vec3::ZERO,
+        }
+    }
+}
+
+/// Linear RGB of the background gradient and lights (one place for the look).
+const BACKGROUND_TOP: [f32; 4] = [0.05, 0.055, 0.065, 1.0];
+const BACKGROUND_BOTTOM: [f32; 4] = [0.012, 0.013, 0.016, 1.0];
+const SKY: [f32; 4] = [0.42, 0.44, 0.48, 1.0];
+const GROUND: [f32; 4] = [0.14, 0.13, 0.12, 1.0];
+const LIGHT: [f32; 4] = [1.0, 0.97, 0.92, 1.0];
+const LIGHT_INTENSITY: f32 = 0.85;
+
+impl FrameUniform {
+    /// Frame constants for a camera (`view_proj`, `eye`) over `ground`. The key light comes
+    /// from above, over the viewer's left shoulder, so the lit side always faces the camera.
+    pub fn new(view_proj: Mat4, eye: Vec3, target: Vec3, ground: &Ground) -> Self {
+        let forward = (target - eye).normalize_or(Vec3::NEG_Z);
+        let right = forward.cross(Vec3::Y).normalize_or(Vec3::X);
+        let light = (-forward * 0.6 - right * 0.45 + Vec3::Y * 0.9).normalize_or(Vec3::Y);
+        let fade = ground.radius * 8.0;
+        Self {
+            view_proj: view_proj.to_cols_array_2d(),
+            camera_pos: eye.extend(1.0).to_array(),
+            light_dir: light.extend(LIGHT_INTENSITY).to_array(),
+            light_color: LIGHT,
+            sky_color: SKY,
+            ground_color: GROUND,
+            grid: [ground.height, ground.cell_size(), fade, fade],
+            grid_center: [ground.center.x, ground.height, ground.center.z, 0.0],
+            background_top: BACKGROUND_TOP,
+            background_bottom: BACKGROUND_BOTTOM,
+        }
+    }
+
+    /// The clear colour matching the bottom of the background gradient.
+    pub fn clear_color() -> wgpu::Color {
+        wgpu::Color {
+            r: f64::from(BACKGROUND_BOTTOM[0]),
+            g: f64::from(BACKGROUND_BOTTOM[1]),
+            b: f64::from(BACKGROUND_BOTTOM[2]),
+            a: 1.0,
+        }
+    }
+}
+
+/// `Material` in mesh.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct MaterialUniform {
+    /// Base colour factor.
+    pub base_color: [f32; 4],
+    /// UV matrix columns 0 and 1 (xy each).
+    pub uv_a: [f32; 4],
+    /// UV matrix column 2 (xy).
+    pub uv_b: [f32; 4],
+    /// Emissive (rgb) and alpha cutoff (w).
+    pub emissive: [f32; 4],
+    /// Flags in x.
+    pub flags: [u32; 4],
+}
+
+/// `MATERIAL_UNLIT` in mesh.wgsl.
+const MATERIAL_UNLIT: u32 = 1;
+/// `MATERIAL_ALPHA_MASK` in mesh.wgsl.
+const MATERIAL_ALPHA_MASK: u32 = 2;
+/// `MATERIAL_ALPHA_BLEND` in mesh.wgsl.
+const MATERIAL_ALPHA_BLEND: u32 = 4;
+
+impl MaterialUniform {
+    /// The uniform of a glTF material.
+    pub fn new(material: &Material) -> Self {
+        let uv = material
+            .base_color_texture
+            .map(|t| t.transform.matrix())
+            .unwrap_or(glam::Mat3::IDENTITY);
+        let (mut flags, cutoff) = match material.alpha {
+            AlphaMode::Opaque => (0, 0.0),
+            AlphaMode::Mask(cutoff) => (MATERIAL_ALPHA_MASK, cutoff),
+            AlphaMode::Blend => (MATERIAL_ALPHA_BLEND, 0.0),
+        };
+        if material.unlit {
+            flags |= MATERIAL_UNLIT;
+        }
+        let e = material.emissive;
+        Self {
+            base_color: material.base_color,
+            uv_a: [uv.x_axis.x, uv.x_axis.y, uv.y_axis.x, uv.y_axis.y],
+            uv_b: [uv.z_axis.x, uv.z_axis.y, 0.0, 0.0],
+            emissive: [e[0], e[1], e[2], cutoff],
+            flags: [flags, 0, 0, 0],
+        }
+    }
+}
+
+/// `Draw` in mesh.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct DrawUniform {
+    /// Object to world.
+    pub model: [[f32; 4]; 4],
+    /// Inverse transpose of `model`.
+    pub normal_matrix: [[f32; 4]; 4],
+    /// First palette joint, flags.
+    pub params: [u32; 4],
+}
+
+/// `DRAW_HAS_NORMALS` in mesh.wgsl.
+const DRAW_HAS_NORMALS: u32 = 1;
+
+impl DrawUniform {
+    /// A draw with object-to-world `model`, its skin's first palette joint, and whether its
+    /// vertices carry normals.
+    pub fn new(model: Mat4, joint_base: u32, has_normals: bool) -> Self {
+        let normal = model.inverse().transpose();
+        let normal = if normal.is_finite() {
+            normal
+        } else {
+            Mat4::IDENTITY
+        };
+        Self {
+            model: model.to_cols_array_2d(),
+            normal_matrix: normal.to_cols_array_2d(),
+            params: [
+                joint_base,
+                if has_normals { DRAW_HAS_NORMALS } else { 0 },
+                0,
+                0,
+            ],
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes_are_multiples_of_16() {
+        for size in [
+            size_of::<FrameUniform>(),
+            size_of::<MaterialUniform>(),
+            size_of::<DrawUniform>(),
+        ] {
+            assert_eq!(size % 16, 0);
+        }
+    }
+
+    #[test]
+    fn grid_cell_is_a_power_of_ten() {
+        let ground = Ground::under(Vec3::new(-0.5, 0.0, -0.5), Vec3::new(0.5, 1.8, 0.5));
+        assert!((ground.cell_size() - 0.1).abs() < 1e-6);
+    }
+
+    #[test]
+    fn singular_model_gets_identity_normals() {
+        let u = DrawUniform::new(Mat4::ZERO, 0, true);
+        assert_eq!(u.normal_matrix, Mat4::IDENTITY.to_cols_array_2d());
+    }
+}

@@ -1,0 +1,240 @@
+//! The whole app frame loop on a native wgpu device (lavapipe in CI): load by drop, play,
+//! render into the viewport texture, reject a bad file while keeping the model, and mirror
+//! the page contract's `dataset` values.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use kloub_web::app::{App, AppConfig};
+use kloub_web::dom::Key;
+
+/// A dropped file backed by bytes in memory.
+#[derive(Debug)]
+struct MemFile {
+    path: PathBuf,
+    bytes: Vec<u8>,
+}
+
+impl egui::DroppedFile for MemFile {
+    fn path(&self) -> &Path {
+        &self.path
+    }
+
+    fn bytes(&self) -> Result<Vec<u8>, String> {
+        Ok(self.bytes.clone())
+    }
+}
+
+fn dropped(name: &str, bytes: Vec<u8>) -> egui::DroppedFileHandle {
+    Arc::new(MemFile { path: PathBuf::from(name), bytes })
+}
+
+fn render_state() -> egui_wgpu::RenderState {
+    let config = egui_wgpu::WgpuConfiguration::default();
+    let egui_wgpu::WgpuSetup::CreateNew(create) = &config.wgpu_setup else {
+        panic!("the default wgpu setup creates a new device");
+    };
+    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
+        backends: create.instance_descriptor.backends,
+        flags: create.instance_descriptor.flags,
+        backend_options: create.instance_descriptor.backend_options.clone(),
+        memory_budget_thresholds: create.instance_descriptor.memory_budget_thresholds,
+        display: None,
+    });
+    pollster::block_on(egui_wgpu::RenderState::create(&config, &instance, None, egui_wgpu::RendererOptions::default()))
+        .expect("a wgpu adapter (lavapipe: apt-get install mesa-vulkan-drivers)")
+}
+
+const SIZE: [u32; 2] = [640, 400];
+
+struct Harness {
+    ctx: egui::Context,
+    frame: eframe::Frame,
+    state: egui_wgpu::RenderState,
+    app: App,
+    time: f64,
+}
+
+impl Harness {
+    fn new() -> Self {
+        let ctx = egui::Context::default();
+        let mut cc = eframe::CreationContext::_new_kittest(ctx.clone());
+        let state = render_state();
+        cc.wgpu_render_state = Some(state.clone());
+        let app = App::new(&cc, AppConfig::default()).expect("app starts with a wgpu render state");
+        let mut frame = eframe::Frame::_new_kittest();
+        frame.wgpu_render_state = Some(state.clone());
+        Self { ctx, frame, state, app, time: 0.0 }
+    }
+
+    /// Runs one frame of `dt` seconds with `files` dropped on it and paints it as eframe does
+    /// (into an `Rgba8Unorm` target, like the web surface); returns the pixels.
+    fn step(&mut self, dt: f64, files: Vec<egui::DroppedFileHandle>) -> image::RgbaImage {
+        use eframe::App as _;
+        self.time += dt;
+        let input = egui::RawInput {
+            screen_rect: Some(egui::Rect::from_min_size(egui::Pos2::ZERO, egui::vec2(640.0, 400.0))),
+            time: Some(self.time),
+            predicted_dt: dt as f32,
+            dropped_files: files,
+            ..Default::default()
+        };
+        let (app, frame) = (&mut self.app, &mut self.frame);
+        let output = self.ctx.run_ui(input, |ui| app.ui(ui, frame));
+        self.paint(output)
+    }
+
+    fn paint(&self, mut output: egui::FullOutput) -> image::RgbaImage {
+        let (device, queue) = (&self.state.device, &self.state.queue);
+        let mut renderer = self.state.renderer.write();
+        for (id, deltas) in &output.textures_delta.set {
+            for delta in deltas {
+                renderer.update_texture(device, queue, *id, delta);
+            }
+        }
+        let jobs = self.ctx.tessellate(std::mem::take(&mut output.shapes), output.pixels_per_point);
+        let screen = egui_wgpu::ScreenDescriptor { size_in_pixels: SIZE, pixels_per_point: output.pixels_per_point };
+        let format = self.state.target_format;
+        let target = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("test frame"),
+            size: wgpu::Extent3d { width: SIZE[0], height: SIZE[1], depth_or_array_layers: 1 },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        });
+        let view = target.create_view(&wgpu::TextureViewDescriptor::default());
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
+        let mut commands = renderer.update_buffers(device, queue, &mut encoder, &jobs, &screen);
+        {
+            let mut pass = encoder
+                .begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some("egui"),
+                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                        view: &view,
+                        depth_slice: None,
+                        resolve_target: None,
+                        ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store },
+                    })],
+                    depth_stencil_attachment: None,
+                    timestamp_writes: None,
+                    occlusion_query_set: None,
+                    multiview_mask: None,
+                })
+                .forget_lifetime();
+            renderer.render(&mut pass, &jobs, &screen);
+        }
+        for id in &output.textures_delta.free {
+            renderer.free_texture(id);
+        }
+        output.textures_delta.clear();
+        drop(renderer);
+
+        let row = (SIZE[0] * 4).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("test readback"),
+            size: u64::from(row * SIZE[1]),
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        });
+        encoder.copy_texture_to_buffer(
+            target.as_image_copy(),
+            wgpu::TexelCopyBufferInfo {
+                buffer: &buffer,
+                layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(row), rows_per_image: Some(SIZE[1]) },
+            },
+            wgpu::Extent3d { width: SIZE[0], height: SIZE[1], depth_or_array_layers: 1 },
+        );
+        commands.push(encoder.finish());
+        queue.submit(commands);
+        buffer.slice(..).map_async(wgpu::MapMode::Read, |r| r.expect("readback maps"));
+        device.poll(wgpu::PollType::wait_indefinitely()).expect("device finishes the frame");
+        let data = buffer.slice(..).get_mapped_range().expect("mapped readback");
+        let mut pixels = Vec::with_capacity((SIZE[0] * SIZE[1] * 4) as usize);
+        for y in 0..SIZE[1] {
+            let start = (y * row) as usize;
+            pixels.extend_from_slice(&data[start..start + (SIZE[0] * 4) as usize]);
+        }
+        let mut image = image::RgbaImage::from_raw(SIZE[0], SIZE[1], pixels).expect("sized buffer");
+        if format == wgpu::TextureFormat::Bgra8Unorm {
+            for p in image.pixels_mut() {
+                p.0.swap(0, 2);
+            }
+        }
+        image
+    }
+
+    fn get(&self, key: Key) -> &str {
+        self.app.dataset().get(key).unwrap_or("<unset>")
+    }
+}
+
+/// Pixels that differ by more than a small tolerance inside `rect` (x0, y0, x1, y1).
+fn changed_pixels(a: &image::RgbaImage, b: &image::RgbaImage, rect: (u32, u32, u32, u32)) -> usize {
+    let mut n = 0;
+    for y in rect.1..rect.3 {
+        for x in rect.0..rect.2 {
+            let (p, q) = (a.get_pixel(x, y).0, b.get_pixel(x, y).0);
+            if p.iter().zip(q).any(|(u, v)| u.abs_diff(v) > 8) {
+                n += 1;
+            }
+        }
+    }
+    n
+}
+
+fn save(image: &image::RgbaImage, name: &str) {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("app_headless");
+    let _ = std::fs::create_dir_all(&dir);
+    let _ = image.save(dir.join(name));
+}
+
+#[test]
+fn drop_play_and_reject_a_bad_file() {
+    let fox = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/Fox.glb")).expect("web/assets/Fox.glb");
+    let mut h = Harness::new();
+    h.step(0.016, Vec::new());
+    assert_eq!(h.get(Key::Status), "ready", "nothing requested yet");
+    assert_eq!(h.get(Key::Model), "");
+    assert_eq!(h.get(Key::Clips), "[]");
+
+    h.step(0.016, vec![dropped("Fox.glb", fox)]);
+    h.step(0.016, Vec::new());
+    assert_eq!(h.get(Key::Error), "");
+    assert_eq!(h.get(Key::Status), "ready");
+    assert_eq!(h.get(Key::Model), "Fox.glb");
+    assert_eq!(h.get(Key::Clips), r#"["Survey","Walk","Run"]"#);
+    assert_eq!(h.get(Key::Clip), "Survey");
+    assert!(!h.get(Key::Backend).is_empty());
+
+    let t0 = h.app.player().time;
+    let before = h.step(0.05, Vec::new());
+    for _ in 0..4 {
+        h.step(0.1, Vec::new());
+    }
+    let after = h.step(0.05, Vec::new());
+    let t1 = h.app.player().time;
+    assert!(t1 > t0 + 0.3, "the clip plays: {t0} -> {t1}");
+    save(&before, "fox-a.png");
+    save(&after, "fox-b.png");
+    // The viewport is right of the side panel; the animated fox changes it.
+    let viewport = (320, 40, SIZE[0], SIZE[1] - 40);
+    let changed = changed_pixels(&before, &after, viewport);
+    assert!(changed > 200, "only {changed} viewport pixels changed while playing");
+    let frames: u64 = h.get(Key::Frames).parse().expect("frames is an integer");
+    assert_eq!(frames, 9);
+
+    h.step(0.016, vec![dropped("broken.glb", b"glTF\x02\0\0\0not really".to_vec())]);
+    for _ in 0..10 {
+        h.step(0.05, Vec::new());
+    }
+    let shown = h.step(0.05, Vec::new());
+    save(&shown, "bad-file.png");
+    assert_eq!(h.get(Key::Status), "error");
+    assert!(h.get(Key::Error).starts_with("broken.glb: "), "{}", h.get(Key::Error));
+    assert!(h.app.error_message().is_some(), "an error window is open");
+    assert_eq!(h.get(Key::Model), "Fox.glb", "the previous model stays");
+    assert_eq!(h.app.model().map(|m| m.name.as_str()), Some("Fox.glb"));
+}
