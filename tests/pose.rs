@@ -652,6 +652,7 @@ fn request(clip: Option<&str>, rest: bool) -> PoseRequest {
         clip: clip.map(str::to_owned),
         times: TIMES.to_vec(),
         rest,
+        ..Default::default()
     }
 }
 

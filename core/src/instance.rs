@@ -82,6 +82,33 @@ impl Instance {
             }
             .run()?;
         }
+        self.worlds_and_palettes(asset)
+    }
+
+    /// Copies `pose` (e.g. blended by an [`crate::animator::Animator`]) into this instance,
+    /// then computes world transforms and palettes ([`Instance::update`]).
+    pub fn evaluate_pose(&mut self, asset: &Asset, pose: &Pose) -> Result<(), JobError> {
+        check_eq("pose locals", self.pose.locals.len(), pose.locals.len())?;
+        check_eq("pose weights", self.pose.weights.len(), pose.weights.len())?;
+        self.pose.clone_from(pose);
+        self.update(asset)
+    }
+
+    /// The pose to write before [`Instance::update`]; keep its lengths (a resized pose makes
+    /// `update` fail with a length error).
+    pub fn pose_mut(&mut self) -> &mut Pose {
+        &mut self.pose
+    }
+
+    /// World transforms of all nodes and palettes of all skins from the current pose.
+    pub fn update(&mut self, asset: &Asset) -> Result<(), JobError> {
+        self.check_asset(asset)?;
+        check_eq("pose weights", asset.weight_total as usize, self.pose.weights.len())?;
+        self.worlds_and_palettes(asset)
+    }
+
+    /// World transforms and palettes, for an asset that passed [`Instance::check_asset`].
+    fn worlds_and_palettes(&mut self, asset: &Asset) -> Result<(), JobError> {
         WorldJob { parents: &self.parents, order: &asset.order, locals: &self.pose.locals, worlds: &mut self.worlds }
             .run()?;
         for (s, skin) in asset.skins.iter().enumerate() {
@@ -219,9 +246,7 @@ impl Instance {
         for (s, skin) in asset.skins.iter().enumerate() {
             check_eq("skin joints", self.palette_starts[s + 1] - self.palette_starts[s], skin.joints.len())?;
         }
-        for (context, clip) in self.contexts.iter().zip(&asset.clips) {
-            check_eq("clip channels", context.channel_count(), clip.channels.len())?;
-        }
+        // Each clip's context is checked against its channels by the sample job that uses it.
         Ok(())
     }
 }
@@ -374,6 +399,23 @@ mod tests {
     }
 
     #[test]
+    fn a_given_pose_gives_the_same_worlds_as_sampling() {
+        let asset = rig();
+        let (mut sampled, mut given) = (Instance::new(&asset), Instance::new(&asset));
+        sampled.evaluate(&asset, Some(0), 0.5).expect("valid");
+        given.evaluate_pose(&asset, sampled.pose()).expect("valid");
+        assert_eq!((given.worlds(), given.palette(0)), (sampled.worlds(), sampled.palette(0)));
+        given.pose_mut().locals[0].translation = Vec3::X;
+        given.update(&asset).expect("valid");
+        assert_eq!(given.worlds()[3], Mat4::from_translation(Vec3::X) * sampled.worlds()[3]);
+        let mut short = sampled.pose().clone();
+        short.locals.pop();
+        assert!(given.evaluate_pose(&asset, &short).is_err());
+        given.pose_mut().weights.clear();
+        assert!(given.update(&asset).is_err(), "a resized pose is refused");
+    }
+
+    #[test]
     fn misuse_is_an_error_not_a_panic() {
         let asset = rig();
         let mut instance = Instance::new(&asset);
@@ -391,55 +433,12 @@ mod tests {
         assert!(empty.scene_bounds(&other).is_none());
     }
 
-    /// Counts heap allocations of the current thread (tests run in parallel threads).
-    mod counting {
-        use std::alloc::{GlobalAlloc, Layout, System};
-        use std::cell::Cell;
-
-        thread_local! {
-            static ALLOCATIONS: Cell<u64> = const { Cell::new(0) };
-        }
-
-        struct Counting;
-
-        // SAFETY: forwards every call unchanged to the system allocator; only counts.
-        #[allow(unsafe_code)]
-        unsafe impl GlobalAlloc for Counting {
-            unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-                ALLOCATIONS.with(|c| c.set(c.get() + 1));
-                // SAFETY: same contract as the caller's.
-                unsafe { System.alloc(layout) }
-            }
-            unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-                // SAFETY: same contract as the caller's.
-                unsafe { System.dealloc(ptr, layout) }
-            }
-            unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-                ALLOCATIONS.with(|c| c.set(c.get() + 1));
-                // SAFETY: same contract as the caller's.
-                unsafe { System.realloc(ptr, layout, new_size) }
-            }
-        }
-
-        #[global_allocator]
-        static GLOBAL: Counting = Counting;
-
-        /// Allocations made by this thread so far.
-        pub fn allocations() -> u64 {
-            ALLOCATIONS.with(Cell::get)
-        }
-    }
-
     /// A frame (advance, sample, world transforms, palettes, CPU deformation into warm
     /// buffers) allocates nothing.
     #[test]
     fn frames_do_not_allocate() {
-        let root = std::env::var_os("KLOUB_SHARED_ASSETS")
-            .map(std::path::PathBuf::from)
-            .unwrap_or_else(|| std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/assets"));
         for file in ["khronos/Fox/glTF-Binary/Fox.glb", "threejs/RobotExpressive/RobotExpressive.glb"] {
-            let bytes = std::fs::read(root.join(file)).unwrap_or_else(|e| panic!("{file}: {e}"));
-            let asset = crate::import(&bytes, &crate::NoResolver, &Default::default()).expect("imports").asset;
+            let asset = crate::testutil::load(file);
             let mut instance = Instance::new(&asset);
             let mut player = crate::player::Player::new();
             player.set_clip(Some(1));
@@ -451,10 +450,7 @@ mod tests {
             for &(node, prim) in &drawn {
                 instance.deform_primitive(&asset, node, prim, &mut p, &mut n).expect("valid");
             }
-            let probe = counting::allocations();
-            std::hint::black_box(vec![0u8; 16]);
-            assert!(counting::allocations() > probe, "the counter counts");
-            let before = counting::allocations();
+            let before = crate::testutil::allocations();
             for _ in 0..200 {
                 player.advance(&asset, 1.0 / 60.0);
                 instance.evaluate(&asset, player.clip, player.time).expect("valid");
@@ -462,7 +458,7 @@ mod tests {
                     instance.deform_primitive(&asset, node, prim, &mut p, &mut n).expect("valid");
                 }
             }
-            assert_eq!(counting::allocations() - before, 0, "{file}");
+            assert_eq!(crate::testutil::allocations() - before, 0, "{file}");
         }
     }
 
@@ -470,16 +466,12 @@ mod tests {
     /// the bind-space vertices placed by the mesh node's world transform.
     #[test]
     fn samples_skin_to_their_bind_pose_at_rest() {
-        let root = std::env::var_os("KLOUB_SHARED_ASSETS")
-            .map(std::path::PathBuf::from)
-            .unwrap_or_else(|| std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/assets"));
         for file in [
             "khronos/CesiumMan/glTF-Binary/CesiumMan.glb",
             "khronos/Fox/glTF-Binary/Fox.glb",
             "khronos/SimpleSkin/glTF-Embedded/SimpleSkin.gltf",
         ] {
-            let bytes = std::fs::read(root.join(file)).unwrap_or_else(|e| panic!("{file}: {e}"));
-            let asset = crate::import(&bytes, &crate::NoResolver, &Default::default()).expect("imports").asset;
+            let asset = crate::testutil::load(file);
             let mut instance = Instance::new(&asset);
             let (mut p, mut n) = (Vec::new(), Vec::new());
             let mut checked = 0;
@@ -501,8 +493,7 @@ mod tests {
         // matrices leave out, so the spec's result differs from the mesh node's placement.
         // Vertex 0 at rest, by the spec formula evaluated independently (Python, f64):
         // (-4.37e-8, -4.5750771, 0.9999996); the mesh node would put it at (-1, -4.575, 0).
-        let bytes = std::fs::read(root.join("khronos/RiggedSimple/glTF-Binary/RiggedSimple.glb")).expect("readable");
-        let asset = crate::import(&bytes, &crate::NoResolver, &Default::default()).expect("imports").asset;
+        let asset = crate::testutil::load("khronos/RiggedSimple/glTF-Binary/RiggedSimple.glb");
         let mut instance = Instance::new(&asset);
         let (mut p, mut n) = (Vec::new(), Vec::new());
         instance.deform_primitive(&asset, 2, 0, &mut p, &mut n).expect("valid");

@@ -15,8 +15,11 @@
 //!    applies morph targets first.
 //!
 //! [`instance::Instance`] bundles the buffers of steps 2–5 for one character so a frame
-//! allocates nothing.
+//! allocates nothing. [`animator::Animator`] drives it with everything beyond one clip:
+//! weighted blends of several clips, crossfades, and masked or additive layers
+//! ([`job::blend::BlendJob`]), again without allocating per frame.
 
+pub mod animator;
 pub mod asset;
 pub mod clip;
 pub mod error;
@@ -26,7 +29,10 @@ pub mod job;
 pub mod math;
 pub mod player;
 pub mod pose;
+#[cfg(test)]
+mod testutil;
 
+pub use animator::Animator;
 pub use asset::Asset;
 pub use error::{ImportError, JobError, Warning};
 pub use import::{ImportOptions, Imported, MapResolver, NoResolver, Resolver, import};

@@ -3,14 +3,21 @@
 //! ```text
 //! kloub serve [--addr 127.0.0.1:8080] [--dist DIR] [--assets DIR]
 //! kloub pose <file> [--clip NAME|INDEX] [--time T]... [--rest]
+//!            [--crossfade FROM:TO:DURATION [--at T] [--easing E] [--outgoing O]]
+//!            [--layer CLIP:ROOT_JOINT:WEIGHT]... [--layer-falloff F] [--layer-additive]
+//! kloub inspect <file> [--json]
 //! ```
-//! `serve` options may also come from `KLOUB_ADDR`, `KLOUB_DIST`, `KLOUB_ASSETS` (a flag wins
-//! over the variable). Without either, `--dist`/`--assets` default to `web/dist`/`web/assets`
-//! of the checkout ([`crate::serve::repo_dir`]). Log level: `KLOUB_LOG` ([`crate::logger`]).
+//! `serve` options may also come from `KLOUB_ADDR`, `KLOUB_DIST`, `KLOUB_ASSETS`,
+//! `KLOUB_MAX_CONNECTIONS` (a flag wins over the variable). Without `--dist`/`--assets`, the web
+//! bundle and the samples embedded in the binary at build time are served
+//! ([`crate::serve::embedded`]). Log level: `KLOUB_LOG` ([`crate::logger`]).
 
-use crate::pose::{self, PoseRequest};
-use crate::serve::{self, ServeConfig};
-use clap::{Args, Parser, Subcommand};
+use crate::inspect;
+use crate::pose::{self, CrossfadeRequest, LayerRequest, PoseRequest};
+use crate::serve::listen::DEFAULT_MAX_CONNECTIONS;
+use crate::serve::{self, App, Limits, ServeConfig, Source};
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use kloub_core::animator::{Easing, Outgoing};
 use std::ffi::OsString;
 use std::io::Write;
 use std::net::SocketAddr;
@@ -32,8 +39,49 @@ pub enum Command {
     /// Serve the viewer, the default model and the asset library over HTTP.
     Serve(ServeArgs),
     /// Print the pose of a glTF/GLB file at given times as JSON.
+    #[command(long_about = POSE_HELP)]
     Pose(PoseArgs),
+    /// Describe a glTF/GLB file: scenes, skins, clips, morph targets, import warnings.
+    #[command(after_long_help = INSPECT_HELP)]
+    Inspect(InspectArgs),
 }
+
+const POSE_HELP: &str = "\
+Print the pose of a glTF/GLB file at given times as JSON: world matrices of every node, \
+morph weights, and the deformed (morphed, skinned) world-space positions of every primitive \
+of the default scene.
+
+Without --crossfade/--layer, each --time samples the clip directly (clamped to its duration).
+
+Blending: with --crossfade or --layer the pose comes from the viewer's animator. Every clip \
+plays on its own looping clock from time 0 at speed 1, and each --time is absolute from that \
+start (times must be >= 0; each is computed from the start, independently of the others).
+  --crossfade FROM:TO:DURATION  FROM plays from 0; at --at seconds the base crossfades to TO \
+over DURATION seconds (TO starts at its time 0, or in step with FROM for --outgoing sync).
+  --layer CLIP:ROOT_JOINT:WEIGHT  CLIP overrides (or, with --layer-additive, adds its motion \
+relative to its first frame to) the subtree under ROOT_JOINT, with WEIGHT and a per-generation \
+falloff: a joint d generations below the root gets WEIGHT * (1 - F)^d. Layers apply in order \
+on top of the base (--clip, or the crossfade).
+Clips are named or indexed; joints are named (skin joints first, then any node) or given by \
+node index; names may contain ':'. `kloub inspect FILE` lists both.
+
+The JSON then also has \"crossfade\": {from, to, duration, at, easing, outgoing} and \
+\"layers\": [{clip, root: {index, name}, weight, falloff, additive}] (absent otherwise).";
+
+const INSPECT_HELP: &str = "\
+JSON keys (--json), stable:
+  asset, default_scene (index|null),
+  nodes[]:   index, name, parent (node|null), mesh (index|null), skin (index|null)
+  scenes[]:  index, name, roots[] (node indices)
+  skins[]:   index, name, skeleton (node|null),
+             joints[]: joint, node, name, parent (node|null), parent_joint (joint|null), depth
+  clips[]:   index, name, duration (s), channel_count,
+             channels[]: node, node_name, path (translation|rotation|scale|weights),
+                         interpolation (STEP|LINEAR|CUBICSPLINE), keys, start, end (s)
+  meshes[]:  index, name, primitives, vertices, nodes[] (instancing nodes), morph_targets,
+             target_names[]
+  warnings[]: pointer (JSON pointer), message
+Names are null when the file has none.";
 
 /// Options of `kloub serve`.
 #[derive(Debug, Args)]
@@ -41,12 +89,16 @@ pub struct ServeArgs {
     /// Address to listen on.
     #[arg(long, env = "KLOUB_ADDR", default_value = "127.0.0.1:8080")]
     pub addr: SocketAddr,
-    /// Built web bundle folder [default: web/dist of the checkout].
+    /// Serve the web bundle from this folder [default: the bundle embedded in the binary].
     #[arg(long, env = "KLOUB_DIST")]
     pub dist: Option<PathBuf>,
-    /// Model library folder [default: web/assets of the checkout].
+    /// Serve the sample library from this folder [default: the samples embedded in the binary].
     #[arg(long, env = "KLOUB_ASSETS")]
     pub assets: Option<PathBuf>,
+    /// Most connections served at once (more wait in the listen backlog).
+    #[arg(long, env = "KLOUB_MAX_CONNECTIONS", default_value_t = DEFAULT_MAX_CONNECTIONS,
+          value_parser = clap::value_parser!(u32).range(1..=1_048_576))]
+    pub max_connections: u32,
 }
 
 /// Options of `kloub pose`.
@@ -63,6 +115,57 @@ pub struct PoseArgs {
     /// The rest pose, no clip.
     #[arg(long)]
     pub rest: bool,
+    /// Crossfade from clip FROM to clip TO over DURATION seconds, starting at --at.
+    #[arg(long, value_name = "FROM:TO:DURATION", conflicts_with_all = ["clip", "rest"])]
+    pub crossfade: Option<String>,
+    /// When the crossfade starts, in seconds from the start.
+    #[arg(long, value_name = "T", default_value_t = 0.0, requires = "crossfade")]
+    pub at: f32,
+    /// Crossfade progress curve.
+    #[arg(long, value_enum, default_value_t = EasingArg::Smoothstep, requires = "crossfade")]
+    pub easing: EasingArg,
+    /// What the outgoing clip does during the crossfade.
+    #[arg(long, value_enum, default_value_t = OutgoingArg::Freeze, requires = "crossfade")]
+    pub outgoing: OutgoingArg,
+    /// A clip on the subtree under a joint, with a weight; repeat for several layers.
+    #[arg(long = "layer", value_name = "CLIP:ROOT_JOINT:WEIGHT")]
+    pub layers: Vec<String>,
+    /// Per-generation weight falloff of every layer, in [0, 1].
+    #[arg(long, value_name = "F", default_value_t = 0.0, requires = "layers")]
+    pub layer_falloff: f32,
+    /// Layers add their motion (relative to their first frame) instead of overriding.
+    #[arg(long, requires = "layers")]
+    pub layer_additive: bool,
+}
+
+/// `--easing` values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum EasingArg {
+    /// Constant rate.
+    Linear,
+    /// 3u² − 2u³: gentle start and end.
+    Smoothstep,
+}
+
+/// `--outgoing` values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum OutgoingArg {
+    /// Blend from the pose at the moment the crossfade starts.
+    Freeze,
+    /// FROM keeps playing while it fades out.
+    Keep,
+    /// As keep, and TO starts at FROM's normalized time.
+    Sync,
+}
+
+/// Options of `kloub inspect`.
+#[derive(Debug, Args)]
+pub struct InspectArgs {
+    /// The .glb or .gltf file (external files are read from its folder).
+    pub file: PathBuf,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Parses `args` (program name first) and runs the command. Exit code 0 on success,
@@ -87,21 +190,31 @@ where
     match cli.command {
         Command::Serve(args) => run_serve(args),
         Command::Pose(args) => run_pose(&args),
+        Command::Inspect(args) => run_inspect(&args),
     }
 }
 
 fn run_serve(args: ServeArgs) -> ExitCode {
     crate::logger::init();
     let defaults = ServeConfig::default();
+    let describe = |source: &Source| match source {
+        Source::Dir(d) => d.display().to_string(),
+        Source::Memory(m) => format!("embedded ({} files)", m.len()),
+    };
     let config = ServeConfig {
-        dist: args.dist.unwrap_or(defaults.dist),
-        assets: args.assets.unwrap_or(defaults.assets),
+        dist: args.dist.map_or(defaults.dist, Source::Dir),
+        assets: args.assets.map_or(defaults.assets, Source::Dir),
+        limits: Limits {
+            max_connections: args.max_connections as usize,
+            ..defaults.limits
+        },
     };
     log::info!(
-        "dist {}, assets {}",
-        config.dist.display(),
-        config.assets.display()
+        "web bundle: {}; samples: {}",
+        describe(&config.dist),
+        describe(&config.assets)
     );
+    let app = App::new(&config);
     let runtime = match tokio::runtime::Runtime::new() {
         Ok(r) => r,
         Err(e) => {
@@ -109,7 +222,7 @@ fn run_serve(args: ServeArgs) -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
-    match runtime.block_on(serve::serve(&config, args.addr)) {
+    match runtime.block_on(serve::serve(app, args.addr)) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("kloub serve: {}: {e}", args.addr);
@@ -124,6 +237,28 @@ fn run_pose(args: &PoseArgs) -> ExitCode {
         clip: args.clip.clone(),
         times: args.times.clone(),
         rest: args.rest,
+        crossfade: args.crossfade.as_ref().map(|spec| CrossfadeRequest {
+            spec: spec.clone(),
+            at: args.at,
+            easing: match args.easing {
+                EasingArg::Linear => Easing::Linear,
+                EasingArg::Smoothstep => Easing::SmoothStep,
+            },
+            outgoing: match args.outgoing {
+                OutgoingArg::Freeze => Outgoing::Freeze,
+                OutgoingArg::Keep => Outgoing::KeepPlaying,
+                OutgoingArg::Sync => Outgoing::SyncTime,
+            },
+        }),
+        layers: args
+            .layers
+            .iter()
+            .map(|spec| LayerRequest {
+                spec: spec.clone(),
+                falloff: args.layer_falloff,
+                additive: args.layer_additive,
+            })
+            .collect(),
     };
     let report = match pose::pose_file(&args.file, &request) {
         Ok(r) => r,
@@ -139,14 +274,40 @@ fn run_pose(args: &PoseArgs) -> ExitCode {
             eprintln!("warning: {file}: {}: {}", w.pointer, w.message);
         }
     }
+    write_stdout(&file.to_string(), |out| {
+        serde_json::to_writer(&mut *out, &report.doc).map_err(std::io::Error::from)?;
+        writeln!(out)
+    })
+}
+
+fn run_inspect(args: &InspectArgs) -> ExitCode {
+    let file = args.file.display().to_string();
+    let doc = match inspect::inspect_file(&args.file) {
+        Ok(d) => d,
+        Err(e) => {
+            eprintln!("kloub: {file}: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    write_stdout(&file, |out| {
+        if args.json {
+            serde_json::to_writer_pretty(&mut *out, &doc).map_err(std::io::Error::from)?;
+            writeln!(out)
+        } else {
+            out.write_all(inspect::to_text(&doc).as_bytes())
+        }
+    })
+}
+
+/// Writes to stdout through `write`; a closed pipe (`kloub ... | head`) is not an error.
+fn write_stdout(
+    file: &str,
+    write: impl FnOnce(&mut std::io::BufWriter<std::io::StdoutLock<'static>>) -> std::io::Result<()>,
+) -> ExitCode {
     let mut out = std::io::BufWriter::new(std::io::stdout().lock());
-    let written = serde_json::to_writer(&mut out, &report.doc)
-        .map_err(std::io::Error::from)
-        .and_then(|()| writeln!(out))
-        .and_then(|()| out.flush());
-    match written {
+    match write(&mut out).and_then(|()| out.flush()) {
         Ok(()) => ExitCode::SUCCESS,
-        // The reader went away (`kloub pose ... | head`): nothing left to report.
+        // The reader went away: nothing left to report.
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("kloub: {file}: cannot write the output: {e}");
@@ -177,6 +338,70 @@ mod tests {
     }
 
     #[test]
+    fn blend_and_inspect_arguments_parse() {
+        let cli = Cli::try_parse_from([
+            "kloub",
+            "pose",
+            "a.glb",
+            "--crossfade",
+            "Walk:Run:0.5",
+            "--at",
+            "1",
+            "--easing",
+            "linear",
+            "--outgoing",
+            "sync",
+            "--layer",
+            "Wave:Abdomen:1",
+            "--layer",
+            "0:3:0.5",
+            "--layer-falloff",
+            "0.25",
+        ])
+        .expect("valid");
+        let Command::Pose(p) = cli.command else {
+            panic!("pose expected")
+        };
+        assert_eq!(p.crossfade.as_deref(), Some("Walk:Run:0.5"));
+        assert_eq!(
+            (p.at, p.easing, p.outgoing),
+            (1.0, EasingArg::Linear, OutgoingArg::Sync)
+        );
+        assert_eq!(p.layers, ["Wave:Abdomen:1", "0:3:0.5"]);
+        assert_eq!((p.layer_falloff, p.layer_additive), (0.25, false));
+        for bad in [
+            &[
+                "kloub",
+                "pose",
+                "a.glb",
+                "--crossfade",
+                "a:b:1",
+                "--clip",
+                "0",
+            ][..],
+            &["kloub", "pose", "a.glb", "--crossfade", "a:b:1", "--rest"],
+            &["kloub", "pose", "a.glb", "--at", "1"],
+            &["kloub", "pose", "a.glb", "--layer-additive"],
+            &[
+                "kloub",
+                "pose",
+                "a.glb",
+                "--crossfade",
+                "a:b:1",
+                "--easing",
+                "cubic",
+            ],
+        ] {
+            assert!(Cli::try_parse_from(bad).is_err(), "{bad:?}");
+        }
+        let cli = Cli::try_parse_from(["kloub", "inspect", "a.glb", "--json"]).expect("valid");
+        let Command::Inspect(i) = cli.command else {
+            panic!("inspect expected")
+        };
+        assert_eq!((i.file, i.json), (PathBuf::from("a.glb"), true));
+    }
+
+    #[test]
     fn serve_arguments_parse() {
         let cli = Cli::try_parse_from([
             "kloub",
@@ -195,6 +420,13 @@ mod tests {
         assert_eq!(s.addr, "127.0.0.1:0".parse().expect("addr"));
         assert_eq!(s.dist, Some(PathBuf::from("d")));
         assert_eq!(s.assets, Some(PathBuf::from("a")));
+        assert_eq!(s.max_connections, DEFAULT_MAX_CONNECTIONS);
         assert!(Cli::try_parse_from(["kloub", "serve", "--addr", "nope"]).is_err());
+        let cli = Cli::try_parse_from(["kloub", "serve", "--max-connections", "8"]).expect("valid");
+        let Command::Serve(s) = cli.command else {
+            panic!("serve expected")
+        };
+        assert_eq!((s.max_connections, s.dist, s.assets), (8, None, None));
+        assert!(Cli::try_parse_from(["kloub", "serve", "--max-connections", "0"]).is_err());
     }
 }

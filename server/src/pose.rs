@@ -16,10 +16,25 @@
 //! index; `weights` every node that has morph weights; `primitives` one entry per (node,
 //! primitive) for every node of the default scene that instances a mesh, in world space after
 //! morphing and skinning ([`Instance::deform_primitive`]).
+//!
+//! Blending (issue 3): with a crossfade or layers the pose comes from a
+//! [`kloub_core::Animator`] whose clocks start at 0 and loop (as in the viewer); each `time` is
+//! absolute from that start. The document then also has
+//!
+//! ```text
+//!   "crossfade": {"from": <clip>, "to": <clip>, "duration": 0.5, "at": 1.0,
+//!                 "easing": "linear" | "smoothstep", "outgoing": "freeze" | "keep" | "sync"},
+//!   "layers": [ {"clip": <clip>, "root": {"index": 9, "name": "Abdomen" | null},
+//!                "weight": 1.0, "falloff": 0.0, "additive": false}, ... ]
+//! ```
+//!
+//! (`<clip>` as `clip` above; `clip` itself is then the clip playing at time 0: FROM, or the
+//! `--clip`.) Both keys are absent without blending, so the plain document is unchanged.
 
 use crate::paths;
-use kloub_core::asset::Asset;
-use kloub_core::{ImportOptions, Instance, Resolver, Warning};
+use kloub_core::animator::{Crossfade, Easing, Layer, Outgoing};
+use kloub_core::asset::{Asset, NodeIndex};
+use kloub_core::{Animator, ImportOptions, Imported, Instance, Resolver, Warning};
 use serde::Serialize;
 use serde::ser::SerializeMap;
 use std::fmt;
@@ -34,6 +49,37 @@ pub struct PoseRequest {
     pub times: Vec<f32>,
     /// Rest pose: no clip at all.
     pub rest: bool,
+    /// Crossfade from one clip to another (conflicts with `clip` and `rest`).
+    pub crossfade: Option<CrossfadeRequest>,
+    /// Layers over the base, applied in order.
+    pub layers: Vec<LayerRequest>,
+}
+
+/// `--crossfade FROM:TO:DURATION --at T`: FROM plays from 0; at `at` seconds the base starts
+/// to crossfade to TO over DURATION seconds.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CrossfadeRequest {
+    /// `FROM:TO:DURATION`, clips by name or index (names may contain `:`).
+    pub spec: String,
+    /// Start of the crossfade, seconds from the start.
+    pub at: f32,
+    /// Progress curve.
+    pub easing: Easing,
+    /// What the outgoing clip does.
+    pub outgoing: Outgoing,
+}
+
+/// `--layer CLIP:ROOT_JOINT:WEIGHT`: CLIP, on its own clock from 0, on the subtree under
+/// ROOT_JOINT.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LayerRequest {
+    /// `CLIP:ROOT_JOINT:WEIGHT`; clip by name or index, joint by name (skin joints first) or
+    /// node index (names may contain `:`).
+    pub spec: String,
+    /// Per-generation falloff in `[0, 1]`.
+    pub falloff: f32,
+    /// Add the clip's difference from its first frame instead of overriding.
+    pub additive: bool,
 }
 
 /// The JSON document `kloub pose` prints.
@@ -41,10 +87,57 @@ pub struct PoseRequest {
 pub struct PoseDoc {
     /// File name of the input.
     pub asset: String,
-    /// The clip evaluated; `None` for the rest pose.
+    /// The clip evaluated (with a crossfade: the one playing first); `None` for the rest pose.
     pub clip: Option<ClipInfo>,
+    /// The crossfade, when one was asked for.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub crossfade: Option<CrossfadeInfo>,
+    /// The layers, when any were asked for.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub layers: Vec<LayerInfo>,
     /// One frame per requested time.
     pub frames: Vec<Frame>,
+}
+
+/// The crossfade of a [`PoseDoc`].
+#[derive(Clone, Debug, Serialize)]
+pub struct CrossfadeInfo {
+    /// The clip playing from time 0.
+    pub from: ClipInfo,
+    /// The clip faded to.
+    pub to: ClipInfo,
+    /// Seconds the crossfade lasts.
+    pub duration: f64,
+    /// Seconds from the start when it begins.
+    pub at: f64,
+    /// `"linear"` or `"smoothstep"`.
+    pub easing: &'static str,
+    /// `"freeze"`, `"keep"` or `"sync"`.
+    pub outgoing: &'static str,
+}
+
+/// One layer of a [`PoseDoc`].
+#[derive(Clone, Debug, Serialize)]
+pub struct LayerInfo {
+    /// The layer's clip.
+    pub clip: ClipInfo,
+    /// Root of the affected subtree.
+    pub root: NodeRef,
+    /// Weight.
+    pub weight: f64,
+    /// Per-generation falloff.
+    pub falloff: f64,
+    /// Additive (true) or overriding (false).
+    pub additive: bool,
+}
+
+/// A node by index and name.
+#[derive(Clone, Debug, Serialize)]
+pub struct NodeRef {
+    /// glTF node index.
+    pub index: u32,
+    /// `name` from the file.
+    pub name: Option<String>,
 }
 
 /// The clip of a [`PoseDoc`].
@@ -186,8 +279,9 @@ fn read_limited(path: &Path, max_bytes: u64) -> Result<Vec<u8>, String> {
     std::fs::read(path).map_err(|e| e.to_string())
 }
 
-/// Reads, imports and evaluates the file at `path` (external files from its folder).
-pub fn pose_file(path: &Path, request: &PoseRequest) -> Result<PoseReport, PoseError> {
+/// Reads and imports the file at `path` (external files from its folder); returns its file
+/// name and the import result.
+pub fn import_file(path: &Path) -> Result<(String, Imported), PoseError> {
     let options = ImportOptions::default();
     let bytes = read_limited(path, options.budget_bytes)
         .map_err(|e| PoseError::new(None, format!("cannot read: {e}")))?;
@@ -201,7 +295,28 @@ pub fn pose_file(path: &Path, request: &PoseRequest) -> Result<PoseReport, PoseE
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    pose_bytes(&name, &bytes, &resolver, &options, request)
+    let imported = import_bytes(&bytes, &resolver, &options)?;
+    Ok((name, imported))
+}
+
+/// Imports `bytes` (GLB or .gltf), turning an import error into a [`PoseError`].
+pub fn import_bytes(
+    bytes: &[u8],
+    resolver: &dyn Resolver,
+    options: &ImportOptions,
+) -> Result<Imported, PoseError> {
+    kloub_core::import(bytes, resolver, options)
+        .map_err(|e| PoseError::new(Some(e.pointer).filter(|p| !p.is_empty()), e.message))
+}
+
+/// Reads, imports and evaluates the file at `path` (external files from its folder).
+pub fn pose_file(path: &Path, request: &PoseRequest) -> Result<PoseReport, PoseError> {
+    let (name, imported) = import_file(path)?;
+    let doc = pose_asset(&name, &imported.asset, request)?;
+    Ok(PoseReport {
+        doc,
+        warnings: imported.warnings,
+    })
 }
 
 /// Imports `bytes` (GLB or .gltf) and evaluates it; `asset_name` goes into the document.
@@ -212,13 +327,29 @@ pub fn pose_bytes(
     options: &ImportOptions,
     request: &PoseRequest,
 ) -> Result<PoseReport, PoseError> {
-    let imported = kloub_core::import(bytes, resolver, options)
-        .map_err(|e| PoseError::new(Some(e.pointer).filter(|p| !p.is_empty()), e.message))?;
+    let imported = import_bytes(bytes, resolver, options)?;
     let doc = pose_asset(asset_name, &imported.asset, request)?;
     Ok(PoseReport {
         doc,
         warnings: imported.warnings,
     })
+}
+
+/// `"0 \"Walk\", 1 (unnamed)"`, or a note that there are none.
+fn available_clips(asset: &Asset) -> String {
+    if asset.clips.is_empty() {
+        return "the file has no clips".to_owned();
+    }
+    let list: Vec<String> = asset
+        .clips
+        .iter()
+        .enumerate()
+        .map(|(i, c)| match &c.name {
+            Some(n) => format!("{i} {n:?}"),
+            None => format!("{i} (unnamed)"),
+        })
+        .collect();
+    format!("available: {}", list.join(", "))
 }
 
 /// Picks the clip a request asks for: `None` for `rest` or a file without clips.
@@ -232,24 +363,183 @@ pub fn select_clip(asset: &Asset, request: &PoseRequest) -> Result<Option<usize>
     if let Some(index) = asset.find_clip(wanted) {
         return Ok(Some(index));
     }
-    let available = if asset.clips.is_empty() {
-        "the file has no clips".to_owned()
-    } else {
-        let list: Vec<String> = asset
-            .clips
-            .iter()
-            .enumerate()
-            .map(|(i, c)| match &c.name {
-                Some(n) => format!("{i} {n:?}"),
-                None => format!("{i} (unnamed)"),
-            })
-            .collect();
-        format!("available: {}", list.join(", "))
-    };
     Err(PoseError::new(
         Some("/animations".into()),
-        format!("no clip {wanted:?}; {available}"),
+        format!("no clip {wanted:?}; {}", available_clips(asset)),
     ))
+}
+
+/// A node by name (a skin joint of that name first, then any node) or decimal index.
+pub fn find_node(asset: &Asset, name_or_index: &str) -> Option<NodeIndex> {
+    let named = |n: &NodeIndex| {
+        asset.nodes.get(*n as usize).and_then(|x| x.name.as_deref()) == Some(name_or_index)
+    };
+    asset
+        .skins
+        .iter()
+        .flat_map(|s| s.joints.iter().copied())
+        .find(named)
+        .or_else(|| (0..asset.nodes.len() as NodeIndex).find(named))
+        .or_else(|| {
+            name_or_index
+                .parse::<NodeIndex>()
+                .ok()
+                .filter(|&i| (i as usize) < asset.nodes.len())
+        })
+}
+
+/// Splits `A:B` at the first `:` where both halves resolve (names may contain `:`).
+fn split_pair<T, U>(
+    text: &str,
+    left: impl Fn(&str) -> Option<T>,
+    right: impl Fn(&str) -> Option<U>,
+) -> Option<(T, U)> {
+    text.match_indices(':').find_map(|(i, _)| {
+        let (a, b) = (&text[..i], &text[i + 1..]);
+        Some((left(a)?, right(b)?))
+    })
+}
+
+/// `…:NUMBER`: the text before the last `:` and the number after it (finite, ≥ 0).
+fn split_number<'s>(spec: &'s str, flag: &str, shape: &str) -> Result<(&'s str, f32), PoseError> {
+    let bad = |why: &str| PoseError::new(None, format!("{flag} {spec:?}: {why}; expected {shape}"));
+    let (head, number) = spec.rsplit_once(':').ok_or_else(|| bad("no ':'"))?;
+    let value: f32 = number
+        .trim()
+        .parse()
+        .map_err(|_| bad(&format!("{number:?} is not a number")))?;
+    if !(value.is_finite() && value >= 0.0) {
+        return Err(bad(&format!("{number} must be a finite number ≥ 0")));
+    }
+    Ok((head, value))
+}
+
+fn clip_info(asset: &Asset, index: usize) -> Option<ClipInfo> {
+    let c = asset.clips.get(index)?;
+    Some(ClipInfo {
+        index,
+        name: c.name.clone(),
+        duration: f64::from(c.duration),
+    })
+}
+
+fn easing_name(e: Easing) -> &'static str {
+    match e {
+        Easing::Linear => "linear",
+        Easing::SmoothStep => "smoothstep",
+    }
+}
+
+fn outgoing_name(o: Outgoing) -> &'static str {
+    match o {
+        Outgoing::Freeze => "freeze",
+        Outgoing::KeepPlaying => "keep",
+        Outgoing::SyncTime => "sync",
+    }
+}
+
+/// A resolved `--crossfade`.
+struct Fade {
+    from: usize,
+    to: usize,
+    at: f32,
+    settings: Crossfade,
+}
+
+fn resolve_crossfade(asset: &Asset, request: &CrossfadeRequest) -> Result<Fade, PoseError> {
+    let shape = "FROM:TO:DURATION with clips by name or index";
+    let (pair, duration) = split_number(&request.spec, "--crossfade", shape)?;
+    let (from, to) =
+        split_pair(pair, |a| asset.find_clip(a), |b| asset.find_clip(b)).ok_or_else(|| {
+            PoseError::new(
+                Some("/animations".into()),
+                format!(
+                    "--crossfade {:?}: no such pair of clips; {}",
+                    request.spec,
+                    available_clips(asset)
+                ),
+            )
+        })?;
+    if !(request.at.is_finite() && request.at >= 0.0) {
+        return Err(PoseError::new(
+            None,
+            format!("--at {} must be a finite time ≥ 0", request.at),
+        ));
+    }
+    Ok(Fade {
+        from,
+        to,
+        at: request.at,
+        settings: Crossfade {
+            duration,
+            easing: request.easing,
+            outgoing: request.outgoing,
+        },
+    })
+}
+
+fn resolve_layer(asset: &Asset, request: &LayerRequest) -> Result<(Layer, LayerInfo), PoseError> {
+    let shape =
+        "CLIP:ROOT_JOINT:WEIGHT with the clip by name or index and the joint by name or node index";
+    let (pair, weight) = split_number(&request.spec, "--layer", shape)?;
+    let (clip, root) = split_pair(pair, |a| asset.find_clip(a), |b| find_node(asset, b)).ok_or_else(|| {
+        PoseError::new(
+            None,
+            format!(
+                "--layer {:?}: no clip and node of those names; clips {}; `kloub inspect` lists the joints",
+                request.spec,
+                available_clips(asset)
+            ),
+        )
+    })?;
+    if !(0.0..=1.0).contains(&request.falloff) {
+        return Err(PoseError::new(
+            None,
+            format!("--layer-falloff {} is outside [0, 1]", request.falloff),
+        ));
+    }
+    let mut layer = Layer::new(clip, root);
+    layer.weight = weight;
+    layer.falloff = request.falloff;
+    layer.additive = request.additive;
+    let info = LayerInfo {
+        clip: clip_info(asset, clip)
+            .ok_or_else(|| PoseError::new(None, "internal: clip vanished"))?,
+        root: NodeRef {
+            index: root,
+            name: asset.nodes.get(root as usize).and_then(|n| n.name.clone()),
+        },
+        weight: f64::from(weight),
+        falloff: f64::from(request.falloff),
+        additive: request.additive,
+    };
+    Ok((layer, info))
+}
+
+/// The animator for one requested time: base clip, layers, crossfade, advanced to `time`.
+fn animate(
+    asset: &Asset,
+    base: Option<usize>,
+    fade: Option<&Fade>,
+    layers: &[Layer],
+    time: f32,
+) -> Result<Animator, kloub_core::JobError> {
+    let mut animator = Animator::new(asset);
+    animator.play(asset, fade.map(|f| f.from).or(base))?;
+    for layer in layers {
+        animator.add_layer(asset, layer.clone())?;
+    }
+    match fade {
+        Some(f) if time > f.at => {
+            animator.advance(asset, f.at);
+            animator.crossfade_to(asset, Some(f.to), f.settings)?;
+            animator.advance(asset, time - f.at);
+        }
+        _ => {
+            animator.advance(asset, time);
+        }
+    }
+    Ok(animator)
 }
 
 /// Evaluates an imported asset at every requested time.
@@ -258,15 +548,37 @@ pub fn pose_asset(
     asset: &Asset,
     request: &PoseRequest,
 ) -> Result<PoseDoc, PoseError> {
-    let clip = select_clip(asset, request)?;
-    let clip_info = clip.and_then(|index| {
-        let c = asset.clips.get(index)?;
-        Some(ClipInfo {
-            index,
-            name: c.name.clone(),
-            duration: f64::from(c.duration),
-        })
-    });
+    let fade = request
+        .crossfade
+        .as_ref()
+        .map(|c| resolve_crossfade(asset, c))
+        .transpose()?;
+    let clip = match &fade {
+        Some(f) => Some(f.from),
+        None => select_clip(asset, request)?,
+    };
+    let playing = clip.and_then(|index| clip_info(asset, index));
+    let crossfade = match (&fade, &request.crossfade) {
+        (Some(f), Some(r)) => Some(CrossfadeInfo {
+            from: clip_info(asset, f.from)
+                .ok_or_else(|| PoseError::new(None, "internal: clip vanished"))?,
+            to: clip_info(asset, f.to)
+                .ok_or_else(|| PoseError::new(None, "internal: clip vanished"))?,
+            duration: f64::from(f.settings.duration),
+            at: f64::from(f.at),
+            easing: easing_name(r.easing),
+            outgoing: outgoing_name(r.outgoing),
+        }),
+        _ => None,
+    };
+    let (layers, layer_infos): (Vec<Layer>, Vec<LayerInfo>) = request
+        .layers
+        .iter()
+        .map(|l| resolve_layer(asset, l))
+        .collect::<Result<Vec<_>, _>>()?
+        .into_iter()
+        .unzip();
+    let blending = fade.is_some() || !layers.is_empty();
     let times: &[f32] = if request.times.is_empty() {
         &[0.0]
     } else {
@@ -278,6 +590,14 @@ pub fn pose_asset(
             format!("time {t} is not a finite number"),
         ));
     }
+    if let Some(t) = times.iter().find(|&&t| blending && t < 0.0) {
+        return Err(PoseError::new(
+            None,
+            format!(
+                "time {t}: with --crossfade or --layer, times count from the start and must be ≥ 0"
+            ),
+        ));
+    }
 
     let scene = asset.scene_nodes();
     let mut instance = Instance::new(asset);
@@ -286,9 +606,13 @@ pub fn pose_asset(
     let mut frames = Vec::with_capacity(times.len());
     for &time in times {
         let clip_pointer = clip.map(|c| format!("/animations/{c}"));
-        instance
-            .evaluate(asset, clip, time)
-            .map_err(|e| PoseError::new(clip_pointer, e.to_string()))?;
+        let evaluated = if blending {
+            animate(asset, clip, fade.as_ref(), &layers, time)
+                .and_then(|mut animator| animator.evaluate(asset, &mut instance))
+        } else {
+            instance.evaluate(asset, clip, time)
+        };
+        evaluated.map_err(|e| PoseError::new(clip_pointer, e.to_string()))?;
 
         let worlds = instance.worlds();
         if worlds.len() != asset.nodes.len() {
@@ -351,7 +675,9 @@ pub fn pose_asset(
     }
     Ok(PoseDoc {
         asset: asset_name.to_owned(),
-        clip: clip_info,
+        clip: playing,
+        crossfade,
+        layers: layer_infos,
         frames,
     })
 }

@@ -159,3 +159,303 @@ fn serve_announces_its_address_reads_env_and_stops_on_sigint() {
     assert!(status.success(), "graceful shutdown exits 0, got {status}");
     std::fs::remove_dir_all(&base).expect("cleanup");
 }
+
+/// Runs `kloub ARGS`, expecting success; returns stdout.
+fn kloub_ok(args: &[&str]) -> Vec<u8> {
+    let out = kloub().args(args).output().expect("runs");
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out.stdout
+}
+
+fn pose_json(file: &std::path::Path, args: &[&str]) -> serde_json::Value {
+    let file = file.to_str().expect("a UTF-8 path");
+    let mut all = vec!["pose", file];
+    all.extend_from_slice(args);
+    serde_json::from_slice(&kloub_ok(&all)).expect("JSON on stdout")
+}
+
+/// World matrices of every node of frame `f`.
+fn worlds(doc: &serde_json::Value, f: usize) -> Vec<Vec<f64>> {
+    doc["frames"][f]["nodes"]
+        .as_array()
+        .expect("nodes")
+        .iter()
+        .map(|n| {
+            n["world"]
+                .as_array()
+                .expect("world")
+                .iter()
+                .map(|x| x.as_f64().expect("a number"))
+                .collect()
+        })
+        .collect()
+}
+
+fn max_difference(a: &[Vec<f64>], b: &[Vec<f64>]) -> f64 {
+    a.iter()
+        .flatten()
+        .zip(b.iter().flatten())
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
+}
+
+fn fox() -> PathBuf {
+    shared_assets().join("khronos/Fox/glTF-Binary/Fox.glb")
+}
+
+fn robot() -> PathBuf {
+    shared_assets().join("threejs/RobotExpressive/RobotExpressive.glb")
+}
+
+#[test]
+fn pose_crossfade_starts_from_the_source_and_ends_on_the_target() {
+    // Walk plays from 0; at 0.5 s it fades to Run over 0.375 s (frozen source, linear).
+    // Binary fractions, so that `time - at` is exact in f32.
+    let args = [
+        "--crossfade",
+        "Walk:Run:0.375",
+        "--at",
+        "0.5",
+        "--easing",
+        "linear",
+    ];
+    let times = [
+        "0.25", "0.5", "0.59375", "0.6875", "0.78125", "0.875", "1.25",
+    ];
+    let mut all = args.to_vec();
+    for t in &times {
+        all.extend(["--time", t]);
+    }
+    let doc = pose_json(&fox(), &all);
+    assert_eq!(doc["clip"]["name"], "Walk");
+    let fade = &doc["crossfade"];
+    assert_eq!(
+        (&fade["from"]["name"], &fade["to"]["name"]),
+        (&"Walk".into(), &"Run".into())
+    );
+    assert_eq!(
+        (fade["duration"].as_f64(), fade["at"].as_f64()),
+        (Some(0.375), Some(0.5))
+    );
+    assert_eq!(
+        (&fade["easing"], &fade["outgoing"]),
+        (&"linear".into(), &"freeze".into())
+    );
+    assert!(doc.get("layers").is_none(), "no layers: no key");
+
+    let walk = pose_json(
+        &fox(),
+        &["--clip", "Walk", "--time", "0.25", "--time", "0.5"],
+    );
+    let run = pose_json(
+        &fox(),
+        &["--clip", "Run", "--time", "0.375", "--time", "0.75"],
+    );
+    // Before and at the start: Walk exactly.
+    assert_eq!(worlds(&doc, 0), worlds(&walk, 0));
+    assert_eq!(worlds(&doc, 1), worlds(&walk, 1));
+    // At the end and after: Run, started at 0.5 s.
+    assert_eq!(worlds(&doc, 5), worlds(&run, 0));
+    assert_eq!(worlds(&doc, 6), worlds(&run, 1));
+    // In between: neither, and closer to Run as time goes on (relative to the snapshot).
+    let mut previous = f64::INFINITY;
+    for f in 2..5 {
+        let to_walk = max_difference(&worlds(&doc, f), &worlds(&walk, 1));
+        let to_run = max_difference(&worlds(&doc, f), &worlds(&run, 0));
+        assert!(to_walk > 1e-3 && to_run > 1e-3, "frame {f} is a blend");
+        assert!(to_run < previous, "frame {f} moves towards Run");
+        previous = to_run;
+    }
+}
+
+#[test]
+fn pose_layer_moves_only_the_subtree_under_its_root() {
+    let inspect: serde_json::Value = serde_json::from_slice(&kloub_ok(&[
+        "inspect",
+        robot().to_str().expect("UTF-8"),
+        "--json",
+    ]))
+    .expect("JSON");
+    let nodes = inspect["nodes"].as_array().expect("nodes");
+    let parent = |n: usize| nodes[n]["parent"].as_u64().map(|p| p as usize);
+    let root = nodes
+        .iter()
+        .position(|n| n["name"] == "Abdomen")
+        .expect("the robot has an Abdomen joint");
+    let under_root = |mut n: usize| loop {
+        if n == root {
+            break true;
+        }
+        match parent(n) {
+            Some(p) => n = p,
+            None => break false,
+        }
+    };
+
+    let base = pose_json(&robot(), &["--clip", "Walking", "--time", "0.4"]);
+    let layered = pose_json(
+        &robot(),
+        &[
+            "--clip",
+            "Walking",
+            "--time",
+            "0.4",
+            "--layer",
+            "Wave:Abdomen:1",
+        ],
+    );
+    assert_eq!(layered["layers"][0]["root"]["index"], root);
+    assert_eq!(layered["layers"][0]["clip"]["name"], "Wave");
+    let (base, layered) = (worlds(&base, 0), worlds(&layered, 0));
+    let mut moved = 0;
+    for (n, (b, l)) in base.iter().zip(&layered).enumerate() {
+        if under_root(n) {
+            moved += usize::from(b != l);
+        } else {
+            assert_eq!(b, l, "node {n} is outside the layer's subtree");
+        }
+    }
+    assert!(moved > 10, "the upper body waves ({moved} nodes moved)");
+
+    // By node index and with a falloff: the same subtree, moved less far down the arms.
+    let root_index = root.to_string();
+    let spec = format!("12:{root_index}:1");
+    let falloff = pose_json(
+        &robot(),
+        &[
+            "--clip",
+            "Walking",
+            "--time",
+            "0.4",
+            "--layer",
+            &spec,
+            "--layer-falloff",
+            "0.5",
+        ],
+    );
+    assert_eq!(falloff["layers"][0]["falloff"], 0.5);
+    let falloff = worlds(&falloff, 0);
+    for (n, (b, f)) in base.iter().zip(&falloff).enumerate() {
+        if !under_root(n) {
+            assert_eq!(b, f, "node {n}");
+        }
+    }
+    assert_ne!(falloff, layered);
+}
+
+#[test]
+fn pose_blending_errors_are_clear() {
+    let fox = fox();
+    let file = fox.to_str().expect("UTF-8");
+    for (args, message) in [
+        (
+            vec!["--crossfade", "Walk:Trot:1"],
+            "/animations: --crossfade \"Walk:Trot:1\": no such pair of clips; available: 0 \"Survey\"",
+        ),
+        (
+            vec!["--crossfade", "Walk:Run"],
+            "--crossfade \"Walk:Run\": \"Run\" is not a number",
+        ),
+        (
+            vec!["--layer", "Walk:nose:1"],
+            "--layer \"Walk:nose:1\": no clip and node of those names",
+        ),
+        (
+            vec!["--layer", "Walk:b_Head_05:-1"],
+            "must be a finite number ≥ 0",
+        ),
+        (
+            vec!["--layer", "Walk:b_Head_05:1", "--time", "-1"],
+            "time -1: with --crossfade or --layer, times count from the start",
+        ),
+    ] {
+        let mut all = vec!["pose", file];
+        all.extend(&args);
+        let out = kloub().args(&all).output().expect("runs");
+        assert_eq!(out.status.code(), Some(1), "{args:?}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.starts_with(&format!("kloub: {file}: ")) && err.contains(message),
+            "{args:?}: {err}"
+        );
+    }
+    let help = String::from_utf8(kloub_ok(&["pose", "--help"])).expect("UTF-8");
+    for needle in [
+        "--crossfade <FROM:TO:DURATION>",
+        "--layer <CLIP:ROOT_JOINT:WEIGHT>",
+        "\"layers\"",
+    ] {
+        assert!(help.contains(needle), "{needle}");
+    }
+}
+
+#[test]
+fn inspect_describes_skins_clips_morph_targets_and_warnings() {
+    let file = robot();
+    let path = file.to_str().expect("UTF-8");
+    let doc: serde_json::Value =
+        serde_json::from_slice(&kloub_ok(&["inspect", path, "--json"])).expect("JSON");
+    assert_eq!(doc["asset"], "RobotExpressive.glb");
+    assert_eq!(doc["nodes"].as_array().expect("nodes").len(), 74);
+    let skins = doc["skins"].as_array().expect("skins");
+    assert_eq!(skins.len(), 2);
+    let joints = skins[0]["joints"].as_array().expect("joints");
+    assert_eq!(joints.len(), 43);
+    let hips = joints
+        .iter()
+        .find(|j| j["name"] == "Abdomen")
+        .expect("Abdomen");
+    let parent = &joints[hips["parent_joint"].as_u64().expect("a parent joint") as usize];
+    assert_eq!(parent["name"], "Hips");
+    assert_eq!(hips["depth"], parent["depth"].as_u64().expect("depth") + 1);
+    let clips = doc["clips"].as_array().expect("clips");
+    assert_eq!(clips.len(), 14);
+    let wave = clips.iter().find(|c| c["name"] == "Wave").expect("Wave");
+    let channels = wave["channels"].as_array().expect("channels");
+    assert_eq!(wave["channel_count"], channels.len());
+    assert!(channels.iter().all(|c| c["interpolation"] == "LINEAR"));
+    assert!(channels.iter().any(|c| c["path"] == "weights"));
+    let head = doc["meshes"]
+        .as_array()
+        .expect("meshes")
+        .iter()
+        .find(|m| m["name"] == "Head")
+        .expect("a Head mesh");
+    assert_eq!(
+        head["target_names"],
+        serde_json::json!(["Angry", "Surprised", "Sad"])
+    );
+    let warnings = doc["warnings"].as_array().expect("warnings");
+    assert!(
+        warnings.iter().any(|w| w["pointer"]
+            .as_str()
+            .is_some_and(|p| p.ends_with("WEIGHTS_0"))),
+        "the unnormalized weights are reported"
+    );
+
+    let text = String::from_utf8(kloub_ok(&["inspect", path])).expect("UTF-8");
+    assert!(
+        text.starts_with("RobotExpressive.glb: 74 nodes, 1 scenes, 2 skins, 14 clips"),
+        "{text}"
+    );
+    assert!(
+        text.contains("3 morph targets (Angry, Surprised, Sad)"),
+        "{text}"
+    );
+    assert!(text.contains("\"Wave\": 1.833 s"), "{text}");
+    assert!(text.contains("WEIGHTS_0: skin weights"), "{text}");
+
+    let out = kloub()
+        .args(["inspect", "/nonexistent/x.glb"])
+        .output()
+        .expect("runs");
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        String::from_utf8_lossy(&out.stderr)
+            .starts_with("kloub: /nonexistent/x.glb: cannot read: ")
+    );
+}

@@ -3,11 +3,13 @@
 //! `run()` (which validates first). Jobs never allocate.
 //!
 //! - [`sample::SampleJob`]: clip at a time → node-local transforms and morph weights;
+//! - [`blend::BlendJob`]: several poses → one (weighted average, override, additive layers);
 //! - [`world::WorldJob`]: locals → world matrices;
 //! - [`skin::PaletteJob`]: world matrices → skinning palette;
 //! - [`morph::MorphJob`]: base + weighted morph deltas;
 //! - [`skin::LbsJob`]: linear blend skinning of positions and normals (CPU reference).
 
+pub mod blend;
 pub mod morph;
 pub mod sample;
 pub mod skin;

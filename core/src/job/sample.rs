@@ -3,29 +3,88 @@
 //! Each channel keeps a key cursor in [`SampleContext`]: playback that moves forward (or
 //! backward) by less than a key per frame finds its key in O(1); any other seek falls
 //! back to a binary search, O(log keys).
+//!
+//! LINEAR rotations use shortest-arc slerp by default (the glTF spec); a context can switch
+//! to normalized lerp ([`RotationLerp::Nlerp`]), which is cheaper and within ~0.2° of slerp for
+//! the key spacings of typical clips (and at most ~8° for keys 180° apart).
 
 use super::{check_eq, check_index, check_len};
 use crate::clip::{Channel, ChannelTarget, Clip, Interpolation};
 use crate::error::JobError;
 use crate::math::{Quat, QuatExt, Transform, Vec3, Vec4};
 
-/// Per-channel key cursors of one clip, reused from frame to frame.
+/// How LINEAR rotation keys are interpolated.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum RotationLerp {
+    /// Spherical linear interpolation on the shortest arc (glTF's definition).
+    #[default]
+    Slerp,
+    /// Normalized linear interpolation on the shortest arc: cheaper, slightly uneven speed.
+    Nlerp,
+}
+
+/// Per-channel key cursors of one clip, reused from frame to frame, and sampling options.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct SampleContext {
     cursors: Vec<u32>,
+    /// Per channel: every key holds the same value (and, for cubic splines, zero tangents).
+    constant: Vec<bool>,
+    rotation: RotationLerp,
+    skip_constant: bool,
+    /// A run completed since `new`/`reset`: constant channels have been written once.
+    primed: bool,
+}
+
+/// Whether `channel` samples to the same value at every time.
+fn is_constant(channel: &Channel) -> bool {
+    let w = channel.width as usize;
+    let values = &channel.values;
+    if w == 0 || values.is_empty() {
+        return true;
+    }
+    if channel.interpolation == Interpolation::CubicSpline {
+        let Some(first) = values.get(w..2 * w) else { return false };
+        values.chunks_exact(3 * w).all(|k| k[..w].iter().chain(&k[2 * w..]).all(|&x| x == 0.0) && &k[w..2 * w] == first)
+    } else {
+        let first = &values[..w.min(values.len())];
+        values.chunks_exact(w).all(|e| e == first)
+    }
 }
 
 impl SampleContext {
-    /// A context for `clip` (one cursor per channel, all at the first key).
+    /// A context for `clip` (one cursor per channel, all at the first key), slerping rotations.
     pub fn new(clip: &Clip) -> Self {
-        Self { cursors: vec![0; clip.channels.len()] }
+        let mut context = Self::default();
+        context.reset(clip);
+        context
     }
 
-    /// Rewinds all cursors and resizes for `clip` (allocates only when `clip` has more
-    /// channels than any clip this context served before).
+    /// How LINEAR rotations are interpolated (kept across [`SampleContext::reset`]).
+    pub fn rotation_lerp(&self) -> RotationLerp {
+        self.rotation
+    }
+
+    /// Chooses how LINEAR rotations are interpolated.
+    pub fn set_rotation_lerp(&mut self, rotation: RotationLerp) {
+        self.rotation = rotation;
+    }
+
+    /// Skips channels whose value never changes after they were written once (by the first
+    /// successful run after [`SampleContext::new`] or [`SampleContext::reset`]). Only for a
+    /// context that always samples into the same output buffers, where nothing else writes the
+    /// properties this clip animates. Off by default; kept across `reset`.
+    pub fn set_skip_constant(&mut self, skip: bool) {
+        self.skip_constant = skip;
+    }
+
+    /// Rewinds all cursors and sets up for `clip`: allocates only when `clip` has more
+    /// channels than any clip this context served before, reads every key once.
     pub fn reset(&mut self, clip: &Clip) {
         self.cursors.clear();
         self.cursors.resize(clip.channels.len(), 0);
+        self.constant.clear();
+        self.constant.extend(clip.channels.iter().map(is_constant));
+        self.primed = false;
     }
 
     /// Number of channels this context serves.
@@ -52,13 +111,18 @@ pub struct SampleJob<'a> {
     pub weights: &'a mut [f32],
 }
 
+fn not_finite(time: f32) -> JobError {
+    JobError::InvalidInput(format!("sample time {time} is not finite"))
+}
+
 impl SampleJob<'_> {
     /// Checks the time, the context, and every channel's shape and target indices.
     pub fn validate(&self) -> Result<(), JobError> {
         if !self.time.is_finite() {
-            return Err(JobError::InvalidInput(format!("sample time {} is not finite", self.time)));
+            return Err(not_finite(self.time));
         }
         check_eq("context cursors", self.clip.channels.len(), self.context.cursors.len())?;
+        check_eq("context channels", self.clip.channels.len(), self.context.constant.len())?;
         for channel in &self.clip.channels {
             let node = channel.node as usize;
             let width = channel.width as usize;
@@ -83,36 +147,63 @@ impl SampleJob<'_> {
         Ok(())
     }
 
-    /// Validates, then samples every channel.
+    /// Samples every channel. Checks what [`SampleJob::validate`] checks as it goes (one
+    /// pass over the channels): on an error, channels before the bad one were written.
     pub fn run(&mut self) -> Result<(), JobError> {
-        self.validate()?;
+        if !self.time.is_finite() {
+            return Err(not_finite(self.time));
+        }
+        let context = &mut *self.context;
+        check_eq("context cursors", self.clip.channels.len(), context.cursors.len())?;
+        check_eq("context channels", self.clip.channels.len(), context.constant.len())?;
+        let skip = context.skip_constant && context.primed;
         let duration = self.clip.duration.max(0.0);
         let time = self.time.max(0.0).min(duration);
-        for (channel, cursor) in self.clip.channels.iter().zip(self.context.cursors.iter_mut()) {
+        let lerp = context.rotation;
+        let channels = self.clip.channels.iter().zip(context.cursors.iter_mut()).zip(&context.constant);
+        for ((channel, cursor), &constant) in channels {
+            if skip && constant {
+                continue;
+            }
             let at = locate(&channel.times, time, cursor);
             let node = channel.node as usize;
+            let len = self.locals.len();
+            let local = || JobError::IndexOutOfRange { what: "channel node", index: node, len };
             match channel.target {
                 ChannelTarget::Translation => {
-                    let mut v = [0.0; 3];
-                    interpolate(channel, at, &mut v);
-                    self.locals[node].translation = Vec3::from(v);
+                    let v = Vec3::from(sample_fixed::<3>(channel, at)?);
+                    self.locals.get_mut(node).ok_or_else(local)?.translation = v;
                 }
                 ChannelTarget::Scale => {
-                    let mut v = [0.0; 3];
-                    interpolate(channel, at, &mut v);
-                    self.locals[node].scale = Vec3::from(v);
+                    let v = Vec3::from(sample_fixed::<3>(channel, at)?);
+                    self.locals.get_mut(node).ok_or_else(local)?.scale = v;
                 }
                 ChannelTarget::Rotation => {
-                    if let Some(q) = sample_rotation(channel, at) {
-                        self.locals[node].rotation = q;
+                    let q = sample_rotation(channel, at, lerp)?;
+                    let target = self.locals.get_mut(node).ok_or_else(local)?;
+                    if let Some(q) = q {
+                        target.rotation = q;
                     }
                 }
                 ChannelTarget::Weights => {
-                    let start = self.weight_offsets[node] as usize;
-                    interpolate(channel, at, &mut self.weights[start..start + channel.width as usize]);
+                    let offsets = self.weight_offsets.len();
+                    let start = *self.weight_offsets.get(node).ok_or(JobError::IndexOutOfRange {
+                        what: "weight_offsets",
+                        index: node,
+                        len: offsets,
+                    })? as usize;
+                    let needed = start + channel.width as usize;
+                    let got = self.weights.len();
+                    let out = self.weights.get_mut(start..needed).ok_or(JobError::BufferTooSmall {
+                        what: "weights",
+                        needed,
+                        got,
+                    })?;
+                    interpolate(channel, at, out)?;
                 }
             }
         }
+        context.primed = true;
         Ok(())
     }
 }
@@ -159,63 +250,105 @@ fn segment_of(times: &[f32], t: f32) -> usize {
     times.partition_point(|&k| k <= t).saturating_sub(1).min(times.len().saturating_sub(2))
 }
 
+/// `Err` for a channel whose values do not hold the element asked for.
+fn short_values(channel: &Channel, needed: usize) -> JobError {
+    JobError::BufferTooSmall { what: "channel values", needed, got: channel.values.len() }
+}
+
 /// The element (`width` floats) of key `k`: for cubic splines, `part` 0 = in-tangent,
 /// 1 = value, 2 = out-tangent.
-fn element(channel: &Channel, k: usize, part: usize) -> &[f32] {
+fn element(channel: &Channel, k: usize, part: usize) -> Result<&[f32], JobError> {
     let w = channel.width as usize;
     let e = if channel.interpolation == Interpolation::CubicSpline { 3 * k + part } else { k };
-    &channel.values[e * w..(e + 1) * w]
+    channel.values.get(e * w..(e + 1) * w).ok_or_else(|| short_values(channel, (e + 1) * w))
+}
+
+/// [`element`] of a channel of width `W`.
+#[inline]
+fn fixed<const W: usize>(channel: &Channel, k: usize, part: usize) -> Result<[f32; W], JobError> {
+    let e = if channel.interpolation == Interpolation::CubicSpline { 3 * k + part } else { k };
+    channel
+        .values
+        .get(e * W..(e + 1) * W)
+        .and_then(|s| <[f32; W]>::try_from(s).ok())
+        .ok_or_else(|| short_values(channel, (e + 1) * W))
+}
+
+/// Cubic Hermite basis `(h00, h10, h01, h11)` at `u`, tangent terms scaled by `dt`.
+#[inline]
+fn hermite(u: f32, dt: f32) -> [f32; 4] {
+    let (u2, u3) = (u * u, u * u * u);
+    [2.0 * u3 - 3.0 * u2 + 1.0, (u3 - 2.0 * u2 + u) * dt, -2.0 * u3 + 3.0 * u2, (u3 - u2) * dt]
+}
+
+/// Step, lerp or cubic Hermite of a channel of width `W` (checked against `channel.width`).
+#[inline]
+fn sample_fixed<const W: usize>(channel: &Channel, at: At) -> Result<[f32; W], JobError> {
+    check_eq("channel width", W, channel.width as usize)?;
+    match at {
+        At::Key(k) => fixed(channel, k, 1),
+        At::Between { index, u, dt } => match channel.interpolation {
+            Interpolation::Step => fixed(channel, index, 1),
+            Interpolation::Linear => {
+                let (mut a, b) = (fixed::<W>(channel, index, 1)?, fixed::<W>(channel, index + 1, 1)?);
+                if u != 0.0 {
+                    for (a, b) in a.iter_mut().zip(b) {
+                        *a += (b - *a) * u;
+                    }
+                }
+                Ok(a)
+            }
+            Interpolation::CubicSpline => {
+                let [h00, h10, h01, h11] = hermite(u, dt);
+                let (v0, b0) = (fixed::<W>(channel, index, 1)?, fixed::<W>(channel, index, 2)?);
+                let (v1, a1) = (fixed::<W>(channel, index + 1, 1)?, fixed::<W>(channel, index + 1, 0)?);
+                Ok(std::array::from_fn(|i| h00 * v0[i] + h10 * b0[i] + h01 * v1[i] + h11 * a1[i]))
+            }
+        },
+    }
 }
 
 /// Component-wise interpolation into `out` (`channel.width` floats): step, lerp, or
 /// cubic Hermite.
-fn interpolate(channel: &Channel, at: At, out: &mut [f32]) {
+fn interpolate(channel: &Channel, at: At, out: &mut [f32]) -> Result<(), JobError> {
+    check_eq("channel width", channel.width as usize, out.len())?;
     match at {
-        At::Key(k) => out.copy_from_slice(element(channel, k, 1)),
+        At::Key(k) => out.copy_from_slice(element(channel, k, 1)?),
         At::Between { index, u, dt } => match channel.interpolation {
-            Interpolation::Step => out.copy_from_slice(element(channel, index, 1)),
+            Interpolation::Step => out.copy_from_slice(element(channel, index, 1)?),
             Interpolation::Linear => {
-                let (a, b) = (element(channel, index, 1), element(channel, index + 1, 1));
+                let (a, b) = (element(channel, index, 1)?, element(channel, index + 1, 1)?);
                 for ((o, &a), &b) in out.iter_mut().zip(a).zip(b) {
                     *o = if u == 0.0 { a } else { a + (b - a) * u };
                 }
             }
             Interpolation::CubicSpline => {
-                let v0 = element(channel, index, 1);
-                let b0 = element(channel, index, 2);
-                let v1 = element(channel, index + 1, 1);
-                let a1 = element(channel, index + 1, 0);
-                let (u2, u3) = (u * u, u * u * u);
-                let h00 = 2.0 * u3 - 3.0 * u2 + 1.0;
-                let h10 = (u3 - 2.0 * u2 + u) * dt;
-                let h01 = -2.0 * u3 + 3.0 * u2;
-                let h11 = (u3 - u2) * dt;
+                let [h00, h10, h01, h11] = hermite(u, dt);
+                let (v0, b0) = (element(channel, index, 1)?, element(channel, index, 2)?);
+                let (v1, a1) = (element(channel, index + 1, 1)?, element(channel, index + 1, 0)?);
                 for (i, o) in out.iter_mut().enumerate() {
                     *o = h00 * v0[i] + h10 * b0[i] + h01 * v1[i] + h11 * a1[i];
                 }
             }
         },
     }
+    Ok(())
 }
 
-/// Samples a rotation channel: shortest-arc slerp for LINEAR, normalized Hermite for
-/// CUBICSPLINE. `None` only for a degenerate (zero) cubic result.
-fn sample_rotation(channel: &Channel, at: At) -> Option<Quat> {
-    let quat = |s: &[f32]| Quat::from_xyzw(s[0], s[1], s[2], s[3]);
+/// Samples a rotation channel: shortest-arc slerp (or nlerp) for LINEAR, normalized Hermite
+/// for CUBICSPLINE. `Ok(None)` only for a degenerate (zero) cubic result.
+fn sample_rotation(channel: &Channel, at: At, lerp: RotationLerp) -> Result<Option<Quat>, JobError> {
     match (at, channel.interpolation) {
         (At::Between { index, u, .. }, Interpolation::Linear) => {
-            Some(slerp(quat(element(channel, index, 1)), quat(element(channel, index + 1, 1)), u))
+            check_eq("channel width", 4, channel.width as usize)?;
+            let (a, b) = (Quat::from_array(fixed(channel, index, 1)?), Quat::from_array(fixed(channel, index + 1, 1)?));
+            Ok(Some(match lerp {
+                RotationLerp::Slerp => slerp(a, b, u),
+                RotationLerp::Nlerp => nlerp(a, b, u),
+            }))
         }
-        (_, Interpolation::CubicSpline) => {
-            let mut v = [0.0; 4];
-            interpolate(channel, at, &mut v);
-            Quat::from_array(v).try_normalize_quat()
-        }
-        _ => {
-            let mut v = [0.0; 4];
-            interpolate(channel, at, &mut v);
-            Some(Quat::from_array(v))
-        }
+        (_, Interpolation::CubicSpline) => Ok(Quat::from_array(sample_fixed(channel, at)?).try_normalize_quat()),
+        _ => Ok(Some(Quat::from_array(sample_fixed(channel, at)?))),
     }
 }
 
@@ -234,9 +367,24 @@ pub fn slerp(a: Quat, b: Quat, u: f32) -> Quat {
         // Nearly parallel: nlerp is accurate and avoids dividing by sin(θ) ≈ 0.
         return Quat::from_vec4(va.lerp(vb, u).normalize());
     }
-    let theta = d.min(1.0).acos();
-    let s = theta.sin();
+    let theta = d.acos();
+    // sin θ from cos θ = d (θ ≤ π/2 here): one transcendental fewer.
+    let s = (1.0 - d * d).sqrt();
     Quat::from_vec4(va * (((1.0 - u) * theta).sin() / s) + vb * ((u * theta).sin() / s))
+}
+
+/// Normalized linear interpolation along the shortest arc; exact at `u == 0`.
+pub fn nlerp(a: Quat, b: Quat, u: f32) -> Quat {
+    if u == 0.0 {
+        return a;
+    }
+    let (va, mut vb) = (Vec4::from(a), Vec4::from(b));
+    if va.dot(vb) < 0.0 {
+        vb = -vb;
+    }
+    let v = va.lerp(vb, u);
+    // Unit inputs on the same hemisphere never lerp through zero; keep `a` if they were not unit.
+    Quat::from_vec4(v).try_normalize_quat().unwrap_or(a)
 }
 
 #[cfg(test)]
@@ -327,6 +475,32 @@ mod tests {
     }
 
     #[test]
+    fn nlerp_option_follows_the_shortest_arc_close_to_slerp() {
+        let q0 = Quat::IDENTITY;
+        let q1 = Quat::from_rotation_y(FRAC_PI_2);
+        let v: Vec<f32> = [q0.to_array(), (-q1).to_array()].concat();
+        let c = clip(vec![channel(ChannelTarget::Rotation, Interpolation::Linear, &[0.0, 1.0], &v)]);
+        let mut context = SampleContext::new(&c);
+        assert_eq!(context.rotation_lerp(), RotationLerp::Slerp);
+        context.set_rotation_lerp(RotationLerp::Nlerp);
+        context.reset(&c);
+        assert_eq!(context.rotation_lerp(), RotationLerp::Nlerp, "kept across reset");
+        // At the midpoint nlerp and slerp agree exactly (symmetry).
+        let mid = sample_with(&c, 0.5, &mut context).0.rotation;
+        let expect = Quat::from_rotation_y(FRAC_PI_2 / 2.0);
+        assert!(mid.abs_diff_eq(expect, 1e-6) || mid.abs_diff_eq(-expect, 1e-6), "{mid}");
+        // Elsewhere nlerp is unit length, differs from slerp, but by less than a degree here.
+        let quarter = sample_with(&c, 0.25, &mut context).0.rotation;
+        let slerped = sample(&c, 0.25).0.rotation;
+        assert!((quarter.length() - 1.0).abs() < 1e-6);
+        assert_ne!(quarter, slerped);
+        assert!(quarter.angle_between(slerped) < 1f32.to_radians(), "{quarter} vs {slerped}");
+        assert_eq!(sample_with(&c, 0.0, &mut context).0.rotation, q0, "exact at keys");
+        assert_eq!(nlerp(q0, q1, 0.0), q0);
+        assert!(nlerp(q0, q1, 1.0).abs_diff_eq(q1, 1e-6));
+    }
+
+    #[test]
     fn cubic_spline_follows_hermite() {
         // One scalar weight: keys (t=0, v=0, out=1) and (t=2, in=3, v=1).
         // p(u) = h10·dt·1 + h01·1 + h11·dt·3 with dt = 2; at u = 0.5:
@@ -381,6 +555,70 @@ mod tests {
         let mut context = SampleContext::new(&c);
         for t in [0.0, 0.3, 0.31, 2.0, 1.0, 0.95, 4.9, 0.0] {
             assert_eq!(sample_with(&c, t, &mut context), sample(&c, t));
+        }
+    }
+
+    #[test]
+    fn constant_channels_are_skipped_once_written_when_asked() {
+        let c = clip(vec![
+            channel(ChannelTarget::Translation, Interpolation::Linear, &[0.0, 1.0], &[1.0, 2.0, 3.0, 1.0, 2.0, 3.0]),
+            channel(ChannelTarget::Scale, Interpolation::Linear, &[0.0, 1.0], &[1.0, 1.0, 1.0, 3.0, 3.0, 3.0]),
+        ]);
+        let cubic =
+            channel(ChannelTarget::Weights, Interpolation::CubicSpline, &[0.0, 1.0], &[0.0, 5.0, 0.0, 0.0, 5.0, 0.0]);
+        let bent =
+            channel(ChannelTarget::Weights, Interpolation::CubicSpline, &[0.0, 1.0], &[0.0, 5.0, 1.0, 0.0, 5.0, 0.0]);
+        assert!(is_constant(&c.channels[0]) && !is_constant(&c.channels[1]));
+        assert!(is_constant(&cubic) && !is_constant(&bent), "a tangent moves the value");
+        for skip in [false, true] {
+            let mut context = SampleContext::new(&c);
+            context.set_skip_constant(skip);
+            let (mut locals, mut weights) = ([Transform::IDENTITY], [0.0; 2]);
+            let mut run = |t: f32, locals: &mut [Transform; 1], context: &mut SampleContext| {
+                SampleJob { clip: &c, time: t, context, weight_offsets: &[0], locals, weights: &mut weights }
+                    .run()
+                    .expect("valid");
+            };
+            run(0.5, &mut locals, &mut context);
+            assert_eq!(locals[0].translation, Vec3::new(1.0, 2.0, 3.0), "written on the first run");
+            locals[0].translation = Vec3::ZERO;
+            run(0.75, &mut locals, &mut context);
+            assert_eq!(locals[0].scale, Vec3::splat(2.5), "varying channels are always written");
+            let expected = if skip { Vec3::ZERO } else { Vec3::new(1.0, 2.0, 3.0) };
+            assert_eq!(locals[0].translation, expected, "skip = {skip}");
+            context.reset(&c);
+            run(0.75, &mut locals, &mut context);
+            assert_eq!(locals[0].translation, Vec3::new(1.0, 2.0, 3.0), "written again after a reset");
+        }
+    }
+
+    #[test]
+    fn run_checks_channels_as_it_goes() {
+        let good = channel(ChannelTarget::Translation, Interpolation::Linear, &[0.0, 1.0], &[0.0; 6]);
+        let cases = [
+            ("short values", Channel { values: vec![0.0; 4], ..good.clone() }),
+            ("no keys", Channel { times: vec![], values: vec![], ..good.clone() }),
+            ("wrong width", Channel { width: 4, values: vec![0.0; 8], ..good.clone() }),
+            ("rotation width", Channel { target: ChannelTarget::Rotation, ..good.clone() }),
+            ("cubic without tangents", Channel { interpolation: Interpolation::CubicSpline, ..good.clone() }),
+            ("node", Channel { node: 3, ..good.clone() }),
+            ("weights node", Channel { target: ChannelTarget::Weights, node: 3, width: 3, ..good.clone() }),
+            ("weights buffer", Channel { target: ChannelTarget::Weights, width: 3, ..good.clone() }),
+        ];
+        for (what, bad) in cases {
+            let c = clip(vec![good.clone(), bad]);
+            let mut context = SampleContext::new(&c);
+            let (mut locals, mut weights) = ([Transform::IDENTITY; 2], [0.0; 2]);
+            let mut job = SampleJob {
+                clip: &c,
+                time: 0.5,
+                context: &mut context,
+                weight_offsets: &[0, 0],
+                locals: &mut locals,
+                weights: &mut weights,
+            };
+            assert!(job.validate().is_err(), "{what}: validate");
+            assert!(job.run().is_err(), "{what}: run");
         }
     }
 

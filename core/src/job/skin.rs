@@ -1,5 +1,6 @@
 //! Skinning: the joint palette and linear blend skinning (the CPU reference of the GPU path).
 
+use super::world::affine_mul;
 use super::{check_eq, check_index, check_len};
 use crate::error::JobError;
 use crate::math::{Mat3, Mat4, Vec3};
@@ -32,7 +33,10 @@ impl PaletteJob<'_> {
     pub fn run(&mut self) -> Result<(), JobError> {
         self.validate()?;
         for ((out, &joint), ibm) in self.palette.iter_mut().zip(self.joints).zip(self.inverse_bind) {
-            *out = self.worlds[joint as usize] * *ibm;
+            let world = &self.worlds[joint as usize];
+            // Inverse bind matrices are affine in practice: then the cheaper product is the same.
+            let affine = ibm.x_axis.w == 0.0 && ibm.y_axis.w == 0.0 && ibm.z_axis.w == 0.0 && ibm.w_axis.w == 1.0;
+            *out = if affine { affine_mul(world, ibm) } else { *world * *ibm };
         }
         Ok(())
     }

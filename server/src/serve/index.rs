@@ -1,139 +1,306 @@
-//! The `/api/assets` index: every `.glb`/`.gltf` under the asset folder, built once at start-up.
+//! The `/api/assets` index: every `.glb`/`.gltf` of the sample library, imported once at
+//! start-up with `kloub_core::import`, so the index lists what the viewer will actually find.
+//!
+//! Per model: its files (the model, then the external buffers and images it loads), their total
+//! size, its licence text, its clip names and joint count. A model that does not import is still
+//! listed, with an `error` and what was learned before the failure.
 
-use crate::paths::{percent_encode_segment, resolve_decoded};
+use super::files::Root;
+use crate::paths::{self, percent_encode_segment};
+use kloub_core::{ImportOptions, Resolver};
 use serde::Serialize;
-use std::path::{Path, PathBuf};
+use std::cell::RefCell;
 
-/// Folders deeper than this below the asset root are not scanned.
-const MAX_DEPTH: usize = 16;
-/// At most this many entries are listed.
-const MAX_ENTRIES: usize = 10_000;
+/// Licence texts longer than this are cut (at a character boundary).
+const MAX_LICENCE_BYTES: usize = 8 * 1024;
 
 /// One model in the asset library.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize)]
 pub struct AssetEntry {
     /// File name without extension.
     pub name: String,
-    /// URL path under which `kloub serve` serves the file (`/assets/...`, percent-encoded).
+    /// URL path of the model file (`/assets/...`, percent-encoded).
     pub url: String,
-    /// File size in bytes.
+    /// URL paths of every file the model needs: the model first, then external buffers and
+    /// images in the order the importer loaded them.
+    pub files: Vec<String>,
+    /// Total size of `files` in bytes.
     pub size: u64,
+    /// Licence text: the nearest `<stem>.LICENSE.md`, `LICENSE.md`, `LICENSE` or `LICENSE.txt`
+    /// in the model's folder or a folder above it (within the library), else the first line of
+    /// a `README.md` there that mentions a licence or copyright; `null` when none.
+    pub licence: Option<String>,
+    /// Clip names (`clip N` for unnamed clips), in file order.
+    pub clips: Vec<String>,
+    /// Number of distinct nodes used as joints by the model's skins.
+    pub joints: usize,
+    /// Why the model did not import; absent when it did.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
 }
 
-/// Scans `root` (canonical) recursively for `.glb`/`.gltf` files, sorted by URL.
-/// Only files that the `/assets/` route would serve are listed (dot-files, odd names and
-/// symlinks leading outside the root are skipped); unreadable folders are skipped with a warning.
-pub fn scan(root: &Path) -> Vec<AssetEntry> {
-    let mut out = Vec::new();
-    walk(root, root, 0, &mut out);
-    out.sort_by(|a, b| a.url.cmp(&b.url));
-    out
+/// Builds the index of every `.glb`/`.gltf` under `root`, sorted by path.
+pub fn build(root: &Root) -> Vec<AssetEntry> {
+    let all = root.list();
+    all.iter()
+        .filter(|p| is_model(p))
+        .map(|p| entry(root, &all, p))
+        .collect()
 }
 
-fn walk(root: &Path, dir: &Path, depth: usize, out: &mut Vec<AssetEntry>) {
-    let entries = match std::fs::read_dir(dir) {
-        Ok(e) => e,
+fn is_model(path: &str) -> bool {
+    let ext = path.rsplit_once('.').map(|(_, e)| e).unwrap_or_default();
+    ext.eq_ignore_ascii_case("glb") || ext.eq_ignore_ascii_case("gltf")
+}
+
+/// `/assets/<path>` with every segment percent-encoded.
+pub fn url_of(path: &str) -> String {
+    let encoded: Vec<String> = path.split('/').map(percent_encode_segment).collect();
+    format!("/assets/{}", encoded.join("/"))
+}
+
+/// Folder part of a relative path (`""` at the root).
+fn folder(path: &str) -> &str {
+    path.rsplit_once('/').map_or("", |(dir, _)| dir)
+}
+
+fn entry(root: &Root, all: &[String], path: &str) -> AssetEntry {
+    let file_name = path.rsplit('/').next().unwrap_or(path);
+    let stem = file_name
+        .rsplit_once('.')
+        .map_or(file_name, |(s, _)| s)
+        .to_owned();
+    let options = ImportOptions::default();
+    let resolver = LibraryResolver {
+        root,
+        folder: folder(path),
+        budget: options.budget_bytes,
+        loaded: RefCell::new(Vec::new()),
+    };
+    let mut entry = AssetEntry {
+        licence: licence(root, all, path, &stem),
+        name: stem,
+        url: url_of(path),
+        files: Vec::new(),
+        size: 0,
+        clips: Vec::new(),
+        joints: 0,
+        error: None,
+    };
+    let bytes = match root.read(path, options.budget_bytes) {
+        Ok(b) => b,
         Err(e) => {
-            log::warn!("asset index: cannot read a folder: {e}");
-            return;
+            entry.error = Some(format!("cannot read: {e}"));
+            return entry;
         }
     };
-    let mut paths: Vec<PathBuf> = entries.filter_map(|e| e.ok().map(|e| e.path())).collect();
-    paths.sort();
-    for path in paths {
-        if out.len() >= MAX_ENTRIES {
-            log::warn!("asset index: stopped at {MAX_ENTRIES} entries");
-            return;
+    match kloub_core::import(&bytes, &resolver, &options) {
+        Ok(imported) => {
+            let asset = imported.asset;
+            entry.clips = (asset.clips.iter().enumerate())
+                .map(|(i, c)| c.display_name(i))
+                .collect();
+            let mut joints: Vec<u32> = (asset.skins.iter())
+                .flat_map(|s| s.joints.iter().copied())
+                .collect();
+            joints.sort_unstable();
+            joints.dedup();
+            entry.joints = joints.len();
         }
-        let Ok(rel) = path.strip_prefix(root) else {
-            continue;
-        };
-        let Some(rel) = rel
-            .to_str()
-            .map(|r| r.replace(std::path::MAIN_SEPARATOR, "/"))
-        else {
-            continue;
-        };
-        if path.is_dir() {
-            // Refuse symlinked folders leading outside the root (and any unsafe name).
-            let inside = path.canonicalize().is_ok_and(|c| c.starts_with(root));
-            if inside && depth < MAX_DEPTH && crate::paths::safe_segments(&rel).is_ok() {
-                walk(root, &path, depth + 1, out);
-            }
-            continue;
-        }
-        let is_model = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .is_some_and(|e| e.eq_ignore_ascii_case("glb") || e.eq_ignore_ascii_case("gltf"));
-        if !is_model {
-            continue;
-        }
-        let Ok(file) = resolve_decoded(root, &rel) else {
-            continue;
-        };
-        let Ok(meta) = file.metadata() else { continue };
-        let name = path
-            .file_stem()
-            .and_then(|s| s.to_str())
-            .unwrap_or_default()
-            .to_owned();
-        let url = rel
-            .split('/')
-            .map(percent_encode_segment)
-            .collect::<Vec<_>>()
-            .join("/");
-        out.push(AssetEntry {
-            name,
-            url: format!("/assets/{url}"),
-            size: meta.len(),
-        });
+        Err(e) => entry.error = Some(e.to_string()),
     }
+    entry.files.push(entry.url.clone());
+    entry.size = bytes.len() as u64;
+    for (file, len) in resolver.loaded.into_inner() {
+        entry.files.push(url_of(&file));
+        entry.size += len;
+    }
+    entry
+}
+
+/// Resolves a model's external URIs to library files in its folder or below (the policy of
+/// `kloub pose`), remembering which files it loaded.
+struct LibraryResolver<'a> {
+    root: &'a Root,
+    folder: &'a str,
+    budget: u64,
+    loaded: RefCell<Vec<(String, u64)>>,
+}
+
+impl Resolver for LibraryResolver<'_> {
+    fn resolve(&self, uri: &str) -> Result<Vec<u8>, String> {
+        let decoded = paths::percent_decode(uri).ok_or("refused: invalid percent-encoding")?;
+        let segments = paths::safe_segments(&decoded)
+            .map_err(|_| "refused: the uri leaves the file's folder".to_owned())?;
+        let rel = if self.folder.is_empty() {
+            segments.join("/")
+        } else {
+            format!("{}/{}", self.folder, segments.join("/"))
+        };
+        let bytes = self.root.read(&rel, self.budget)?;
+        let mut loaded = self.loaded.borrow_mut();
+        if !loaded.iter().any(|(f, _)| *f == rel) {
+            loaded.push((rel, bytes.len() as u64));
+        }
+        Ok(bytes)
+    }
+}
+
+/// The licence of the model at `path` (rules on [`AssetEntry::licence`]); `all` lists the library.
+fn licence(root: &Root, all: &[String], path: &str, stem: &str) -> Option<String> {
+    let mut dir = folder(path);
+    loop {
+        let join = |name: &str| {
+            if dir.is_empty() {
+                name.to_owned()
+            } else {
+                format!("{dir}/{name}")
+            }
+        };
+        let candidates = [
+            join(&format!("{stem}.LICENSE.md")),
+            join("LICENSE.md"),
+            join("LICENSE"),
+            join("LICENSE.txt"),
+        ];
+        for candidate in &candidates {
+            if all.contains(candidate)
+                && let Ok(bytes) = root.read(candidate, 1 << 20)
+            {
+                return Some(truncate(String::from_utf8_lossy(&bytes).trim()));
+            }
+        }
+        let readme = join("README.md");
+        if all.contains(&readme)
+            && let Ok(bytes) = root.read(&readme, 1 << 20)
+            && let Some(line) = String::from_utf8_lossy(&bytes).lines().find(|l| {
+                let l = l.to_ascii_lowercase();
+                ["licen", "copyright", "©", "&copy;"]
+                    .iter()
+                    .any(|k| l.contains(k))
+            })
+        {
+            return Some(truncate(line.trim()));
+        }
+        if dir.is_empty() {
+            return None;
+        }
+        dir = folder(dir);
+    }
+}
+
+fn truncate(text: &str) -> String {
+    if text.len() <= MAX_LICENCE_BYTES {
+        return text.to_owned();
+    }
+    let mut end = MAX_LICENCE_BYTES;
+    while !text.is_char_boundary(end) {
+        end -= 1;
+    }
+    format!("{}…", &text[..end])
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::serve::files::MemoryDir;
+    use bytes::Bytes;
+
+    fn library(files: &[(&str, &[u8])]) -> Root {
+        Root::Memory(MemoryDir::new(
+            files
+                .iter()
+                .map(|(p, b)| ((*p).to_owned(), Bytes::copy_from_slice(b))),
+        ))
+    }
+
+    /// A minimal .gltf: one external buffer, two skins sharing a joint, a named and an unnamed clip.
+    const SKINNED_GLTF: &str = r#"{
+      "asset": {"version": "2.0"},
+      "buffers": [{"uri": "data%20file.bin", "byteLength": 16}],
+      "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 4}, {"buffer": 0, "byteOffset": 4, "byteLength": 12}],
+      "accessors": [
+        {"bufferView": 0, "componentType": 5126, "count": 1, "type": "SCALAR", "min": [0], "max": [0]},
+        {"bufferView": 1, "componentType": 5126, "count": 1, "type": "VEC3"}
+      ],
+      "nodes": [{"name": "root", "children": [1]}, {"name": "bone"}],
+      "skins": [{"joints": [0, 1]}, {"joints": [1]}],
+      "animations": [{"name": "Wave", "samplers": [{"input": 0, "output": 1}],
+                      "channels": [{"sampler": 0, "target": {"node": 0, "path": "translation"}}]},
+                     {"samplers": [{"input": 0, "output": 1}],
+                      "channels": [{"sampler": 0, "target": {"node": 0, "path": "translation"}}]}],
+      "scenes": [{"nodes": [0]}], "scene": 0
+    }"#;
 
     #[test]
-    fn lists_models_recursively_with_sizes_and_encoded_urls() {
-        let base = std::env::temp_dir().join(format!("kloub-index-{}", std::process::id()));
-        let root = base.join("assets");
-        std::fs::create_dir_all(root.join("sub dir/deeper")).expect("temp dir is writable");
-        std::fs::create_dir_all(root.join(".hidden")).expect("temp dir is writable");
-        std::fs::write(root.join("Fox.glb"), [0u8; 12]).expect("write");
-        std::fs::write(root.join("Fox.LICENSE.md"), "licence").expect("write");
-        std::fs::write(root.join("sub dir/deeper/Man.GLTF"), "{}").expect("write");
-        std::fs::write(root.join("sub dir/Man.bin"), "b").expect("write");
-        std::fs::write(root.join(".hidden/Secret.glb"), "s").expect("write");
-        std::fs::write(base.join("Outside.glb"), "o").expect("write");
-        #[cfg(unix)]
-        std::os::unix::fs::symlink(&base, root.join("up")).expect("symlink");
-        let root = root.canonicalize().expect("exists");
+    fn lists_files_size_licence_clips_joints_and_errors() {
+        let root = library(&[
+            ("LICENSE.md", b"Library licence"),
+            ("men/Man.gltf", SKINNED_GLTF.as_bytes()),
+            ("men/data file.bin", &[0u8; 16]),
+            ("men/README.md", b"# Man\n\nSome text\n(c) Copyright 2020 Someone\n"),
+            ("Fox.glb", b"glTF not really"),
+            ("Fox.LICENSE.md", b"  CC0  \n"),
+            ("Fox.gltf.txt", b"not a model"),
+        ]);
+        let index = build(&root);
+        assert_eq!(index.len(), 2, "{index:?}");
+        let fox = &index[0];
+        assert_eq!(fox.name, "Fox");
+        assert_eq!(fox.url, "/assets/Fox.glb");
+        assert_eq!(fox.files, vec!["/assets/Fox.glb"]);
+        assert_eq!(fox.size, 15);
+        assert_eq!(fox.licence.as_deref(), Some("CC0"));
+        assert!(fox.error.is_some(), "a broken model is listed with its error");
+        assert!(fox.clips.is_empty());
 
-        let index = scan(&root);
+        let man = &index[1];
+        assert_eq!(man.error, None, "{man:?}");
+        assert_eq!(man.url, "/assets/men/Man.gltf");
         assert_eq!(
-            index,
-            vec![
-                AssetEntry {
-                    name: "Fox".into(),
-                    url: "/assets/Fox.glb".into(),
-                    size: 12
-                },
-                AssetEntry {
-                    name: "Man".into(),
-                    url: "/assets/sub%20dir/deeper/Man.GLTF".into(),
-                    size: 2
-                },
-            ]
+            man.files,
+            vec!["/assets/men/Man.gltf", "/assets/men/data%20file.bin"]
         );
-        let json = serde_json::to_string(&index[0]).expect("serializes");
-        assert_eq!(json, r#"{"name":"Fox","url":"/assets/Fox.glb","size":12}"#);
-        std::fs::remove_dir_all(&base).expect("cleanup");
+        assert_eq!(man.size, SKINNED_GLTF.len() as u64 + 16);
+        assert_eq!(man.clips, vec!["Wave", "clip 1"]);
+        assert_eq!(man.joints, 2, "distinct joint nodes");
+        assert_eq!(
+            man.licence.as_deref(),
+            Some("(c) Copyright 2020 Someone"),
+            "README line of the nearest folder before the library's LICENSE.md"
+        );
+
+        let json = serde_json::to_value(fox).expect("serializes");
+        assert!(json.get("error").is_some());
+        let json = serde_json::to_value(man).expect("serializes");
+        assert!(json.get("error").is_none(), "no error key when it imported");
     }
 
     #[test]
-    fn missing_root_gives_an_empty_index() {
-        assert!(scan(Path::new("/nonexistent/kloub/assets")).is_empty());
+    fn uris_leaving_the_folder_are_refused() {
+        let escaping = SKINNED_GLTF.replace("data%20file.bin", "../data%20file.bin");
+        let root = library(&[
+            ("men/Man.gltf", escaping.as_bytes()),
+            ("data file.bin", &[0u8; 16]),
+        ]);
+        let index = build(&root);
+        let error = index[0].error.as_deref().unwrap_or_default();
+        // The importer refuses a `..` URI itself, before asking the resolver (which would too).
+        assert!(error.contains("/buffers/0/uri") && error.contains("outside the folder"), "{error}");
+        assert_eq!(index[0].files, vec!["/assets/men/Man.gltf"]);
+        assert_eq!(index[0].licence, None);
+    }
+
+    #[test]
+    fn long_licences_are_cut_at_a_character_boundary() {
+        let text = "é".repeat(MAX_LICENCE_BYTES);
+        let cut = truncate(&text);
+        assert!(cut.len() <= MAX_LICENCE_BYTES + '…'.len_utf8());
+        assert!(cut.ends_with('…'));
+    }
+
+    #[test]
+    fn a_missing_library_gives_an_empty_index() {
+        assert!(build(&Root::Missing).is_empty());
     }
 }

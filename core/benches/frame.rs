@@ -1,0 +1,126 @@
+//! Per-character, per-frame cost of the animation core: advance the clocks, sample, blend,
+//! world transforms and skin palettes (the GPU skins the vertices).
+//!
+//! ```text
+//! cargo bench -p kloub-core --bench frame -- --warm-up-time 1 --measurement-time 3
+//! ```
+//! Samples come from `../shared/assets` beside the checkout, or `$KLOUB_SHARED_ASSETS`.
+//!
+//! - `jobs`: one clip, raw jobs (SampleJob into a pose, WorldJob), no palettes;
+//! - `single`: an [`Animator`] playing one clip: advance + sample + blend + worlds + palettes;
+//! - `single_nlerp`: the same with nlerp instead of slerp for LINEAR rotation keys;
+//! - `crossfade_layer`: a crossfade half way between two playing clips plus an override layer
+//!   on the upper body: three clips sampled and blended per frame.
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use kloub_core::animator::{Crossfade, Easing, Layer, Outgoing};
+use kloub_core::asset::Asset;
+use kloub_core::job::sample::{RotationLerp, SampleContext, SampleJob};
+use kloub_core::job::world::WorldJob;
+use kloub_core::math::Mat4;
+use kloub_core::pose::Pose;
+use kloub_core::{Animator, Instance, NoResolver};
+use std::hint::black_box;
+use std::path::PathBuf;
+
+/// (name, file, base clip, crossfade target, layer clip, layer root joint)
+const CHARACTERS: [(&str, &str, &str, &str, &str, &str); 4] = [
+    ("Fox", "khronos/Fox/glTF-Binary/Fox.glb", "Walk", "Run", "Survey", "b_Spine01_02"),
+    ("CesiumMan", "khronos/CesiumMan/glTF-Binary/CesiumMan.glb", "0", "0", "0", "Skeleton_torso_joint_2"),
+    ("RobotExpressive", "threejs/RobotExpressive/RobotExpressive.glb", "Walking", "Running", "Wave", "Abdomen"),
+    ("Knight", "kaykit/Knight/Knight.glb", "Walking_A", "Running_A", "Cheer", "chest"),
+];
+
+const DT: f32 = 1.0 / 60.0;
+
+fn shared_assets() -> PathBuf {
+    std::env::var_os("KLOUB_SHARED_ASSETS")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/assets"))
+}
+
+fn load(file: &str) -> Asset {
+    let path = shared_assets().join(file);
+    let bytes = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    kloub_core::import(&bytes, &NoResolver, &Default::default()).unwrap_or_else(|e| panic!("{file}: {e}")).asset
+}
+
+fn clip(asset: &Asset, name: &str) -> usize {
+    asset.find_clip(name).unwrap_or_else(|| panic!("no clip {name}"))
+}
+
+fn node(asset: &Asset, name: &str) -> u32 {
+    let index = asset.nodes.iter().position(|n| n.name.as_deref() == Some(name));
+    index.unwrap_or_else(|| panic!("no node {name}")) as u32
+}
+
+fn frame(c: &mut Criterion) {
+    for (name, file, base, target, over, root) in CHARACTERS {
+        let asset = load(file);
+        let (base, target, over, root) =
+            (clip(&asset, base), clip(&asset, target), clip(&asset, over), node(&asset, root));
+        let duration = asset.clips[base].duration;
+
+        let mut pose = Pose::rest(&asset);
+        let mut context = SampleContext::new(&asset.clips[base]);
+        let mut worlds = vec![Mat4::IDENTITY; asset.nodes.len()];
+        let parents: Vec<Option<u32>> = asset.nodes.iter().map(|n| n.parent).collect();
+        let mut time = 0.0;
+        c.bench_function(&format!("jobs/{name}"), |b| {
+            b.iter(|| {
+                time = (time + DT) % duration.max(DT);
+                SampleJob {
+                    clip: &asset.clips[base],
+                    time,
+                    context: &mut context,
+                    weight_offsets: &asset.weight_offsets,
+                    locals: &mut pose.locals,
+                    weights: &mut pose.weights,
+                }
+                .run()
+                .expect("valid");
+                WorldJob { parents: &parents, order: &asset.order, locals: &pose.locals, worlds: &mut worlds }
+                    .run()
+                    .expect("valid");
+                black_box(&worlds);
+            })
+        });
+
+        let mut instance = Instance::new(&asset);
+        for (label, lerp) in [("single", RotationLerp::Slerp), ("single_nlerp", RotationLerp::Nlerp)] {
+            let mut animator = Animator::new(&asset);
+            animator.set_rotation_lerp(lerp);
+            animator.play(&asset, Some(base)).expect("valid");
+            c.bench_function(&format!("{label}/{name}"), |b| {
+                b.iter(|| {
+                    animator.advance(&asset, DT);
+                    animator.evaluate(&asset, &mut instance).expect("valid");
+                    black_box(instance.worlds());
+                })
+            });
+        }
+
+        let mut animator = Animator::new(&asset);
+        animator.play(&asset, Some(base)).expect("valid");
+        let mut layer = Layer::new(over, root);
+        layer.weight = 0.8;
+        animator.add_layer(&asset, layer).expect("valid");
+        // A very long linear crossfade advanced to its middle: at 1e7 s a frame (1/60 s) is below
+        // half an f32 ulp of the elapsed time, so both sides weigh exactly 0.5 throughout.
+        let fade = Crossfade { duration: 2.0e7, easing: Easing::Linear, outgoing: Outgoing::KeepPlaying };
+        animator.crossfade_to(&asset, Some(target), fade).expect("valid");
+        animator.advance(&asset, 1.0e7);
+        c.bench_function(&format!("crossfade_layer/{name}"), |b| {
+            b.iter(|| {
+                animator.advance(&asset, DT);
+                animator.evaluate(&asset, &mut instance).expect("valid");
+                black_box(instance.worlds());
+            })
+        });
+        let weight = animator.crossfade().map(|s| s.weight);
+        assert!(weight.is_some_and(|w| (w - 0.5).abs() < 0.01), "{weight:?}");
+    }
+}
+
+criterion_group!(benches, frame);
+criterion_main!(benches);
