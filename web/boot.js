@@ -14,7 +14,9 @@ function fail(message) {
 
 try {
   await init();
-  await start('kloub-canvas');
+  const canvas = document.getElementById('kloub-canvas');
+  // The control handle (playClip, crossfadeTo, setLayer, ...) on the canvas it drives.
+  canvas.kloub = await start('kloub-canvas');
 } catch (error) {
   // start() has already shown its overlay for errors it caught; this covers init().
   if (document.body.dataset.status !== 'error') {

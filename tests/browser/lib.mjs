@@ -100,15 +100,31 @@ export async function viewportShot(page) {
   return PNG.sync.read(await page.screenshot({ clip }));
 }
 
-/** Fraction of pixels whose largest channel difference exceeds `threshold`. */
-export function diffFraction(a, b, threshold = 16) {
+/**
+ * Fraction of pixels whose largest channel difference exceeds `threshold`, over the rows from
+ * fraction `top` to fraction `bottom` of the image (default: all of it).
+ */
+export function diffFraction(a, b, threshold = 16, top = 0, bottom = 1) {
   if (a.width !== b.width || a.height !== b.height) return 1;
+  const y0 = Math.floor(top * a.height);
+  const y1 = Math.ceil(bottom * a.height);
   let n = 0;
-  for (let i = 0; i < a.data.length; i += 4) {
+  for (let i = y0 * a.width * 4; i < y1 * a.width * 4; i += 4) {
     const d = Math.max(Math.abs(a.data[i] - b.data[i]), Math.abs(a.data[i + 1] - b.data[i + 1]), Math.abs(a.data[i + 2] - b.data[i + 2]));
     if (d > threshold) n++;
   }
-  return n / (a.width * a.height);
+  return n / (a.width * Math.max(1, y1 - y0));
+}
+
+/** Waits until the app has painted `n` more frames. */
+export async function waitFrames(page, n = 2) {
+  const start = Number(await page.evaluate(() => document.body.dataset.frames));
+  await page.waitForFunction((f) => Number(document.body.dataset.frames) >= f, start + n, { timeout: 30000, polling: 50 });
+}
+
+/** Calls `method(...args)` on the viewer's control handle (`canvas.kloub`, set by boot.js). */
+export async function control(page, method, ...args) {
+  return page.evaluate(([m, a]) => document.querySelector('canvas').kloub[m](...a), [method, args]);
 }
 
 /** Fraction of pixels that differ from the most common colour (how much of the view is not background). */

@@ -2,13 +2,14 @@
 // Prints one line per test and closes with "browser: N passed, M failed"; exits 1 on any failure.
 import { join } from 'node:path';
 import {
-  SHARED, dataset, diffFraction, dropFiles, nonBackgroundFraction, openBrowser, pageUrl, savePng, startServer,
-  viewportShot, waitForDataset,
+  SHARED, control, dataset, diffFraction, dropFiles, nonBackgroundFraction, openBrowser, pageUrl, savePng, startServer,
+  viewportShot, waitForDataset, waitFrames,
 } from './lib.mjs';
 
 const BACKENDS = (process.env.KLOUB_BACKENDS ?? 'webgpu,webgl2').split(',');
 const FOX = join(SHARED, 'khronos/Fox/glTF-Binary/Fox.glb');
 const RIGGED_SIMPLE = join(SHARED, 'khronos/RiggedSimple/glTF-Binary/RiggedSimple.glb');
+const ROBOT = join(SHARED, 'threejs/RobotExpressive/RobotExpressive.glb');
 
 const tests = [];
 const test = (name, fn) => tests.push({ name, fn });
@@ -24,14 +25,40 @@ async function openApp(ctx, backend) {
   return ds;
 }
 
+/** Drops `path` and waits until it is the shown, ready model. */
+async function dropModel(page, path) {
+  const name = path.split('/').pop();
+  await dropFiles(page, [{ path }]);
+  await page.waitForFunction((n) => document.body.dataset.model === n && document.body.dataset.status === 'ready', name, { timeout: 60000, polling: 100 });
+  // Names resolve against the shown model once its first frame ran.
+  await waitFrames(page, 2);
+}
+
+/** Pauses on `clip` at `time` (cut, no crossfade) and returns a screenshot of the settled viewport. */
+async function still(page, clip, time) {
+  if (clip !== null) await control(page, 'crossfadeTo', clip, 0);
+  await control(page, 'pause');
+  await control(page, 'seek', time);
+  const t = time.toFixed(3);
+  await page.waitForFunction(
+    ([c, t]) => (c === null || document.body.dataset.clip === c) && document.body.dataset.playing === 'false' && document.body.dataset.time === t,
+    [clip, t], { timeout: 30000, polling: 50 });
+  // A paused viewer paints only on change: the frame that published this state is the last one.
+  // Two animation frames later it is on screen.
+  await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
+  return viewportShot(page);
+}
+
 for (const backend of BACKENDS) {
   test(`${backend}: the default model loads and plays on open`, async (ctx) => {
     const ds = await openApp(ctx, backend);
     assert(JSON.parse(ds.clips).length > 0, `no clips listed: ${ds.clips}`);
     const frames = Number(ds.frames);
-    await sleep(500);
+    // It keeps painting while the clip plays (the first frames compile pipelines: allow a few seconds).
+    await ctx.page.waitForFunction((f) => Number(document.body.dataset.frames) >= f + 5, frames, { timeout: 10000, polling: 50 })
+      .catch(() => {});
     const later = Number((await dataset(ctx.page)).frames);
-    assert(later > frames, `no frames painted in 0.5 s (${frames} → ${later})`);
+    assert(later >= frames + 5, `fewer than 5 frames painted in 10 s while playing (${frames} → ${later})`);
     const shot = await viewportShot(ctx.page);
     savePng(shot, `${backend}-default.png`);
     assert(nonBackgroundFraction(shot) > 0.02, 'the viewport shows nothing but background');
@@ -54,6 +81,52 @@ for (const backend of BACKENDS) {
     assert(nonBackgroundFraction(a) > 0.02, 'the viewport shows nothing but background');
     const changed = diffFraction(a, b);
     assert(changed > 0.002, `the viewport did not change in 0.5 s (${(changed * 100).toFixed(3)}% pixels differ)`);
+  });
+
+  test(`${backend}: clicking Run while Walk plays on Fox crossfades into Run`, async (ctx) => {
+    const { page } = ctx;
+    await openApp(ctx, backend);
+    await dropModel(page, FOX);
+    const walk = await still(page, 'Walk', 0);
+    // playClip is what a click in the clip list does: a crossfade with the panel's duration (0.3 s).
+    await control(page, 'play');
+    await control(page, 'playClip', 'Run');
+    await waitForDataset(page, () => document.body.dataset.clip === 'Run' && document.body.dataset.crossfade !== '', 'the crossfade to start');
+    const mid = Number((await dataset(page)).crossfade);
+    assert(mid >= 0 && mid < 1, `crossfade weight ${mid}`);
+    await waitForDataset(page, () => document.body.dataset.crossfade === '', 'the crossfade to finish');
+    const faded = await still(page, null, 0);
+    const cut = await still(page, 'Run', 0);
+    savePng(walk, `${backend}-crossfade-walk.png`);
+    savePng(faded, `${backend}-crossfade-run.png`);
+    const changed = diffFraction(walk, faded);
+    assert(changed > 0.003, `Walk -> Run changed only ${(changed * 100).toFixed(3)}% of the viewport`);
+    const residual = diffFraction(faded, cut);
+    assert(residual < 0.0005, `after the crossfade the pose differs from Run's by ${(residual * 100).toFixed(3)}%`);
+    let threw = false;
+    try { await control(page, 'crossfadeTo', 'Gallop', 0.2); } catch (e) { threw = /Gallop/.test(e.message); }
+    assert(threw, 'an unknown clip name does not throw an error naming it');
+  });
+
+  test(`${backend}: a Wave layer on RobotExpressive's upper body changes only the upper body`, async (ctx) => {
+    const { page } = ctx;
+    await openApp(ctx, backend);
+    await dropModel(page, ROBOT);
+    const plain = await still(page, 'Walking', 0.3);
+    await control(page, 'setLayer', 'Wave', 'Abdomen', 1);
+    await control(page, 'play');
+    await waitForDataset(page, () => document.body.dataset.layer === 'Wave@Abdomen:1.00' && document.body.dataset.playing === 'true', 'the layer');
+    await new Promise((r) => setTimeout(r, 700));
+    const layered = await still(page, 'Walking', 0.3);
+    savePng(plain, `${backend}-layer-off.png`);
+    savePng(layered, `${backend}-layer-wave.png`);
+    const changed = diffFraction(plain, layered);
+    assert(changed > 0.003, `the Wave layer changed only ${(changed * 100).toFixed(3)}% of the viewport`);
+    // The feet (the lowest part of the framed robot, below the hanging hands) are outside the layer: the same pose.
+    const legs = diffFraction(plain, layered, 16, 0.75, 1);
+    assert(legs < 0.0005, `the legs changed: ${(legs * 100).toFixed(3)}% of the lower viewport`);
+    await control(page, 'setLayer', null, null, 0);
+    await waitForDataset(page, () => document.body.dataset.layer === '', 'the layer to be removed');
   });
 
   test(`${backend}: a broken file shows an error and keeps the previous model`, async (ctx) => {

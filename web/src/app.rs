@@ -4,10 +4,14 @@
 
 use egui::{Color32, Pos2, Rect, Sense};
 use glam::Vec3;
-use kloub_core::player::Player;
-use kloub_core::{Asset, Instance, Warning};
+use kloub_core::animator::{Crossfade, Layer};
+use kloub_core::asset::NodeIndex;
+use kloub_core::clip::Clip;
+use kloub_core::player::{LoopMode, Player};
+use kloub_core::{Animator, Asset, Instance, Warning};
 
 use crate::backend::backend_name;
+use crate::control::{Command, Controls};
 use crate::dom::{Dataset, Key};
 use crate::load::{self, Inbox, LoadedModel};
 use crate::render::{Camera, SceneRenderer, msaa_samples};
@@ -18,6 +22,8 @@ use crate::ui;
 pub struct AppConfig {
     /// Model fetched and shown on start (the page contract: `/models/default.glb`).
     pub model_url: Option<String>,
+    /// The command channel the page's handle sends through.
+    pub controls: Controls,
 }
 
 /// State of the most recent load, as mirrored into `dataset.status`.
@@ -42,7 +48,26 @@ impl Status {
     }
 }
 
-/// A model being shown: the immutable asset and its per-frame evaluation state.
+/// The layer panel's settings; applied to the animator's layer 0 by [`Model::sync_layer`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LayerDraft {
+    /// Whether the layer applies.
+    pub enabled: bool,
+    /// Clip index.
+    pub clip: usize,
+    /// Root node of the affected subtree.
+    pub root: NodeIndex,
+    /// Strength (override: 0..1; additive may exaggerate up to 2).
+    pub weight: f32,
+    /// Per-generation falloff below the root, 0..1.
+    pub falloff: f32,
+    /// The layer clock's speed.
+    pub speed: f32,
+    /// Add the clip's difference from its first frame instead of overriding.
+    pub additive: bool,
+}
+
+/// A model being shown: the immutable asset and its animation and evaluation state.
 pub struct Model {
     /// Display name (the file name).
     pub name: String,
@@ -50,36 +75,79 @@ pub struct Model {
     pub asset: Asset,
     /// Pose, world matrices and palettes, evaluated every frame.
     pub instance: Instance,
+    /// What plays: tracks, crossfade, layers.
+    pub animator: Animator,
     /// Import warnings.
     pub warnings: Vec<Warning>,
     /// Clip display names, by clip index.
     pub clip_names: Vec<String>,
     /// `clip_names` as a JSON array (for `dataset.clips`).
     pub clips_json: String,
+    /// Sorted distinct key times of each clip (the timeline's markers).
+    pub key_times: Vec<Vec<f32>>,
+    /// Nodes the joint tree shows: joints and their ancestors (every node without skins).
+    pub in_joint_tree: Vec<bool>,
+    /// The blend panel's weight per clip.
+    pub blend_weights: Vec<f32>,
+    /// The layer panel's settings.
+    pub layer: LayerDraft,
 }
 
 /// Frames sampled across a clip to frame the camera on the animated (skinned) bounds.
 const FIT_SAMPLES: u32 = 8;
 
+/// Key times closer than this (seconds) share a timeline marker.
+const KEY_EPSILON: f32 = 1e-4;
+
 impl Model {
-    /// Wraps a loaded model and evaluates it once at `clip`, time 0.
+    /// Wraps a loaded model, playing `clip` from its start, and evaluates it once.
     ///
     /// # Errors
     /// The evaluation error (an asset the jobs reject).
     pub fn new(loaded: LoadedModel, clip: Option<usize>) -> Result<Self, String> {
         let LoadedModel { name, asset, warnings } = loaded;
         let mut instance = Instance::new(&asset);
-        instance.evaluate(&asset, clip, 0.0).map_err(|e| format!("{name}: {e}"))?;
+        let mut animator = Animator::new(&asset);
+        animator.play(&asset, clip).map_err(|e| format!("{name}: {e}"))?;
+        animator.evaluate(&asset, &mut instance).map_err(|e| format!("{name}: {e}"))?;
         let clip_names: Vec<String> =
             asset.clips.iter().enumerate().map(|(i, c)| c.display_name(i)).collect();
         let clips_json = serde_json::to_string(&clip_names).map_err(|e| e.to_string())?;
-        Ok(Self { name, asset, instance, warnings, clip_names, clips_json })
+        let key_times = asset.clips.iter().map(key_times).collect();
+        let in_joint_tree = joint_tree_nodes(&asset);
+        let mut blend_weights = vec![0.0; asset.clips.len()];
+        if let Some(w) = clip.and_then(|c| blend_weights.get_mut(c)) {
+            *w = 1.0;
+        }
+        let layer = LayerDraft {
+            enabled: false,
+            // Another clip than the base when there is one, to make the layer visible.
+            clip: if asset.clips.len() > 1 && clip == Some(0) { 1 } else { 0 },
+            root: default_layer_root(&asset),
+            weight: 1.0,
+            falloff: 0.0,
+            speed: 1.0,
+            additive: false,
+        };
+        Ok(Self {
+            name,
+            asset,
+            instance,
+            animator,
+            warnings,
+            clip_names,
+            clips_json,
+            key_times,
+            in_joint_tree,
+            blend_weights,
+            layer,
+        })
     }
 
     /// World bounds of the drawable meshes over `clip` (sampled at a few times, skinning
-    /// included), or of the rest pose without a clip. Leaves the instance evaluated at
-    /// `time`. `None` when nothing is drawable.
-    pub fn animated_bounds(&mut self, clip: Option<usize>, time: f32) -> Option<(Vec3, Vec3)> {
+    /// included), or of the rest pose without a clip. The next [`Model::evaluate`] restores
+    /// the animated pose. `None` when nothing is drawable.
+    pub fn animated_bounds(&mut self, clip: Option<usize>) -> Option<(Vec3, Vec3)> {
         let duration = clip.and_then(|c| self.asset.clips.get(c)).map_or(0.0, |c| c.duration);
         let samples = if duration > 0.0 { FIT_SAMPLES } else { 1 };
         let mut bounds: Option<(Vec3, Vec3)> = None;
@@ -92,9 +160,6 @@ impl Model {
                 bounds = Some(bounds.map_or((lo, hi), |(a, b)| (a.min(lo), b.max(hi))));
             }
         }
-        // The same evaluation succeeded in `Model::new`; a failure here only leaves the
-        // last sampled pose, which the next frame overwrites.
-        let _ = self.instance.evaluate(&self.asset, clip, time);
         bounds
     }
 
@@ -102,6 +167,237 @@ impl Model {
     pub fn clip_name(&self, clip: Option<usize>) -> &str {
         clip.and_then(|c| self.clip_names.get(c)).map_or("", String::as_str)
     }
+
+    /// Display name of node `node` (its name, else `node N`).
+    pub fn node_name(&self, node: NodeIndex) -> String {
+        match self.asset.nodes.get(node as usize).and_then(|n| n.name.as_deref()) {
+            Some(name) if !name.is_empty() => name.to_owned(),
+            _ => format!("node {node}"),
+        }
+    }
+
+    /// Samples, blends and writes the pose, worlds and palettes for this frame.
+    ///
+    /// # Errors
+    /// The job error (not expected for an asset the importer accepted).
+    pub fn evaluate(&mut self) -> Result<(), String> {
+        self.animator.evaluate(&self.asset, &mut self.instance).map_err(|e| e.to_string())
+    }
+
+    /// Plays `clip` (`None`: rest pose) as a click in the clip list does: crossfades with
+    /// `fade` when something is playing and `fade.duration > 0`, else cuts. The blend panel
+    /// follows (weight 1 on `clip`).
+    ///
+    /// # Errors
+    /// A clip index out of range.
+    pub fn play_clip(&mut self, clip: Option<usize>, fade: Crossfade) -> Result<(), String> {
+        let current = self.animator.main().clip;
+        let blended = self.animator.tracks().len() > 1;
+        let fades = fade.duration.is_finite() && fade.duration > 0.0 && (current.is_some() || blended);
+        let result = if fades {
+            self.animator.crossfade_to(&self.asset, clip, fade)
+        } else {
+            self.animator.play(&self.asset, clip)
+        };
+        result.map_err(|e| e.to_string())?;
+        self.blend_weights.iter_mut().for_each(|w| *w = 0.0);
+        if let Some(w) = clip.and_then(|c| self.blend_weights.get_mut(c)) {
+            *w = 1.0;
+        }
+        self.set_playing(true);
+        Ok(())
+    }
+
+    /// Makes the base a blend of the clips with a positive weight in [`Model::blend_weights`]
+    /// (none: the rest pose). Tracks already playing their clip keep their clocks.
+    ///
+    /// # Errors
+    /// Too many clips at once ([`kloub_core::animator::MAX_SOURCES`]).
+    pub fn apply_blend(&mut self) -> Result<(), String> {
+        let clips: Vec<(Option<usize>, f32)> = self
+            .blend_weights
+            .iter()
+            .enumerate()
+            .filter(|(_, w)| w.is_finite() && **w > 0.0)
+            .map(|(i, w)| (Some(i), *w))
+            .collect();
+        let (speed, loop_mode) = (self.animator.main().speed, self.animator.main().loop_mode);
+        self.animator.set_blend(&self.asset, &clips).map_err(|e| e.to_string())?;
+        for track in self.animator.tracks_mut() {
+            track.player.speed = speed;
+            track.player.loop_mode = loop_mode;
+        }
+        Ok(())
+    }
+
+    /// Applies [`Model::layer`] to the animator: adds, updates or removes the layer.
+    ///
+    /// # Errors
+    /// A clip or root out of range, or too many sources.
+    pub fn sync_layer(&mut self) -> Result<(), String> {
+        let draft = self.layer;
+        if !draft.enabled {
+            while !self.animator.layers().is_empty() {
+                self.animator.remove_layer(0).map_err(|e| e.to_string())?;
+            }
+            return Ok(());
+        }
+        if draft.clip >= self.asset.clips.len() {
+            return Err(format!("layer clip {} is not a clip of {}", draft.clip, self.name));
+        }
+        if draft.root as usize >= self.asset.nodes.len() {
+            return Err(format!("layer root {} is not a node of {}", draft.root, self.name));
+        }
+        let playing = self.animator.main().playing;
+        if self.animator.layers().is_empty() {
+            let mut layer = Layer::new(draft.clip, draft.root);
+            layer.player.playing = playing;
+            self.animator.add_layer(&self.asset, layer).map_err(|e| e.to_string())?;
+        }
+        if let Some(layer) = self.animator.layers_mut().first_mut() {
+            if layer.player.clip != Some(draft.clip) {
+                layer.player.set_clip(Some(draft.clip));
+                layer.player.playing = playing;
+            }
+            layer.root = draft.root;
+            layer.weight = draft.weight;
+            layer.falloff = draft.falloff;
+            layer.player.speed = draft.speed;
+            layer.additive = draft.additive;
+        }
+        Ok(())
+    }
+
+    /// Whether the main clock runs.
+    pub fn is_playing(&self) -> bool {
+        self.animator.main().playing
+    }
+
+    /// Starts or stops every clock (tracks and layers). Starting a one-shot clip that has
+    /// finished restarts it from its start (or its end, playing backwards).
+    pub fn set_playing(&mut self, playing: bool) {
+        let asset = &self.asset;
+        for track in self.animator.tracks_mut() {
+            if playing {
+                restart_if_finished(&mut track.player, asset);
+            }
+            track.player.playing = playing;
+        }
+        for layer in self.animator.layers_mut() {
+            if playing {
+                restart_if_finished(&mut layer.player, asset);
+            }
+            layer.player.playing = playing;
+        }
+    }
+
+    /// Moves the main clock to `seconds` (clamped to the clip).
+    pub fn seek(&mut self, seconds: f32) {
+        self.animator.main_mut().seek(&self.asset, seconds);
+    }
+
+    /// Sets the speed of every base track (negative plays backwards).
+    pub fn set_speed(&mut self, speed: f32) {
+        if speed.is_finite() {
+            self.animator.tracks_mut().iter_mut().for_each(|t| t.player.speed = speed);
+        }
+    }
+
+    /// Sets the loop mode of every base track.
+    pub fn set_loop_mode(&mut self, mode: LoopMode) {
+        self.animator.tracks_mut().iter_mut().for_each(|t| t.player.loop_mode = mode);
+    }
+
+    /// Whether any clock with a clip runs (a base track or a layer).
+    pub fn clocks_running(&self) -> bool {
+        let runs = |p: &Player| p.playing && p.clip.is_some();
+        self.animator.tracks().iter().any(|t| runs(&t.player)) || self.animator.layers().iter().any(|l| runs(&l.player))
+    }
+
+    /// Whether anything moves without input (a crossfade moves only while a clock runs).
+    pub fn is_animating(&self) -> bool {
+        self.clocks_running()
+    }
+
+    /// Advances the animation by `dt` seconds of wall time. While everything is paused the
+    /// crossfade holds too, so a paused character does not move.
+    pub fn advance(&mut self, dt: f32) {
+        let dt = if self.clocks_running() { dt } else { 0.0 };
+        self.animator.advance(&self.asset, dt);
+    }
+
+    /// `dataset.layer`: `"CLIP@ROOT:WEIGHT"` (weight with two decimals), `""` without a layer.
+    pub fn layer_summary(&self) -> String {
+        match self.animator.layers().first() {
+            Some(layer) => format!(
+                "{}@{}:{:.2}",
+                self.clip_name(layer.player.clip),
+                self.node_name(layer.root),
+                layer.weight
+            ),
+            None => String::new(),
+        }
+    }
+}
+
+/// A finished one-shot clock restarts from its start (its end, playing backwards).
+fn restart_if_finished(player: &mut Player, asset: &Asset) {
+    if player.loop_mode != LoopMode::Once || player.playing {
+        return;
+    }
+    let duration = player.duration(asset);
+    if player.speed >= 0.0 && player.time >= duration {
+        player.time = 0.0;
+    } else if player.speed < 0.0 && player.time <= 0.0 {
+        player.time = duration;
+    }
+}
+
+/// Sorted distinct key times of `clip`.
+fn key_times(clip: &Clip) -> Vec<f32> {
+    let mut times: Vec<f32> =
+        clip.channels.iter().flat_map(|c| c.times.iter().copied()).filter(|t| t.is_finite()).collect();
+    times.sort_by(f32::total_cmp);
+    times.dedup_by(|a, b| (*a - *b).abs() < KEY_EPSILON);
+    times
+}
+
+/// Joints of every skin and their ancestors; every node when there are no skins.
+fn joint_tree_nodes(asset: &Asset) -> Vec<bool> {
+    let n = asset.nodes.len();
+    if asset.skins.is_empty() {
+        return vec![true; n];
+    }
+    let mut shown = vec![false; n];
+    for &joint in asset.skins.iter().flat_map(|s| &s.joints) {
+        // Walk up until a node already shown; the importer guarantees an acyclic graph, and the
+        // walk is bounded by the node count regardless.
+        let mut node = Some(joint);
+        let mut steps = 0;
+        while let Some(i) = node.filter(|_| steps <= n) {
+            let Some(slot) = shown.get_mut(i as usize) else { break };
+            if *slot {
+                break;
+            }
+            *slot = true;
+            node = asset.nodes.get(i as usize).and_then(|nd| nd.parent);
+            steps += 1;
+        }
+    }
+    shown
+}
+
+/// The layer's default root: an upper-body joint of the first skin when one is named like
+/// it (spine, abdomen, chest, torso), else its first joint, else node 0.
+fn default_layer_root(asset: &Asset) -> NodeIndex {
+    let joints = asset.skins.first().map_or(&[][..], |s| &s.joints[..]);
+    let upper = |j: &NodeIndex| {
+        asset.nodes.get(*j as usize).and_then(|n| n.name.as_deref()).is_some_and(|name| {
+            let name = name.to_ascii_lowercase();
+            ["spine", "abdomen", "chest", "torso"].iter().any(|k| name.contains(k))
+        })
+    };
+    joints.iter().copied().find(upper).or_else(|| joints.first().copied()).unwrap_or(0)
 }
 
 /// The egui texture showing the scene renderer's output, and the renderer's
@@ -136,7 +432,11 @@ pub struct App {
     scene: SceneRenderer,
     camera: Camera,
     model: Option<Model>,
-    player: Player,
+    /// Transition settings of the clip list (duration 0: cut).
+    transition: Crossfade,
+    /// Panel state that outlives a model (filter text, scrubbing).
+    panel: ui::PanelMemory,
+    controls: Controls,
     inbox: Inbox,
     pending: usize,
     status: Status,
@@ -150,6 +450,9 @@ pub struct App {
 
 /// The largest frame step the clock takes (a background tab resumes without a jump).
 const MAX_DT: f32 = 0.25;
+
+/// Crossfade duration of a click in the clip list until the user changes it, in seconds.
+pub const DEFAULT_CROSSFADE: f32 = 0.3;
 
 impl App {
     /// Creates the app on eframe's wgpu device and starts fetching `config.model_url`.
@@ -167,7 +470,9 @@ impl App {
             scene,
             camera: Camera::default(),
             model: None,
-            player: Player::new(),
+            transition: Crossfade { duration: DEFAULT_CROSSFADE, ..Crossfade::default() },
+            panel: ui::PanelMemory::default(),
+            controls: config.controls.clone(),
             inbox: Inbox::default(),
             pending: 0,
             status: Status::Ready,
@@ -178,6 +483,7 @@ impl App {
             frames: 0,
             fps: Fps::default(),
         };
+        app.controls.set_repaint(cc.egui_ctx.clone());
         app.dataset.set(Key::Backend, backend);
         if let Some(url) = config.model_url {
             app.pending += 1;
@@ -203,9 +509,14 @@ impl App {
         self.model.as_ref()
     }
 
-    /// The playback clock.
-    pub fn player(&self) -> &Player {
-        &self.player
+    /// The command channel (what the page's JS handle sends through).
+    pub fn controls(&self) -> &Controls {
+        &self.controls
+    }
+
+    /// The crossfade settings a click in the clip list uses.
+    pub fn transition(&self) -> Crossfade {
+        self.transition
     }
 
     /// Imports and installs every delivery that arrived since the last frame.
@@ -231,7 +542,8 @@ impl App {
     fn install(&mut self, loaded: LoadedModel) -> Result<(), String> {
         let clip = if loaded.asset.clips.is_empty() { None } else { Some(0) };
         let mut model = Model::new(loaded, clip)?;
-        let bounds = model.animated_bounds(clip, 0.0);
+        let bounds = model.animated_bounds(clip);
+        model.evaluate().map_err(|e| format!("{}: {e}", model.name))?;
         self.scene
             .set_asset(&self.gpu.device, &self.gpu.queue, &model.asset)
             .map_err(|e| format!("{}: {e}", model.name))?;
@@ -239,8 +551,8 @@ impl App {
             self.camera.frame_to_fit(min, max);
         }
         log::info!("kloub: showing {} ({} clips, {} warnings)", model.name, model.clip_names.len(), model.warnings.len());
-        self.player.set_clip(clip);
-        self.player.playing = true;
+        let nodes = model.asset.nodes.iter().map(|n| n.name.clone()).collect();
+        self.controls.publish(model.clip_names.clone(), nodes);
         self.model = Some(model);
         Ok(())
     }
@@ -262,13 +574,61 @@ impl App {
         }
     }
 
-    /// Advances the clock and evaluates the pose for this frame.
+    /// Applies the commands the page queued since the last frame.
+    fn apply_commands(&mut self) {
+        for command in self.controls.take() {
+            if let Err(message) = self.apply(command) {
+                self.fail(message);
+            }
+        }
+    }
+
+    /// Applies one command to the shown model (the side panel's actions go through here too).
+    fn apply(&mut self, command: Command) -> Result<(), String> {
+        let Some(model) = &mut self.model else { return Ok(()) };
+        match command {
+            Command::Play => model.set_playing(true),
+            Command::Pause => model.set_playing(false),
+            Command::PlayClip(clip) => model.play_clip(clip, self.transition)?,
+            Command::CrossfadeTo { clip, seconds } => {
+                model.play_clip(clip, Crossfade { duration: seconds, ..self.transition })?;
+            }
+            Command::Seek(t) => model.seek(t),
+            Command::SetSpeed(speed) => model.set_speed(speed),
+            Command::SetLoop(mode) => model.set_loop_mode(mode),
+            Command::SetLayer { clip, root, weight } => {
+                match clip {
+                    Some(clip) => {
+                        model.layer.enabled = true;
+                        model.layer.clip = clip;
+                        model.layer.root = root;
+                        model.layer.weight = weight;
+                    }
+                    None => model.layer.enabled = false,
+                }
+                model.sync_layer()?;
+            }
+            Command::SetBlend(weights) => {
+                model.blend_weights.iter_mut().for_each(|w| *w = 0.0);
+                for (clip, weight) in weights {
+                    if let Some(w) = model.blend_weights.get_mut(clip) {
+                        *w = weight;
+                    }
+                }
+                model.apply_blend()?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Evaluates the pose for this frame.
     fn evaluate(&mut self) {
         let Some(model) = &mut self.model else { return };
-        if let Err(e) = model.instance.evaluate(&model.asset, self.player.clip, self.player.time) {
+        if let Err(e) = model.evaluate() {
             // Fall back to the rest pose so the error is reported once, not every frame.
-            let message = format!("{}: cannot play {:?}: {e}", model.name, model.clip_name(self.player.clip));
-            self.player.set_clip(None);
+            let message = format!("{}: cannot play {:?}: {e}", model.name, model.clip_name(model.animator.main().clip));
+            model.animator = Animator::new(&model.asset);
+            model.layer.enabled = false;
             self.fail(message);
         }
     }
@@ -352,9 +712,12 @@ impl App {
     /// Frames the camera on the current model's animated bounds.
     fn frame_model(&mut self) {
         let Some(model) = &mut self.model else { return };
-        if let Some((min, max)) = model.animated_bounds(self.player.clip, self.player.time) {
+        let clip = model.animator.main().clip;
+        if let Some((min, max)) = model.animated_bounds(clip) {
             self.camera.frame_to_fit(min, max);
         }
+        // Restore the animated pose the bounds sampling overwrote.
+        self.evaluate();
     }
 
     /// A full-window hint while files are dragged over the page.
@@ -404,7 +767,12 @@ impl App {
         let model = self.model.as_ref();
         d.set(Key::Model, model.map_or("", |m| m.name.as_str()));
         d.set(Key::Clips, model.map_or("[]", |m| m.clips_json.as_str()));
-        d.set(Key::Clip, model.map_or("", |m| m.clip_name(self.player.clip)));
+        d.set(Key::Clip, model.map_or("", |m| m.clip_name(m.animator.main().clip)));
+        d.set(Key::Time, &model.map_or(String::new(), |m| format!("{:.3}", m.animator.main().time)));
+        d.set(Key::Playing, if model.is_some_and(Model::is_playing) { "true" } else { "false" });
+        let fade = model.and_then(|m| m.animator.crossfade());
+        d.set(Key::Crossfade, &fade.map_or(String::new(), |f| format!("{:.2}", f.weight)));
+        d.set(Key::Layer, &model.map_or(String::new(), Model::layer_summary));
         d.set(Key::Frames, &self.frames.to_string());
     }
 }
@@ -418,24 +786,34 @@ impl eframe::App for App {
         if ctx.current_pass_index() == 0 {
             let (stable_dt, unstable_dt) = ctx.input(|i| (i.stable_dt, i.unstable_dt));
             self.fps.update(unstable_dt);
-            if let Some(model) = &self.model {
-                self.player.advance(&model.asset, stable_dt.clamp(0.0, MAX_DT));
+            self.apply_commands();
+            if let Some(model) = &mut self.model {
+                model.advance(stable_dt.clamp(0.0, MAX_DT));
             }
         }
 
-        let panel = ui::PanelState {
-            model: self.model.as_ref(),
-            loading: self.status == Status::Loading,
-            backend: self.backend,
-            fps: self.fps.fps(),
-        };
+        let state = ui::PanelState { loading: self.status == Status::Loading, backend: self.backend, fps: self.fps.fps() };
         let actions = egui::Panel::left("controls")
             .resizable(true)
-            .default_size(250.0)
-            .show(ui, |ui| ui::side_panel(ui, &panel, &mut self.player))
+            .default_size(270.0)
+            .show(ui, |ui| {
+                ui::side_panel(ui, &state, self.model.as_mut(), &mut self.transition, &mut self.panel)
+            })
             .inner;
         if actions.frame {
             self.frame_model();
+        }
+        for command in actions.commands {
+            if let Err(message) = self.apply(command) {
+                self.fail(message);
+            }
+        }
+        if let Some(model) = &mut self.model {
+            let result = if actions.layer_changed { model.sync_layer() } else { Ok(()) };
+            let result = result.and_then(|()| if actions.blend_changed { model.apply_blend() } else { Ok(()) });
+            if let Err(message) = result {
+                self.fail(message);
+            }
         }
 
         self.evaluate();
@@ -447,7 +825,7 @@ impl eframe::App for App {
             self.frames += 1;
         }
         self.sync_dataset();
-        if self.player.playing && self.player.clip.is_some() {
+        if self.model.as_ref().is_some_and(Model::is_animating) {
             ctx.request_repaint();
         }
     }

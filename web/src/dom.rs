@@ -20,12 +20,32 @@ pub enum Key {
     Frames,
     /// The 3D viewport's rectangle in CSS pixels, `"x,y,width,height"` (for screenshots of the view alone).
     Viewport,
+    /// The main clock's time in seconds, three decimals (`""` without a model).
+    Time,
+    /// `"true"` while the main clock runs, else `"false"`.
+    Playing,
+    /// The eased weight of the incoming clip during a crossfade, two decimals; `""` when none.
+    Crossfade,
+    /// The layer as `"CLIP@ROOT:WEIGHT"`; `""` without a layer.
+    Layer,
 }
 
 impl Key {
     /// Every key, in a fixed order.
-    pub const ALL: [Key; 8] =
-        [Key::Backend, Key::Status, Key::Model, Key::Clips, Key::Clip, Key::Error, Key::Frames, Key::Viewport];
+    pub const ALL: [Key; 12] = [
+        Key::Backend,
+        Key::Status,
+        Key::Model,
+        Key::Clips,
+        Key::Clip,
+        Key::Error,
+        Key::Frames,
+        Key::Viewport,
+        Key::Time,
+        Key::Playing,
+        Key::Crossfade,
+        Key::Layer,
+    ];
 
     /// The dataset property name (`dataset.<name>` in JS).
     pub fn name(self) -> &'static str {
@@ -38,6 +58,10 @@ impl Key {
             Key::Error => "error",
             Key::Frames => "frames",
             Key::Viewport => "viewport",
+            Key::Time => "time",
+            Key::Playing => "playing",
+            Key::Crossfade => "crossfade",
+            Key::Layer => "layer",
         }
     }
 }

@@ -1,10 +1,12 @@
-//! The wasm entry point: `start(canvas_id)`, exported to JavaScript.
+//! The wasm entry point: `start(canvas_id)`, exported to JavaScript, and the [`Viewer`]
+//! handle it returns.
 
 use wasm_bindgen::JsCast;
 use wasm_bindgen::prelude::*;
 
 use crate::app::{App, AppConfig};
 use crate::backend::BackendChoice;
+use crate::control::{Command, Controls, parse_loop_mode};
 use crate::dom::{self, Key};
 
 /// Starts the viewer on the `<canvas>` with id `canvas_id`.
@@ -12,20 +14,136 @@ use crate::dom::{self, Key};
 /// Reads `?backend=` from the page URL (`gl` forces WebGL2, `webgpu` forces WebGPU; default:
 /// WebGPU when available, else WebGL2), installs the panic overlay, and runs the app.
 /// On failure the error overlay is shown, `dataset.status` is `"error"`, and the error is
-/// returned to the caller as well.
+/// returned to the caller as well. On success, resolves to the [`Viewer`] handle.
 #[wasm_bindgen]
-pub async fn start(canvas_id: String) -> Result<(), JsValue> {
+pub async fn start(canvas_id: String) -> Result<Viewer, JsValue> {
     // A second start (another logger already installed) keeps the first logger.
     let _ = eframe::WebLogger::init(log::LevelFilter::Info);
     dom::write_dataset(Key::Status.name(), "loading");
-    let result = run(&canvas_id).await;
+    let controls = Controls::default();
+    let result = run(&canvas_id, controls.clone()).await;
     if let Err(error) = &result {
         dom::show_fatal(&format!("Kloub could not start: {}", dom::js_error_text(error)));
     }
-    result
+    result.map(|()| Viewer { controls })
 }
 
-async fn run(canvas_id: &str) -> Result<(), JsValue> {
+/// Controls a running viewer from JavaScript. Names are resolved against the model shown at
+/// the call (an unknown name throws); the change applies at the next frame, the same way the
+/// side panel's controls do. State is read back from `document.body.dataset`.
+#[wasm_bindgen]
+pub struct Viewer {
+    controls: Controls,
+}
+
+#[wasm_bindgen]
+impl Viewer {
+    /// Runs every clock (clip, blended clips, layer).
+    pub fn play(&self) {
+        self.controls.send(Command::Play);
+    }
+
+    /// Stops every clock.
+    pub fn pause(&self) {
+        self.controls.send(Command::Pause);
+    }
+
+    /// Plays the clip named `name` as a click in the clip list does (crossfading with the
+    /// panel's duration when something plays). `null` or `""` shows the rest pose.
+    #[wasm_bindgen(js_name = playClip)]
+    pub fn play_clip(&self, name: Option<String>) -> Result<(), JsValue> {
+        let clip = self.clip(name)?;
+        self.controls.send(Command::PlayClip(clip));
+        Ok(())
+    }
+
+    /// Crossfades to the clip named `name` over `seconds` (0: cut), from the current pose.
+    #[wasm_bindgen(js_name = crossfadeTo)]
+    pub fn crossfade_to(&self, name: Option<String>, seconds: f32) -> Result<(), JsValue> {
+        if !(seconds.is_finite() && seconds >= 0.0) {
+            return Err(JsValue::from_str(&format!("crossfade duration {seconds}: expected seconds >= 0")));
+        }
+        let clip = self.clip(name)?;
+        self.controls.send(Command::CrossfadeTo { clip, seconds });
+        Ok(())
+    }
+
+    /// Applies the clip named `clip` to the subtree under the joint (or node) named `root`
+    /// with `weight` in `[0, 1]`; `null` or `""` as `clip` removes the layer.
+    #[wasm_bindgen(js_name = setLayer)]
+    pub fn set_layer(&self, clip: Option<String>, root: Option<String>, weight: f32) -> Result<(), JsValue> {
+        let clip = self.clip(clip)?;
+        let root = match (clip, root.as_deref()) {
+            (None, _) => 0,
+            (Some(_), Some(name)) => self.controls.node_index(name).map_err(|e| JsValue::from_str(&e))?,
+            (Some(_), None) => return Err(JsValue::from_str("setLayer: a root joint name is required")),
+        };
+        if !(weight.is_finite() && (0.0..=1.0).contains(&weight)) {
+            return Err(JsValue::from_str(&format!("layer weight {weight}: expected a number in [0, 1]")));
+        }
+        self.controls.send(Command::SetLayer { clip, root, weight });
+        Ok(())
+    }
+
+    /// Moves the main clock to `seconds` (clamped to the clip).
+    pub fn seek(&self, seconds: f32) -> Result<(), JsValue> {
+        if !seconds.is_finite() {
+            return Err(JsValue::from_str("seek: time must be a finite number"));
+        }
+        self.controls.send(Command::Seek(seconds));
+        Ok(())
+    }
+
+    /// Playback speed of the base clips; negative plays backwards.
+    #[wasm_bindgen(js_name = setSpeed)]
+    pub fn set_speed(&self, speed: f32) -> Result<(), JsValue> {
+        if !speed.is_finite() {
+            return Err(JsValue::from_str("setSpeed: speed must be a finite number"));
+        }
+        self.controls.send(Command::SetSpeed(speed));
+        Ok(())
+    }
+
+    /// Loop mode of the base clips: `"once"`, `"repeat"` or `"pingpong"`.
+    #[wasm_bindgen(js_name = setLoop)]
+    pub fn set_loop(&self, mode: &str) -> Result<(), JsValue> {
+        let mode = parse_loop_mode(mode).map_err(|e| JsValue::from_str(&e))?;
+        self.controls.send(Command::SetLoop(mode));
+        Ok(())
+    }
+
+    /// Blends clips by weight: `names[i]` with `weights[i]` (relative; 0 leaves a clip out).
+    #[wasm_bindgen(js_name = setBlend)]
+    pub fn set_blend(&self, names: Vec<String>, weights: Vec<f32>) -> Result<(), JsValue> {
+        if names.len() != weights.len() {
+            return Err(JsValue::from_str("setBlend: names and weights differ in length"));
+        }
+        let mut blend = Vec::with_capacity(names.len());
+        for (name, weight) in names.iter().zip(weights) {
+            if !(weight.is_finite() && weight >= 0.0) {
+                return Err(JsValue::from_str(&format!("setBlend: weight {weight} of {name:?} must be >= 0")));
+            }
+            blend.push((self.controls.clip_index(name).map_err(|e| JsValue::from_str(&e))?, weight));
+        }
+        self.controls.send(Command::SetBlend(blend));
+        Ok(())
+    }
+
+    /// Names of the shown model's clips.
+    #[wasm_bindgen(getter, js_name = availableAnimations)]
+    pub fn available_animations(&self) -> Vec<String> {
+        self.controls.clip_names()
+    }
+
+    fn clip(&self, name: Option<String>) -> Result<Option<usize>, JsValue> {
+        match name.as_deref() {
+            None | Some("") => Ok(None),
+            Some(name) => self.controls.clip_index(name).map(Some).map_err(|e| JsValue::from_str(&e)),
+        }
+    }
+}
+
+async fn run(canvas_id: &str, controls: Controls) -> Result<(), JsValue> {
     let window = web_sys::window().ok_or("no window")?;
     let document = window.document().ok_or("no document")?;
     let canvas: web_sys::HtmlCanvasElement = document
@@ -45,7 +163,7 @@ async fn run(canvas_id: &str) -> Result<(), JsValue> {
     // Installed after the runner's own hook, so ours runs first and then chains to eframe's,
     // which logs the panic to the console and stops the runner.
     install_panic_hook();
-    let config = AppConfig { model_url: Some("/models/default.glb".to_owned()) };
+    let config = AppConfig { model_url: Some("/models/default.glb".to_owned()), controls };
     runner
         .start(canvas, options, Box::new(move |cc| Ok(Box::new(App::new(cc, config)?))))
         .await

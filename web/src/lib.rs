@@ -4,12 +4,14 @@
 //! plays its clips, and draws it with the wgpu [`render::SceneRenderer`] into a texture shown
 //! in egui's central panel. On `wasm32` the exported `start(canvas_id)` runs it in a page.
 //!
-//! Modules: [`app`] (frame loop, model state), [`ui`] (side panel), [`load`] (fetch, drop,
+//! Modules: [`app`] (frame loop, model state), [`ui`] (side panel), [`control`] (commands
+//! from the page), [`load`] (fetch, drop,
 //! import), [`dom`] (`document.body.dataset` mirror and error overlay; no-ops natively),
 //! [`backend`] (`?backend=` choice), [`render`] (GPU renderer and camera).
 
 pub mod app;
 pub mod backend;
+pub mod control;
 pub mod dom;
 #[cfg(target_arch = "wasm32")]
 mod entry;
@@ -18,4 +20,4 @@ pub mod render;
 pub mod ui;
 
 #[cfg(target_arch = "wasm32")]
-pub use entry::start;
+pub use entry::{Viewer, start};

@@ -1,13 +1,21 @@
-//! The side panel: model, clips, playback controls, warnings, stats.
+//! The side panel: model, clips with transitions, playback and timeline, clip blending, the
+//! layer panel, warnings, stats.
+//!
+//! The panel changes the animation through [`Command`]s (the same ones the page's JS handle
+//! sends) and edits the model's panel drafts ([`Model::layer`], [`Model::blend_weights`])
+//! directly, reporting that they changed.
 
-use kloub_core::player::{LoopMode, Player};
+use egui::{Color32, Sense, Stroke, pos2, vec2};
+use kloub_core::animator::{Crossfade, Easing, Outgoing};
+use kloub_core::asset::NodeIndex;
+use kloub_core::job::sample::RotationLerp;
+use kloub_core::player::LoopMode;
 
 use crate::app::Model;
+use crate::control::Command;
 
 /// Read-only facts the panel shows.
 pub struct PanelState<'a> {
-    /// The shown model, if any.
-    pub model: Option<&'a Model>,
     /// Whether a load is in progress.
     pub loading: bool,
     /// Active backend name.
@@ -16,20 +24,44 @@ pub struct PanelState<'a> {
     pub fps: f32,
 }
 
+/// Panel state that lives across frames and models.
+#[derive(Debug, Default)]
+pub struct PanelMemory {
+    /// The clip list's filter text.
+    pub clip_filter: String,
+    /// While the timeline is dragged: whether playback resumes when it is released.
+    pub scrub_resume: Option<bool>,
+}
+
 /// What the user asked for that the panel cannot do itself.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Debug, Default, PartialEq)]
 pub struct PanelActions {
     /// Frame the camera on the model.
     pub frame: bool,
+    /// Animation changes, applied in order after the panel is drawn.
+    pub commands: Vec<Command>,
+    /// [`Model::layer`] changed: apply it.
+    pub layer_changed: bool,
+    /// [`Model::blend_weights`] changed: apply them.
+    pub blend_changed: bool,
 }
 
-/// Draws the side panel; edits `player` directly (clip, play/pause, speed, time, loop).
-pub fn side_panel(ui: &mut egui::Ui, state: &PanelState<'_>, player: &mut Player) -> PanelActions {
+/// Clip lists longer than this get a filter box.
+const FILTER_FROM: usize = 8;
+
+/// Draws the side panel.
+pub fn side_panel(
+    ui: &mut egui::Ui,
+    state: &PanelState<'_>,
+    model: Option<&mut Model>,
+    transition: &mut Crossfade,
+    memory: &mut PanelMemory,
+) -> PanelActions {
     let mut actions = PanelActions::default();
     ui.add_space(6.0);
     ui.heading("Kloub");
     ui.horizontal(|ui| {
-        match state.model {
+        match &model {
             Some(model) => ui.strong(&model.name),
             None => ui.weak("no model"),
         };
@@ -39,20 +71,34 @@ pub fn side_panel(ui: &mut egui::Ui, state: &PanelState<'_>, player: &mut Player
     });
     ui.separator();
 
-    if let Some(model) = state.model {
-        clips(ui, model, player);
-        if let Some(duration) = player.clip.and_then(|c| model.asset.clips.get(c)).map(|c| c.duration) {
+    if let Some(model) = model {
+        egui::ScrollArea::vertical().id_salt("panel").auto_shrink([false, true]).show(ui, |ui| {
+            if !model.clip_names.is_empty() {
+                clips(ui, model, transition, memory, &mut actions);
+                ui.separator();
+                playback(ui, model, memory, &mut actions);
+                ui.separator();
+                transition_settings(ui, model, transition);
+                if model.clip_names.len() > 1 {
+                    blend_panel(ui, model, &mut actions);
+                }
+                layer_panel(ui, model, &mut actions);
+                ui.separator();
+            }
+            if ui.button("Frame model").on_hover_text("Or double-click the viewport").clicked() {
+                actions.frame = true;
+            }
+            warnings(ui, model);
             ui.separator();
-            playback(ui, player, duration);
-        }
-        ui.separator();
-        if ui.button("Frame model").on_hover_text("Or double-click the viewport").clicked() {
-            actions.frame = true;
-        }
-        warnings(ui, model);
-        ui.separator();
+            stats(ui, state);
+        });
+    } else {
+        stats(ui, state);
     }
+    actions
+}
 
+fn stats(ui: &mut egui::Ui, state: &PanelState<'_>) {
     egui::Grid::new("stats").num_columns(2).show(ui, |ui| {
         ui.label("Backend");
         ui.monospace(state.backend);
@@ -64,63 +110,328 @@ pub fn side_panel(ui: &mut egui::Ui, state: &PanelState<'_>, player: &mut Player
     ui.separator();
     ui.weak("Drop a .glb (or a .gltf with its .bin and textures) onto the page to open it.");
     ui.weak("Drag: orbit · right/middle or shift-drag: pan · scroll: zoom.");
-    actions
 }
 
-fn clips(ui: &mut egui::Ui, model: &Model, player: &mut Player) {
+fn clips(
+    ui: &mut egui::Ui,
+    model: &Model,
+    transition: &Crossfade,
+    memory: &mut PanelMemory,
+    actions: &mut PanelActions,
+) {
     ui.strong(format!("Clips ({})", model.clip_names.len()));
+    if model.clip_names.len() > FILTER_FROM {
+        ui.add(egui::TextEdit::singleline(&mut memory.clip_filter).hint_text("filter clips"));
+    }
+    let filter = memory.clip_filter.to_lowercase();
+    let current = model.animator.main().clip;
+    let blended = model.animator.tracks().len() > 1;
+    let hint = if transition.duration > 0.0 {
+        format!("Click: crossfade to this clip over {:.2} s", transition.duration)
+    } else {
+        "Click: switch to this clip".to_owned()
+    };
     egui::ScrollArea::vertical().id_salt("clips").max_height(220.0).show(ui, |ui| {
         for (i, (name, clip)) in model.clip_names.iter().zip(&model.asset.clips).enumerate() {
+            if !filter.is_empty() && !name.to_lowercase().contains(&filter) {
+                continue;
+            }
             let label = format!("{name}  ({:.2} s)", clip.duration);
-            if ui.selectable_label(player.clip == Some(i), label).clicked() {
-                player.set_clip(Some(i));
-                player.playing = true;
+            if ui.selectable_label(!blended && current == Some(i), label).on_hover_text(&hint).clicked() {
+                actions.commands.push(Command::PlayClip(Some(i)));
             }
         }
-        if ui.selectable_label(player.clip.is_none(), "Rest pose").clicked() {
-            player.set_clip(None);
+        if ui.selectable_label(!blended && current.is_none(), "Rest pose").clicked() {
+            actions.commands.push(Command::PlayClip(None));
         }
     });
 }
 
-fn playback(ui: &mut egui::Ui, player: &mut Player, duration: f32) {
-    ui.horizontal(|ui| {
-        let label = if player.playing { "Pause" } else { "Play" };
-        if ui.button(label).clicked() {
-            toggle_play(player, duration);
-        }
-        let mut repeat = player.loop_mode == LoopMode::Repeat;
-        if ui.checkbox(&mut repeat, "Loop").changed() {
-            player.loop_mode = if repeat { LoopMode::Repeat } else { LoopMode::Once };
+fn transition_settings(ui: &mut egui::Ui, model: &Model, transition: &mut Crossfade) {
+    egui::CollapsingHeader::new("Transition").id_salt("transition").default_open(true).show(ui, |ui| {
+        ui.add(
+            egui::Slider::new(&mut transition.duration, 0.0..=2.0)
+                .text("crossfade s")
+                .fixed_decimals(2)
+                .clamping(egui::SliderClamping::Always),
+        )
+        .on_hover_text("Duration of the crossfade when a clip is clicked; 0 switches at once");
+        ui.horizontal(|ui| {
+            ui.label("Easing");
+            egui::ComboBox::from_id_salt("easing")
+                .selected_text(easing_name(transition.easing))
+                .show_ui(ui, |ui| {
+                    for e in [Easing::SmoothStep, Easing::Linear] {
+                        ui.selectable_value(&mut transition.easing, e, easing_name(e));
+                    }
+                });
+        });
+        ui.horizontal(|ui| {
+            ui.label("Outgoing");
+            egui::ComboBox::from_id_salt("outgoing")
+                .selected_text(outgoing_name(transition.outgoing))
+                .show_ui(ui, |ui| {
+                    for o in [Outgoing::Freeze, Outgoing::KeepPlaying, Outgoing::SyncTime] {
+                        ui.selectable_value(&mut transition.outgoing, o, outgoing_name(o))
+                            .on_hover_text(outgoing_hint(o));
+                    }
+                });
+        });
+        if let Some(fade) = model.animator.crossfade() {
+            ui.add(
+                egui::ProgressBar::new(fade.weight)
+                    .text(format!("to {}  {:.0}%", model.clip_name(model.animator.main().clip), fade.weight * 100.0)),
+            );
         }
     });
+}
+
+fn easing_name(e: Easing) -> &'static str {
+    match e {
+        Easing::SmoothStep => "smooth step",
+        Easing::Linear => "linear",
+    }
+}
+
+fn outgoing_name(o: Outgoing) -> &'static str {
+    match o {
+        Outgoing::Freeze => "from current pose",
+        Outgoing::KeepPlaying => "keep playing",
+        Outgoing::SyncTime => "sync time",
+    }
+}
+
+fn outgoing_hint(o: Outgoing) -> &'static str {
+    match o {
+        Outgoing::Freeze => "Blend from a snapshot of the pose on screen when the crossfade starts",
+        Outgoing::KeepPlaying => "The old clip keeps playing while it fades out",
+        Outgoing::SyncTime => "The old clip keeps playing; the new one starts at the same fraction of its length",
+    }
+}
+
+fn loop_name(mode: LoopMode) -> &'static str {
+    match mode {
+        LoopMode::Once => "once",
+        LoopMode::Repeat => "repeat",
+        LoopMode::PingPong => "ping-pong",
+    }
+}
+
+fn playback(ui: &mut egui::Ui, model: &mut Model, memory: &mut PanelMemory, actions: &mut PanelActions) {
+    let main = model.animator.main().clone();
+    let duration = main.duration(&model.asset);
     ui.horizontal(|ui| {
-        ui.add(egui::Slider::new(&mut player.speed, -2.0..=2.0).text("speed").fixed_decimals(2));
+        let playing = main.playing && memory.scrub_resume.is_none();
+        let label = if playing { "Pause" } else { "Play" };
+        if ui.button(label).on_hover_text("Play or pause every clip and layer").clicked() {
+            actions.commands.push(if playing { Command::Pause } else { Command::Play });
+        }
+        if ui
+            .button(if main.speed < 0.0 { "Forward" } else { "Reverse" })
+            .on_hover_text("Play in the other direction (negates the speed)")
+            .clicked()
+        {
+            actions.commands.push(Command::SetSpeed(-main.speed));
+        }
+        let mut mode = main.loop_mode;
+        egui::ComboBox::from_id_salt("loop").selected_text(loop_name(mode)).width(80.0).show_ui(ui, |ui| {
+            for m in [LoopMode::Repeat, LoopMode::Once, LoopMode::PingPong] {
+                ui.selectable_value(&mut mode, m, loop_name(m));
+            }
+        });
+        if mode != main.loop_mode {
+            actions.commands.push(Command::SetLoop(mode));
+        }
+    });
+    let mut speed = main.speed;
+    ui.horizontal(|ui| {
+        let slider = egui::Slider::new(&mut speed, -3.0..=3.0).text("speed").fixed_decimals(2);
+        if ui.add(slider).changed() {
+            actions.commands.push(Command::SetSpeed(speed));
+        }
         if ui.small_button("1×").on_hover_text("Reset speed").clicked() {
-            player.speed = 1.0;
+            actions.commands.push(Command::SetSpeed(1.0));
         }
     });
-    ui.monospace(format!("{:6.3} / {:.3} s", player.time, duration));
-    ui.add_enabled(
-        duration > 0.0,
-        egui::Slider::new(&mut player.time, 0.0..=duration.max(0.0)).show_value(false).text("time"),
-    );
+    if main.clip.is_some() {
+        let keys = main.clip.and_then(|c| model.key_times.get(c)).map_or(&[][..], Vec::as_slice);
+        ui.monospace(format!("{:6.3} / {:.3} s   {} keys", main.time, duration, keys.len()));
+        timeline(ui, main.time, duration, keys, main.playing, memory, actions);
+    }
+    let mut lerp = model.animator.rotation_lerp();
+    ui.horizontal(|ui| {
+        ui.label("Rotation keys");
+        ui.radio_value(&mut lerp, RotationLerp::Slerp, "slerp")
+            .on_hover_text("Spherical interpolation (glTF's definition)");
+        ui.radio_value(&mut lerp, RotationLerp::Nlerp, "nlerp")
+            .on_hover_text("Normalized linear interpolation: cheaper, slightly uneven speed");
+    });
+    model.animator.set_rotation_lerp(lerp);
 }
 
-/// Play/pause; a finished one-shot clip restarts from its start (or end, playing backwards).
-pub fn toggle_play(player: &mut Player, duration: f32) {
-    if player.playing {
-        player.playing = false;
+/// Height of the timeline strip in points.
+const TIMELINE_HEIGHT: f32 = 30.0;
+
+/// The timeline: a strip with a tick per key time and the playhead; click or drag to scrub
+/// (playback pauses while dragging and resumes on release).
+fn timeline(
+    ui: &mut egui::Ui,
+    time: f32,
+    duration: f32,
+    keys: &[f32],
+    playing: bool,
+    memory: &mut PanelMemory,
+    actions: &mut PanelActions,
+) {
+    let width = ui.available_width().max(60.0);
+    let (rect, response) = ui.allocate_exact_size(vec2(width, TIMELINE_HEIGHT), Sense::click_and_drag());
+    let response = response.on_hover_text("Click or drag to scrub; ticks mark key times");
+    let painter = ui.painter_at(rect);
+    let visuals = ui.visuals();
+    painter.rect_filled(rect, 3.0, visuals.extreme_bg_color);
+    let x_of = |t: f32| {
+        let u = if duration > 0.0 { (t / duration).clamp(0.0, 1.0) } else { 0.0 };
+        rect.left() + u * rect.width()
+    };
+    // One tick per pixel column at most, however many keys the clip has.
+    let tick = Stroke::new(1.0, visuals.weak_text_color());
+    let mut last_column = f32::NEG_INFINITY;
+    for &t in keys {
+        let x = x_of(t).round();
+        if x > last_column {
+            painter.line_segment([pos2(x, rect.bottom() - 9.0), pos2(x, rect.bottom() - 2.0)], tick);
+            last_column = x;
+        }
+    }
+    let x = x_of(time);
+    painter.rect_filled(
+        egui::Rect::from_min_max(rect.left_top(), pos2(x, rect.bottom() - 11.0)),
+        3.0,
+        visuals.selection.bg_fill.gamma_multiply(0.5),
+    );
+    painter.line_segment([pos2(x, rect.top()), pos2(x, rect.bottom())], Stroke::new(2.0, Color32::from_rgb(255, 170, 40)));
+
+    if duration <= 0.0 {
         return;
     }
-    if player.loop_mode == LoopMode::Once {
-        if player.speed >= 0.0 && player.time >= duration {
-            player.time = 0.0;
-        } else if player.speed < 0.0 && player.time <= 0.0 {
-            player.time = duration;
+    let pointer_time = |pos: Option<egui::Pos2>| {
+        pos.map(|p| ((p.x - rect.left()) / rect.width()).clamp(0.0, 1.0) * duration)
+    };
+    if response.drag_started() {
+        memory.scrub_resume = Some(playing);
+        if playing {
+            actions.commands.push(Command::Pause);
         }
     }
-    player.playing = true;
+    if (response.dragged() || response.clicked())
+        && let Some(t) = pointer_time(response.interact_pointer_pos())
+    {
+        actions.commands.push(Command::Seek(t));
+    }
+    if response.drag_stopped()
+        && let Some(resume) = memory.scrub_resume.take()
+        && resume
+    {
+        actions.commands.push(Command::Play);
+    }
+}
+
+fn blend_panel(ui: &mut egui::Ui, model: &mut Model, actions: &mut PanelActions) {
+    let tracks = model.animator.tracks().len();
+    let title = if tracks > 1 { format!("Blend clips ({tracks} playing)") } else { "Blend clips".to_owned() };
+    egui::CollapsingHeader::new(title).id_salt("blend").show(ui, |ui| {
+        ui.weak("Weights are relative; every clip with a weight above 0 plays.");
+        egui::ScrollArea::vertical().id_salt("blend-list").max_height(200.0).show(ui, |ui| {
+            for (name, weight) in model.clip_names.iter().zip(model.blend_weights.iter_mut()) {
+                let slider = egui::Slider::new(weight, 0.0..=1.0).text(name.as_str()).fixed_decimals(2);
+                if ui.add(slider).changed() {
+                    actions.blend_changed = true;
+                }
+            }
+        });
+    });
+}
+
+fn layer_panel(ui: &mut egui::Ui, model: &mut Model, actions: &mut PanelActions) {
+    let title = match model.animator.layers().first() {
+        Some(_) => format!("Layer: {}", model.layer_summary()),
+        None => "Layer".to_owned(),
+    };
+    egui::CollapsingHeader::new(title).id_salt("layer").show(ui, |ui| {
+        let before = model.layer;
+        let draft = &mut model.layer;
+        ui.checkbox(&mut draft.enabled, "Apply a second clip to a subtree");
+        ui.horizontal(|ui| {
+            ui.label("Clip");
+            let selected = model.clip_names.get(draft.clip).map_or("", String::as_str);
+            egui::ComboBox::from_id_salt("layer-clip").selected_text(selected).show_ui(ui, |ui| {
+                for (i, name) in model.clip_names.iter().enumerate() {
+                    ui.selectable_value(&mut draft.clip, i, name);
+                }
+            });
+        });
+        let max_weight = if draft.additive { 2.0 } else { 1.0 };
+        ui.add(egui::Slider::new(&mut draft.weight, 0.0..=max_weight).text("weight").fixed_decimals(2));
+        ui.add(egui::Slider::new(&mut draft.falloff, 0.0..=1.0).text("falloff").fixed_decimals(2))
+            .on_hover_text("Each generation below the root weighs (1 − falloff) times its parent");
+        ui.add(egui::Slider::new(&mut draft.speed, -3.0..=3.0).text("layer speed").fixed_decimals(2));
+        ui.checkbox(&mut draft.additive, "Additive (adds the clip's motion relative to its first frame)");
+        let root_name = node_label(model, model.layer.root);
+        ui.label(format!("Root bone: {root_name}"));
+        egui::ScrollArea::vertical().id_salt("joint-tree").max_height(220.0).show(ui, |ui| {
+            let mut root = model.layer.root;
+            for (i, node) in model.asset.nodes.iter().enumerate() {
+                if node.parent.is_none() && model.in_joint_tree.get(i).copied().unwrap_or(false) {
+                    joint_tree(ui, model, i as NodeIndex, &mut root, 0);
+                }
+            }
+            model.layer.root = root;
+        });
+        if model.layer != before {
+            // Picking a clip or a root is asking for the layer.
+            if model.layer.clip != before.clip || model.layer.root != before.root {
+                model.layer.enabled = true;
+            }
+            actions.layer_changed = true;
+        }
+    });
+}
+
+/// Deepest joint-tree level drawn (deeper chains end in "…").
+const MAX_TREE_DEPTH: usize = 64;
+
+fn node_label(model: &Model, node: NodeIndex) -> String {
+    model.node_name(node)
+}
+
+/// One node of the joint tree and, when expanded, its children; a click selects it as root.
+fn joint_tree(ui: &mut egui::Ui, model: &Model, node: NodeIndex, selected: &mut NodeIndex, depth: usize) {
+    if depth > MAX_TREE_DEPTH {
+        ui.weak("…");
+        return;
+    }
+    let Some(n) = model.asset.nodes.get(node as usize) else { return };
+    let children: Vec<NodeIndex> =
+        n.children.iter().copied().filter(|&c| model.in_joint_tree.get(c as usize).copied().unwrap_or(false)).collect();
+    let label = node_label(model, node);
+    if children.is_empty() {
+        if ui.selectable_label(*selected == node, label).clicked() {
+            *selected = node;
+        }
+        return;
+    }
+    let id = ui.make_persistent_id(("joint", node));
+    egui::collapsing_header::CollapsingState::load_with_default_open(ui.ctx(), id, depth < 4)
+        .show_header(ui, |ui| {
+            if ui.selectable_label(*selected == node, label).clicked() {
+                *selected = node;
+            }
+        })
+        .body(|ui| {
+            for c in children {
+                joint_tree(ui, model, c, selected, depth + 1);
+            }
+        });
 }
 
 fn warnings(ui: &mut egui::Ui, model: &Model) {
@@ -136,26 +447,4 @@ fn warnings(ui: &mut egui::Ui, model: &Model) {
                 }
             });
         });
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn play_restarts_a_finished_one_shot() {
-        let mut p = Player { loop_mode: LoopMode::Once, playing: false, time: 2.0, ..Player::new() };
-        toggle_play(&mut p, 2.0);
-        assert!(p.playing);
-        assert_eq!(p.time, 0.0);
-        toggle_play(&mut p, 2.0);
-        assert!(!p.playing);
-        p.speed = -1.0;
-        p.time = 0.0;
-        toggle_play(&mut p, 2.0);
-        assert_eq!(p.time, 2.0);
-        let mut looping = Player { playing: false, time: 2.0, ..Player::new() };
-        toggle_play(&mut looping, 2.0);
-        assert_eq!(looping.time, 2.0, "a looping clip resumes where it is");
-    }
 }

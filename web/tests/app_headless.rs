@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use kloub_web::app::{App, AppConfig};
+use kloub_web::control::Command;
 use kloub_web::dom::Key;
 
 /// A dropped file backed by bytes in memory.
@@ -209,13 +210,13 @@ fn drop_play_and_reject_a_bad_file() {
     assert_eq!(h.get(Key::Clip), "Survey");
     assert!(!h.get(Key::Backend).is_empty());
 
-    let t0 = h.app.player().time;
+    let t0 = main_time(&h);
     let before = h.step(0.05, Vec::new());
     for _ in 0..4 {
         h.step(0.1, Vec::new());
     }
     let after = h.step(0.05, Vec::new());
-    let t1 = h.app.player().time;
+    let t1 = main_time(&h);
     assert!(t1 > t0 + 0.3, "the clip plays: {t0} -> {t1}");
     save(&before, "fox-a.png");
     save(&after, "fox-b.png");
@@ -237,4 +238,114 @@ fn drop_play_and_reject_a_bad_file() {
     assert!(h.app.error_message().is_some(), "an error window is open");
     assert_eq!(h.get(Key::Model), "Fox.glb", "the previous model stays");
     assert_eq!(h.app.model().map(|m| m.name.as_str()), Some("Fox.glb"));
+}
+
+fn main_time(h: &Harness) -> f32 {
+    h.app.model().map_or(f32::NAN, |m| m.animator.main().time)
+}
+
+fn shared_asset(rel: &str) -> Vec<u8> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/assets").join(rel);
+    std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e} (the shared test assets)", path.display()))
+}
+
+/// Loads `name` by drop, pauses and shows its clip `clip` at `time`.
+fn load_paused(h: &mut Harness, name: &str, bytes: Vec<u8>) {
+    h.step(0.016, vec![dropped(name, bytes)]);
+    h.step(0.016, Vec::new());
+    assert_eq!(h.get(Key::Model), name, "{}", h.get(Key::Error));
+    h.app.controls().send(Command::Pause);
+}
+
+#[test]
+fn crossfade_from_the_page_controls_blends_into_the_target_clip() {
+    let fox = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/Fox.glb")).expect("web/assets/Fox.glb");
+    let mut h = Harness::new();
+    load_paused(&mut h, "Fox.glb", fox);
+    let controls = h.app.controls().clone();
+    let (walk, run) = (controls.clip_index("Walk").expect("Walk"), controls.clip_index("Run").expect("Run"));
+    assert!(controls.clip_index("Gallop").is_err());
+    controls.send(Command::CrossfadeTo { clip: Some(walk), seconds: 0.0 });
+    controls.send(Command::Pause);
+    controls.send(Command::Seek(0.0));
+    h.step(0.016, Vec::new());
+    assert_eq!(h.get(Key::Clip), "Walk");
+    assert_eq!(h.get(Key::Playing), "false");
+    assert_eq!(h.get(Key::Crossfade), "", "a zero duration cuts");
+    let walk_shot = h.step(0.016, Vec::new());
+
+    controls.send(Command::CrossfadeTo { clip: Some(run), seconds: 0.5 });
+    h.step(0.1, Vec::new());
+    h.step(0.1, Vec::new());
+    let w: f32 = h.get(Key::Crossfade).parse().expect("a crossfade weight while fading");
+    assert!(w > 0.0 && w < 1.0, "mid-fade weight {w}");
+    assert_eq!(h.get(Key::Clip), "Run");
+    assert_eq!(h.get(Key::Playing), "true", "a crossfade plays its target");
+    for _ in 0..5 {
+        h.step(0.1, Vec::new());
+    }
+    assert_eq!(h.get(Key::Crossfade), "", "the crossfade finished");
+    controls.send(Command::Pause);
+    controls.send(Command::Seek(0.0));
+    h.step(0.016, Vec::new());
+    let faded = h.step(0.016, Vec::new());
+
+    // The same frame reached by cutting straight to Run.
+    controls.send(Command::CrossfadeTo { clip: Some(run), seconds: 0.0 });
+    controls.send(Command::Pause);
+    controls.send(Command::Seek(0.0));
+    h.step(0.016, Vec::new());
+    let cut = h.step(0.016, Vec::new());
+    save(&walk_shot, "crossfade-walk.png");
+    save(&faded, "crossfade-run.png");
+    let viewport = (320, 40, SIZE[0], SIZE[1] - 40);
+    let changed = changed_pixels(&walk_shot, &faded, viewport);
+    assert!(changed > 200, "Walk -> Run changed only {changed} pixels");
+    let residual = changed_pixels(&faded, &cut, viewport);
+    assert!(residual < 20, "after the crossfade the pose is Run's: {residual} pixels differ");
+}
+
+#[test]
+fn a_layer_moves_the_subtree_under_its_root_only() {
+    let mut h = Harness::new();
+    load_paused(&mut h, "RobotExpressive.glb", shared_asset("threejs/RobotExpressive/RobotExpressive.glb"));
+    let controls = h.app.controls().clone();
+    let walking = controls.clip_index("Walking").expect("Walking");
+    let wave = controls.clip_index("Wave").expect("Wave");
+    let abdomen = controls.node_index("Abdomen").expect("Abdomen");
+    controls.send(Command::CrossfadeTo { clip: Some(walking), seconds: 0.0 });
+    controls.send(Command::Pause);
+    controls.send(Command::Seek(0.3));
+    h.step(0.016, Vec::new());
+    let plain = h.step(0.016, Vec::new());
+    let model = h.app.model().expect("a model");
+    let before: Vec<glam::Mat4> = model.instance.worlds().to_vec();
+
+    controls.send(Command::SetLayer { clip: Some(wave), root: abdomen, weight: 1.0 });
+    controls.send(Command::Play);
+    for _ in 0..6 {
+        h.step(0.1, Vec::new());
+    }
+    controls.send(Command::Pause);
+    controls.send(Command::Seek(0.3));
+    h.step(0.016, Vec::new());
+    let layered = h.step(0.016, Vec::new());
+    assert_eq!(h.get(Key::Layer), "Wave@Abdomen:1.00");
+    save(&plain, "layer-off.png");
+    save(&layered, "layer-wave.png");
+
+    let model = h.app.model().expect("a model");
+    let after = model.instance.worlds();
+    let name = |i: usize| model.asset.nodes[i].name.clone().unwrap_or_default();
+    let moved = |i: usize| !before[i].abs_diff_eq(after[i], 1e-4);
+    let hand = controls.node_index("LowerArm.R").expect("LowerArm.R") as usize;
+    let leg = controls.node_index("LowerLeg.L").expect("LowerLeg.L") as usize;
+    assert!(moved(hand), "{} under the layer root did not move", name(hand));
+    assert!(!moved(leg), "{} outside the layer moved", name(leg));
+    let changed = changed_pixels(&plain, &layered, (320, 40, SIZE[0], SIZE[1] - 40));
+    assert!(changed > 100, "the Wave layer changed only {changed} pixels");
+
+    controls.send(Command::SetLayer { clip: None, root: 0, weight: 0.0 });
+    h.step(0.016, Vec::new());
+    assert_eq!(h.get(Key::Layer), "");
 }

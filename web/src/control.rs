@@ -1,0 +1,205 @@
+//! The command channel between the page (the JS handle returned by `start`, and later the
+//! `<kloub-viewer>` element) and the app.
+//!
+//! The page never touches the app directly: it resolves names against what the app published
+//! for the shown model ([`Controls::clip_index`], [`Controls::node_index`]) — so a bad name is
+//! an error at the call, synchronously — and queues a [`Command`]. The app applies queued
+//! commands at the start of its next frame through the same [`crate::app::Model`] methods the
+//! side panel uses, so a test driving the handle exercises what a click does.
+
+use std::cell::RefCell;
+use std::rc::Rc;
+
+use kloub_core::player::LoopMode;
+
+/// One request from the page, with names already resolved to indices of the shown model.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Command {
+    /// Run every clock (main, blended tracks, layers).
+    Play,
+    /// Stop every clock.
+    Pause,
+    /// Play `clip` (`None`: rest pose) the way a click in the clip list does: a crossfade with
+    /// the panel's transition settings when something is already playing.
+    PlayClip(Option<usize>),
+    /// Crossfade the base to `clip` over `seconds` (0: cut), with the panel's easing and
+    /// outgoing mode.
+    CrossfadeTo {
+        /// Target clip (`None`: rest pose).
+        clip: Option<usize>,
+        /// Duration in seconds.
+        seconds: f32,
+    },
+    /// Move the main clock to a time in seconds (clamped to the clip).
+    Seek(f32),
+    /// Main clock speed; negative plays backwards.
+    SetSpeed(f32),
+    /// Main clock loop mode.
+    SetLoop(LoopMode),
+    /// Set the layer (`clip` `None` removes it): `clip` on the subtree under node `root`.
+    SetLayer {
+        /// Layer clip, or `None` to remove the layer.
+        clip: Option<usize>,
+        /// Root node of the affected subtree.
+        root: u32,
+        /// Layer weight.
+        weight: f32,
+    },
+    /// A weighted blend of clips as the base (clip index, weight).
+    SetBlend(Vec<(usize, f32)>),
+}
+
+/// What the app published about the shown model, and the queue.
+#[derive(Default)]
+struct Shared {
+    queue: Vec<(u64, Command)>,
+    /// Bumped on every model change; commands stamped with an older one are dropped.
+    generation: u64,
+    clips: Vec<String>,
+    nodes: Vec<Option<String>>,
+    repaint: Option<egui::Context>,
+}
+
+/// A cheap, clonable handle on the command channel (single-threaded, like the page).
+#[derive(Clone, Default)]
+pub struct Controls(Rc<RefCell<Shared>>);
+
+impl std::fmt::Debug for Controls {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let shared = self.0.borrow();
+        f.debug_struct("Controls")
+            .field("queued", &shared.queue.len())
+            .field("generation", &shared.generation)
+            .field("clips", &shared.clips.len())
+            .finish()
+    }
+}
+
+impl Controls {
+    /// Queues `command` for the model shown now, and wakes the app.
+    pub fn send(&self, command: Command) {
+        let repaint = {
+            let mut shared = self.0.borrow_mut();
+            let generation = shared.generation;
+            shared.queue.push((generation, command));
+            shared.repaint.clone()
+        };
+        if let Some(ctx) = repaint {
+            ctx.request_repaint();
+        }
+    }
+
+    /// Index of the clip named `name` in the shown model.
+    ///
+    /// # Errors
+    /// A message listing the available clips.
+    pub fn clip_index(&self, name: &str) -> Result<usize, String> {
+        let shared = self.0.borrow();
+        shared.clips.iter().position(|c| c == name).ok_or_else(|| {
+            if shared.clips.is_empty() {
+                format!("no clip named {name:?}: the shown model has no clips")
+            } else {
+                format!("no clip named {name:?}; clips: {}", shared.clips.join(", "))
+            }
+        })
+    }
+
+    /// Index of the first node named `name` in the shown model.
+    ///
+    /// # Errors
+    /// A message when no node has that name.
+    pub fn node_index(&self, name: &str) -> Result<u32, String> {
+        let shared = self.0.borrow();
+        shared
+            .nodes
+            .iter()
+            .position(|n| n.as_deref() == Some(name))
+            .and_then(|i| u32::try_from(i).ok())
+            .ok_or_else(|| format!("no joint or node named {name:?} in the shown model"))
+    }
+
+    /// Names of the shown model's clips.
+    pub fn clip_names(&self) -> Vec<String> {
+        self.0.borrow().clips.clone()
+    }
+
+    /// The app's side: publishes a new model's names and drops commands meant for the old one.
+    pub(crate) fn publish(&self, clips: Vec<String>, nodes: Vec<Option<String>>) {
+        let mut shared = self.0.borrow_mut();
+        shared.generation += 1;
+        shared.queue.clear();
+        shared.clips = clips;
+        shared.nodes = nodes;
+    }
+
+    /// The app's side: the context to wake when a command arrives.
+    pub(crate) fn set_repaint(&self, ctx: egui::Context) {
+        self.0.borrow_mut().repaint = Some(ctx);
+    }
+
+    /// The app's side: takes the commands queued for the current model, in order.
+    pub(crate) fn take(&self) -> Vec<Command> {
+        let mut shared = self.0.borrow_mut();
+        let generation = shared.generation;
+        std::mem::take(&mut shared.queue).into_iter().filter(|(g, _)| *g == generation).map(|(_, c)| c).collect()
+    }
+}
+
+/// Parses a loop mode name: `once`, `repeat` or `pingpong` (also `ping-pong`).
+///
+/// # Errors
+/// A message naming the accepted values.
+pub fn parse_loop_mode(name: &str) -> Result<LoopMode, String> {
+    match name {
+        "once" => Ok(LoopMode::Once),
+        "repeat" => Ok(LoopMode::Repeat),
+        "pingpong" | "ping-pong" => Ok(LoopMode::PingPong),
+        _ => Err(format!("loop mode {name:?}: expected \"once\", \"repeat\" or \"pingpong\"")),
+    }
+}
+
+/// The page name of a loop mode (inverse of [`parse_loop_mode`]).
+pub fn loop_mode_name(mode: LoopMode) -> &'static str {
+    match mode {
+        LoopMode::Once => "once",
+        LoopMode::Repeat => "repeat",
+        LoopMode::PingPong => "pingpong",
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_resolve_against_the_published_model() {
+        let c = Controls::default();
+        assert!(c.clip_index("Walk").expect_err("no model yet").contains("no clips"));
+        c.publish(vec!["Survey".into(), "Walk".into()], vec![None, Some("Hips".into())]);
+        assert_eq!(c.clip_index("Walk"), Ok(1));
+        assert!(c.clip_index("Run").expect_err("no such clip").contains("Survey, Walk"));
+        assert_eq!(c.node_index("Hips"), Ok(1));
+        assert!(c.node_index("Head").is_err());
+    }
+
+    #[test]
+    fn commands_for_an_older_model_are_dropped() {
+        let c = Controls::default();
+        c.publish(vec!["A".into()], vec![]);
+        c.send(Command::Pause);
+        c.send(Command::Seek(0.5));
+        assert_eq!(c.take(), vec![Command::Pause, Command::Seek(0.5)]);
+        assert!(c.take().is_empty());
+        c.send(Command::Play);
+        c.publish(vec!["B".into()], vec![]);
+        assert!(c.take().is_empty(), "a new model drops queued commands");
+    }
+
+    #[test]
+    fn loop_modes_round_trip() {
+        for mode in [LoopMode::Once, LoopMode::Repeat, LoopMode::PingPong] {
+            assert_eq!(parse_loop_mode(loop_mode_name(mode)), Ok(mode));
+        }
+        assert!(parse_loop_mode("forever").is_err());
+    }
+}
