@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The README's test command: the whole suite.
 #   1. lints (clippy, deny unwrap outside tests)  2. Rust tests, native (unit, contracts, golden images on lavapipe,
-#   shader validation)  3. web bundle build  4. browser tests on WebGPU and WebGL2 against the real `kloub serve`.
+#   shader validation), then the core's import suite on wasm32 under Node (scripts/test-wasm.sh)  3. web bundle build
+#   4. browser tests on WebGPU and WebGL2 against the real `kloub serve`.
 # Ends with one line "tests: N passed, M failed" and exits non-zero on any failure.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -11,6 +12,8 @@ export CARGO_TERM_COLOR=never
 bash scripts/setup.sh
 
 step() { printf '\n== %s\n' "$*"; }
+# Sums a log's libtest "test result:" lines (cargo test, wasm-bindgen-test-runner): prints "passed failed".
+results() { awk '/^test result:/ { for (i = 1; i <= NF; i++) { if ($(i+1) ~ /^passed/) p += $i; if ($(i+1) ~ /^failed/) f += $i } } END { print p + 0, f + 0 }' "$1"; }
 log=$(mktemp)
 trap 'rm -f "$log"' EXIT
 
@@ -22,8 +25,17 @@ set +e
 cargo test --workspace 2>&1 | tee "$log"
 cargo_rc=${PIPESTATUS[0]}
 set -e
-read -r rust_pass rust_fail < <(awk '/^test result:/ { for (i = 1; i <= NF; i++) { if ($(i+1) ~ /^passed/) p += $i; if ($(i+1) ~ /^failed/) f += $i } } END { print p + 0, f + 0 }' "$log")
+read -r rust_pass rust_fail < <(results "$log")
 if [ "$cargo_rc" != 0 ] && [ "$rust_fail" = 0 ]; then rust_fail=1; fi  # a build failure counts as a failure
+
+step "cargo test (wasm32 under Node: the core's import suite)"
+set +e
+bash scripts/test-wasm.sh 2>&1 | tee "$log"
+wasm_rc=${PIPESTATUS[0]}
+set -e
+read -r wasm_pass wasm_fail < <(results "$log")
+if [ "$wasm_rc" != 0 ] && [ "$wasm_fail" = 0 ]; then wasm_fail=1; fi
+rust_pass=$((rust_pass + wasm_pass)) rust_fail=$((rust_fail + wasm_fail))  # counted with the native Rust tests
 
 step "web bundle"
 bash scripts/build-web.sh

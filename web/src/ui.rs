@@ -421,7 +421,9 @@ fn joint_tree(ui: &mut egui::Ui, model: &Model, node: NodeIndex, selected: &mut 
         return;
     }
     let id = ui.make_persistent_id(("joint", node));
-    egui::collapsing_header::CollapsingState::load_with_default_open(ui.ctx(), id, depth < 4)
+    // Open the first levels, and the way down to the selected root.
+    let open = depth < 3 || is_ancestor(model, node, *selected);
+    egui::collapsing_header::CollapsingState::load_with_default_open(ui.ctx(), id, open)
         .show_header(ui, |ui| {
             if ui.selectable_label(*selected == node, label).clicked() {
                 *selected = node;
@@ -432,6 +434,20 @@ fn joint_tree(ui: &mut egui::Ui, model: &Model, node: NodeIndex, selected: &mut 
                 joint_tree(ui, model, c, selected, depth + 1);
             }
         });
+}
+
+/// Whether `node` is a proper ancestor of `of` (bounded walk: the importer refuses cycles).
+fn is_ancestor(model: &Model, node: NodeIndex, of: NodeIndex) -> bool {
+    let nodes = &model.asset.nodes;
+    let mut current = nodes.get(of as usize).and_then(|n| n.parent);
+    for _ in 0..nodes.len() {
+        match current {
+            Some(p) if p == node => return true,
+            Some(p) => current = nodes.get(p as usize).and_then(|n| n.parent),
+            None => return false,
+        }
+    }
+    false
 }
 
 fn warnings(ui: &mut egui::Ui, model: &Model) {

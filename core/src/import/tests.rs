@@ -1,11 +1,18 @@
 //! Import tests: real sample files, and one hand-made broken document per defect class.
+//!
+//! The hand-made documents also run on wasm32 under Node (`scripts/test-wasm.sh`, through
+//! wasm-bindgen-test); the tests reading `../shared/assets` from disk are native-only.
 
 use super::*;
-use crate::clip::{ChannelTarget, Interpolation};
+#[cfg(not(target_arch = "wasm32"))]
+use crate::clip::ChannelTarget;
+use crate::clip::Interpolation;
 use serde_json::{Value, json};
+#[cfg(not(target_arch = "wasm32"))]
 use std::path::{Path, PathBuf};
 
 /// `../shared/assets`, or `$KLOUB_SHARED_ASSETS`.
+#[cfg(not(target_arch = "wasm32"))]
 fn shared_assets() -> PathBuf {
     std::env::var_os("KLOUB_SHARED_ASSETS")
         .map(PathBuf::from)
@@ -13,6 +20,7 @@ fn shared_assets() -> PathBuf {
 }
 
 /// Imports a file with its sibling files available through a [`MapResolver`].
+#[cfg(not(target_arch = "wasm32"))]
 fn import_file(path: &Path) -> Result<Imported, ImportError> {
     let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let mut resolver = MapResolver::new();
@@ -26,6 +34,7 @@ fn import_file(path: &Path) -> Result<Imported, ImportError> {
     import(&bytes, &resolver, &ImportOptions::default())
 }
 
+#[cfg(not(target_arch = "wasm32"))]
 fn model_files(dir: &Path, out: &mut Vec<PathBuf>) {
     for entry in std::fs::read_dir(dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display())).flatten() {
         let path = entry.path();
@@ -37,11 +46,13 @@ fn model_files(dir: &Path, out: &mut Vec<PathBuf>) {
     }
 }
 
+#[cfg(not(target_arch = "wasm32"))]
 fn asset(relative: &str) -> Imported {
     let path = shared_assets().join(relative);
     import_file(&path).unwrap_or_else(|e| panic!("{relative}: {e}"))
 }
 
+#[cfg(not(target_arch = "wasm32"))] // reads ../shared/assets from disk
 #[test]
 fn every_shared_asset_imports_except_draco() {
     let mut files = Vec::new();
@@ -66,6 +77,7 @@ fn every_shared_asset_imports_except_draco() {
     }
 }
 
+#[cfg(not(target_arch = "wasm32"))] // reads ../shared/assets from disk
 #[test]
 fn fox_has_its_three_clips() {
     let fox = asset("khronos/Fox/glTF-Binary/Fox.glb").asset;
@@ -82,6 +94,7 @@ fn fox_has_its_three_clips() {
     assert_eq!(split.meshes[0].primitives[0].positions, fox.meshes[0].primitives[0].positions);
 }
 
+#[cfg(not(target_arch = "wasm32"))] // reads ../shared/assets from disk
 #[test]
 fn robot_expressive_weights_are_renormalized_with_a_warning() {
     let robot = asset("threejs/RobotExpressive/RobotExpressive.glb");
@@ -102,6 +115,7 @@ fn robot_expressive_weights_are_renormalized_with_a_warning() {
     assert_eq!(head.target_names, ["Angry", "Surprised", "Sad"]);
 }
 
+#[cfg(not(target_arch = "wasm32"))] // reads ../shared/assets from disk
 #[test]
 fn clean_samples_load_without_warnings() {
     for file in [
@@ -116,6 +130,7 @@ fn clean_samples_load_without_warnings() {
     }
 }
 
+#[cfg(not(target_arch = "wasm32"))] // reads ../shared/assets from disk
 #[test]
 fn interpolation_test_has_every_mode() {
     let a = asset("khronos/InterpolationTest/glTF-Binary/InterpolationTest.glb").asset;
@@ -127,6 +142,7 @@ fn interpolation_test_has_every_mode() {
 
 /// Sampling every channel of InterpolationTest at each of its key times, in order and
 /// with the cursor cache, returns exactly that key's value (for every interpolation).
+#[cfg(not(target_arch = "wasm32"))] // reads ../shared/assets from disk
 #[test]
 fn interpolation_test_samples_its_keys_exactly() {
     use crate::job::sample::{SampleContext, SampleJob};
@@ -164,6 +180,7 @@ fn interpolation_test_samples_its_keys_exactly() {
     }
 }
 
+#[cfg(not(target_arch = "wasm32"))] // reads ../shared/assets from disk
 #[test]
 fn quantized_morph_weights_are_normalized_integers() {
     let a = asset("khronos/AnimatedMorphCube/glTF-Quantized/AnimatedMorphCube.gltf").asset;
@@ -250,7 +267,8 @@ fn add_accessor(doc: &mut Value, accessor: Value) -> usize {
     list.len() - 1
 }
 
-#[test]
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
 fn base_document_imports() {
     let (doc, bin) = base();
     let imported = run(&doc, &bin).expect("valid");
@@ -265,7 +283,8 @@ fn base_document_imports() {
     assert_eq!(a.find_clip("move"), Some(0));
 }
 
-#[test]
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
 fn truncated_or_inconsistent_glb_is_refused() {
     let (doc, bin) = base();
     let file = glb_of(&doc, &bin);
@@ -281,14 +300,78 @@ fn truncated_or_inconsistent_glb_is_refused() {
     assert!(e.message.starts_with("invalid JSON"), "{e}");
 }
 
-#[test]
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+fn inconsistent_glb_chunks_are_refused() {
+    let (doc, bin) = base();
+    let file = glb_of(&doc, &bin);
+    let json_len = u32::from_le_bytes([file[12], file[13], file[14], file[15]]) as usize;
+    let bin_at = 20 + json_len; // the BIN chunk header
+    let go = |bytes: &[u8]| import(bytes, &NoResolver, &ImportOptions::default()).expect_err("refused");
+    let refuse = |bytes: &[u8], what: &str| {
+        let e = go(bytes);
+        assert_eq!(e.pointer, "", "{e}");
+        assert!(e.message.starts_with("GLB container: ") && e.message.contains(what), "{what}: {e}");
+    };
+    // Header: wrong version, length larger than the file.
+    let mut v = file.clone();
+    v[4..8].copy_from_slice(&1u32.to_le_bytes());
+    refuse(&v, "version 1 is not supported");
+    let mut v = file.clone();
+    v[8..12].copy_from_slice(&u32::MAX.to_le_bytes());
+    refuse(&v, "header length 4294967295 does not match");
+    // Chunks: a BIN chunk declaring more bytes than remain (also u32::MAX), the JSON chunk
+    // declaring more than the file, BIN first, a second JSON chunk, a dangling chunk header.
+    for len in [bin.len() as u32 + 4, u32::MAX] {
+        let mut v = file.clone();
+        v[bin_at..bin_at + 4].copy_from_slice(&len.to_le_bytes());
+        refuse(&v, &format!("declares {len} bytes"));
+    }
+    let mut v = file.clone();
+    v[12..16].copy_from_slice(&u32::MAX.to_le_bytes());
+    refuse(&v, "chunk 0 at byte 12 declares 4294967295 bytes");
+    let mut v = file.clone();
+    v[16..20].copy_from_slice(&0x004E_4942u32.to_le_bytes());
+    refuse(&v, "the first chunk must be JSON");
+    let mut v = file.clone();
+    v[bin_at + 4..bin_at + 8].copy_from_slice(&0x4E4F_534Au32.to_le_bytes());
+    refuse(&v, "a second JSON chunk");
+    let fix_length = |v: &mut Vec<u8>| {
+        let len = v.len() as u32;
+        v[8..12].copy_from_slice(&len.to_le_bytes());
+    };
+    let mut v = file.clone();
+    v.extend(4u32.to_le_bytes());
+    v.extend(0x004E_4942u32.to_le_bytes());
+    v.extend([0; 4]);
+    fix_length(&mut v);
+    refuse(&v, "only one BIN chunk is allowed");
+    let mut v = file.clone();
+    v.extend([0; 6]);
+    fix_length(&mut v);
+    refuse(&v, "truncated chunk header at byte");
+    let mut v = file[..12].to_vec();
+    fix_length(&mut v);
+    refuse(&v, "the first chunk must be JSON");
+    // An unknown chunk after BIN is ignored.
+    let mut v = file;
+    v.extend(4u32.to_le_bytes());
+    v.extend(*b"XTRA");
+    v.extend([0; 4]);
+    fix_length(&mut v);
+    assert!(import(&v, &NoResolver, &ImportOptions::default()).is_ok());
+}
+
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
 fn deeply_nested_json_is_refused_without_overflowing_the_stack() {
     let nested = format!("{}{}", "[".repeat(100_000), "]".repeat(100_000));
     let e = import(nested.as_bytes(), &NoResolver, &ImportOptions::default()).expect_err("too deep");
     assert!(e.message.contains("recursion limit"), "{e}");
 }
 
-#[test]
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
 fn accessor_outside_its_view_is_refused() {
     let (mut doc, bin) = base();
     doc["accessors"][0]["byteOffset"] = json!(4);
@@ -300,7 +383,8 @@ fn accessor_outside_its_view_is_refused() {
     assert_eq!(refused(&doc, &bin).pointer, "/bufferViews/3");
 }
 
-#[test]
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
 fn count_overflow_and_zero_are_refused() {
     let (mut doc, bin) = base();
     doc["accessors"][0]["count"] = json!(1u64 << 62);
@@ -316,7 +400,8 @@ fn count_overflow_and_zero_are_refused() {
     assert_eq!(refused(&doc, &bin).pointer, "/accessors/0/count");
 }
 
-#[test]
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
 fn index_out_of_range_is_refused() {
     let (mut doc, mut bin) = base();
     bin[38..40].copy_from_slice(&7u16.to_le_bytes());
@@ -335,7 +420,8 @@ fn index_out_of_range_is_refused() {
     assert_eq!(refused(&doc, &bin).pointer, "/animations/0/channels/0/target/node");
 }
 
-#[test]
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
 fn node_cycles_and_multiple_parents_are_refused() {
     let (mut doc, bin) = base();
     doc["nodes"] = json!([{"mesh": 0}, {"children": [2]}, {"children": [1]}]);
@@ -350,7 +436,8 @@ fn node_cycles_and_multiple_parents_are_refused() {
     assert!(e.message.contains("only one parent"), "{e}");
 }
 
-#[test]
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
 fn deep_chain_is_refused_quickly() {
     let (mut doc, bin) = base();
     let n = 100_000;
@@ -377,7 +464,8 @@ impl Resolver for Forbidden {
     }
 }
 
-#[test]
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
 fn byte_length_bombs_are_refused_before_allocating() {
     let doc = json!({"asset": {"version": "2.0"}, "buffers": [{"byteLength": 1u64 << 50, "uri": "bomb.bin"}]});
     let e = import(doc.to_string().as_bytes(), &Forbidden, &ImportOptions::default()).expect_err("bomb");
@@ -407,7 +495,8 @@ fn byte_length_bombs_are_refused_before_allocating() {
     assert!(import(&glb_of(&doc, &bin), &NoResolver, &tiny).is_err());
 }
 
-#[test]
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
 fn bad_data_uris_are_refused() {
     let doc = |uri: &str, len: u64| json!({"asset": {"version": "2.0"}, "buffers": [{"byteLength": len, "uri": uri}]});
     let go = |d: Value| import(d.to_string().as_bytes(), &NoResolver, &ImportOptions::default());
@@ -425,6 +514,49 @@ fn bad_data_uris_are_refused() {
     assert!(e.message.contains("external files are not available"), "{e}");
 }
 
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+fn uris_outside_the_folder_are_never_resolved() {
+    // A resolver holding `x` would serve `../../x` (it resolves by file name): the import
+    // must refuse such URIs before asking it.
+    let outside = [
+        "../../x",
+        "a/../../x",
+        "..\\..\\x",
+        "%2E%2E/%2E%2E/x",
+        "/x",
+        "\\\\server\\x",
+        "file:///x",
+        "https://e.invalid/x",
+    ];
+    for uri in outside {
+        let doc = json!({"asset": {"version": "2.0"}, "buffers": [{"byteLength": 4, "uri": uri}]});
+        let e = import(doc.to_string().as_bytes(), &Forbidden, &ImportOptions::default()).expect_err(uri);
+        assert_eq!(e.pointer, "/buffers/0/uri", "{uri}: {e}");
+        assert!(e.message.contains(uri), "{uri}: {e}");
+    }
+    let e = import(
+        json!({"asset": {"version": "2.0"}, "buffers": [{"byteLength": 4, "uri": "../../x"}]}).to_string().as_bytes(),
+        &Forbidden,
+        &ImportOptions::default(),
+    )
+    .expect_err("outside");
+    assert!(e.message.contains("points outside the folder of the glTF file"), "{e}");
+    // Images: skipped (white pixel) with a warning at their uri; the document loads.
+    let (mut doc, bin) = base();
+    doc["images"] = Value::Array(outside.iter().map(|u| json!({"uri": u})).collect());
+    doc["textures"] = json!([{"source": 0}]);
+    doc["materials"] = json!([{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}]);
+    doc["meshes"][0]["primitives"][0]["material"] = json!(0);
+    let imported = import(&glb_of(&doc, &bin), &Forbidden, &ImportOptions::default()).expect("images skipped");
+    let pointers: Vec<_> = imported.warnings.iter().map(|w| w.pointer.clone()).collect();
+    let expected: Vec<_> = (0..outside.len()).map(|i| format!("/images/{i}/uri")).collect();
+    assert_eq!(pointers, expected, "{:?}", imported.warnings);
+    assert!(imported.warnings[0].message.contains("points outside the folder"), "{}", imported.warnings[0]);
+    assert!(imported.asset.images.iter().all(|i| (i.width, i.height, i.rgba8.as_slice()) == (1, 1, &[255u8; 4][..])));
+    assert!(imported.asset.materials[0].base_color_texture.is_none());
+}
+
 /// The base document with a 2-joint skin; JOINTS_0 (u8) and WEIGHTS_0 (float) given per vertex.
 fn skinned(joints: [[u8; 4]; 3], weights: [[f32; 4]; 3]) -> (Value, Vec<u8>) {
     let (mut doc, mut bin) = base();
@@ -440,7 +572,8 @@ fn skinned(joints: [[u8; 4]; 3], weights: [[f32; 4]; 3]) -> (Value, Vec<u8>) {
     (doc, bin)
 }
 
-#[test]
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
 fn joint_index_outside_the_skin_is_refused() {
     let (doc, bin) = skinned(
         [[0, 1, 0, 0], [5, 0, 0, 0], [1, 0, 0, 0]],
@@ -455,7 +588,8 @@ fn joint_index_outside_the_skin_is_refused() {
     assert_eq!(a.meshes[0].primitives[0].joints[0], [0; 8]);
 }
 
-#[test]
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
 fn skin_weights_are_renormalized_with_one_warning() {
     let (doc, bin) =
         skinned([[0, 1, 0, 0], [1, 0, 0, 0], [0, 1, 0, 0]], [[0.5, 0.25, 0.0, 0.0], [0.0; 4], [0.3, 0.7, 0.0, 0.0]]);
@@ -470,7 +604,8 @@ fn skin_weights_are_renormalized_with_one_warning() {
     assert_eq!(p.weights[2][..2], [0.3, 0.7]);
 }
 
-#[test]
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
 fn nan_and_non_increasing_keys_are_dropped_with_a_warning() {
     let (doc, mut bin) = base();
     bin[48..52].copy_from_slice(&f32::NAN.to_le_bytes());
@@ -506,10 +641,51 @@ fn nan_and_non_increasing_keys_are_dropped_with_a_warning() {
     assert!(imported.warnings.iter().any(|w| w.message.contains("dropped 2 of 4")), "{:?}", imported.warnings);
 }
 
-#[test]
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+fn infinite_key_times_and_nan_values_are_dropped_with_a_warning() {
+    let (mut doc, mut bin) = base();
+    let times = [f32::NEG_INFINITY, 0.0, f32::INFINITY, 1.0, 2.0, f32::NAN];
+    let tv = add_view(&mut doc, &mut bin, &f32s(&times), None);
+    let mut values = Vec::new();
+    for k in 0..times.len() {
+        values.extend([k as f32; 3]);
+    }
+    values[3 * 4 + 1] = f32::NAN; // key 4 (time 2) has a NaN value
+    let vv = add_view(&mut doc, &mut bin, &f32s(&values), None);
+    let t = add_accessor(&mut doc, json!({"bufferView": tv, "componentType": 5126, "count": 6, "type": "SCALAR"}));
+    let v = add_accessor(&mut doc, json!({"bufferView": vv, "componentType": 5126, "count": 6, "type": "VEC3"}));
+    doc["animations"][0]["samplers"][0] = json!({"input": t, "output": v});
+    let imported = run(&doc, &bin).expect("repaired");
+    let c = &imported.asset.clips[0].channels[0];
+    assert_eq!(c.times, [0.0, 1.0]);
+    assert_eq!(c.values, [1.0, 1.0, 1.0, 3.0, 3.0, 3.0]);
+    assert_eq!(imported.asset.clips[0].duration, 1.0);
+    assert_eq!(imported.warnings.len(), 1, "{:?}", imported.warnings);
+    assert_eq!(imported.warnings[0].pointer, "/animations/0/samplers/0");
+    assert!(imported.warnings[0].message.contains("dropped 4 of 6"), "{}", imported.warnings[0]);
+    // Only infinite times: the channel is dropped, the document still loads.
+    let (mut doc, mut bin) = base();
+    let tv = add_view(&mut doc, &mut bin, &f32s(&[f32::INFINITY, f32::INFINITY]), None);
+    let t = add_accessor(&mut doc, json!({"bufferView": tv, "componentType": 5126, "count": 2, "type": "SCALAR"}));
+    doc["animations"][0]["samplers"][0]["input"] = json!(t);
+    let imported = run(&doc, &bin).expect("repaired");
+    assert!(imported.asset.clips[0].channels.is_empty());
+    assert!(imported.warnings.iter().any(|w| w.message.contains("no usable keyframes")), "{:?}", imported.warnings);
+}
+
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
 fn unsupported_required_extension_is_refused() {
-    let e = import_file(&shared_assets().join("khronos/RiggedSimple/glTF-Draco/RiggedSimple.gltf")).expect_err("draco");
-    assert_eq!(e.to_string(), "/extensionsRequired/0: required extension KHR_draco_mesh_compression is not supported");
+    #[cfg(not(target_arch = "wasm32"))] // a sample from disk
+    {
+        let draco = shared_assets().join("khronos/RiggedSimple/glTF-Draco/RiggedSimple.gltf");
+        let e = import_file(&draco).expect_err("draco");
+        assert_eq!(
+            e.to_string(),
+            "/extensionsRequired/0: required extension KHR_draco_mesh_compression is not supported"
+        );
+    }
     let (mut doc, bin) = base();
     doc["extensionsRequired"] = json!(["KHR_texture_transform", "EXT_meshopt_compression"]);
     assert_eq!(refused(&doc, &bin).pointer, "/extensionsRequired/1");
@@ -519,7 +695,8 @@ fn unsupported_required_extension_is_refused() {
     assert_eq!(refused(&doc, &bin).pointer, "/asset/version");
 }
 
-#[test]
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
 fn sparse_accessors_substitute_and_are_checked() {
     let (mut doc, mut bin) = base();
     let iv = add_view(&mut doc, &mut bin, &[2u16, 0].iter().flat_map(|i| i.to_le_bytes()).collect::<Vec<_>>(), None);
@@ -551,7 +728,43 @@ fn sparse_accessors_substitute_and_are_checked() {
     assert_eq!(refused(&doc, &bin).pointer, "/accessors/0/sparse/count");
 }
 
-#[test]
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+fn sparse_indices_out_of_range_repeated_or_decreasing_are_refused() {
+    let (mut doc, mut bin) = base();
+    let vv = add_view(&mut doc, &mut bin, &f32s(&[9.0; 6]), None);
+    // (index component type, index bytes, expected message)
+    let cases: [(u32, Vec<u8>, &str); 5] = [
+        (
+            5125,
+            [0u32, u32::MAX].iter().flat_map(|i| i.to_le_bytes()).collect(),
+            "sparse index 4294967295 is out of range",
+        ),
+        (5125, [u32::MAX, 0].iter().flat_map(|i| i.to_le_bytes()).collect(), "sparse index 4294967295 is out of range"),
+        (5121, vec![3, 200], "sparse index 3 is out of range (count 3)"),
+        (5123, [1u16, 1].iter().flat_map(|i| i.to_le_bytes()).collect(), "strictly increasing: 1 follows 1"),
+        (5125, [2u32, 1].iter().flat_map(|i| i.to_le_bytes()).collect(), "strictly increasing: 1 follows 2"),
+    ];
+    for (component, indices, message) in cases {
+        let iv = add_view(&mut doc, &mut bin, &indices, None);
+        doc["accessors"][0]["sparse"] = json!({"count": 2,
+            "indices": {"bufferView": iv, "componentType": component}, "values": {"bufferView": vv}});
+        let e = refused(&doc, &bin);
+        assert_eq!(e.pointer, "/accessors/0/sparse/indices", "{message}: {e}");
+        assert!(e.message.contains(message), "{message}: {e}");
+    }
+    // Indices as floats or signed integers, and a sparse count of 2^62.
+    for component in [5126, 5122] {
+        doc["accessors"][0]["sparse"]["indices"]["componentType"] = json!(component);
+        assert_eq!(refused(&doc, &bin).pointer, "/accessors/0/sparse/indices/componentType");
+    }
+    doc["accessors"][0]["sparse"]["indices"]["componentType"] = json!(5125);
+    doc["accessors"][0]["sparse"]["count"] = json!(1u64 << 62);
+    assert_eq!(refused(&doc, &bin).pointer, "/accessors/0/sparse/count");
+}
+
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
 fn strided_and_normalized_data_is_decoded() {
     let (mut doc, mut bin) = base();
     // Interleaved: position (3 floats) + 4 bytes of padding per vertex, stride 16.
@@ -588,7 +801,8 @@ fn strided_and_normalized_data_is_decoded() {
     assert_eq!(refused(&doc, &bin).pointer, format!("/bufferViews/{v}/byteStride"));
 }
 
-#[test]
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
 fn strips_fans_and_loops_become_lists() {
     let (mut doc, bin) = base();
     let prim = &mut doc["meshes"][0]["primitives"][0];
@@ -622,7 +836,8 @@ fn strips_fans_and_loops_become_lists() {
     assert_eq!(refused(&doc, &bin).pointer, "/meshes/0/primitives/0/mode");
 }
 
-#[test]
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
 fn node_transforms_are_decomposed_and_repaired() {
     let (mut doc, bin) = base();
     let m = crate::math::Mat4::from_scale_rotation_translation(
@@ -647,7 +862,8 @@ fn node_transforms_are_decomposed_and_repaired() {
     assert_eq!(pointers, ["/nodes/1/matrix", "/nodes/2/rotation", "/nodes/3/rotation"]);
 }
 
-#[test]
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
 fn morph_targets_weights_and_names() {
     let (mut doc, mut bin) = base();
     let dv = add_view(&mut doc, &mut bin, &f32s(&[0.0, 0.0, 1.0, 0.0, 0.0, 2.0, 0.0, 0.0, 3.0]), None);
@@ -672,7 +888,8 @@ fn morph_targets_weights_and_names() {
     assert_eq!(refused(&doc, &bin).pointer, "/meshes/0/weights");
 }
 
-#[test]
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
 fn undecodable_images_are_skipped_with_a_warning() {
     let (mut doc, mut bin) = base();
     let garbage = add_view(&mut doc, &mut bin, b"\x89PNG\r\n\x1a\nnot really a png", None);
@@ -708,7 +925,8 @@ fn undecodable_images_are_skipped_with_a_warning() {
     assert_eq!(refused(&doc, &bin).pointer, "/textures/0/source");
 }
 
-#[test]
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
 fn map_resolver_finds_files_by_path_then_name() {
     let mut r = MapResolver::new();
     r.insert("textures/a b.png", vec![1]);
