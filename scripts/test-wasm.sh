@@ -13,5 +13,6 @@ if [ "$("$runner" --version 2>/dev/null | awk '{print $2}')" != "$WBG_VERSION" ]
   echo "test-wasm: $runner $WBG_VERSION is required (bash scripts/setup.sh installs it)" >&2
   exit 1
 fi
-CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUNNER="$runner" \
+CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUSTFLAGS="${CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUSTFLAGS:--C target-feature=+simd128}" \
+  CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUNNER="$runner" \
   cargo test -p kloub-core --target wasm32-unknown-unknown --lib "$@"

@@ -1,0 +1,9 @@
+#!/usr/bin/env bash
+# The per-frame animation benchmark compiled to wasm32 (release) and run in Node through
+# wasm-bindgen-test-runner: core/tests/wasm_frame.rs. Prints a Markdown table (µs per character per frame).
+# Needs ../shared/assets beside the checkout (compiled in) and the runner from scripts/setup.sh.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUSTFLAGS="${CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUSTFLAGS:--C target-feature=+simd128}" \
+  CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUNNER="${CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUNNER:-wasm-bindgen-test-runner}" \
+  cargo test --release -p kloub-core --target wasm32-unknown-unknown --test wasm_frame -- --nocapture
