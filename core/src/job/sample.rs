@@ -368,9 +368,12 @@ pub fn slerp(a: Quat, b: Quat, u: f32) -> Quat {
         return Quat::from_vec4(va.lerp(vb, u).normalize());
     }
     let theta = d.acos();
-    // sin θ from cos θ = d (θ ≤ π/2 here): one transcendental fewer.
+    // sin θ from cos θ = d (θ ≤ π/2 here): one transcendental fewer. In f32, 1 − d² loses most
+    // of its digits as d nears the nlerp cut-over, and the result drifts ~3e-5 off unit length
+    // (a visible false scale of the joint): renormalize, as glTF asks of sampled rotations.
     let s = (1.0 - d * d).sqrt();
-    Quat::from_vec4(va * (((1.0 - u) * theta).sin() / s) + vb * ((u * theta).sin() / s))
+    let v = va * (((1.0 - u) * theta).sin() / s) + vb * ((u * theta).sin() / s);
+    Quat::from_vec4(v).try_normalize_quat().unwrap_or(a)
 }
 
 /// Normalized linear interpolation along the shortest arc; exact at `u == 0`.
