@@ -8,6 +8,8 @@
 //!   "max_channel_diff": 12,            // a pixel differs when a channel is off by more than this
 //!   "max_differing_fraction": 0.005 }  // ... and at most this fraction of pixels may differ
 //! ```
+//! Optional: `"yaw"`, `"pitch"` (radians) for the camera direction; `"clip": null` for the rest
+//! pose. A `.gltf` model reads its buffers and images from its own folder.
 //! The camera is [`Camera::frame_to_fit`] of the posed scene bounds with the default yaw and
 //! pitch. On failure `tests/out/<case>/actual.png` and `diff.png` are written. A missing
 //! `expected.png` is written and the test fails; `KLOUB_BLESS=1` rewrites every
@@ -16,23 +18,36 @@
 use std::path::{Path, PathBuf};
 
 use image::{Rgba, RgbaImage};
-use kloub_core::{Asset, ImportOptions, Instance, NoResolver};
+use kloub_core::{Asset, ImportOptions, Instance, MapResolver};
 use kloub_web::render::offscreen::Offscreen;
 use kloub_web::render::{Camera, SkinningPath};
 
 /// Cases that must exist (so deleting a folder cannot make the suite pass).
-const REQUIRED_CASES: [&str; 2] = ["cesiumman_t0.5", "riggedsimple_t1.0"];
+const REQUIRED_CASES: [&str; 3] = ["cesiumman_t0.5", "riggedsimple_t1.0", "texture_transform"];
 
+/// Imports a model; a `.gltf` gets the files of its folder (buffers, images) by relative path.
 fn load(model: &str) -> Asset {
     let path = kloub_tests::shared_assets().join(model);
     let bytes = std::fs::read(&path).unwrap_or_else(|e| panic!("reading {}: {e}", path.display()));
-    kloub_core::import(&bytes, &NoResolver, &ImportOptions::default())
+    let mut folder = MapResolver::new();
+    if path.extension().is_some_and(|e| e == "gltf") {
+        let dir = path.parent().expect("a file has a folder");
+        for entry in std::fs::read_dir(dir).expect("the model's folder is readable").flatten() {
+            let file = entry.path();
+            if file.is_file() {
+                let name = entry.file_name().to_string_lossy().into_owned();
+                folder.insert(name, std::fs::read(&file).expect("a readable file"));
+            }
+        }
+    }
+    kloub_core::import(&bytes, &folder, &ImportOptions::default())
         .unwrap_or_else(|e| panic!("importing {}: {e}", path.display()))
         .asset
 }
 
-/// The instance posed at `clip`/`time` and a camera framing it.
-fn pose(asset: &Asset, clip: Option<usize>, time: f32) -> (Instance, Camera) {
+/// The instance posed at `clip`/`time` and a camera framing it from `view` (yaw, pitch in
+/// radians; default: the viewer's default view).
+fn pose(asset: &Asset, clip: Option<usize>, time: f32, view: Option<(f32, f32)>) -> (Instance, Camera) {
     let mut instance = Instance::new(asset);
     instance
         .evaluate(asset, clip, time)
@@ -41,6 +56,10 @@ fn pose(asset: &Asset, clip: Option<usize>, time: f32) -> (Instance, Camera) {
         .scene_bounds(asset)
         .expect("the model has drawable meshes");
     let mut camera = Camera::default();
+    if let Some((yaw, pitch)) = view {
+        camera.yaw = yaw;
+        camera.pitch = pitch;
+    }
     camera.frame_to_fit(min, max);
     (instance, camera)
 }
@@ -140,8 +159,13 @@ fn run_case(offscreen: &Offscreen, dir: &Path, bless: bool) -> Option<String> {
         .as_f64()
         .expect("max_differing_fraction is a number");
 
+    let view = manifest.get("yaw").and_then(|y| y.as_f64()).map(|yaw| {
+        let pitch = manifest.get("pitch").and_then(|p| p.as_f64()).unwrap_or(0.0);
+        (yaw as f32, pitch as f32)
+    });
+
     let asset = load(model);
-    let (mut instance, camera) = pose(&asset, clip, time);
+    let (mut instance, camera) = pose(&asset, clip, time, view);
     let mut renderer = offscreen
         .scene_renderer(&asset)
         .unwrap_or_else(|e| panic!("{name}: uploading: {e}"));
@@ -222,7 +246,7 @@ fn gpu_skinning_matches_cpu_reference() {
         ),
     ] {
         let asset = load(model);
-        let (mut instance, camera) = pose(&asset, Some(0), time);
+        let (mut instance, camera) = pose(&asset, Some(0), time, None);
         let mut renderer = offscreen.scene_renderer(&asset).expect("uploading");
         let mut frame = |path| {
             renderer.set_skinning_path(path);
