@@ -368,12 +368,11 @@ pub fn slerp(a: Quat, b: Quat, u: f32) -> Quat {
         return Quat::from_vec4(va.lerp(vb, u).normalize());
     }
     let theta = d.acos();
-    // sin θ from cos θ = d (θ ≤ π/2 here): one transcendental fewer. In f32, 1 − d² loses most
-    // of its digits as d nears the nlerp cut-over, and the result drifts ~3e-5 off unit length
-    // (a visible false scale of the joint): renormalize, as glTF asks of sampled rotations.
-    let s = (1.0 - d * d).sqrt();
-    let v = va * (((1.0 - u) * theta).sin() / s) + vb * ((u * theta).sin() / s);
-    Quat::from_vec4(v).try_normalize_quat().unwrap_or(a)
+    // sin θ from cos θ = d (θ ≤ π/2 here): one transcendental fewer. Factored as (1 − d)(1 + d):
+    // 1 − d is exact in f32 for d in [0.5, 1], whereas 1 − d² loses most of its digits as d nears
+    // the nlerp cut-over, which left the result ~3e-5 off unit length (a false joint scale).
+    let s = ((1.0 - d) * (1.0 + d)).sqrt();
+    Quat::from_vec4(va * (((1.0 - u) * theta).sin() / s) + vb * ((u * theta).sin() / s))
 }
 
 /// Normalized linear interpolation along the shortest arc; exact at `u == 0`.
@@ -394,6 +393,20 @@ pub fn nlerp(a: Quat, b: Quat, u: f32) -> Quat {
 mod tests {
     use super::*;
     use std::f32::consts::FRAC_PI_2;
+
+    #[test]
+    fn slerp_stays_unit_just_past_the_nlerp_cut_over() {
+        // Keys 3.7°–10° apart (cos of the half angle just under 0.9995): where sin θ came from
+        // 1 − d² in f32 the result was ~3e-5 off unit length.
+        for degrees in [3.7f32, 4.0, 4.5, 6.0, 10.0] {
+            let a = Quat::from_rotation_x(0.3) * Quat::from_rotation_z(-1.1);
+            let b = a * Quat::from_rotation_y(degrees.to_radians());
+            for u in [0.1, 0.25, 0.5, 0.75, 0.9] {
+                let q = slerp(a, b, u);
+                assert!((q.length() - 1.0).abs() < 2e-6, "{degrees}° at {u}: |q| = {}", q.length());
+            }
+        }
+    }
 
     fn channel(target: ChannelTarget, interpolation: Interpolation, times: &[f32], values: &[f32]) -> Channel {
         let width = match target {
