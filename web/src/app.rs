@@ -792,7 +792,13 @@ impl eframe::App for App {
             }
         }
 
-        let state = ui::PanelState { loading: self.status == Status::Loading, backend: self.backend, fps: self.fps.fps() };
+        // Frames are painted on demand: a rate means something only while the model moves.
+        let animating = self.model.as_ref().is_some_and(Model::is_animating);
+        let state = ui::PanelState {
+            loading: self.status == Status::Loading,
+            backend: self.backend,
+            fps: animating.then(|| self.fps.fps()),
+        };
         let actions = egui::Panel::left("controls")
             .resizable(true)
             .default_size(270.0)

@@ -20,8 +20,8 @@ pub struct PanelState<'a> {
     pub loading: bool,
     /// Active backend name.
     pub backend: &'a str,
-    /// Smoothed frames per second.
-    pub fps: f32,
+    /// Smoothed frames per second while animating (`None`: idle, painting only on input).
+    pub fps: Option<f32>,
 }
 
 /// Panel state that lives across frames and models.
@@ -104,7 +104,10 @@ fn stats(ui: &mut egui::Ui, state: &PanelState<'_>) {
         ui.monospace(state.backend);
         ui.end_row();
         ui.label("FPS");
-        ui.monospace(format!("{:.0}", state.fps));
+        match state.fps {
+            Some(fps) => ui.monospace(format!("{fps:.0}")),
+            None => ui.weak("idle"),
+        };
         ui.end_row();
     });
     ui.separator();
