@@ -2,6 +2,7 @@
 
 use crate::asset::{Asset, MorphTarget};
 use crate::error::JobError;
+use crate::job::dqs::{DqPrepareJob, DqsJob, JointDq, RigidJob, SkinningMethod};
 use crate::job::morph::MorphJob;
 use crate::job::sample::{SampleContext, SampleJob};
 use crate::job::skin::{LbsJob, PaletteJob, transform_normal};
@@ -30,6 +31,9 @@ pub struct Instance {
     morph_normals: Vec<[f32; 3]>,
     scratch_positions: Vec<[f32; 3]>,
     scratch_normals: Vec<[f32; 3]>,
+    /// Palettes split for dual-quaternion skinning, laid out like `palettes`.
+    joint_dqs: Vec<JointDq>,
+    skinning: SkinningMethod,
 }
 
 impl Instance {
@@ -56,6 +60,8 @@ impl Instance {
             morph_normals: Vec::with_capacity(max_vertices),
             scratch_positions: Vec::with_capacity(max_vertices),
             scratch_normals: Vec::with_capacity(max_vertices),
+            joint_dqs: vec![JointDq::default(); total],
+            skinning: SkinningMethod::default(),
             pose,
         };
         // The asset's invariants make the rest pose valid; a failure would leave identity
@@ -64,6 +70,16 @@ impl Instance {
             log::warn!("rest pose evaluation failed: {e}");
         }
         instance
+    }
+
+    /// The skinning method [`Instance::deform_primitive`] uses (linear blend by default).
+    pub fn skinning(&self) -> SkinningMethod {
+        self.skinning
+    }
+
+    /// Chooses the skinning method of [`Instance::deform_primitive`].
+    pub fn set_skinning(&mut self, method: SkinningMethod) {
+        self.skinning = method;
     }
 
     /// Rest pose, then sample `clip` at `time` (None = rest pose), world transforms of all nodes, palettes of all skins.
@@ -187,17 +203,44 @@ impl Instance {
         match skin {
             Some(s) => {
                 check_index("skin", s, asset.skins.len())?;
-                let palette = &self.palettes[self.palette_starts[s]..self.palette_starts[s + 1]];
-                LbsJob {
-                    positions: &self.morph_positions,
-                    normals: &self.morph_normals,
-                    joints: &prim.joints,
-                    weights: &prim.weights,
-                    palette,
-                    out_positions,
-                    out_normals,
+                let range = self.palette_starts[s]..self.palette_starts[s + 1];
+                let palette = &self.palettes[range.clone()];
+                match self.skinning {
+                    SkinningMethod::Linear => LbsJob {
+                        positions: &self.morph_positions,
+                        normals: &self.morph_normals,
+                        joints: &prim.joints,
+                        weights: &prim.weights,
+                        palette,
+                        out_positions,
+                        out_normals,
+                    }
+                    .run(),
+                    SkinningMethod::Rigid => RigidJob {
+                        positions: &self.morph_positions,
+                        normals: &self.morph_normals,
+                        joints: &prim.joints,
+                        weights: &prim.weights,
+                        palette,
+                        out_positions,
+                        out_normals,
+                    }
+                    .run(),
+                    SkinningMethod::DualQuaternion => {
+                        let table = &mut self.joint_dqs[range];
+                        DqPrepareJob { palette, out: table }.run()?;
+                        DqsJob {
+                            positions: &self.morph_positions,
+                            normals: &self.morph_normals,
+                            joints: &prim.joints,
+                            weights: &prim.weights,
+                            joints_dq: table,
+                            out_positions,
+                            out_normals,
+                        }
+                        .run()
+                    }
                 }
-                .run()
             }
             None => {
                 let world = self.worlds[node as usize];

@@ -18,6 +18,7 @@ use crate::serve::listen::DEFAULT_MAX_CONNECTIONS;
 use crate::serve::{self, App, Limits, ServeConfig, Source};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use kloub_core::animator::{Easing, Outgoing};
+use kloub_core::job::dqs::SkinningMethod;
 use std::ffi::OsString;
 use std::io::Write;
 use std::net::SocketAddr;
@@ -136,6 +137,20 @@ pub struct PoseArgs {
     /// Layers add their motion (relative to their first frame) instead of overriding.
     #[arg(long, requires = "layers")]
     pub layer_additive: bool,
+    /// How skinned vertices follow their joints.
+    #[arg(long, value_enum, default_value_t = SkinningArg::Lbs)]
+    pub skinning: SkinningArg,
+}
+
+/// `--skinning` values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum SkinningArg {
+    /// The strongest influence only.
+    Rigid,
+    /// Linear blend skinning (the glTF reference).
+    Lbs,
+    /// Dual-quaternion skinning (no candy-wrapper collapse).
+    Dqs,
 }
 
 /// `--easing` values.
@@ -259,6 +274,11 @@ fn run_pose(args: &PoseArgs) -> ExitCode {
                 additive: args.layer_additive,
             })
             .collect(),
+        skinning: match args.skinning {
+            SkinningArg::Rigid => SkinningMethod::Rigid,
+            SkinningArg::Lbs => SkinningMethod::Linear,
+            SkinningArg::Dqs => SkinningMethod::DualQuaternion,
+        },
     };
     let report = match pose::pose_file(&args.file, &request) {
         Ok(r) => r,

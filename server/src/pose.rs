@@ -34,6 +34,7 @@
 use crate::paths;
 use kloub_core::animator::{Crossfade, Easing, Layer, Outgoing};
 use kloub_core::asset::{Asset, NodeIndex};
+use kloub_core::job::dqs::SkinningMethod;
 use kloub_core::{Animator, ImportOptions, Imported, Instance, Resolver, Warning};
 use serde::Serialize;
 use serde::ser::SerializeMap;
@@ -53,6 +54,8 @@ pub struct PoseRequest {
     pub crossfade: Option<CrossfadeRequest>,
     /// Layers over the base, applied in order.
     pub layers: Vec<LayerRequest>,
+    /// How skinned vertices follow their joints (default: linear blend skinning).
+    pub skinning: SkinningMethod,
 }
 
 /// `--crossfade FROM:TO:DURATION --at T`: FROM plays from 0; at `at` seconds the base starts
@@ -95,6 +98,9 @@ pub struct PoseDoc {
     /// The layers, when any were asked for.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub layers: Vec<LayerInfo>,
+    /// The skinning method (`"rigid"`, `"dqs"`), when not the default linear blend skinning.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub skinning: Option<&'static str>,
     /// One frame per requested time.
     pub frames: Vec<Frame>,
 }
@@ -601,6 +607,7 @@ pub fn pose_asset(
 
     let scene = asset.scene_nodes();
     let mut instance = Instance::new(asset);
+    instance.set_skinning(request.skinning);
     let mut positions = Vec::new();
     let mut normals = Vec::new();
     let mut frames = Vec::with_capacity(times.len());
@@ -678,6 +685,7 @@ pub fn pose_asset(
         clip: playing,
         crossfade,
         layers: layer_infos,
+        skinning: (request.skinning != SkinningMethod::Linear).then(|| request.skinning.name()),
         frames,
     })
 }

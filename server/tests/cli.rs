@@ -459,3 +459,36 @@ fn inspect_describes_skins_clips_morph_targets_and_warnings() {
             .starts_with("kloub: /nonexistent/x.glb: cannot read: ")
     );
 }
+
+/// Skinned positions of frame 0, primitive 0, as points.
+fn positions(doc: &serde_json::Value) -> Vec<[f64; 3]> {
+    let flat = doc["frames"][0]["primitives"][0]["positions"].as_array().expect("positions");
+    flat.chunks(3)
+        .map(|c| [0, 1, 2].map(|i| c[i].as_f64().expect("a number")))
+        .collect()
+}
+
+#[test]
+fn pose_skinning_methods_share_the_skeleton_and_differ_in_the_skin() {
+    let file = fox();
+    let args = ["--clip", "Run", "--time", "0.3"];
+    let lbs = pose_json(&file, &args);
+    assert!(lbs.get("skinning").is_none(), "the default (lbs) is not announced");
+    let explicit = pose_json(&file, &[&args[..], &["--skinning", "lbs"]].concat());
+    assert_eq!(positions(&lbs), positions(&explicit));
+    let reach = |doc: &serde_json::Value| {
+        let p = positions(doc);
+        p.iter().zip(positions(&lbs)).map(|(a, b)| (0..3).map(|i| (a[i] - b[i]).abs()).fold(0.0, f64::max)).fold(0.0, f64::max)
+    };
+    for (name, low, high) in [("dqs", 1e-4, 10.0), ("rigid", 1e-3, 40.0)] {
+        let doc = pose_json(&file, &[&args[..], &["--skinning", name]].concat());
+        assert_eq!(doc["skinning"], name);
+        assert_eq!(worlds(&doc, 0), worlds(&lbs, 0), "{name}: the skeleton does not depend on skinning");
+        let d = reach(&doc);
+        // Fox is ~100 units long: the methods agree where one joint dominates and part where
+        // influences blend.
+        assert!(d > low && d < high, "{name}: largest vertex difference from lbs {d}");
+    }
+    let out = kloub().arg("pose").arg(&file).args(["--skinning", "sjb"]).output().expect("runs");
+    assert_eq!(out.status.code(), Some(2), "an unknown method is a usage error");
+}

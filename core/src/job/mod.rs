@@ -7,9 +7,12 @@
 //! - [`world::WorldJob`]: locals → world matrices;
 //! - [`skin::PaletteJob`]: world matrices → skinning palette;
 //! - [`morph::MorphJob`]: base + weighted morph deltas;
-//! - [`skin::LbsJob`]: linear blend skinning of positions and normals (CPU reference).
+//! - [`skin::LbsJob`]: linear blend skinning of positions and normals (CPU reference);
+//! - [`dqs::DqPrepareJob`] + [`dqs::DqsJob`]: dual-quaternion skinning; [`dqs::RigidJob`]: strongest
+//!   influence only.
 
 pub mod blend;
+pub mod dqs;
 pub mod morph;
 pub mod sample;
 pub mod skin;
