@@ -80,6 +80,11 @@ impl Instance {
     /// Chooses the skinning method of [`Instance::deform_primitive`].
     pub fn set_skinning(&mut self, method: SkinningMethod) {
         self.skinning = method;
+        // `joint_dqs` is sized like `palettes` at construction, so this cannot fail; the table
+        // would be rebuilt by the next update anyway.
+        if let Err(e) = self.prepare_dual_quaternions() {
+            log::warn!("preparing dual quaternions: {e}");
+        }
     }
 
     /// Rest pose, then sample `clip` at `time` (None = rest pose), world transforms of all nodes, palettes of all skins.
@@ -137,7 +142,16 @@ impl Instance {
             }
             .run()?;
         }
-        Ok(())
+        self.prepare_dual_quaternions()
+    }
+
+    /// Splits every palette for dual-quaternion skinning when that method is chosen (once per
+    /// update, shared by every primitive of every skin).
+    fn prepare_dual_quaternions(&mut self) -> Result<(), JobError> {
+        if self.skinning != SkinningMethod::DualQuaternion {
+            return Ok(());
+        }
+        DqPrepareJob { palette: &self.palettes, out: &mut self.joint_dqs }.run()
     }
 
     /// The current pose (after [`Instance::evaluate`]).
@@ -226,20 +240,16 @@ impl Instance {
                         out_normals,
                     }
                     .run(),
-                    SkinningMethod::DualQuaternion => {
-                        let table = &mut self.joint_dqs[range];
-                        DqPrepareJob { palette, out: table }.run()?;
-                        DqsJob {
-                            positions: &self.morph_positions,
-                            normals: &self.morph_normals,
-                            joints: &prim.joints,
-                            weights: &prim.weights,
-                            joints_dq: table,
-                            out_positions,
-                            out_normals,
-                        }
-                        .run()
+                    SkinningMethod::DualQuaternion => DqsJob {
+                        positions: &self.morph_positions,
+                        normals: &self.morph_normals,
+                        joints: &prim.joints,
+                        weights: &prim.weights,
+                        joints_dq: &self.joint_dqs[range],
+                        out_positions,
+                        out_normals,
                     }
+                    .run(),
                 }
             }
             None => {

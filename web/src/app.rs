@@ -308,21 +308,17 @@ impl Model {
         self.animator.tracks_mut().iter_mut().for_each(|t| t.player.loop_mode = mode);
     }
 
-    /// Whether any clock with a clip runs (a base track or a layer).
-    pub fn clocks_running(&self) -> bool {
+    /// Whether anything moves without input: a clock with a clip runs (a base track or a
+    /// layer). A crossfade moves only while a clock runs.
+    pub fn is_animating(&self) -> bool {
         let runs = |p: &Player| p.playing && p.clip.is_some();
         self.animator.tracks().iter().any(|t| runs(&t.player)) || self.animator.layers().iter().any(|l| runs(&l.player))
-    }
-
-    /// Whether anything moves without input (a crossfade moves only while a clock runs).
-    pub fn is_animating(&self) -> bool {
-        self.clocks_running()
     }
 
     /// Advances the animation by `dt` seconds of wall time. While everything is paused the
     /// crossfade holds too, so a paused character does not move.
     pub fn advance(&mut self, dt: f32) {
-        let dt = if self.clocks_running() { dt } else { 0.0 };
+        let dt = if self.is_animating() { dt } else { 0.0 };
         self.animator.advance(&self.asset, dt);
     }
 

@@ -379,7 +379,7 @@ fn layer_panel(ui: &mut egui::Ui, model: &mut Model, actions: &mut PanelActions)
             .on_hover_text("Each generation below the root weighs (1 − falloff) times its parent");
         ui.add(egui::Slider::new(&mut draft.speed, -3.0..=3.0).text("layer speed").fixed_decimals(2));
         ui.checkbox(&mut draft.additive, "Additive (adds the clip's motion relative to its first frame)");
-        let root_name = node_label(model, model.layer.root);
+        let root_name = model.node_name(model.layer.root);
         ui.label(format!("Root bone: {root_name}"));
         egui::ScrollArea::vertical().id_salt("joint-tree").max_height(220.0).show(ui, |ui| {
             let mut root = model.layer.root;
@@ -403,10 +403,6 @@ fn layer_panel(ui: &mut egui::Ui, model: &mut Model, actions: &mut PanelActions)
 /// Deepest joint-tree level drawn (deeper chains end in "…").
 const MAX_TREE_DEPTH: usize = 64;
 
-fn node_label(model: &Model, node: NodeIndex) -> String {
-    model.node_name(node)
-}
-
 /// One node of the joint tree and, when expanded, its children; a click selects it as root.
 fn joint_tree(ui: &mut egui::Ui, model: &Model, node: NodeIndex, selected: &mut NodeIndex, depth: usize) {
     if depth > MAX_TREE_DEPTH {
@@ -414,10 +410,10 @@ fn joint_tree(ui: &mut egui::Ui, model: &Model, node: NodeIndex, selected: &mut 
         return;
     }
     let Some(n) = model.asset.nodes.get(node as usize) else { return };
-    let children: Vec<NodeIndex> =
-        n.children.iter().copied().filter(|&c| model.in_joint_tree.get(c as usize).copied().unwrap_or(false)).collect();
-    let label = node_label(model, node);
-    if children.is_empty() {
+    let mut children =
+        n.children.iter().copied().filter(|&c| model.in_joint_tree.get(c as usize).copied().unwrap_or(false)).peekable();
+    let label = model.node_name(node);
+    if children.peek().is_none() {
         if ui.selectable_label(*selected == node, label).clicked() {
             *selected = node;
         }

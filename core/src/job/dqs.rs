@@ -9,7 +9,8 @@
 //! blended linearly and applied first, `p' = DQ(Σ wᵢ qᵢ) · (Σ wᵢ Sᵢ) · p`, which is exact for
 //! a single influence and reduces to plain DQS where every `Sᵢ = I`.
 
-use super::{check_eq, check_len};
+use super::check_len;
+use super::skin::{check_vertex_streams, joint_at, transform_normal};
 use crate::error::JobError;
 use crate::math::{Mat3, Mat4, Quat, Vec3};
 
@@ -169,15 +170,14 @@ pub struct DqsJob<'a> {
 impl DqsJob<'_> {
     /// Checks lengths. Joint indices are checked while running.
     pub fn validate(&self) -> Result<(), JobError> {
-        let n = self.positions.len();
-        if !self.normals.is_empty() {
-            check_eq("normals", n, self.normals.len())?;
-        }
-        check_eq("joints", n, self.joints.len())?;
-        check_eq("weights", n, self.weights.len())?;
-        check_len("out_positions", n, self.out_positions.len())?;
-        check_len("out_normals", self.normals.len(), self.out_normals.len())?;
-        Ok(())
+        check_vertex_streams(
+            self.positions,
+            self.normals,
+            self.joints,
+            self.weights,
+            self.out_positions.len(),
+            self.out_normals.len(),
+        )
     }
 
     /// Validates, then skins every vertex. Stops with `IndexOutOfRange` at the first
@@ -194,11 +194,7 @@ impl DqsJob<'_> {
                 if w == 0.0 {
                     continue;
                 }
-                let joint = table.get(j as usize).ok_or(JobError::IndexOutOfRange {
-                    what: "joints",
-                    index: j as usize,
-                    len: table.len(),
-                })?;
+                let joint = joint_at(table, j)?;
                 // Hemisphere alignment to the first influence: q and −q are the same rotation.
                 let first = *pivot.get_or_insert(joint.dq.real);
                 let w_signed = if first.dot(joint.dq.real) < 0.0 { -w } else { w };
@@ -249,15 +245,14 @@ pub struct RigidJob<'a> {
 impl RigidJob<'_> {
     /// Checks lengths. Joint indices are checked while running.
     pub fn validate(&self) -> Result<(), JobError> {
-        let n = self.positions.len();
-        if !self.normals.is_empty() {
-            check_eq("normals", n, self.normals.len())?;
-        }
-        check_eq("joints", n, self.joints.len())?;
-        check_eq("weights", n, self.weights.len())?;
-        check_len("out_positions", n, self.out_positions.len())?;
-        check_len("out_normals", self.normals.len(), self.out_normals.len())?;
-        Ok(())
+        check_vertex_streams(
+            self.positions,
+            self.normals,
+            self.joints,
+            self.weights,
+            self.out_positions.len(),
+            self.out_normals.len(),
+        )
     }
 
     /// Validates, then moves every vertex with its strongest joint (a vertex without a
@@ -272,16 +267,12 @@ impl RigidJob<'_> {
                 }
             }
             let m = match best {
-                Some((j, _)) => *self.palette.get(j as usize).ok_or(JobError::IndexOutOfRange {
-                    what: "joints",
-                    index: j as usize,
-                    len: self.palette.len(),
-                })?,
+                Some((j, _)) => *joint_at(self.palette, j)?,
                 None => Mat4::IDENTITY,
             };
             self.out_positions[v] = m.transform_point3(Vec3::from(self.positions[v])).to_array();
             if let Some(n) = self.normals.get(v) {
-                self.out_normals[v] = super::skin::transform_normal(&m, Vec3::from(*n)).to_array();
+                self.out_normals[v] = transform_normal(&m, Vec3::from(*n)).to_array();
             }
         }
         Ok(())

@@ -66,15 +66,14 @@ pub struct LbsJob<'a> {
 impl LbsJob<'_> {
     /// Checks lengths. Joint indices are checked while running.
     pub fn validate(&self) -> Result<(), JobError> {
-        let n = self.positions.len();
-        if !self.normals.is_empty() {
-            check_eq("normals", n, self.normals.len())?;
-        }
-        check_eq("joints", n, self.joints.len())?;
-        check_eq("weights", n, self.weights.len())?;
-        check_len("out_positions", n, self.out_positions.len())?;
-        check_len("out_normals", self.normals.len(), self.out_normals.len())?;
-        Ok(())
+        check_vertex_streams(
+            self.positions,
+            self.normals,
+            self.joints,
+            self.weights,
+            self.out_positions.len(),
+            self.out_normals.len(),
+        )
     }
 
     /// Validates, then skins every vertex. Stops with `IndexOutOfRange` at the first
@@ -85,12 +84,7 @@ impl LbsJob<'_> {
             let mut m = Mat4::ZERO;
             for (&j, &w) in self.joints[v].iter().zip(&self.weights[v]) {
                 if w != 0.0 {
-                    let joint = self.palette.get(j as usize).ok_or(JobError::IndexOutOfRange {
-                        what: "joints",
-                        index: j as usize,
-                        len: self.palette.len(),
-                    })?;
-                    m += *joint * w;
+                    m += *joint_at(self.palette, j)? * w;
                 }
             }
             self.out_positions[v] = m.transform_point3(Vec3::from(self.positions[v])).to_array();
@@ -100,6 +94,32 @@ impl LbsJob<'_> {
         }
         Ok(())
     }
+}
+
+/// The length checks every skinning job makes: per-vertex streams of equal length (normals
+/// may be empty) and outputs large enough.
+pub(crate) fn check_vertex_streams(
+    positions: &[[f32; 3]],
+    normals: &[[f32; 3]],
+    joints: &[[u16; 8]],
+    weights: &[[f32; 8]],
+    out_positions: usize,
+    out_normals: usize,
+) -> Result<(), JobError> {
+    let n = positions.len();
+    if !normals.is_empty() {
+        check_eq("normals", n, normals.len())?;
+    }
+    check_eq("joints", n, joints.len())?;
+    check_eq("weights", n, weights.len())?;
+    check_len("out_positions", n, out_positions)?;
+    check_len("out_normals", normals.len(), out_normals)?;
+    Ok(())
+}
+
+/// `table[j]`, or `IndexOutOfRange` naming the vertex joint stream.
+pub(crate) fn joint_at<T>(table: &[T], j: u16) -> Result<&T, JobError> {
+    table.get(j as usize).ok_or(JobError::IndexOutOfRange { what: "joints", index: j as usize, len: table.len() })
 }
 
 /// Transforms a normal by the inverse transpose of `m`'s upper 3×3 (as its cofactor
