@@ -9,7 +9,9 @@
 //!   "max_differing_fraction": 0.005 }  // ... and at most this fraction of pixels may differ
 //! ```
 //! Optional: `"yaw"`, `"pitch"` (radians) for the camera direction; `"clip": null` for the rest
-//! pose. A `.gltf` model reads its buffers and images from its own folder.
+//! pose; `"skinning"`: `rigid|lbs|dqs|sjb`. A `.gltf` model reads its buffers and images from
+//! its own folder. `"model": "procedural:candy-wrapper"` is kloub_core's two-bone cylinder,
+//! posed by `"twist"` and `"bend"` (degrees).
 //! The camera is [`Camera::frame_to_fit`] of the posed scene bounds with the default yaw and
 //! pitch. On failure `tests/out/<case>/actual.png` and `diff.png` are written. A missing
 //! `expected.png` is written and the test fails; `KLOUB_BLESS=1` rewrites every
@@ -18,12 +20,25 @@
 use std::path::{Path, PathBuf};
 
 use image::{Rgba, RgbaImage};
+use kloub_core::candy::CandyWrapper;
+use kloub_core::job::dqs::SkinningMethod;
 use kloub_core::{Asset, ImportOptions, Instance, MapResolver};
 use kloub_web::render::offscreen::Offscreen;
 use kloub_web::render::{Camera, SkinningPath};
 
 /// Cases that must exist (so deleting a folder cannot make the suite pass).
-const REQUIRED_CASES: [&str; 3] = ["cesiumman_t0.5", "riggedsimple_t1.0", "texture_transform"];
+const REQUIRED_CASES: [&str; 7] = [
+    "cesiumman_t0.5",
+    "riggedsimple_t1.0",
+    "texture_transform",
+    "candy_rigid_twist150",
+    "candy_lbs_twist150",
+    "candy_dqs_twist150",
+    "candy_sjb_twist150",
+];
+
+/// `"model"` of the procedural candy-wrapper rig ([`CandyWrapper`]).
+const CANDY_WRAPPER: &str = "procedural:candy-wrapper";
 
 /// Imports a model; a `.gltf` gets the files of its folder (buffers, images) by relative path.
 fn load(model: &str) -> Asset {
@@ -49,12 +64,8 @@ fn load(model: &str) -> Asset {
 /// radians; default: the viewer's default view).
 fn pose(asset: &Asset, clip: Option<usize>, time: f32, view: Option<(f32, f32)>) -> (Instance, Camera) {
     let mut instance = Instance::new(asset);
-    instance
-        .evaluate(asset, clip, time)
-        .expect("evaluating a valid clip");
-    let (min, max) = instance
-        .scene_bounds(asset)
-        .expect("the model has drawable meshes");
+    instance.evaluate(asset, clip, time).expect("evaluating a valid clip");
+    let (min, max) = instance.scene_bounds(asset).expect("the model has drawable meshes");
     let mut camera = Camera::default();
     if let Some((yaw, pitch)) = view {
         camera.yaw = yaw;
@@ -77,17 +88,8 @@ fn compare(expected: &RgbaImage, actual: &RgbaImage, threshold: u8) -> Compariso
     let mut diff = RgbaImage::new(actual.width(), actual.height());
     let mut largest = 0u8;
     let mut differing = 0usize;
-    for ((e, a), d) in expected
-        .pixels()
-        .zip(actual.pixels())
-        .zip(diff.pixels_mut())
-    {
-        let delta =
-            e.0.iter()
-                .zip(a.0)
-                .map(|(&x, y)| x.abs_diff(y))
-                .max()
-                .unwrap_or(0);
+    for ((e, a), d) in expected.pixels().zip(actual.pixels()).zip(diff.pixels_mut()) {
+        let delta = e.0.iter().zip(a.0).map(|(&x, y)| x.abs_diff(y)).max().unwrap_or(0);
         largest = largest.max(delta);
         let grey = ((u16::from(a.0[0]) + u16::from(a.0[1]) + u16::from(a.0[2])) / 12) as u8;
         *d = if delta > threshold {
@@ -98,20 +100,14 @@ fn compare(expected: &RgbaImage, actual: &RgbaImage, threshold: u8) -> Compariso
         };
     }
     let total = (actual.width() as usize * actual.height() as usize).max(1);
-    Comparison {
-        largest_channel_diff: largest,
-        differing_fraction: differing as f64 / total as f64,
-        diff,
-    }
+    Comparison { largest_channel_diff: largest, differing_fraction: differing as f64 / total as f64, diff }
 }
 
 fn write_png(image: &RgbaImage, path: &Path) {
     if let Some(dir) = path.parent() {
         std::fs::create_dir_all(dir).unwrap_or_else(|e| panic!("creating {}: {e}", dir.display()));
     }
-    image
-        .save(path)
-        .unwrap_or_else(|e| panic!("writing {}: {e}", path.display()));
+    image.save(path).unwrap_or_else(|e| panic!("writing {}: {e}", path.display()));
 }
 
 fn case_dirs() -> Vec<PathBuf> {
@@ -127,48 +123,46 @@ fn case_dirs() -> Vec<PathBuf> {
 
 /// Renders one case; returns a failure message, or `None` when it passes.
 fn run_case(offscreen: &Offscreen, dir: &Path, bless: bool) -> Option<String> {
-    let name = dir
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
+    let name = dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     let manifest_path = dir.join("manifest.json");
     let manifest: serde_json::Value = std::fs::read_to_string(&manifest_path)
         .map_err(|e| e.to_string())
         .and_then(|text| serde_json::from_str(&text).map_err(|e| e.to_string()))
         .unwrap_or_else(|e| panic!("{}: {e}", manifest_path.display()));
-    let field = |key: &str| {
-        manifest
-            .get(key)
-            .unwrap_or_else(|| panic!("{name}: manifest lacks {key:?}"))
-    };
+    let field = |key: &str| manifest.get(key).unwrap_or_else(|| panic!("{name}: manifest lacks {key:?}"));
     let model = field("model").as_str().expect("model is a string");
     let clip = field("clip").as_u64().map(|c| c as usize);
     let time = field("time").as_f64().expect("time is a number") as f32;
     let size = field("size").as_array().expect("size is [width, height]");
-    let dimension = |i: usize| {
-        size.get(i)
-            .and_then(|v| v.as_u64())
-            .expect("size holds two integers") as u32
-    };
+    let dimension = |i: usize| size.get(i).and_then(|v| v.as_u64()).expect("size holds two integers") as u32;
     let (width, height) = (dimension(0), dimension(1));
-    let threshold = field("max_channel_diff")
-        .as_u64()
-        .expect("max_channel_diff is an integer")
-        .min(255) as u8;
-    let max_fraction = field("max_differing_fraction")
-        .as_f64()
-        .expect("max_differing_fraction is a number");
+    let threshold = field("max_channel_diff").as_u64().expect("max_channel_diff is an integer").min(255) as u8;
+    let max_fraction = field("max_differing_fraction").as_f64().expect("max_differing_fraction is a number");
 
     let view = manifest.get("yaw").and_then(|y| y.as_f64()).map(|yaw| {
         let pitch = manifest.get("pitch").and_then(|p| p.as_f64()).unwrap_or(0.0);
         (yaw as f32, pitch as f32)
     });
 
-    let asset = load(model);
-    let (mut instance, camera) = pose(&asset, clip, time, view);
-    let mut renderer = offscreen
-        .scene_renderer(&asset)
-        .unwrap_or_else(|e| panic!("{name}: uploading: {e}"));
+    let candy = (model == CANDY_WRAPPER).then(CandyWrapper::new);
+    let asset = match &candy {
+        Some(rig) => rig.asset.clone(),
+        None => load(model),
+    };
+    let (mut instance, mut camera) = pose(&asset, clip, time, view);
+    if let Some(method) = manifest.get("skinning").and_then(|m| m.as_str()) {
+        let method =
+            SkinningMethod::from_name(method).unwrap_or_else(|| panic!("{name}: unknown skinning method {method:?}"));
+        instance.set_skinning(&asset, method);
+        instance.update(&asset).expect("updating");
+    }
+    if let Some(rig) = &candy {
+        let angle = |key: &str| manifest.get(key).and_then(|v| v.as_f64()).unwrap_or(0.0) as f32;
+        rig.pose(&mut instance, angle("twist"), angle("bend")).expect("posing the candy wrapper");
+        let (min, max) = instance.scene_bounds(&asset).expect("drawable");
+        camera.frame_to_fit(min, max);
+    }
+    let mut renderer = offscreen.scene_renderer(&asset).unwrap_or_else(|e| panic!("{name}: uploading: {e}"));
     let actual = offscreen
         .render(&mut renderer, &asset, &mut instance, &camera, width, height)
         .unwrap_or_else(|e| panic!("{name}: rendering: {e}"));
@@ -176,16 +170,11 @@ fn run_case(offscreen: &Offscreen, dir: &Path, bless: bool) -> Option<String> {
     let expected_path = dir.join("expected.png");
     if bless || !expected_path.exists() {
         write_png(&actual, &expected_path);
-        return (!bless).then(|| {
-            format!(
-                "{name}: no expected.png; wrote {} (check it, then commit)",
-                expected_path.display()
-            )
-        });
+        return (!bless)
+            .then(|| format!("{name}: no expected.png; wrote {} (check it, then commit)", expected_path.display()));
     }
-    let expected = image::open(&expected_path)
-        .unwrap_or_else(|e| panic!("reading {}: {e}", expected_path.display()))
-        .to_rgba8();
+    let expected =
+        image::open(&expected_path).unwrap_or_else(|e| panic!("reading {}: {e}", expected_path.display())).to_rgba8();
     if expected.dimensions() != actual.dimensions() {
         return Some(format!(
             "{name}: expected {:?} pixels, rendered {:?}",
@@ -215,24 +204,20 @@ fn golden_images_match() {
     let dirs = case_dirs();
     for required in REQUIRED_CASES {
         assert!(
-            dirs.iter()
-                .any(|d| d.file_name().is_some_and(|n| n == required)),
+            dirs.iter().any(|d| d.file_name().is_some_and(|n| n == required)),
             "golden case {required} is missing from tests/golden"
         );
     }
     let bless = std::env::var_os("KLOUB_BLESS").is_some_and(|v| v == "1");
-    let offscreen =
-        Offscreen::new().expect("a wgpu adapter (install Mesa lavapipe on machines without a GPU)");
+    let offscreen = Offscreen::new().expect("a wgpu adapter (install Mesa lavapipe on machines without a GPU)");
     eprintln!("golden images on {:?}", offscreen.adapter_info());
-    let failures: Vec<String> = dirs
-        .iter()
-        .filter_map(|dir| run_case(&offscreen, dir, bless))
-        .collect();
+    let failures: Vec<String> = dirs.iter().filter_map(|dir| run_case(&offscreen, dir, bless)).collect();
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
-/// The vertex-shader skinning (palette texture) draws the same picture as kloub_core's CPU
-/// reference skinning. RecursiveSkeletons has 84 skins, so it checks each draw's palette offset.
+/// The vertex-shader skinning (palette texture) and morphing (morph texture) draw the same
+/// picture as kloub_core's CPU reference. RecursiveSkeletons has 84 skins, so it checks each
+/// draw's palette offset; MorphStressTest has many targets per primitive.
 #[test]
 fn gpu_skinning_matches_cpu_reference() {
     let offscreen = Offscreen::new().expect("a wgpu adapter");
@@ -240,19 +225,17 @@ fn gpu_skinning_matches_cpu_reference() {
     for (model, time) in [
         ("khronos/CesiumMan/glTF-Binary/CesiumMan.glb", 0.5),
         ("khronos/Fox/glTF-Binary/Fox.glb", 1.0),
-        (
-            "khronos/RecursiveSkeletons/glTF-Binary/RecursiveSkeletons.glb",
-            1.0,
-        ),
+        ("khronos/RecursiveSkeletons/glTF-Binary/RecursiveSkeletons.glb", 1.0),
+        // Morph targets on the GPU (vertex shader) against the CPU reference.
+        ("khronos/AnimatedMorphSphere/glTF-Binary/AnimatedMorphSphere.glb", 1.2),
+        ("khronos/MorphStressTest/glTF-Binary/MorphStressTest.glb", 0.8),
     ] {
         let asset = load(model);
         let (mut instance, camera) = pose(&asset, Some(0), time, None);
         let mut renderer = offscreen.scene_renderer(&asset).expect("uploading");
         let mut frame = |path| {
             renderer.set_skinning_path(path);
-            offscreen
-                .render(&mut renderer, &asset, &mut instance, &camera, 192, 192)
-                .expect("rendering")
+            offscreen.render(&mut renderer, &asset, &mut instance, &camera, 192, 192).expect("rendering")
         };
         let gpu = frame(SkinningPath::Gpu);
         let cpu = frame(SkinningPath::Cpu);
@@ -260,9 +243,7 @@ fn gpu_skinning_matches_cpu_reference() {
         let ground = renderer.ground();
         renderer.clear_asset();
         renderer.set_ground(ground);
-        let empty = offscreen
-            .render(&mut renderer, &asset, &mut instance, &camera, 192, 192)
-            .expect("rendering");
+        let empty = offscreen.render(&mut renderer, &asset, &mut instance, &camera, 192, 192).expect("rendering");
         let covered = compare(&empty, &gpu, 24).differing_fraction;
         let comparison = compare(&cpu, &gpu, 24);
         eprintln!(
@@ -272,13 +253,8 @@ fn gpu_skinning_matches_cpu_reference() {
             covered * 100.0
         );
         if comparison.differing_fraction > 0.002 || covered < 0.02 {
-            let name = Path::new(model)
-                .file_stem()
-                .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_default();
-            let out = kloub_tests::repo_root()
-                .join("tests/out/skinning")
-                .join(&name);
+            let name = Path::new(model).file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+            let out = kloub_tests::repo_root().join("tests/out/skinning").join(&name);
             write_png(&gpu, &out.join("gpu.png"));
             write_png(&cpu, &out.join("cpu.png"));
             write_png(&comparison.diff, &out.join("diff.png"));

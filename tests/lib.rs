@@ -9,7 +9,5 @@ pub fn repo_root() -> PathBuf {
 
 /// `../shared/assets` beside the checkout (the test asset library), overridable with `KLOUB_SHARED_ASSETS`.
 pub fn shared_assets() -> PathBuf {
-    std::env::var_os("KLOUB_SHARED_ASSETS")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| repo_root().join("../shared/assets"))
+    std::env::var_os("KLOUB_SHARED_ASSETS").map(PathBuf::from).unwrap_or_else(|| repo_root().join("../shared/assets"))
 }

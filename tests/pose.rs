@@ -92,9 +92,7 @@ fn load(path: &Path) -> Gltf {
                 .map(|buffer| match buffer["uri"].as_str() {
                     Some(uri) if uri.starts_with("data:") => {
                         let (_, data) = uri.split_once(";base64,").expect("a base64 data: URI");
-                        base64::engine::general_purpose::STANDARD
-                            .decode(data)
-                            .expect("valid base64")
+                        base64::engine::general_purpose::STANDARD.decode(data).expect("valid base64")
                     }
                     Some(uri) => std::fs::read(dir.join(uri)).expect("external buffer"),
                     None => bin.clone().expect("the GLB BIN chunk"),
@@ -110,11 +108,7 @@ fn index(v: &Value) -> usize {
 }
 
 fn floats(v: &Value) -> Vec<f64> {
-    v.as_array()
-        .expect("an array")
-        .iter()
-        .map(|x| x.as_f64().expect("a number"))
-        .collect()
+    v.as_array().expect("an array").iter().map(|x| x.as_f64().expect("a number")).collect()
 }
 
 fn vec3(v: &[f64]) -> Vec3 {
@@ -136,11 +130,7 @@ fn component(component_type: usize, normalized: bool, b: &[u8]) -> f64 {
         }
         5122 => {
             let c = f64::from(i16::from_le_bytes([b[0], b[1]]));
-            if normalized {
-                (c / 32767.0).max(-1.0)
-            } else {
-                c
-            }
+            if normalized { (c / 32767.0).max(-1.0) } else { c }
         }
         5123 => {
             let c = f64::from(u16::from_le_bytes([b[0], b[1]]));
@@ -185,15 +175,9 @@ impl Gltf {
         let view = &self.json["bufferViews"][view];
         let buffer = &self.buffers[index(&view["buffer"])];
         let size = component_size(component_type);
-        let column_bytes = if columns > 1 {
-            (rows * size).div_ceil(4) * 4
-        } else {
-            rows * size
-        };
+        let column_bytes = if columns > 1 { (rows * size).div_ceil(4) * 4 } else { rows * size };
         let element = column_bytes * columns;
-        let stride = stride
-            .or_else(|| view["byteStride"].as_u64().map(|s| s as usize))
-            .unwrap_or(element);
+        let stride = stride.or_else(|| view["byteStride"].as_u64().map(|s| s as usize)).unwrap_or(element);
         let view_start = view["byteOffset"].as_u64().unwrap_or(0) as usize;
         let view_end = view_start + view["byteLength"].as_u64().expect("byteLength") as usize;
         let base = view_start + start;
@@ -209,11 +193,7 @@ impl Gltf {
                 for col in 0..columns {
                     for row in 0..rows {
                         let at = base + e * stride + col * column_bytes + row * size;
-                        out.push(component(
-                            component_type,
-                            normalized,
-                            &buffer[at..at + size],
-                        ));
+                        out.push(component(component_type, normalized, &buffer[at..at + size]));
                     }
                 }
                 out
@@ -240,15 +220,7 @@ impl Gltf {
         let normalized = a["normalized"].as_bool().unwrap_or(false);
         let offset = a["byteOffset"].as_u64().unwrap_or(0) as usize;
         let mut out = match a.get("bufferView") {
-            Some(v) => self.read(
-                index(v),
-                offset,
-                count,
-                component_type,
-                normalized,
-                shape,
-                None,
-            ),
+            Some(v) => self.read(index(v), offset, count, component_type, normalized, shape, None),
             None => vec![vec![0.0; shape.0 * shape.1]; count],
         };
         if let Some(sparse) = a.get("sparse") {
@@ -310,16 +282,10 @@ fn point(m: &Mat, v: &Vec3) -> Vec3 {
 }
 
 fn distance(a: &[f64], b: &[f64]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y).powi(2))
-        .sum::<f64>()
-        .sqrt()
+    a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>().sqrt()
 }
 
-const IDENTITY: Mat = [
-    1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1.,
-];
+const IDENTITY: Mat = [1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1.];
 
 fn normalize(q: &[f64]) -> Vec<f64> {
     let len = q.iter().map(|x| x * x).sum::<f64>().sqrt();
@@ -331,21 +297,9 @@ fn trs(t: &[f64], r: &[f64], s: &[f64]) -> Mat {
     let q = normalize(r);
     let (x, y, z, w) = (q[0], q[1], q[2], q[3]);
     let rot = [
-        [
-            1. - 2. * (y * y + z * z),
-            2. * (x * y + z * w),
-            2. * (x * z - y * w),
-        ],
-        [
-            2. * (x * y - z * w),
-            1. - 2. * (x * x + z * z),
-            2. * (y * z + x * w),
-        ],
-        [
-            2. * (x * z + y * w),
-            2. * (y * z - x * w),
-            1. - 2. * (x * x + y * y),
-        ],
+        [1. - 2. * (y * y + z * z), 2. * (x * y + z * w), 2. * (x * z - y * w)],
+        [2. * (x * y - z * w), 1. - 2. * (x * x + z * z), 2. * (y * z + x * w)],
+        [2. * (x * z + y * w), 2. * (y * z - x * w), 1. - 2. * (x * x + y * y)],
     ]; // rot[col][row]
     let mut m = IDENTITY;
     for col in 0..3 {
@@ -367,24 +321,11 @@ fn slerp(a: &[f64], b: &[f64], u: f64) -> Vec<f64> {
         b.to_vec()
     };
     if d > 0.9999995 {
-        return normalize(
-            &a.iter()
-                .zip(&b)
-                .map(|(x, y)| x + (y - x) * u)
-                .collect::<Vec<_>>(),
-        );
+        return normalize(&a.iter().zip(&b).map(|(x, y)| x + (y - x) * u).collect::<Vec<_>>());
     }
     let theta = d.acos();
-    let (wa, wb) = (
-        ((1.0 - u) * theta).sin() / theta.sin(),
-        (u * theta).sin() / theta.sin(),
-    );
-    normalize(
-        &a.iter()
-            .zip(&b)
-            .map(|(x, y)| wa * x + wb * y)
-            .collect::<Vec<_>>(),
-    )
+    let (wa, wb) = (((1.0 - u) * theta).sin() / theta.sin(), (u * theta).sin() / theta.sin());
+    normalize(&a.iter().zip(&b).map(|(x, y)| wa * x + wb * y).collect::<Vec<_>>())
 }
 
 /// The cubic Hermite spline of the spec: `v0`, out-tangent `b0` of the key before, `v1`,
@@ -395,9 +336,7 @@ fn hermite(v0: &[f64], b0: &[f64], v1: &[f64], a1: &[f64], td: f64, u: f64) -> V
     let h10 = u3 - 2.0 * u2 + u;
     let h01 = -2.0 * u3 + 3.0 * u2;
     let h11 = u3 - u2;
-    (0..v0.len())
-        .map(|c| h00 * v0[c] + h10 * td * b0[c] + h01 * v1[c] + h11 * td * a1[c])
-        .collect()
+    (0..v0.len()).map(|c| h00 * v0[c] + h10 * td * b0[c] + h01 * v1[c] + h11 * td * a1[c]).collect()
 }
 
 // ---------------------------------------------------------------- reference: the model
@@ -450,15 +389,10 @@ impl Channel {
         let rotation = self.target == Target::Rotation;
         match self.interpolation {
             Interpolation::Step => self.value(k).to_vec(),
-            Interpolation::Linear if rotation => {
-                slerp(&normalize(self.value(k)), &normalize(self.value(k + 1)), u)
+            Interpolation::Linear if rotation => slerp(&normalize(self.value(k)), &normalize(self.value(k + 1)), u),
+            Interpolation::Linear => {
+                self.value(k).iter().zip(self.value(k + 1)).map(|(a, b)| a + (b - a) * u).collect()
             }
-            Interpolation::Linear => self
-                .value(k)
-                .iter()
-                .zip(self.value(k + 1))
-                .map(|(a, b)| a + (b - a) * u)
-                .collect(),
             Interpolation::CubicSpline => {
                 let p = hermite(
                     self.value(k),
@@ -483,18 +417,12 @@ struct Clip {
 
 impl Clip {
     fn has_cubic(&self) -> bool {
-        self.channels
-            .iter()
-            .any(|c| c.interpolation == Interpolation::CubicSpline)
+        self.channels.iter().any(|c| c.interpolation == Interpolation::CubicSpline)
     }
 
     /// Every key time of every channel, sorted, without repeats.
     fn key_times(&self) -> Vec<f64> {
-        let mut times: Vec<f64> = self
-            .channels
-            .iter()
-            .flat_map(|c| c.times.iter().copied())
-            .collect();
+        let mut times: Vec<f64> = self.channels.iter().flat_map(|c| c.times.iter().copied()).collect();
         times.sort_by(f64::total_cmp);
         times.dedup();
         times
@@ -562,12 +490,7 @@ impl Model {
         let meshes: Vec<Vec<Primitive>> = list("meshes")
             .iter()
             .map(|mesh| {
-                mesh["primitives"]
-                    .as_array()
-                    .expect("primitives")
-                    .iter()
-                    .map(|prim| read_primitive(&g, prim))
-                    .collect()
+                mesh["primitives"].as_array().expect("primitives").iter().map(|prim| read_primitive(&g, prim)).collect()
             })
             .collect();
         let mesh_json = list("meshes");
@@ -579,16 +502,12 @@ impl Model {
                 let targets = mesh.map_or(0, |m| meshes[m].first().map_or(0, |p| p.targets.len()));
                 let weights = match (nd.get("weights"), mesh) {
                     (Some(w), _) => floats(w),
-                    (None, Some(m)) => mesh_json[m]
-                        .get("weights")
-                        .map_or(vec![0.0; targets], floats),
+                    (None, Some(m)) => mesh_json[m].get("weights").map_or(vec![0.0; targets], floats),
                     _ => vec![],
                 };
                 Node {
                     name: nd.get("name").cloned().unwrap_or(Value::Null),
-                    matrix: nd
-                        .get("matrix")
-                        .map(|m| floats(m).try_into().expect("16 floats")),
+                    matrix: nd.get("matrix").map(|m| floats(m).try_into().expect("16 floats")),
                     t: nd.get("translation").map_or(vec![0.; 3], floats),
                     r: nd.get("rotation").map_or(vec![0., 0., 0., 1.], floats),
                     s: nd.get("scale").map_or(vec![1.; 3], floats),
@@ -604,11 +523,7 @@ impl Model {
         let mut children = vec![Vec::new(); n];
         for (p, nd) in list("nodes").iter().enumerate() {
             for c in nd["children"].as_array().into_iter().flatten() {
-                assert!(
-                    parent[index(c)].is_none(),
-                    "node {} has two parents",
-                    index(c)
-                );
+                assert!(parent[index(c)].is_none(), "node {} has two parents", index(c));
                 parent[index(c)] = Some(p);
                 children[p].push(index(c));
             }
@@ -624,12 +539,7 @@ impl Model {
         let roots: Vec<usize> = match j["scenes"].as_array() {
             Some(scenes) if !scenes.is_empty() => {
                 let s = j["scene"].as_u64().unwrap_or(0) as usize;
-                scenes[s]["nodes"]
-                    .as_array()
-                    .into_iter()
-                    .flatten()
-                    .map(index)
-                    .collect()
+                scenes[s]["nodes"].as_array().into_iter().flatten().map(index).collect()
             }
             _ => (0..n).filter(|&i| parent[i].is_none()).collect(),
         };
@@ -644,24 +554,12 @@ impl Model {
         let skins = list("skins")
             .iter()
             .map(|skin| {
-                let joints: Vec<usize> = skin["joints"]
-                    .as_array()
-                    .expect("joints")
-                    .iter()
-                    .map(index)
-                    .collect();
+                let joints: Vec<usize> = skin["joints"].as_array().expect("joints").iter().map(index).collect();
                 let inverse_bind = match skin.get("inverseBindMatrices") {
-                    Some(a) => g
-                        .accessor(index(a))
-                        .into_iter()
-                        .map(|m| m.try_into().expect("16"))
-                        .collect(),
+                    Some(a) => g.accessor(index(a)).into_iter().map(|m| m.try_into().expect("16")).collect(),
                     None => vec![IDENTITY; joints.len()],
                 };
-                Skin {
-                    joints,
-                    inverse_bind,
-                }
+                Skin { joints, inverse_bind }
             })
             .collect();
 
@@ -691,51 +589,23 @@ impl Model {
                         };
                         let times = g.scalars(index(&sampler["input"]));
                         let mut values = g.accessor(index(&sampler["output"]));
-                        let per_key = if interpolation == Interpolation::CubicSpline {
-                            3
-                        } else {
-                            1
-                        };
+                        let per_key = if interpolation == Interpolation::CubicSpline { 3 } else { 1 };
                         if target == Target::Weights {
                             // One scalar per morph target per element: regroup per element
                             // (for CUBICSPLINE: all in-tangents, all values, all out-tangents).
                             let targets = values.len() / (per_key * times.len());
-                            values = values
-                                .chunks(targets)
-                                .map(|c| c.iter().map(|v| v[0]).collect())
-                                .collect();
+                            values = values.chunks(targets).map(|c| c.iter().map(|v| v[0]).collect()).collect();
                         }
                         assert_eq!(values.len(), per_key * times.len(), "output count");
-                        Some(Channel {
-                            node,
-                            target,
-                            interpolation,
-                            times,
-                            values,
-                        })
+                        Some(Channel { node, target, interpolation, times, values })
                     })
                     .collect();
-                let duration = samplers
-                    .iter()
-                    .flat_map(|s| g.scalars(index(&s["input"])))
-                    .fold(0.0, f64::max);
-                Clip {
-                    name: anim["name"].as_str().map(str::to_owned),
-                    channels,
-                    duration,
-                }
+                let duration = samplers.iter().flat_map(|s| g.scalars(index(&s["input"]))).fold(0.0, f64::max);
+                Clip { name: anim["name"].as_str().map(str::to_owned), channels, duration }
             })
             .collect();
 
-        Model {
-            nodes,
-            parent,
-            order,
-            meshes,
-            skins,
-            clips,
-            scene,
-        }
+        Model { nodes, parent, order, meshes, skins, clips, scene }
     }
 
     /// The pose of `clip` at `t` (`None`: the rest pose).
@@ -772,11 +642,7 @@ impl Model {
             let Some(mesh) = node.mesh else { continue };
             let palette: Option<Vec<Mat>> = node.skin.map(|s| {
                 let skin = &self.skins[s];
-                skin.joints
-                    .iter()
-                    .zip(&skin.inverse_bind)
-                    .map(|(&j, ibm)| mul(&worlds[j], ibm))
-                    .collect()
+                skin.joints.iter().zip(&skin.inverse_bind).map(|(&j, ibm)| mul(&worlds[j], ibm)).collect()
             });
             for (p, prim) in self.meshes[mesh].iter().enumerate() {
                 let out: Vec<Vec3> = prim
@@ -810,16 +676,8 @@ impl Model {
                 primitives.push(((i, mesh, p), out));
             }
         }
-        let weights = weights
-            .into_iter()
-            .enumerate()
-            .filter(|(_, w)| !w.is_empty())
-            .collect();
-        Expected {
-            worlds,
-            weights,
-            primitives,
-        }
+        let weights = weights.into_iter().enumerate().filter(|(_, w)| !w.is_empty()).collect();
+        Expected { worlds, weights, primitives }
     }
 
     /// The diagonal of the bounding box of the deformed scene in its rest pose.
@@ -851,10 +709,7 @@ fn read_primitive(g: &Gltf, prim: &Value) -> Primitive {
     let mut influences = vec![Vec::new(); positions.len()];
     let mut weight_sums = vec![0.0; positions.len()];
     for set in 0.. {
-        let (Some(j), Some(w)) = (
-            attrs.get(format!("JOINTS_{set}")),
-            attrs.get(format!("WEIGHTS_{set}")),
-        ) else {
+        let (Some(j), Some(w)) = (attrs.get(format!("JOINTS_{set}")), attrs.get(format!("WEIGHTS_{set}"))) else {
             break;
         };
         let (js, ws) = (g.accessor(index(j)), g.accessor(index(w)));
@@ -876,17 +731,9 @@ fn read_primitive(g: &Gltf, prim: &Value) -> Primitive {
         }
     }
     if attrs.get("JOINTS_0").is_some() {
-        assert!(
-            influences.iter().all(|i| !i.is_empty()),
-            "a skinned vertex without weights is not in this reference"
-        );
+        assert!(influences.iter().all(|i| !i.is_empty()), "a skinned vertex without weights is not in this reference");
     }
-    Primitive {
-        positions,
-        targets,
-        influences,
-        weight_sums,
-    }
+    Primitive { positions, targets, influences, weight_sums }
 }
 
 // ---------------------------------------------------------------- kloub's side
@@ -923,15 +770,8 @@ impl JsonFrame {
             .map(|p| {
                 assert_eq!(keys(p), ["count", "mesh", "node", "positions", "primitive"]);
                 let positions = floats(&p["positions"]);
-                assert_eq!(
-                    index(&p["count"]) * 3,
-                    positions.len(),
-                    "count == positions / 3"
-                );
-                (
-                    (index(&p["node"]), index(&p["mesh"]), index(&p["primitive"])),
-                    positions,
-                )
+                assert_eq!(index(&p["count"]) * 3, positions.len(), "count == positions / 3");
+                ((index(&p["node"]), index(&p["mesh"]), index(&p["primitive"])), positions)
             })
             .collect();
         JsonFrame {
@@ -953,16 +793,8 @@ impl JsonFrame {
             time: self.time,
             names: self.names.iter().collect(),
             worlds: self.worlds.iter().map(Vec::as_slice).collect(),
-            weights: self
-                .weights
-                .iter()
-                .map(|(n, w)| (*n, w.as_slice()))
-                .collect(),
-            primitives: self
-                .primitives
-                .iter()
-                .map(|(k, p)| (*k, p.as_slice()))
-                .collect(),
+            weights: self.weights.iter().map(|(n, w)| (*n, w.as_slice())).collect(),
+            primitives: self.primitives.iter().map(|(k, p)| (*k, p.as_slice())).collect(),
         }
     }
 }
@@ -972,12 +804,7 @@ fn doc_frames(doc: &PoseDoc) -> (Vec<Value>, Vec<FrameView<'_>>) {
     let names: Vec<Value> = doc
         .frames
         .first()
-        .map(|f| {
-            f.nodes
-                .iter()
-                .map(|n| n.name.clone().map_or(Value::Null, Value::String))
-                .collect()
-        })
+        .map(|f| f.nodes.iter().map(|n| n.name.clone().map_or(Value::Null, Value::String)).collect())
         .unwrap_or_default();
     let frames = doc
         .frames
@@ -990,21 +817,13 @@ fn doc_frames(doc: &PoseDoc) -> (Vec<Value>, Vec<FrameView<'_>>) {
                 time: f.time,
                 names: vec![],
                 worlds: f.nodes.iter().map(|n| n.world.as_slice()).collect(),
-                weights: f
-                    .weights
-                    .0
-                    .iter()
-                    .map(|(n, w)| (*n as usize, w.as_slice()))
-                    .collect(),
+                weights: f.weights.0.iter().map(|(n, w)| (*n as usize, w.as_slice())).collect(),
                 primitives: f
                     .primitives
                     .iter()
                     .map(|p| {
                         assert_eq!(p.count * 3, p.positions.len(), "count == positions / 3");
-                        (
-                            (p.node as usize, p.mesh as usize, p.primitive),
-                            p.positions.as_slice(),
-                        )
+                        ((p.node as usize, p.mesh as usize, p.primitive), p.positions.as_slice())
                     })
                     .collect(),
             }
@@ -1040,11 +859,7 @@ impl Findings {
     fn record(&mut self, kind: &'static str, err: f64, tol: f64, what: impl FnOnce() -> String) {
         let ratio = err / tol;
         let failed = err.is_nan() || err > tol;
-        let worst_of_kind = failed
-            && self
-                .by_kind
-                .get(kind)
-                .is_none_or(|b| ratio > b.worst || ratio.is_nan());
+        let worst_of_kind = failed && self.by_kind.get(kind).is_none_or(|b| ratio > b.worst || ratio.is_nan());
         if !(failed || ratio > self.worst) {
             return;
         }
@@ -1074,12 +889,7 @@ impl Findings {
         let kinds: Vec<String> = self
             .by_kind
             .iter()
-            .map(|(kind, b)| {
-                format!(
-                    "{} × {kind}, the worst {:.2} × its tolerance: {}",
-                    b.count, b.worst, b.worst_at
-                )
-            })
+            .map(|(kind, b)| format!("{} × {kind}, the worst {:.2} × its tolerance: {}", b.count, b.worst, b.worst_at))
             .collect();
         assert!(
             self.failures() == 0,
@@ -1092,44 +902,22 @@ impl Findings {
 
 /// Compares one frame of kloub against the reference: every node world, every morph weight,
 /// every vertex of every primitive. `tol` is 1e-5 × the rest-pose diagonal.
-fn compare(
-    model: &Model,
-    label: &str,
-    want: &Expected,
-    got: &FrameView<'_>,
-    tol: f64,
-    out: &mut Findings,
-) {
+fn compare(model: &Model, label: &str, want: &Expected, got: &FrameView<'_>, tol: f64, out: &mut Findings) {
     let time = got.time;
     let ctx = |what: String| format!("{label} t={time}: {what}");
     out.frames += 1;
 
-    assert_eq!(
-        got.worlds.len(),
-        model.nodes.len(),
-        "{}",
-        ctx("every node".into())
-    );
+    assert_eq!(got.worlds.len(), model.nodes.len(), "{}", ctx("every node".into()));
     for (i, (g, e)) in got.worlds.iter().zip(&want.worlds).enumerate() {
         assert_eq!(g.len(), 16);
         // The translation column is a position; the linear part is compared relative to
         // its own scale (a point at distance d from the node moves by |ΔL|·d).
         let err = distance(&g[12..15], &e[12..15]);
         out.record("node translation", err, tol, || {
-            ctx(format!(
-                "node {i} {} world translation {:?} vs {:?}",
-                model.nodes[i].name,
-                &g[12..15],
-                &e[12..15]
-            ))
+            ctx(format!("node {i} {} world translation {:?} vs {:?}", model.nodes[i].name, &g[12..15], &e[12..15]))
         });
-        let scale = (0..3)
-            .map(|c| distance(&e[4 * c..4 * c + 3], &[0.0; 3]))
-            .fold(1.0, f64::max);
-        let lin = [0, 1, 2, 4, 5, 6, 8, 9, 10]
-            .iter()
-            .map(|&k| (g[k] - e[k]).abs())
-            .fold(0.0, f64::max);
+        let scale = (0..3).map(|c| distance(&e[4 * c..4 * c + 3], &[0.0; 3])).fold(1.0, f64::max);
+        let lin = [0, 1, 2, 4, 5, 6, 8, 9, 10].iter().map(|&k| (g[k] - e[k]).abs()).fold(0.0, f64::max);
         out.record("node linear part", lin, 1e-5 * scale, || {
             // Lengths and directions of the columns apart: a scale error or a rotation error.
             let length = |m: &[f64], c: usize| distance(&m[4 * c..4 * c + 3], &[0.0; 3]);
@@ -1147,13 +935,8 @@ fn compare(
                 model.nodes[i].name, g, e
             ))
         });
-        let last_row = [3, 7, 11, 15]
-            .iter()
-            .map(|&k| (g[k] - e[k]).abs())
-            .fold(0.0, f64::max);
-        out.record("node last row", last_row, 1e-9, || {
-            ctx(format!("node {i} world last row {g:?}"))
-        });
+        let last_row = [3, 7, 11, 15].iter().map(|&k| (g[k] - e[k]).abs()).fold(0.0, f64::max);
+        out.record("node last row", last_row, 1e-9, || ctx(format!("node {i} world last row {g:?}")));
     }
     if !got.names.is_empty() {
         for (i, (g, node)) in got.names.iter().zip(&model.nodes).enumerate() {
@@ -1163,69 +946,26 @@ fn compare(
 
     let got_weights: BTreeSet<usize> = got.weights.iter().map(|(n, _)| *n).collect();
     let want_weights: BTreeSet<usize> = want.weights.iter().map(|(n, _)| *n).collect();
-    assert_eq!(
-        got_weights,
-        want_weights,
-        "{}",
-        ctx("nodes with weights".into())
-    );
+    assert_eq!(got_weights, want_weights, "{}", ctx("nodes with weights".into()));
     for (node, w) in &want.weights {
-        let g = got
-            .weights
-            .iter()
-            .find(|(n, _)| n == node)
-            .map(|(_, g)| *g)
-            .expect("listed");
-        assert_eq!(
-            g.len(),
-            w.len(),
-            "{}",
-            ctx(format!("node {node} weight count"))
-        );
-        let err = g
-            .iter()
-            .zip(w)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0, f64::max);
-        out.record("morph weights", err, 1e-5, || {
-            ctx(format!("node {node} morph weights {g:?} vs {w:?}"))
-        });
+        let g = got.weights.iter().find(|(n, _)| n == node).map(|(_, g)| *g).expect("listed");
+        assert_eq!(g.len(), w.len(), "{}", ctx(format!("node {node} weight count")));
+        let err = g.iter().zip(w).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        out.record("morph weights", err, 1e-5, || ctx(format!("node {node} morph weights {g:?} vs {w:?}")));
     }
 
     let got_keys: BTreeSet<PrimitiveKey> = got.primitives.iter().map(|(k, _)| *k).collect();
     let want_keys: BTreeSet<PrimitiveKey> = want.primitives.iter().map(|(k, _)| *k).collect();
-    assert_eq!(
-        got.primitives.len(),
-        got_keys.len(),
-        "{}",
-        ctx("a primitive listed twice".into())
-    );
-    assert_eq!(
-        got_keys,
-        want_keys,
-        "{}",
-        ctx("(node, mesh, primitive) listed".into())
-    );
+    assert_eq!(got.primitives.len(), got_keys.len(), "{}", ctx("a primitive listed twice".into()));
+    assert_eq!(got_keys, want_keys, "{}", ctx("(node, mesh, primitive) listed".into()));
     for (key, ps) in &want.primitives {
-        let positions = got
-            .primitives
-            .iter()
-            .find(|(k, _)| k == key)
-            .map(|(_, p)| *p)
-            .expect("listed");
-        assert_eq!(
-            positions.len(),
-            3 * ps.len(),
-            "{}",
-            ctx(format!("primitive {key:?} vertex count"))
-        );
+        let positions = got.primitives.iter().find(|(k, _)| k == key).map(|(_, p)| *p).expect("listed");
+        assert_eq!(positions.len(), 3 * ps.len(), "{}", ctx(format!("primitive {key:?} vertex count")));
         for (v, e) in ps.iter().enumerate() {
             let g = &positions[3 * v..3 * v + 3];
             out.vertices += 1;
             out.record("vertex", distance(g, e), tol, || {
-                ctx(format!(
-                    "(node, mesh, primitive) {key:?} vertex {v}: {g:?} vs {e:?}"
-                ))
+                ctx(format!("(node, mesh, primitive) {key:?} vertex {v}: {g:?} vs {e:?}"))
             });
         }
     }
@@ -1245,12 +985,7 @@ fn pose_json(path: &Path, request: &PoseRequest) -> Value {
 }
 
 fn keys(v: &Value) -> Vec<&str> {
-    let mut k: Vec<&str> = v
-        .as_object()
-        .expect("an object")
-        .keys()
-        .map(String::as_str)
-        .collect();
+    let mut k: Vec<&str> = v.as_object().expect("an object").keys().map(String::as_str).collect();
     k.sort_unstable();
     k
 }
@@ -1262,10 +997,7 @@ fn assert_f32_exact(v: &Value) {
         Value::Number(n) => {
             let x = n.as_f64().expect("a number");
             let exact = f64::from(x as f32);
-            assert!(
-                (exact - x).abs() <= 2.0 * f64::EPSILON * x.abs(),
-                "{x} is not an exact f32"
-            );
+            assert!((exact - x).abs() <= 2.0 * f64::EPSILON * x.abs(), "{x} is not an exact f32");
         }
         Value::Array(a) => a.iter().for_each(assert_f32_exact),
         Value::Object(o) => o.values().for_each(assert_f32_exact),
@@ -1279,10 +1011,7 @@ fn check(rel: &str, request: &PoseRequest, clip: Option<usize>) {
     let model = Model::load(&path);
     let doc = pose_json(&path, request);
     assert_eq!(keys(&doc), ["asset", "clip", "frames"]);
-    assert_eq!(
-        doc["asset"],
-        path.file_name().expect("name").to_str().expect("utf-8")
-    );
+    assert_eq!(doc["asset"], path.file_name().expect("name").to_str().expect("utf-8"));
     assert_f32_exact(&doc["frames"]);
 
     match clip {
@@ -1291,23 +1020,13 @@ fn check(rel: &str, request: &PoseRequest, clip: Option<usize>) {
             let info = &doc["clip"];
             assert_eq!(keys(info), ["duration", "index", "name"]);
             assert_eq!(info["index"], c);
-            assert_eq!(
-                info["name"],
-                model.clips[c]
-                    .name
-                    .clone()
-                    .map_or(Value::Null, Value::String)
-            );
+            assert_eq!(info["name"], model.clips[c].name.clone().map_or(Value::Null, Value::String));
             let got = info["duration"].as_f64().map(|d| d as f32);
             assert_eq!(got, Some(model.clips[c].duration as f32), "{rel}: duration");
         }
     }
 
-    let times: Vec<f32> = if request.times.is_empty() {
-        vec![0.0]
-    } else {
-        request.times.clone()
-    };
+    let times: Vec<f32> = if request.times.is_empty() { vec![0.0] } else { request.times.clone() };
     let frames = doc["frames"].as_array().expect("frames");
     assert_eq!(frames.len(), times.len());
     let tol = 1e-5 * model.rest_diagonal();
@@ -1325,12 +1044,7 @@ fn check(rel: &str, request: &PoseRequest, clip: Option<usize>) {
 const TIMES: [f32; 6] = [0.0, 0.5, 1.04, 2.0, 2.5, 7.0];
 
 fn request(clip: Option<&str>, rest: bool) -> PoseRequest {
-    PoseRequest {
-        clip: clip.map(str::to_owned),
-        times: TIMES.to_vec(),
-        rest,
-        ..Default::default()
-    }
+    PoseRequest { clip: clip.map(str::to_owned), times: TIMES.to_vec(), rest, ..Default::default() }
 }
 
 #[test]
@@ -1361,16 +1075,8 @@ fn animated_morph_cube_weights_match_the_reference() {
 #[test]
 fn embedded_data_uri_variants_match_the_reference() {
     // CesiumMan's embedded variant has other key times than the binary one (1.917 s).
-    check(
-        "CesiumMan/glTF-Embedded/CesiumMan.gltf",
-        &request(None, false),
-        Some(0),
-    );
-    check(
-        "SimpleMorph/glTF-Embedded/SimpleMorph.gltf",
-        &request(None, false),
-        Some(0),
-    );
+    check("CesiumMan/glTF-Embedded/CesiumMan.gltf", &request(None, false), Some(0));
+    check("SimpleMorph/glTF-Embedded/SimpleMorph.gltf", &request(None, false), Some(0));
 }
 
 #[test]
@@ -1381,10 +1087,7 @@ fn default_time_is_zero_and_names_are_null_when_absent() {
     assert_eq!(frames.len(), 1);
     assert_eq!(frames[0]["time"], 0.0);
     assert!(frames[0]["nodes"][0]["name"].is_null());
-    assert!(
-        doc["clip"]["name"].is_null(),
-        "SimpleSkin's animation has no name"
-    );
+    assert!(doc["clip"]["name"].is_null(), "SimpleSkin's animation has no name");
     assert_eq!(frames[0]["weights"], serde_json::json!({}));
 }
 
@@ -1392,19 +1095,10 @@ fn default_time_is_zero_and_names_are_null_when_absent() {
 fn unknown_clip_lists_the_available_ones() {
     let path = khronos("RiggedSimple/glTF-Binary/RiggedSimple.glb");
     for wanted in ["Walk", "1", "-1"] {
-        let err = pose_file(
-            &path,
-            &PoseRequest {
-                clip: Some(wanted.into()),
-                ..Default::default()
-            },
-        )
-        .expect_err("no such clip");
+        let err = pose_file(&path, &PoseRequest { clip: Some(wanted.into()), ..Default::default() })
+            .expect_err("no such clip");
         assert_eq!(err.pointer.as_deref(), Some("/animations"));
-        assert!(
-            err.message.contains(&format!("no clip {wanted:?}")),
-            "{err}"
-        );
+        assert!(err.message.contains(&format!("no clip {wanted:?}")), "{err}");
         assert!(err.message.contains("available: 0"), "{err}");
     }
 }
@@ -1457,9 +1151,7 @@ fn clip_times(clip: &Clip, max_keys: usize) -> Vec<f32> {
     let picked: Vec<usize> = if keys.len() <= max_keys {
         (0..keys.len()).collect()
     } else {
-        let mut p: Vec<usize> = (0..max_keys)
-            .map(|i| i * (keys.len() - 1) / (max_keys - 1))
-            .collect();
+        let mut p: Vec<usize> = (0..max_keys).map(|i| i * (keys.len() - 1) / (max_keys - 1)).collect();
         p.dedup();
         p
     };
@@ -1497,16 +1189,8 @@ fn sweep_file(path: &Path, rel: &str, max_keys: usize) {
     let mut findings = Findings::default();
     assert_eq!(asset.clips.len(), model.clips.len(), "{rel}: clip count");
 
-    let rest = pose_asset(
-        &name,
-        asset,
-        &PoseRequest {
-            rest: true,
-            times: vec![0.0, 1.0],
-            ..Default::default()
-        },
-    )
-    .unwrap_or_else(|e| panic!("{rel} rest: {e}"));
+    let rest = pose_asset(&name, asset, &PoseRequest { rest: true, times: vec![0.0, 1.0], ..Default::default() })
+        .unwrap_or_else(|e| panic!("{rel} rest: {e}"));
     assert!(rest.clip.is_none());
     let want = model.evaluate(None, 0.0);
     let (names, frames) = doc_frames(&rest);
@@ -1524,26 +1208,16 @@ fn sweep_file(path: &Path, rel: &str, max_keys: usize) {
         let doc = pose_asset(
             &name,
             asset,
-            &PoseRequest {
-                clip: Some(c.to_string()),
-                times: times.clone(),
-                ..Default::default()
-            },
+            &PoseRequest { clip: Some(c.to_string()), times: times.clone(), ..Default::default() },
         )
         .unwrap_or_else(|e| panic!("{rel} clip {c}: {e}"));
         let info = doc.clip.as_ref().expect("a clip");
         assert_eq!(info.index, c, "{rel}: clip index");
         assert_eq!(info.name, clip.name, "{rel}: clip {c} name");
-        assert_eq!(
-            info.duration as f32, clip.duration as f32,
-            "{rel}: clip {c} duration"
-        );
+        assert_eq!(info.duration as f32, clip.duration as f32, "{rel}: clip {c} duration");
         let (_, frames) = doc_frames(&doc);
         assert_eq!(frames.len(), times.len());
-        let label = format!(
-            "{rel} clip {c} {:?}",
-            clip.name.as_deref().unwrap_or("(unnamed)")
-        );
+        let label = format!("{rel} clip {c} {:?}", clip.name.as_deref().unwrap_or("(unnamed)"));
         for (frame, &time) in frames.iter().zip(&times) {
             assert_eq!(frame.time as f32, time);
             let want = model.evaluate(Some(c), f64::from(time));
@@ -1559,20 +1233,13 @@ fn sweep_file(path: &Path, rel: &str, max_keys: usize) {
         started.elapsed().as_secs_f64(),
         findings.worst,
         findings.worst_at,
-        findings
-            .by_kind
-            .iter()
-            .map(|(k, b)| (k, b.count, b.worst))
-            .collect::<Vec<_>>(),
+        findings.by_kind.iter().map(|(k, b)| (k, b.count, b.worst)).collect::<Vec<_>>(),
     );
     findings.assert_ok(rel);
 }
 
 fn sweep_named(file: &str) {
-    let rel = ASSETS
-        .iter()
-        .find(|rel| rel.ends_with(file))
-        .unwrap_or_else(|| panic!("{file} is not in ASSETS"));
+    let rel = ASSETS.iter().find(|rel| rel.ends_with(file)).unwrap_or_else(|| panic!("{file} is not in ASSETS"));
     sweep(rel);
 }
 
@@ -1584,10 +1251,7 @@ fn every_model_is_in_the_sweep() {
             let path = entry.expect("an entry").path();
             if path.is_dir() {
                 walk(&path, found);
-            } else if matches!(
-                path.extension().and_then(|e| e.to_str()),
-                Some("glb" | "gltf")
-            ) {
+            } else if matches!(path.extension().and_then(|e| e.to_str()), Some("glb" | "gltf")) {
                 found.insert(path);
             }
         }
@@ -1595,11 +1259,7 @@ fn every_model_is_in_the_sweep() {
     let root = shared_assets();
     let mut files = BTreeSet::new();
     walk(&root, &mut files);
-    assert!(
-        files.len() >= 30,
-        "the asset library is at {}",
-        root.display()
-    );
+    assert!(files.len() >= 30, "the asset library is at {}", root.display());
     let model_of = |file: &Path| -> PathBuf {
         let rel = file.strip_prefix(&root).expect("under the root");
         let parts: Vec<_> = rel.components().collect();
@@ -1706,11 +1366,7 @@ fn robot_expressive_skin_weights_are_renormalized() {
     let mut off_vertices = 0;
     for (m, mesh) in model.meshes.iter().enumerate() {
         for (p, prim) in mesh.iter().enumerate() {
-            let n = prim
-                .weight_sums
-                .iter()
-                .filter(|&&s| s > 0.0 && (s - 1.0).abs() > 1e-3)
-                .count();
+            let n = prim.weight_sums.iter().filter(|&&s| s > 0.0 && (s - 1.0).abs() > 1e-3).count();
             if n > 0 {
                 off.insert(format!("/meshes/{m}/primitives/{p}/attributes/WEIGHTS_0"));
                 off_vertices += n;
@@ -1718,32 +1374,17 @@ fn robot_expressive_skin_weights_are_renormalized() {
         }
     }
     assert!(off_vertices > 100, "the case is still in the file");
-    let warned: BTreeSet<String> = imported
-        .warnings
-        .iter()
-        .filter(|w| w.message.contains("renormalized"))
-        .map(|w| w.pointer.clone())
-        .collect();
-    assert_eq!(
-        warned, off,
-        "a warning for each primitive with unnormalized weights"
-    );
+    let warned: BTreeSet<String> =
+        imported.warnings.iter().filter(|w| w.message.contains("renormalized")).map(|w| w.pointer.clone()).collect();
+    assert_eq!(warned, off, "a warning for each primitive with unnormalized weights");
 
     // kloub matches the normalized reference (the sweep checks every clip); without the
     // normalization it would be far off: the check discriminates.
-    let clip = model
-        .clips
-        .iter()
-        .position(|c| c.name.as_deref() == Some("Wave"))
-        .expect("a Wave clip");
+    let clip = model.clips.iter().position(|c| c.name.as_deref() == Some("Wave")).expect("a Wave clip");
     let doc = pose_asset(
         &name,
         &imported.asset,
-        &PoseRequest {
-            clip: Some("Wave".into()),
-            times: vec![0.5],
-            ..Default::default()
-        },
+        &PoseRequest { clip: Some("Wave".into()), times: vec![0.5], ..Default::default() },
     )
     .expect("poses");
     let (_, frames) = doc_frames(&doc);
@@ -1777,25 +1418,11 @@ fn robot_expressive_skin_weights_are_renormalized() {
 /// kloub's world matrix of `node` in clip `clip` at each time of `times`.
 fn interpolation_worlds(clip: &str, node: usize, times: &[f32]) -> Vec<[f64; 16]> {
     let path = khronos("InterpolationTest/glTF-Binary/InterpolationTest.glb");
-    let report = pose_file(
-        &path,
-        &PoseRequest {
-            clip: Some(clip.into()),
-            times: times.to_vec(),
-            ..Default::default()
-        },
-    )
-    .unwrap_or_else(|e| panic!("{clip}: {e}"));
-    assert_eq!(
-        report.doc.clip.as_ref().and_then(|c| c.name.as_deref()),
-        Some(clip)
-    );
-    report
-        .doc
-        .frames
-        .iter()
-        .map(|f| f.nodes[node].world)
-        .collect()
+    let report =
+        pose_file(&path, &PoseRequest { clip: Some(clip.into()), times: times.to_vec(), ..Default::default() })
+            .unwrap_or_else(|e| panic!("{clip}: {e}"));
+    assert_eq!(report.doc.clip.as_ref().and_then(|c| c.name.as_deref()), Some(clip));
+    report.doc.frames.iter().map(|f| f.nodes[node].world).collect()
 }
 
 /// `(a + b) / 2` and `a + (b − a) / 4` of two key times, as the `f32` `kloub pose` takes.
@@ -1826,10 +1453,7 @@ fn interpolation_test_matches_hand_computed_values() {
     // h00(u)·v0 + h01(u)·v1, 0.5/0.5 at the midpoint and 0.84375/0.15625 at u = 1/4.
     let tol = 1e-5;
     let close = |got: f64, want: f64, what: &str| {
-        assert!(
-            (got - want).abs() <= tol,
-            "{what}: kloub {got}, by hand {want}"
-        );
+        assert!((got - want).abs() <= tol, "{what}: kloub {got}, by hand {want}");
     };
     let col_norm = |m: &[f64; 16], c: usize| distance(&m[4 * c..4 * c + 3], &[0.0; 3]);
 
@@ -1837,36 +1461,22 @@ fn interpolation_test_matches_hand_computed_values() {
     let st: [f32; 5] = [0.041666668, 0.41666666, 0.875, 1.25, 1.6666666];
     let sv = [1.0, 0.5, 1.0, 0.5, 1.0];
     // (time, STEP, LINEAR, CUBICSPLINE)
-    let mut scale_cases: Vec<(f32, f64, f64, f64)> =
-        vec![(0.0, 1.0, 1.0, 1.0), (2.0, 1.0, 1.0, 1.0)];
+    let mut scale_cases: Vec<(f32, f64, f64, f64)> = vec![(0.0, 1.0, 1.0, 1.0), (2.0, 1.0, 1.0, 1.0)];
     for k in 0..5 {
         scale_cases.push((st[k], sv[k], sv[k], sv[k]));
     }
     for k in 0..4 {
         let (a, b) = (sv[k], sv[k + 1]);
         scale_cases.push((mid(st[k], st[k + 1]), a, (a + b) / 2.0, (a + b) / 2.0));
-        scale_cases.push((
-            quarter(st[k], st[k + 1]),
-            a,
-            a + (b - a) / 4.0,
-            0.84375 * a + 0.15625 * b,
-        ));
+        scale_cases.push((quarter(st[k], st[k + 1]), a, a + (b - a) / 4.0, 0.84375 * a + 0.15625 * b));
     }
-    for (clip, node, which) in [
-        ("Step Scale", 0, 0),
-        ("Linear Scale", 3, 1),
-        ("CubicSpline Scale", 4, 2),
-    ] {
+    for (clip, node, which) in [("Step Scale", 0, 0), ("Linear Scale", 3, 1), ("CubicSpline Scale", 4, 2)] {
         let times: Vec<f32> = scale_cases.iter().map(|c| c.0).collect();
         let worlds = interpolation_worlds(clip, node, &times);
         for (m, case) in worlds.iter().zip(&scale_cases) {
             let want = [case.1, case.2, case.3][which];
             for c in 0..3 {
-                close(
-                    col_norm(m, c),
-                    want,
-                    &format!("{clip} t={} scale {c}", case.0),
-                );
+                close(col_norm(m, c), want, &format!("{clip} t={} scale {c}", case.0));
             }
         }
     }
@@ -1886,10 +1496,7 @@ fn interpolation_test_matches_hand_computed_values() {
         }
     }
     let times: Vec<f32> = cases.iter().map(|c| c.0).collect();
-    for (m, (t, y)) in interpolation_worlds("Step Translation", 8, &times)
-        .iter()
-        .zip(&cases)
-    {
+    for (m, (t, y)) in interpolation_worlds("Step Translation", 8, &times).iter().zip(&cases) {
         close(m[12], 0.0, &format!("Step Translation t={t} x"));
         close(m[13], *y, &format!("Step Translation t={t} y"));
         close(m[14], 0.0, &format!("Step Translation t={t} z"));
@@ -1909,11 +1516,7 @@ fn interpolation_test_matches_hand_computed_values() {
             if k < 4 {
                 let (a, b) = (ys[k], ys[k + 1]);
                 cases.push((mid(lt[k], lt[k + 1]), (a + b) / 2.0));
-                let q = if cubic {
-                    0.84375 * a + 0.15625 * b
-                } else {
-                    a + (b - a) / 4.0
-                };
+                let q = if cubic { 0.84375 * a + 0.15625 * b } else { a + (b - a) / 4.0 };
                 cases.push((quarter(lt[k], lt[k + 1]), q));
             }
         }
@@ -1942,11 +1545,7 @@ fn interpolation_test_matches_hand_computed_values() {
         cases.push((rt[k], key_angle(k), key_angle(k)));
         if k < 4 {
             cases.push((mid(rt[k], rt[k + 1]), key_angle(k), key_angle(k) - 22.5));
-            cases.push((
-                quarter(rt[k], rt[k + 1]),
-                key_angle(k),
-                key_angle(k) - 11.25,
-            ));
+            cases.push((quarter(rt[k], rt[k + 1]), key_angle(k), key_angle(k) - 11.25));
         }
     }
     let times: Vec<f32> = cases.iter().map(|c| c.0).collect();
@@ -1966,21 +1565,9 @@ fn interpolation_test_matches_hand_computed_values() {
     // 1/8 and −1/8; at u = 1/4, 9/64 and −3/64.
     let keys: [[(f32, f32); 3]; 5] = [
         [(-0.0, 1.0), (-0.0, 1.0), (-0.0, 1.0)],
-        [
-            (-0.0478909, 0.99885267),
-            (-0.38268346, 0.92387956),
-            (-0.0478909, 0.99885267),
-        ],
-        [
-            (-0.035464317, 0.999371),
-            (-FRAC_1_SQRT_2, FRAC_1_SQRT_2),
-            (-0.035464317, 0.999371),
-        ],
-        [
-            (-0.050318874, 0.9987332),
-            (-0.9238795, 0.3826835),
-            (-0.050318874, 0.9987332),
-        ],
+        [(-0.0478909, 0.99885267), (-0.38268346, 0.92387956), (-0.0478909, 0.99885267)],
+        [(-0.035464317, 0.999371), (-FRAC_1_SQRT_2, FRAC_1_SQRT_2), (-0.035464317, 0.999371)],
+        [(-0.050318874, 0.9987332), (-0.9238795, 0.3826835), (-0.050318874, 0.9987332)],
         [(-0.0, 1.0), (-1.0, -4.371139e-8), (-0.0, 1.0)],
     ];
     let f = |p: (f32, f32)| (f64::from(p.0), f64::from(p.1));
@@ -1992,16 +1579,10 @@ fn interpolation_test_matches_hand_computed_values() {
     }
     for k in 0..4 {
         let td = f64::from(rt[k + 1]) - f64::from(rt[k]);
-        let (v0, b0, v1, a1) = (
-            f(keys[k][1]),
-            f(keys[k][2]),
-            f(keys[k + 1][1]),
-            f(keys[k + 1][0]),
-        );
-        for (u, time, h10, h11) in [
-            (0.5, mid(rt[k], rt[k + 1]), 0.125, -0.125),
-            (0.25, quarter(rt[k], rt[k + 1]), 9.0 / 64.0, -3.0 / 64.0),
-        ] {
+        let (v0, b0, v1, a1) = (f(keys[k][1]), f(keys[k][2]), f(keys[k + 1][1]), f(keys[k + 1][0]));
+        for (u, time, h10, h11) in
+            [(0.5, mid(rt[k], rt[k + 1]), 0.125, -0.125), (0.25, quarter(rt[k], rt[k + 1]), 9.0 / 64.0, -3.0 / 64.0)]
+        {
             // The key interval kloub sees is between the f32 times; u as kloub computes it.
             let u_exact = (f64::from(time) - f64::from(rt[k])) / td;
             assert!((u_exact - u).abs() < 1e-6);
@@ -2011,10 +1592,7 @@ fn interpolation_test_matches_hand_computed_values() {
         }
     }
     let times: Vec<f32> = cases.iter().map(|c| c.0).collect();
-    for (m, (t, want)) in interpolation_worlds("CubicSpline Rotation", 6, &times)
-        .iter()
-        .zip(&cases)
-    {
+    for (m, (t, want)) in interpolation_worlds("CubicSpline Rotation", 6, &times).iter().zip(&cases) {
         close_angle(angle(m), *want, &format!("CubicSpline Rotation t={t}"));
         close(m[10], 1.0, "CubicSpline Rotation stays about z");
     }
@@ -2032,20 +1610,10 @@ fn slerped_rotations_keep_unit_length() {
     // scale of 1.00003 along two axes.
     let path = khronos("Fox/glTF-Binary/Fox.glb");
     let model = Model::load(&path);
-    let report = pose_file(
-        &path,
-        &PoseRequest {
-            clip: Some("Walk".into()),
-            times: vec![0.4375],
-            ..Default::default()
-        },
-    )
-    .expect("poses");
-    let clip = model
-        .clips
-        .iter()
-        .position(|c| c.name.as_deref() == Some("Walk"))
-        .expect("Walk");
+    let report =
+        pose_file(&path, &PoseRequest { clip: Some("Walk".into()), times: vec![0.4375], ..Default::default() })
+            .expect("poses");
+    let clip = model.clips.iter().position(|c| c.name.as_deref() == Some("Walk")).expect("Walk");
     let want = model.evaluate(Some(clip), 0.4375);
     let norm = |m: &[f64], c: usize| distance(&m[4 * c..4 * c + 3], &[0.0; 3]);
     let mut bad = Vec::new();
@@ -2053,18 +1621,11 @@ fn slerped_rotations_keep_unit_length() {
         for c in 0..3 {
             let (got, exp) = (norm(&node.world, c), norm(&want.worlds[i], c));
             if (got - exp).abs() > 4e-6 {
-                bad.push(format!(
-                    "node {i} {:?} column {c}: length {got} (reference {exp})",
-                    node.name
-                ));
+                bad.push(format!("node {i} {:?} column {c}: length {got} (reference {exp})", node.name));
             }
         }
     }
-    assert!(
-        bad.is_empty(),
-        "world matrices with a spurious scale:\n{}",
-        bad.join("\n")
-    );
+    assert!(bad.is_empty(), "world matrices with a spurious scale:\n{}", bad.join("\n"));
 }
 
 // ---------------------------------------------------------------- spec features no asset uses
@@ -2140,22 +1701,9 @@ fn features_gltf() -> Value {
     let mut b = Builder::default();
 
     // Mesh 0: 6 vertices; POSITION interleaved with JOINTS_0, then sparse-patched.
-    let positions: [[f32; 3]; 6] = [
-        [0.0, 0.0, 0.0],
-        [1.0, 0.0, 0.0],
-        [2.0, 0.0, 0.0],
-        [0.0, 1.0, 0.0],
-        [1.0, 1.0, 0.0],
-        [2.0, 1.0, 0.0],
-    ];
-    let joints0: [[u8; 4]; 6] = [
-        [0, 1, 2, 3],
-        [1, 2, 3, 4],
-        [2, 3, 4, 0],
-        [3, 4, 0, 1],
-        [4, 0, 1, 2],
-        [0, 2, 4, 1],
-    ];
+    let positions: [[f32; 3]; 6] =
+        [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0], [2.0, 1.0, 0.0]];
+    let joints0: [[u8; 4]; 6] = [[0, 1, 2, 3], [1, 2, 3, 4], [2, 3, 4, 0], [3, 4, 0, 1], [4, 0, 1, 2], [0, 2, 4, 1]];
     let mut interleaved = Vec::new();
     for (p, j) in positions.iter().zip(&joints0) {
         interleaved.extend(le_f32(p));
@@ -2183,27 +1731,17 @@ fn features_gltf() -> Value {
         [0.3, 0.3, 0.2, 0.1],
     ];
     let w1 = [0.2, 0.25, 0.0, 0.0, 0.6, 0.1];
-    let w0_u16: Vec<u16> = w0
-        .iter()
-        .flatten()
-        .map(|w| (w * 65535.0).round() as u16)
-        .collect();
+    let w0_u16: Vec<u16> = w0.iter().flatten().map(|w| (w * 65535.0).round() as u16).collect();
     let view = b.view(&le_u16(&w0_u16), None);
     let weights_0 = b.accessor(json!({
         "bufferView": view, "componentType": 5123, "normalized": true, "count": 6, "type": "VEC4"
     }));
-    let j1: Vec<u16> = [4u16, 0, 1, 2, 3, 3]
-        .iter()
-        .flat_map(|&j| [j, 0, 0, 0])
-        .collect();
+    let j1: Vec<u16> = [4u16, 0, 1, 2, 3, 3].iter().flat_map(|&j| [j, 0, 0, 0]).collect();
     let view = b.view(&le_u16(&j1), None);
     let joints_1 = b.accessor(json!({
         "bufferView": view, "componentType": 5123, "count": 6, "type": "VEC4"
     }));
-    let w1_u8: Vec<u8> = w1
-        .iter()
-        .flat_map(|w| [(w * 255.0_f64).round() as u8, 0, 0, 0])
-        .collect();
+    let w1_u8: Vec<u8> = w1.iter().flat_map(|w| [(w * 255.0_f64).round() as u8, 0, 0, 0]).collect();
     let view = b.view(&w1_u8, None);
     let weights_1 = b.accessor(json!({
         "bufferView": view, "componentType": 5121, "normalized": true, "count": 6, "type": "VEC4"
@@ -2218,9 +1756,7 @@ fn features_gltf() -> Value {
             "indices": {"bufferView": t0_ix, "componentType": 5123},
             "values": {"bufferView": t0_val}}
     }));
-    let t1: Vec<i16> = (0..6i16)
-        .flat_map(|v| [1000 * v, 16384, -3000 * v, 0])
-        .collect();
+    let t1: Vec<i16> = (0..6i16).flat_map(|v| [1000 * v, 16384, -3000 * v, 0]).collect();
     let view = b.view(&le_i16(&t1), Some(8));
     let target_1 = b.accessor(json!({
         "bufferView": view, "componentType": 5122, "normalized": true, "count": 6, "type": "VEC3"
@@ -2244,9 +1780,7 @@ fn features_gltf() -> Value {
     // Skin 0's inverse bind matrices: translations.
     let ibm: Vec<f32> = (0..5)
         .flat_map(|j| {
-            let mut m = [
-                1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1.,
-            ];
+            let mut m = [1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1.];
             m[12] = -0.5 * j as f32;
             m[13] = -1.0;
             m[14] = 0.1 * j as f32;
@@ -2302,10 +1836,8 @@ fn features_gltf() -> Value {
         "bufferView": view, "componentType": 5120, "normalized": true, "count": 2, "type": "VEC4"
     }));
 
-    let uri = format!(
-        "data:application/octet-stream;base64,{}",
-        base64::engine::general_purpose::STANDARD.encode(&b.bin)
-    );
+    let uri =
+        format!("data:application/octet-stream;base64,{}", base64::engine::general_purpose::STANDARD.encode(&b.bin));
     json!({
         "asset": {"version": "2.0", "generator": "kloub tests/pose.rs"},
         "extensionsUsed": ["KHR_mesh_quantization"],
@@ -2384,39 +1916,18 @@ fn features_no_asset_uses_match_the_reference() {
     let model = Model::load(&path);
     let prim = &model.meshes[0][0];
     assert_eq!(prim.positions[2], [2.0, 0.5, 0.0]);
-    assert_eq!(
-        prim.positions[5],
-        [2.5, f64::from(1.2f32), f64::from(0.3f32)]
-    );
+    assert_eq!(prim.positions[5], [2.5, f64::from(1.2f32), f64::from(0.3f32)]);
     let t0 = prim.targets[0].as_ref().expect("target 0");
     assert_eq!(t0[0], [0.0; 3]);
     assert_eq!(t0[1], [1.0, 0.0, -64.0 / 127.0]);
     assert_eq!(t0[5], [0.0, -1.0, 100.0 / 127.0]);
     let t1 = prim.targets[1].as_ref().expect("target 1");
-    assert_eq!(
-        t1[2],
-        [2000.0 / 32767.0, 16384.0 / 32767.0, -6000.0 / 32767.0]
-    );
-    assert_eq!(
-        prim.influences[0].len(),
-        5,
-        "4 from JOINTS_0, 1 from JOINTS_1"
-    );
+    assert_eq!(t1[2], [2000.0 / 32767.0, 16384.0 / 32767.0, -6000.0 / 32767.0]);
+    assert_eq!(prim.influences[0].len(), 5, "4 from JOINTS_0, 1 from JOINTS_1");
     assert_eq!(prim.influences[0][4].0, 4);
-    assert_eq!(
-        model.meshes[1][0].positions,
-        [[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]
-    );
-    assert_eq!(
-        model.scene,
-        [0, 1, 2, 3, 4, 5, 6, 7, 9],
-        "scene 1, not scene 0"
-    );
-    assert_eq!(
-        model.clips[0].channels[0].values.len(),
-        9,
-        "3 keys × (in, value, out)"
-    );
+    assert_eq!(model.meshes[1][0].positions, [[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
+    assert_eq!(model.scene, [0, 1, 2, 3, 4, 5, 6, 7, 9], "scene 1, not scene 0");
+    assert_eq!(model.clips[0].channels[0].values.len(), 9, "3 keys × (in, value, out)");
 
     sweep_file(&path, "features.gltf", 12);
     std::fs::remove_dir_all(&dir).expect("cleans up");

@@ -32,30 +32,17 @@ fn validate(source: &str) -> Result<(naga::Module, ModuleInfo), String> {
 /// Writes GLSL ES 3.00 for WebGL2 for every entry point.
 fn translate_for_webgl2(module: &naga::Module, info: &ModuleInfo) -> Result<(), String> {
     let options = glsl::Options {
-        version: glsl::Version::Embedded {
-            version: 300,
-            is_webgl: true,
-        },
+        version: glsl::Version::Embedded { version: 300, is_webgl: true },
         writer_flags: glsl::WriterFlags::ADJUST_COORDINATE_SPACE,
         ..Default::default()
     };
     for entry in &module.entry_points {
-        let pipeline = glsl::PipelineOptions {
-            shader_stage: entry.stage,
-            entry_point: entry.name.clone(),
-            multiview: None,
-        };
+        let pipeline =
+            glsl::PipelineOptions { shader_stage: entry.stage, entry_point: entry.name.clone(), multiview: None };
         let mut out = String::new();
-        glsl::Writer::new(
-            &mut out,
-            module,
-            info,
-            &options,
-            &pipeline,
-            naga::proc::BoundsCheckPolicies::default(),
-        )
-        .and_then(|mut writer| writer.write())
-        .map_err(|e| format!("entry point {}: GLSL ES 3.00: {e}", entry.name))?;
+        glsl::Writer::new(&mut out, module, info, &options, &pipeline, naga::proc::BoundsCheckPolicies::default())
+            .and_then(|mut writer| writer.write())
+            .map_err(|e| format!("entry point {}: GLSL ES 3.00: {e}", entry.name))?;
     }
     Ok(())
 }
@@ -68,10 +55,7 @@ fn struct_layouts(module: &naga::Module) -> BTreeMap<String, Layout> {
     let mut out = BTreeMap::new();
     for (_, ty) in module.types.iter() {
         if let (Some(name), naga::TypeInner::Struct { members, span }) = (&ty.name, &ty.inner) {
-            let members = members
-                .iter()
-                .map(|m| (m.name.clone().unwrap_or_default(), m.offset))
-                .collect();
+            let members = members.iter().map(|m| (m.name.clone().unwrap_or_default(), m.offset)).collect();
             out.insert(name.clone(), (members, *span));
         }
     }
@@ -81,10 +65,7 @@ fn struct_layouts(module: &naga::Module) -> BTreeMap<String, Layout> {
 #[test]
 fn every_wgsl_file_validates_for_webgpu_and_webgl2() {
     let files = shader_files();
-    assert!(
-        files.len() >= 2,
-        "expected the mesh and environment shaders, found {files:?}"
-    );
+    assert!(files.len() >= 2, "expected the mesh and environment shaders, found {files:?}");
     let mut failures = Vec::new();
     for path in &files {
         let result = std::fs::read_to_string(path)
@@ -92,20 +73,11 @@ fn every_wgsl_file_validates_for_webgpu_and_webgl2() {
             .and_then(|source| validate(&source))
             .and_then(|(module, info)| translate_for_webgl2(&module, &info).map(|()| module));
         match result {
-            Ok(module) => assert!(
-                !module.entry_points.is_empty(),
-                "{}: no entry points",
-                path.display()
-            ),
+            Ok(module) => assert!(!module.entry_points.is_empty(), "{}: no entry points", path.display()),
             Err(e) => failures.push(format!("{}:\n{e}", path.display())),
         }
     }
-    assert!(
-        failures.is_empty(),
-        "{} shader file(s) failed:\n\n{}",
-        failures.len(),
-        failures.join("\n\n")
-    );
+    assert!(failures.is_empty(), "{} shader file(s) failed:\n\n{}", failures.len(), failures.join("\n\n"));
 }
 
 #[test]
@@ -113,8 +85,7 @@ fn shared_structs_have_one_layout() {
     let mut seen: BTreeMap<String, (PathBuf, Layout)> = BTreeMap::new();
     let mut failures = Vec::new();
     for path in shader_files() {
-        let source =
-            std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let source = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         let Ok((module, _)) = validate(&source) else {
             continue;
         }; // reported by the test above
@@ -134,10 +105,7 @@ fn shared_structs_have_one_layout() {
             }
         }
     }
-    assert!(
-        seen.contains_key("Frame"),
-        "the shared Frame uniform struct was not found"
-    );
+    assert!(seen.contains_key("Frame"), "the shared Frame uniform struct was not found");
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
@@ -149,8 +117,5 @@ fn validation_catches_a_broken_shader() {
     let storage = "@group(0) @binding(0) var<storage, read> data: array<vec4<f32>>;\n\
                    @vertex fn main(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> { return data[i]; }";
     let (module, info) = validate(storage).expect("valid WGSL");
-    assert!(
-        translate_for_webgl2(&module, &info).is_err(),
-        "storage buffers must not pass for WebGL2"
-    );
+    assert!(translate_for_webgl2(&module, &info).is_err(), "storage buffers must not pass for WebGL2");
 }

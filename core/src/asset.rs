@@ -281,9 +281,7 @@ impl Asset {
         let mut in_scene = vec![false; self.nodes.len()];
         let roots: Vec<NodeIndex> = match self.default_scene.and_then(|s| self.scenes.get(s)) {
             Some(scene) => scene.roots.clone(),
-            None => (0..self.nodes.len() as u32)
-                .filter(|&n| self.nodes[n as usize].parent.is_none())
-                .collect(),
+            None => (0..self.nodes.len() as u32).filter(|&n| self.nodes[n as usize].parent.is_none()).collect(),
         };
         for r in roots {
             if let Some(f) = in_scene.get_mut(r as usize) {

@@ -2,9 +2,12 @@
 
 use crate::asset::{Asset, MorphTarget};
 use crate::error::JobError;
+use std::collections::HashMap;
+
 use crate::job::dqs::{DqPrepareJob, DqsJob, JointDq, RigidJob, SkinningMethod};
 use crate::job::morph::MorphJob;
 use crate::job::sample::{SampleContext, SampleJob};
+use crate::job::sjb::{SjbJob, SjbPlan};
 use crate::job::skin::{LbsJob, PaletteJob, transform_normal};
 use crate::job::world::WorldJob;
 use crate::job::{check_eq, check_index};
@@ -34,6 +37,8 @@ pub struct Instance {
     /// Palettes split for dual-quaternion skinning, laid out like `palettes`.
     joint_dqs: Vec<JointDq>,
     skinning: SkinningMethod,
+    /// Spherical-joint-blend centres per (node, primitive), built when that method is chosen.
+    sjb_plans: HashMap<(u32, usize), SjbPlan>,
 }
 
 impl Instance {
@@ -62,6 +67,7 @@ impl Instance {
             scratch_normals: Vec::with_capacity(max_vertices),
             joint_dqs: vec![JointDq::default(); total],
             skinning: SkinningMethod::default(),
+            sjb_plans: HashMap::new(),
             pose,
         };
         // The asset's invariants make the rest pose valid; a failure would leave identity
@@ -77,13 +83,51 @@ impl Instance {
         self.skinning
     }
 
-    /// Chooses the skinning method of [`Instance::deform_primitive`].
-    pub fn set_skinning(&mut self, method: SkinningMethod) {
+    /// Chooses the skinning method of [`Instance::deform_primitive`]. Choosing spherical joint
+    /// blending builds the joint-centre plans of every skinned primitive of `asset` (once).
+    pub fn set_skinning(&mut self, asset: &Asset, method: SkinningMethod) {
         self.skinning = method;
+        if method == SkinningMethod::SphericalJointBlend {
+            for node in 0..asset.nodes.len() as u32 {
+                let count = asset.nodes[node as usize]
+                    .mesh
+                    .and_then(|m| asset.meshes.get(m as usize))
+                    .map_or(0, |m| m.primitives.len());
+                for primitive in 0..count {
+                    self.sjb_plan(asset, node, primitive);
+                }
+            }
+        }
         // `joint_dqs` is sized like `palettes` at construction, so this cannot fail; the table
         // would be rebuilt by the next update anyway.
         if let Err(e) = self.prepare_dual_quaternions() {
             log::warn!("preparing dual quaternions: {e}");
+        }
+    }
+
+    /// The spherical-joint-blend plan of `primitive` instanced by `node` (built on first use;
+    /// `None` when that pair is not a skinned primitive of `asset`).
+    pub fn sjb_plan(&mut self, asset: &Asset, node: u32, primitive: usize) -> Option<&SjbPlan> {
+        let n = asset.nodes.get(node as usize)?;
+        let skin = asset.skins.get(n.skin? as usize)?;
+        let prim = asset.meshes.get(n.mesh? as usize)?.primitives.get(primitive)?;
+        if !prim.is_skinned() {
+            return None;
+        }
+        let parents = &self.parents;
+        Some(
+            self.sjb_plans
+                .entry((node, primitive))
+                .or_insert_with(|| SjbPlan::build(skin, parents, &prim.joints, &prim.weights)),
+        )
+    }
+
+    /// The palettes of skin `skin` split into dual quaternions: current after each update while
+    /// the method is dual-quaternion or spherical joint blending. Empty for an unknown skin.
+    pub fn joint_dqs(&self, skin: usize) -> &[JointDq] {
+        match (self.palette_starts.get(skin), self.palette_starts.get(skin + 1)) {
+            (Some(&a), Some(&b)) => &self.joint_dqs[a..b],
+            _ => &[],
         }
     }
 
@@ -148,7 +192,7 @@ impl Instance {
     /// Splits every palette for dual-quaternion skinning when that method is chosen (once per
     /// update, shared by every primitive of every skin).
     fn prepare_dual_quaternions(&mut self) -> Result<(), JobError> {
-        if self.skinning != SkinningMethod::DualQuaternion {
+        if !matches!(self.skinning, SkinningMethod::DualQuaternion | SkinningMethod::SphericalJointBlend) {
             return Ok(());
         }
         DqPrepareJob { palette: &self.palettes, out: &mut self.joint_dqs }.run()
@@ -217,6 +261,11 @@ impl Instance {
         match skin {
             Some(s) => {
                 check_index("skin", s, asset.skins.len())?;
+                if self.skinning == SkinningMethod::SphericalJointBlend
+                    && !self.sjb_plans.contains_key(&(node, primitive))
+                {
+                    self.sjb_plan(asset, node, primitive);
+                }
                 let range = self.palette_starts[s]..self.palette_starts[s + 1];
                 let palette = &self.palettes[range.clone()];
                 match self.skinning {
@@ -240,6 +289,24 @@ impl Instance {
                         out_normals,
                     }
                     .run(),
+                    SkinningMethod::SphericalJointBlend => {
+                        let plan = self
+                            .sjb_plans
+                            .get(&(node, primitive))
+                            .ok_or_else(|| JobError::InvalidInput(format!("node {node} has no skin plan")))?;
+                        SjbJob {
+                            positions: &self.morph_positions,
+                            normals: &self.morph_normals,
+                            joints: &prim.joints,
+                            weights: &prim.weights,
+                            palette,
+                            joints_dq: &self.joint_dqs[range],
+                            plan,
+                            out_positions,
+                            out_normals,
+                        }
+                        .run()
+                    }
                     SkinningMethod::DualQuaternion => DqsJob {
                         positions: &self.morph_positions,
                         normals: &self.morph_normals,

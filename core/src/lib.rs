@@ -21,6 +21,7 @@
 
 pub mod animator;
 pub mod asset;
+pub mod candy;
 pub mod clip;
 pub mod error;
 pub mod import;

@@ -151,6 +151,9 @@ pub enum SkinningArg {
     Lbs,
     /// Dual-quaternion skinning (no candy-wrapper collapse).
     Dqs,
+    /// Spherical joint blending (rotation about the joint centre; dual quaternions where the
+    /// influences do not share one).
+    Sjb,
 }
 
 /// `--easing` values.
@@ -195,11 +198,7 @@ where
         Err(e) => {
             // Prints help/version to stdout, usage errors to stderr.
             let _ = e.print();
-            return if e.use_stderr() {
-                ExitCode::from(2)
-            } else {
-                ExitCode::SUCCESS
-            };
+            return if e.use_stderr() { ExitCode::from(2) } else { ExitCode::SUCCESS };
         }
     };
     match cli.command {
@@ -219,16 +218,9 @@ fn run_serve(args: ServeArgs) -> ExitCode {
     let config = ServeConfig {
         dist: args.dist.map_or(defaults.dist, Source::Dir),
         assets: args.assets.map_or(defaults.assets, Source::Dir),
-        limits: Limits {
-            max_connections: args.max_connections as usize,
-            ..defaults.limits
-        },
+        limits: Limits { max_connections: args.max_connections as usize, ..defaults.limits },
     };
-    log::info!(
-        "web bundle: {}; samples: {}",
-        describe(&config.dist),
-        describe(&config.assets)
-    );
+    log::info!("web bundle: {}; samples: {}", describe(&config.dist), describe(&config.assets));
     let app = App::new(&config);
     let runtime = match tokio::runtime::Runtime::new() {
         Ok(r) => r,
@@ -268,16 +260,13 @@ fn run_pose(args: &PoseArgs) -> ExitCode {
         layers: args
             .layers
             .iter()
-            .map(|spec| LayerRequest {
-                spec: spec.clone(),
-                falloff: args.layer_falloff,
-                additive: args.layer_additive,
-            })
+            .map(|spec| LayerRequest { spec: spec.clone(), falloff: args.layer_falloff, additive: args.layer_additive })
             .collect(),
         skinning: match args.skinning {
             SkinningArg::Rigid => SkinningMethod::Rigid,
             SkinningArg::Lbs => SkinningMethod::Linear,
             SkinningArg::Dqs => SkinningMethod::DualQuaternion,
+            SkinningArg::Sjb => SkinningMethod::SphericalJointBlend,
         },
     };
     let report = match pose::pose_file(&args.file, &request) {
@@ -342,13 +331,9 @@ mod tests {
 
     #[test]
     fn pose_arguments_parse() {
-        let cli = Cli::try_parse_from([
-            "kloub", "pose", "a.glb", "--clip", "Walk", "--time", "0.5", "--time", "-1",
-        ])
-        .expect("valid");
-        let Command::Pose(p) = cli.command else {
-            panic!("pose expected")
-        };
+        let cli = Cli::try_parse_from(["kloub", "pose", "a.glb", "--clip", "Walk", "--time", "0.5", "--time", "-1"])
+            .expect("valid");
+        let Command::Pose(p) = cli.command else { panic!("pose expected") };
         assert_eq!(p.file, PathBuf::from("a.glb"));
         assert_eq!(p.clip.as_deref(), Some("Walk"));
         assert_eq!(p.times, vec![0.5, -1.0]);
@@ -379,73 +364,37 @@ mod tests {
             "0.25",
         ])
         .expect("valid");
-        let Command::Pose(p) = cli.command else {
-            panic!("pose expected")
-        };
+        let Command::Pose(p) = cli.command else { panic!("pose expected") };
         assert_eq!(p.crossfade.as_deref(), Some("Walk:Run:0.5"));
-        assert_eq!(
-            (p.at, p.easing, p.outgoing),
-            (1.0, EasingArg::Linear, OutgoingArg::Sync)
-        );
+        assert_eq!((p.at, p.easing, p.outgoing), (1.0, EasingArg::Linear, OutgoingArg::Sync));
         assert_eq!(p.layers, ["Wave:Abdomen:1", "0:3:0.5"]);
         assert_eq!((p.layer_falloff, p.layer_additive), (0.25, false));
         for bad in [
-            &[
-                "kloub",
-                "pose",
-                "a.glb",
-                "--crossfade",
-                "a:b:1",
-                "--clip",
-                "0",
-            ][..],
+            &["kloub", "pose", "a.glb", "--crossfade", "a:b:1", "--clip", "0"][..],
             &["kloub", "pose", "a.glb", "--crossfade", "a:b:1", "--rest"],
             &["kloub", "pose", "a.glb", "--at", "1"],
             &["kloub", "pose", "a.glb", "--layer-additive"],
-            &[
-                "kloub",
-                "pose",
-                "a.glb",
-                "--crossfade",
-                "a:b:1",
-                "--easing",
-                "cubic",
-            ],
+            &["kloub", "pose", "a.glb", "--crossfade", "a:b:1", "--easing", "cubic"],
         ] {
             assert!(Cli::try_parse_from(bad).is_err(), "{bad:?}");
         }
         let cli = Cli::try_parse_from(["kloub", "inspect", "a.glb", "--json"]).expect("valid");
-        let Command::Inspect(i) = cli.command else {
-            panic!("inspect expected")
-        };
+        let Command::Inspect(i) = cli.command else { panic!("inspect expected") };
         assert_eq!((i.file, i.json), (PathBuf::from("a.glb"), true));
     }
 
     #[test]
     fn serve_arguments_parse() {
-        let cli = Cli::try_parse_from([
-            "kloub",
-            "serve",
-            "--addr",
-            "127.0.0.1:0",
-            "--dist",
-            "d",
-            "--assets",
-            "a",
-        ])
-        .expect("valid");
-        let Command::Serve(s) = cli.command else {
-            panic!("serve expected")
-        };
+        let cli = Cli::try_parse_from(["kloub", "serve", "--addr", "127.0.0.1:0", "--dist", "d", "--assets", "a"])
+            .expect("valid");
+        let Command::Serve(s) = cli.command else { panic!("serve expected") };
         assert_eq!(s.addr, "127.0.0.1:0".parse().expect("addr"));
         assert_eq!(s.dist, Some(PathBuf::from("d")));
         assert_eq!(s.assets, Some(PathBuf::from("a")));
         assert_eq!(s.max_connections, DEFAULT_MAX_CONNECTIONS);
         assert!(Cli::try_parse_from(["kloub", "serve", "--addr", "nope"]).is_err());
         let cli = Cli::try_parse_from(["kloub", "serve", "--max-connections", "8"]).expect("valid");
-        let Command::Serve(s) = cli.command else {
-            panic!("serve expected")
-        };
+        let Command::Serve(s) = cli.command else { panic!("serve expected") };
         assert_eq!((s.max_connections, s.dist, s.assets), (8, None, None));
         assert!(Cli::try_parse_from(["kloub", "serve", "--max-connections", "0"]).is_err());
     }

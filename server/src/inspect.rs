@@ -214,14 +214,7 @@ fn joints(asset: &Asset, skin: &Skin) -> Vec<JointOut> {
                 .filter_map(|p| joint_of.get(p as usize).copied().flatten());
             let parent_joint = ancestors.next();
             let depth = parent_joint.map_or(0, |_| 1 + ancestors.count());
-            JointOut {
-                joint,
-                node,
-                name: node_name(asset, node),
-                parent: parent(node),
-                parent_joint,
-                depth,
-            }
+            JointOut { joint, node, name: node_name(asset, node), parent: parent(node), parent_joint, depth }
         })
         .collect()
 }
@@ -232,35 +225,20 @@ pub fn describe(asset_name: &str, asset: &Asset, warnings: &[Warning]) -> Inspec
         asset: asset_name.to_owned(),
         nodes: (0..)
             .zip(&asset.nodes)
-            .map(|(index, n)| NodeOut {
-                index,
-                name: n.name.clone(),
-                parent: n.parent,
-                mesh: n.mesh,
-                skin: n.skin,
-            })
+            .map(|(index, n)| NodeOut { index, name: n.name.clone(), parent: n.parent, mesh: n.mesh, skin: n.skin })
             .collect(),
         default_scene: asset.default_scene,
         scenes: asset
             .scenes
             .iter()
             .enumerate()
-            .map(|(index, s)| SceneOut {
-                index,
-                name: s.name.clone(),
-                roots: s.roots.clone(),
-            })
+            .map(|(index, s)| SceneOut { index, name: s.name.clone(), roots: s.roots.clone() })
             .collect(),
         skins: asset
             .skins
             .iter()
             .enumerate()
-            .map(|(index, s)| SkinOut {
-                index,
-                name: s.name.clone(),
-                skeleton: s.skeleton,
-                joints: joints(asset, s),
-            })
+            .map(|(index, s)| SkinOut { index, name: s.name.clone(), skeleton: s.skeleton, joints: joints(asset, s) })
             .collect(),
         clips: asset
             .clips
@@ -304,10 +282,7 @@ pub fn describe(asset_name: &str, asset: &Asset, warnings: &[Warning]) -> Inspec
             .collect(),
         warnings: warnings
             .iter()
-            .map(|w| WarningOut {
-                pointer: w.pointer.clone(),
-                message: w.message.clone(),
-            })
+            .map(|w| WarningOut { pointer: w.pointer.clone(), message: w.message.clone() })
             .collect(),
     }
 }
@@ -339,62 +314,23 @@ fn write_text(doc: &InspectDoc, out: &mut String) -> std::fmt::Result {
     )?;
     writeln!(out, "\nscenes:")?;
     for s in &doc.scenes {
-        let default = if doc.default_scene == Some(s.index) {
-            " (default)"
-        } else {
-            ""
-        };
-        writeln!(
-            out,
-            "  {} {}{default}: roots {:?}",
-            s.index,
-            label(s.name.as_deref()),
-            s.roots
-        )?;
+        let default = if doc.default_scene == Some(s.index) { " (default)" } else { "" };
+        writeln!(out, "  {} {}{default}: roots {:?}", s.index, label(s.name.as_deref()), s.roots)?;
     }
     writeln!(out, "\nskins:")?;
     for s in &doc.skins {
-        writeln!(
-            out,
-            "  {} {}: {} joints",
-            s.index,
-            label(s.name.as_deref()),
-            s.joints.len()
-        )?;
+        writeln!(out, "  {} {}: {} joints", s.index, label(s.name.as_deref()), s.joints.len())?;
         // Tree order: each joint after its parent joint, siblings by joint index.
-        let mut stack: Vec<&JointOut> = s
-            .joints
-            .iter()
-            .filter(|j| j.parent_joint.is_none())
-            .rev()
-            .collect();
+        let mut stack: Vec<&JointOut> = s.joints.iter().filter(|j| j.parent_joint.is_none()).rev().collect();
         while let Some(j) = stack.pop() {
             let indent = "  ".repeat(j.depth);
-            writeln!(
-                out,
-                "    {indent}{} {} (node {})",
-                j.joint,
-                label(j.name.as_deref()),
-                j.node
-            )?;
-            stack.extend(
-                s.joints
-                    .iter()
-                    .filter(|c| c.parent_joint == Some(j.joint))
-                    .rev(),
-            );
+            writeln!(out, "    {indent}{} {} (node {})", j.joint, label(j.name.as_deref()), j.node)?;
+            stack.extend(s.joints.iter().filter(|c| c.parent_joint == Some(j.joint)).rev());
         }
     }
     writeln!(out, "\nclips:")?;
     for c in &doc.clips {
-        writeln!(
-            out,
-            "  {} {}: {:.3} s, {} channels",
-            c.index,
-            label(c.name.as_deref()),
-            c.duration,
-            c.channel_count
-        )?;
+        writeln!(out, "  {} {}: {:.3} s, {} channels", c.index, label(c.name.as_deref()), c.duration, c.channel_count)?;
         for ch in &c.channels {
             writeln!(
                 out,
@@ -421,11 +357,7 @@ fn write_text(doc: &InspectDoc, out: &mut String) -> std::fmt::Result {
             m.nodes
         )?;
         if m.morph_targets > 0 {
-            let names = if m.target_names.is_empty() {
-                "unnamed".to_owned()
-            } else {
-                m.target_names.join(", ")
-            };
+            let names = if m.target_names.is_empty() { "unnamed".to_owned() } else { m.target_names.join(", ") };
             write!(out, ", {} morph targets ({names})", m.morph_targets)?;
         }
         writeln!(out)?;
@@ -451,20 +383,13 @@ mod tests {
         let mut nodes: Vec<Node> = parents
             .iter()
             .enumerate()
-            .map(|(i, &parent)| Node {
-                parent,
-                name: Some(format!("n{i}")),
-                ..Node::default()
-            })
+            .map(|(i, &parent)| Node { parent, name: Some(format!("n{i}")), ..Node::default() })
             .collect();
         nodes[4].mesh = Some(0);
         Asset {
             nodes,
             order: vec![0, 1, 2, 3, 4],
-            scenes: vec![Scene {
-                name: None,
-                roots: vec![0],
-            }],
+            scenes: vec![Scene { name: None, roots: vec![0] }],
             default_scene: Some(0),
             skins: vec![Skin {
                 name: Some("rig".into()),
@@ -487,28 +412,14 @@ mod tests {
         let a = asset();
         let doc = describe("x.glb", &a, &[Warning::new("/nodes/1", "fixed")]);
         let j = &doc.skins[0].joints;
-        assert_eq!(
-            (j[0].node, j[0].parent, j[0].parent_joint, j[0].depth),
-            (2, Some(1), Some(1), 1)
-        );
-        assert_eq!(
-            (j[1].node, j[1].parent, j[1].parent_joint, j[1].depth),
-            (0, None, None, 0)
-        );
-        assert_eq!(
-            (j[2].node, j[2].parent, j[2].parent_joint, j[2].depth),
-            (4, Some(3), Some(1), 1)
-        );
+        assert_eq!((j[0].node, j[0].parent, j[0].parent_joint, j[0].depth), (2, Some(1), Some(1), 1));
+        assert_eq!((j[1].node, j[1].parent, j[1].parent_joint, j[1].depth), (0, None, None, 0));
+        assert_eq!((j[2].node, j[2].parent, j[2].parent_joint, j[2].depth), (4, Some(3), Some(1), 1));
         assert_eq!(doc.meshes[0].nodes, vec![4]);
         assert_eq!((doc.nodes[4].parent, doc.nodes[4].mesh), (Some(3), Some(0)));
         assert_eq!(doc.meshes[0].morph_targets, 2);
         let text = to_text(&doc);
-        assert!(
-            text.contains(
-                "    1 \"n0\" (node 0)\n      0 \"n2\" (node 2)\n      2 \"n4\" (node 4)\n"
-            ),
-            "{text}"
-        );
+        assert!(text.contains("    1 \"n0\" (node 0)\n      0 \"n2\" (node 2)\n      2 \"n4\" (node 4)\n"), "{text}");
         assert!(text.contains("2 morph targets (a, b)"), "{text}");
         assert!(text.contains("  /nodes/1: fixed"), "{text}");
         assert!(text.contains("0 (unnamed) (default): roots [0]"), "{text}");

@@ -53,10 +53,8 @@ static LOGGER: StderrLogger = StderrLogger;
 
 /// Installs the stderr logger (once; later calls change nothing) at the level of `KLOUB_LOG`.
 pub fn init() {
-    let level = std::env::var("KLOUB_LOG")
-        .ok()
-        .and_then(|v| v.parse::<LevelFilter>().ok())
-        .unwrap_or(LevelFilter::Info);
+    let level =
+        std::env::var("KLOUB_LOG").ok().and_then(|v| v.parse::<LevelFilter>().ok()).unwrap_or(LevelFilter::Info);
     if log::set_logger(&LOGGER).is_ok() {
         log::set_max_level(level);
     }

@@ -66,8 +66,8 @@ pub fn percent_encode_segment(segment: &str) -> String {
 /// Windows device names, refused with or without an extension on every platform so a tree
 /// served from Linux behaves the same when copied to Windows.
 const RESERVED: [&str; 22] = [
-    "con", "prn", "aux", "nul", "com1", "com2", "com3", "com4", "com5", "com6", "com7", "com8",
-    "com9", "lpt1", "lpt2", "lpt3", "lpt4", "lpt5", "lpt6", "lpt7", "lpt8", "lpt9",
+    "con", "prn", "aux", "nul", "com1", "com2", "com3", "com4", "com5", "com6", "com7", "com8", "com9", "lpt1", "lpt2",
+    "lpt3", "lpt4", "lpt5", "lpt6", "lpt7", "lpt8", "lpt9",
 ];
 
 /// Splits an already decoded relative path into checked segments (rules in the module docs).
@@ -80,11 +80,7 @@ pub fn safe_segments(decoded: &str) -> Result<Vec<&str>, Refusal> {
         if segment.is_empty() || segment == "." {
             continue;
         }
-        let stem = segment
-            .split('.')
-            .next()
-            .unwrap_or(segment)
-            .to_ascii_lowercase();
+        let stem = segment.split('.').next().unwrap_or(segment).to_ascii_lowercase();
         if segment.starts_with('.')
             || segment.contains([':', '%'])
             || segment.ends_with(['.', ' '])
@@ -196,25 +192,16 @@ mod tests {
 
         let found = resolve_file(&root, "sub/a%20b.txt").expect("file exists");
         assert!(found.ends_with("sub/a b.txt"));
-        assert_eq!(
-            resolve_file(&root, "sub"),
-            Err(Refusal::NotFound),
-            "a folder is not a file"
-        );
+        assert_eq!(resolve_file(&root, "sub"), Err(Refusal::NotFound), "a folder is not a file");
         assert_eq!(resolve_file(&root, "missing.txt"), Err(Refusal::NotFound));
         assert_eq!(resolve_file(&root, "/"), Err(Refusal::NotFound));
 
         #[cfg(unix)]
         {
-            std::os::unix::fs::symlink(base.join("secret.txt"), root.join("out.txt"))
-                .expect("symlink");
-            std::os::unix::fs::symlink(root.join("sub/a b.txt"), root.join("in.txt"))
-                .expect("symlink");
+            std::os::unix::fs::symlink(base.join("secret.txt"), root.join("out.txt")).expect("symlink");
+            std::os::unix::fs::symlink(root.join("sub/a b.txt"), root.join("in.txt")).expect("symlink");
             assert_eq!(resolve_file(&root, "out.txt"), Err(Refusal::Unsafe));
-            assert!(
-                resolve_file(&root, "in.txt").is_ok(),
-                "a symlink inside the root is fine"
-            );
+            assert!(resolve_file(&root, "in.txt").is_ok(), "a symlink inside the root is fine");
         }
         std::fs::remove_dir_all(&base).expect("cleanup");
     }

@@ -98,7 +98,7 @@ pub struct PoseDoc {
     /// The layers, when any were asked for.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub layers: Vec<LayerInfo>,
-    /// The skinning method (`"rigid"`, `"dqs"`), when not the default linear blend skinning.
+    /// The skinning method (`"rigid"`, `"dqs"`, `"sjb"`), when not the default linear blend skinning.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub skinning: Option<&'static str>,
     /// One frame per requested time.
@@ -209,6 +209,10 @@ pub struct PrimitiveOut {
     pub count: usize,
     /// `x0, y0, z0, x1, ...` after morphing and skinning.
     pub positions: Vec<f64>,
+    /// With `--skinning sjb`, on skinned primitives: how many vertices have no shared joint
+    /// centre and are skinned by dual quaternions instead.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sjb_fallbacks: Option<usize>,
 }
 
 /// A pose document plus the importer's warnings.
@@ -231,10 +235,7 @@ pub struct PoseError {
 
 impl PoseError {
     fn new(pointer: Option<String>, message: impl Into<String>) -> Self {
-        Self {
-            pointer,
-            message: message.into(),
-        }
+        Self { pointer, message: message.into() }
     }
 }
 
@@ -260,10 +261,7 @@ pub struct DirResolver {
 impl DirResolver {
     /// A resolver for files under `dir`, refusing files larger than `max_bytes`.
     pub fn new(dir: &Path, max_bytes: u64) -> std::io::Result<Self> {
-        Ok(Self {
-            dir: paths::canonical_root(dir)?,
-            max_bytes,
-        })
+        Ok(Self { dir: paths::canonical_root(dir)?, max_bytes })
     }
 }
 
@@ -289,28 +287,21 @@ fn read_limited(path: &Path, max_bytes: u64) -> Result<Vec<u8>, String> {
 /// name and the import result.
 pub fn import_file(path: &Path) -> Result<(String, Imported), PoseError> {
     let options = ImportOptions::default();
-    let bytes = read_limited(path, options.budget_bytes)
-        .map_err(|e| PoseError::new(None, format!("cannot read: {e}")))?;
+    let bytes =
+        read_limited(path, options.budget_bytes).map_err(|e| PoseError::new(None, format!("cannot read: {e}")))?;
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
     };
     let resolver = DirResolver::new(dir, options.budget_bytes)
         .map_err(|e| PoseError::new(None, format!("cannot open its folder: {e}")))?;
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     let imported = import_bytes(&bytes, &resolver, &options)?;
     Ok((name, imported))
 }
 
 /// Imports `bytes` (GLB or .gltf), turning an import error into a [`PoseError`].
-pub fn import_bytes(
-    bytes: &[u8],
-    resolver: &dyn Resolver,
-    options: &ImportOptions,
-) -> Result<Imported, PoseError> {
+pub fn import_bytes(bytes: &[u8], resolver: &dyn Resolver, options: &ImportOptions) -> Result<Imported, PoseError> {
     kloub_core::import(bytes, resolver, options)
         .map_err(|e| PoseError::new(Some(e.pointer).filter(|p| !p.is_empty()), e.message))
 }
@@ -319,10 +310,7 @@ pub fn import_bytes(
 pub fn pose_file(path: &Path, request: &PoseRequest) -> Result<PoseReport, PoseError> {
     let (name, imported) = import_file(path)?;
     let doc = pose_asset(&name, &imported.asset, request)?;
-    Ok(PoseReport {
-        doc,
-        warnings: imported.warnings,
-    })
+    Ok(PoseReport { doc, warnings: imported.warnings })
 }
 
 /// Imports `bytes` (GLB or .gltf) and evaluates it; `asset_name` goes into the document.
@@ -335,10 +323,7 @@ pub fn pose_bytes(
 ) -> Result<PoseReport, PoseError> {
     let imported = import_bytes(bytes, resolver, options)?;
     let doc = pose_asset(asset_name, &imported.asset, request)?;
-    Ok(PoseReport {
-        doc,
-        warnings: imported.warnings,
-    })
+    Ok(PoseReport { doc, warnings: imported.warnings })
 }
 
 /// `"0 \"Walk\", 1 (unnamed)"`, or a note that there are none.
@@ -369,37 +354,23 @@ pub fn select_clip(asset: &Asset, request: &PoseRequest) -> Result<Option<usize>
     if let Some(index) = asset.find_clip(wanted) {
         return Ok(Some(index));
     }
-    Err(PoseError::new(
-        Some("/animations".into()),
-        format!("no clip {wanted:?}; {}", available_clips(asset)),
-    ))
+    Err(PoseError::new(Some("/animations".into()), format!("no clip {wanted:?}; {}", available_clips(asset))))
 }
 
 /// A node by name (a skin joint of that name first, then any node) or decimal index.
 pub fn find_node(asset: &Asset, name_or_index: &str) -> Option<NodeIndex> {
-    let named = |n: &NodeIndex| {
-        asset.nodes.get(*n as usize).and_then(|x| x.name.as_deref()) == Some(name_or_index)
-    };
+    let named = |n: &NodeIndex| asset.nodes.get(*n as usize).and_then(|x| x.name.as_deref()) == Some(name_or_index);
     asset
         .skins
         .iter()
         .flat_map(|s| s.joints.iter().copied())
         .find(named)
         .or_else(|| (0..asset.nodes.len() as NodeIndex).find(named))
-        .or_else(|| {
-            name_or_index
-                .parse::<NodeIndex>()
-                .ok()
-                .filter(|&i| (i as usize) < asset.nodes.len())
-        })
+        .or_else(|| name_or_index.parse::<NodeIndex>().ok().filter(|&i| (i as usize) < asset.nodes.len()))
 }
 
 /// Splits `A:B` at the first `:` where both halves resolve (names may contain `:`).
-fn split_pair<T, U>(
-    text: &str,
-    left: impl Fn(&str) -> Option<T>,
-    right: impl Fn(&str) -> Option<U>,
-) -> Option<(T, U)> {
+fn split_pair<T, U>(text: &str, left: impl Fn(&str) -> Option<T>, right: impl Fn(&str) -> Option<U>) -> Option<(T, U)> {
     text.match_indices(':').find_map(|(i, _)| {
         let (a, b) = (&text[..i], &text[i + 1..]);
         Some((left(a)?, right(b)?))
@@ -410,10 +381,7 @@ fn split_pair<T, U>(
 fn split_number<'s>(spec: &'s str, flag: &str, shape: &str) -> Result<(&'s str, f32), PoseError> {
     let bad = |why: &str| PoseError::new(None, format!("{flag} {spec:?}: {why}; expected {shape}"));
     let (head, number) = spec.rsplit_once(':').ok_or_else(|| bad("no ':'"))?;
-    let value: f32 = number
-        .trim()
-        .parse()
-        .map_err(|_| bad(&format!("{number:?} is not a number")))?;
+    let value: f32 = number.trim().parse().map_err(|_| bad(&format!("{number:?} is not a number")))?;
     if !(value.is_finite() && value >= 0.0) {
         return Err(bad(&format!("{number} must be a finite number ≥ 0")));
     }
@@ -422,11 +390,7 @@ fn split_number<'s>(spec: &'s str, flag: &str, shape: &str) -> Result<(&'s str, 
 
 fn clip_info(asset: &Asset, index: usize) -> Option<ClipInfo> {
     let c = asset.clips.get(index)?;
-    Some(ClipInfo {
-        index,
-        name: c.name.clone(),
-        duration: f64::from(c.duration),
-    })
+    Some(ClipInfo { index, name: c.name.clone(), duration: f64::from(c.duration) })
 }
 
 fn easing_name(e: Easing) -> &'static str {
@@ -455,38 +419,25 @@ struct Fade {
 fn resolve_crossfade(asset: &Asset, request: &CrossfadeRequest) -> Result<Fade, PoseError> {
     let shape = "FROM:TO:DURATION with clips by name or index";
     let (pair, duration) = split_number(&request.spec, "--crossfade", shape)?;
-    let (from, to) =
-        split_pair(pair, |a| asset.find_clip(a), |b| asset.find_clip(b)).ok_or_else(|| {
-            PoseError::new(
-                Some("/animations".into()),
-                format!(
-                    "--crossfade {:?}: no such pair of clips; {}",
-                    request.spec,
-                    available_clips(asset)
-                ),
-            )
-        })?;
+    let (from, to) = split_pair(pair, |a| asset.find_clip(a), |b| asset.find_clip(b)).ok_or_else(|| {
+        PoseError::new(
+            Some("/animations".into()),
+            format!("--crossfade {:?}: no such pair of clips; {}", request.spec, available_clips(asset)),
+        )
+    })?;
     if !(request.at.is_finite() && request.at >= 0.0) {
-        return Err(PoseError::new(
-            None,
-            format!("--at {} must be a finite time ≥ 0", request.at),
-        ));
+        return Err(PoseError::new(None, format!("--at {} must be a finite time ≥ 0", request.at)));
     }
     Ok(Fade {
         from,
         to,
         at: request.at,
-        settings: Crossfade {
-            duration,
-            easing: request.easing,
-            outgoing: request.outgoing,
-        },
+        settings: Crossfade { duration, easing: request.easing, outgoing: request.outgoing },
     })
 }
 
 fn resolve_layer(asset: &Asset, request: &LayerRequest) -> Result<(Layer, LayerInfo), PoseError> {
-    let shape =
-        "CLIP:ROOT_JOINT:WEIGHT with the clip by name or index and the joint by name or node index";
+    let shape = "CLIP:ROOT_JOINT:WEIGHT with the clip by name or index and the joint by name or node index";
     let (pair, weight) = split_number(&request.spec, "--layer", shape)?;
     let (clip, root) = split_pair(pair, |a| asset.find_clip(a), |b| find_node(asset, b)).ok_or_else(|| {
         PoseError::new(
@@ -499,22 +450,15 @@ fn resolve_layer(asset: &Asset, request: &LayerRequest) -> Result<(Layer, LayerI
         )
     })?;
     if !(0.0..=1.0).contains(&request.falloff) {
-        return Err(PoseError::new(
-            None,
-            format!("--layer-falloff {} is outside [0, 1]", request.falloff),
-        ));
+        return Err(PoseError::new(None, format!("--layer-falloff {} is outside [0, 1]", request.falloff)));
     }
     let mut layer = Layer::new(clip, root);
     layer.weight = weight;
     layer.falloff = request.falloff;
     layer.additive = request.additive;
     let info = LayerInfo {
-        clip: clip_info(asset, clip)
-            .ok_or_else(|| PoseError::new(None, "internal: clip vanished"))?,
-        root: NodeRef {
-            index: root,
-            name: asset.nodes.get(root as usize).and_then(|n| n.name.clone()),
-        },
+        clip: clip_info(asset, clip).ok_or_else(|| PoseError::new(None, "internal: clip vanished"))?,
+        root: NodeRef { index: root, name: asset.nodes.get(root as usize).and_then(|n| n.name.clone()) },
         weight: f64::from(weight),
         falloff: f64::from(request.falloff),
         additive: request.additive,
@@ -549,16 +493,8 @@ fn animate(
 }
 
 /// Evaluates an imported asset at every requested time.
-pub fn pose_asset(
-    asset_name: &str,
-    asset: &Asset,
-    request: &PoseRequest,
-) -> Result<PoseDoc, PoseError> {
-    let fade = request
-        .crossfade
-        .as_ref()
-        .map(|c| resolve_crossfade(asset, c))
-        .transpose()?;
+pub fn pose_asset(asset_name: &str, asset: &Asset, request: &PoseRequest) -> Result<PoseDoc, PoseError> {
+    let fade = request.crossfade.as_ref().map(|c| resolve_crossfade(asset, c)).transpose()?;
     let clip = match &fade {
         Some(f) => Some(f.from),
         None => select_clip(asset, request)?,
@@ -566,10 +502,8 @@ pub fn pose_asset(
     let playing = clip.and_then(|index| clip_info(asset, index));
     let crossfade = match (&fade, &request.crossfade) {
         (Some(f), Some(r)) => Some(CrossfadeInfo {
-            from: clip_info(asset, f.from)
-                .ok_or_else(|| PoseError::new(None, "internal: clip vanished"))?,
-            to: clip_info(asset, f.to)
-                .ok_or_else(|| PoseError::new(None, "internal: clip vanished"))?,
+            from: clip_info(asset, f.from).ok_or_else(|| PoseError::new(None, "internal: clip vanished"))?,
+            to: clip_info(asset, f.to).ok_or_else(|| PoseError::new(None, "internal: clip vanished"))?,
             duration: f64::from(f.settings.duration),
             at: f64::from(f.at),
             easing: easing_name(r.easing),
@@ -577,37 +511,23 @@ pub fn pose_asset(
         }),
         _ => None,
     };
-    let (layers, layer_infos): (Vec<Layer>, Vec<LayerInfo>) = request
-        .layers
-        .iter()
-        .map(|l| resolve_layer(asset, l))
-        .collect::<Result<Vec<_>, _>>()?
-        .into_iter()
-        .unzip();
+    let (layers, layer_infos): (Vec<Layer>, Vec<LayerInfo>) =
+        request.layers.iter().map(|l| resolve_layer(asset, l)).collect::<Result<Vec<_>, _>>()?.into_iter().unzip();
     let blending = fade.is_some() || !layers.is_empty();
-    let times: &[f32] = if request.times.is_empty() {
-        &[0.0]
-    } else {
-        &request.times
-    };
+    let times: &[f32] = if request.times.is_empty() { &[0.0] } else { &request.times };
     if let Some(t) = times.iter().find(|t| !t.is_finite()) {
-        return Err(PoseError::new(
-            None,
-            format!("time {t} is not a finite number"),
-        ));
+        return Err(PoseError::new(None, format!("time {t} is not a finite number")));
     }
     if let Some(t) = times.iter().find(|&&t| blending && t < 0.0) {
         return Err(PoseError::new(
             None,
-            format!(
-                "time {t}: with --crossfade or --layer, times count from the start and must be ≥ 0"
-            ),
+            format!("time {t}: with --crossfade or --layer, times count from the start and must be ≥ 0"),
         ));
     }
 
     let scene = asset.scene_nodes();
     let mut instance = Instance::new(asset);
-    instance.set_skinning(request.skinning);
+    instance.set_skinning(asset, request.skinning);
     let mut positions = Vec::new();
     let mut normals = Vec::new();
     let mut frames = Vec::with_capacity(times.len());
@@ -623,18 +543,11 @@ pub fn pose_asset(
 
         let worlds = instance.worlds();
         if worlds.len() != asset.nodes.len() {
-            return Err(PoseError::new(
-                None,
-                "internal: world matrices do not match the nodes",
-            ));
+            return Err(PoseError::new(None, "internal: world matrices do not match the nodes"));
         }
         let mut nodes = Vec::with_capacity(asset.nodes.len());
         for (index, (node, world)) in (0u32..).zip(asset.nodes.iter().zip(worlds)) {
-            nodes.push(NodeOut {
-                index,
-                name: node.name.clone(),
-                world: widen(&world.to_cols_array(), index)?,
-            });
+            nodes.push(NodeOut { index, name: node.name.clone(), world: widen(&world.to_cols_array(), index)? });
         }
 
         let mut weights = NodeWeights::default();
@@ -650,35 +563,26 @@ pub fn pose_asset(
             let Some(mesh) = asset.nodes.get(node as usize).and_then(|n| n.mesh) else {
                 continue;
             };
-            let count = asset
-                .meshes
-                .get(mesh as usize)
-                .map_or(0, |m| m.primitives.len());
+            let count = asset.meshes.get(mesh as usize).map_or(0, |m| m.primitives.len());
             for primitive in 0..count {
-                instance
-                    .deform_primitive(asset, node, primitive, &mut positions, &mut normals)
-                    .map_err(|e| {
-                        PoseError::new(
-                            Some(format!("/meshes/{mesh}/primitives/{primitive}")),
-                            e.to_string(),
-                        )
-                    })?;
+                instance.deform_primitive(asset, node, primitive, &mut positions, &mut normals).map_err(|e| {
+                    PoseError::new(Some(format!("/meshes/{mesh}/primitives/{primitive}")), e.to_string())
+                })?;
                 let flat: Vec<f32> = positions.iter().flatten().copied().collect();
+                let sjb_fallbacks = (request.skinning == SkinningMethod::SphericalJointBlend)
+                    .then(|| instance.sjb_plan(asset, node, primitive).map(|p| p.fallbacks))
+                    .flatten();
                 primitives.push(PrimitiveOut {
                     node,
                     mesh,
                     primitive,
                     count: positions.len(),
                     positions: widen_vec(&flat, node)?,
+                    sjb_fallbacks,
                 });
             }
         }
-        frames.push(Frame {
-            time: f64::from(time),
-            nodes,
-            weights,
-            primitives,
-        });
+        frames.push(Frame { time: f64::from(time), nodes, weights, primitives });
     }
     Ok(PoseDoc {
         asset: asset_name.to_owned(),
@@ -694,10 +598,7 @@ fn widen_vec(values: &[f32], node: u32) -> Result<Vec<f64>, PoseError> {
     if values.iter().all(|v| v.is_finite()) {
         Ok(values.iter().map(|&v| f64::from(v)).collect())
     } else {
-        Err(PoseError::new(
-            Some(format!("/nodes/{node}")),
-            "the pose is not finite",
-        ))
+        Err(PoseError::new(Some(format!("/nodes/{node}")), "the pose is not finite"))
     }
 }
 
@@ -717,30 +618,20 @@ mod tests {
         let json = serde_json::to_string(&f64::from(0.1f32)).expect("serializes");
         let back: f64 = serde_json::from_str(&json).expect("parses");
         assert_eq!(back as f32, 0.1f32);
-        assert_eq!(
-            back,
-            f64::from(0.1f32),
-            "the exact f32 value, not the nearest f64 to 0.1"
-        );
+        assert_eq!(back, f64::from(0.1f32), "the exact f32 value, not the nearest f64 to 0.1");
     }
 
     #[test]
     fn weights_serialize_as_an_object_in_node_order() {
         let w = NodeWeights(vec![(2, vec![0.5]), (10, vec![0.25, 1.0])]);
-        assert_eq!(
-            serde_json::to_string(&w).expect("ok"),
-            r#"{"2":[0.5],"10":[0.25,1.0]}"#
-        );
+        assert_eq!(serde_json::to_string(&w).expect("ok"), r#"{"2":[0.5],"10":[0.25,1.0]}"#);
     }
 
     #[test]
     fn error_display_has_pointer_then_message() {
         let e = PoseError::new(Some("/animations".into()), "no clip");
         assert_eq!(e.to_string(), "/animations: no clip");
-        assert_eq!(
-            PoseError::new(None, "cannot read").to_string(),
-            "cannot read"
-        );
+        assert_eq!(PoseError::new(None, "cannot read").to_string(), "cannot read");
     }
 
     #[test]
@@ -752,31 +643,13 @@ mod tests {
         let r = DirResolver::new(&base.join("model"), 1 << 20).expect("folder exists");
         assert_eq!(r.resolve("a%20b.bin"), Ok(vec![1, 2, 3]));
         assert_eq!(r.resolve("./a%20b.bin"), Ok(vec![1, 2, 3]));
-        for uri in [
-            "../secret.bin",
-            "%2e%2e/secret.bin",
-            "/etc/passwd",
-            "c:/x.bin",
-            "..\\x",
-        ] {
+        for uri in ["../secret.bin", "%2e%2e/secret.bin", "/etc/passwd", "c:/x.bin", "..\\x"] {
             let err = r.resolve(uri).expect_err(uri);
-            assert!(
-                err.contains("refused") || err.contains("no such file"),
-                "{uri}: {err}"
-            );
+            assert!(err.contains("refused") || err.contains("no such file"), "{uri}: {err}");
         }
-        assert!(
-            r.resolve("../secret.bin")
-                .expect_err("escapes")
-                .contains("refused")
-        );
+        assert!(r.resolve("../secret.bin").expect_err("escapes").contains("refused"));
         let small = DirResolver::new(&base.join("model"), 2).expect("folder exists");
-        assert!(
-            small
-                .resolve("a%20b.bin")
-                .expect_err("too big")
-                .contains("budget")
-        );
+        assert!(small.resolve("a%20b.bin").expect_err("too big").contains("budget"));
         std::fs::remove_dir_all(&base).expect("cleanup");
     }
 }

@@ -29,11 +29,7 @@ fn pose_prints_the_contract_json() {
         .args(["--time", "0", "--time", "1.04", "--clip", "0"])
         .output()
         .expect("runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let doc: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
     assert_eq!(doc["asset"], "RiggedSimple.glb");
     assert_eq!(doc["clip"]["index"], 0);
@@ -41,45 +37,25 @@ fn pose_prints_the_contract_json() {
     // serde_json's default parser may be 1 ulp off in f64; narrowing gives the f32 back.
     let time = doc["frames"][1]["time"].as_f64().expect("a number");
     assert_eq!(time as f32, 1.04f32);
-    assert!(
-        (time - f64::from(1.04f32)).abs() <= 2.0 * f64::EPSILON,
-        "full f32 precision"
-    );
+    assert!((time - f64::from(1.04f32)).abs() <= 2.0 * f64::EPSILON, "full f32 precision");
 }
 
 #[test]
 fn pose_errors_name_file_and_pointer_and_exit_1() {
     let file = rigged_simple();
-    let out = kloub()
-        .arg("pose")
-        .arg(&file)
-        .args(["--clip", "Nope"])
-        .output()
-        .expect("runs");
+    let out = kloub().arg("pose").arg(&file).args(["--clip", "Nope"]).output().expect("runs");
     assert_eq!(out.status.code(), Some(1));
     assert!(out.stdout.is_empty());
     let err = String::from_utf8_lossy(&out.stderr);
-    let want = format!(
-        "kloub: {}: /animations: no clip \"Nope\"; available: 0",
-        file.display()
-    );
+    let want = format!("kloub: {}: /animations: no clip \"Nope\"; available: 0", file.display());
     assert!(err.starts_with(&want), "{err}");
 
-    let out = kloub()
-        .args(["pose", "/nonexistent/x.glb"])
-        .output()
-        .expect("runs");
+    let out = kloub().args(["pose", "/nonexistent/x.glb"]).output().expect("runs");
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        err.starts_with("kloub: /nonexistent/x.glb: cannot read: "),
-        "{err}"
-    );
+    assert!(err.starts_with("kloub: /nonexistent/x.glb: cannot read: "), "{err}");
 
-    let out = kloub()
-        .args(["pose", "x.glb", "--rest", "--clip", "0"])
-        .output()
-        .expect("runs");
+    let out = kloub().args(["pose", "x.glb", "--rest", "--clip", "0"]).output().expect("runs");
     assert_eq!(out.status.code(), Some(2), "usage error");
 }
 
@@ -89,29 +65,20 @@ fn pose_refuses_external_files_leaving_the_folder() {
     std::fs::create_dir_all(base.join("model")).expect("mkdir");
     std::fs::write(base.join("outside.bin"), [0u8; 12]).expect("write");
     #[cfg(unix)]
-    std::os::unix::fs::symlink(base.join("outside.bin"), base.join("model/link.bin"))
-        .expect("symlink");
+    std::os::unix::fs::symlink(base.join("outside.bin"), base.join("model/link.bin")).expect("symlink");
     let mut uris = vec!["../outside.bin", "%2e%2e/outside.bin"];
     if cfg!(unix) {
         uris.push("link.bin");
     }
     for uri in uris {
-        let gltf = format!(
-            r#"{{"asset":{{"version":"2.0"}},"buffers":[{{"uri":"{uri}","byteLength":12}}]}}"#
-        );
+        let gltf = format!(r#"{{"asset":{{"version":"2.0"}},"buffers":[{{"uri":"{uri}","byteLength":12}}]}}"#);
         let file = base.join("model/escape.gltf");
         std::fs::write(&file, gltf).expect("write");
         let out = kloub().arg("pose").arg(&file).output().expect("runs");
         assert_eq!(out.status.code(), Some(1), "{uri}");
         let err = String::from_utf8_lossy(&out.stderr);
-        assert!(
-            err.starts_with(&format!("kloub: {}: /buffers/0", file.display())),
-            "{err}"
-        );
-        assert!(
-            err.contains("outside") || err.contains("refused"),
-            "{uri}: {err}"
-        );
+        assert!(err.starts_with(&format!("kloub: {}: /buffers/0", file.display())), "{err}");
+        assert!(err.contains("outside") || err.contains("refused"), "{uri}: {err}");
     }
     std::fs::remove_dir_all(&base).expect("cleanup");
 }
@@ -135,9 +102,7 @@ fn serve_announces_its_address_reads_env_and_stops_on_sigint() {
         .expect("starts");
     let stdout = child.stdout.take().expect("piped stdout");
     let mut line = String::new();
-    BufReader::new(stdout)
-        .read_line(&mut line)
-        .expect("a first line");
+    BufReader::new(stdout).read_line(&mut line).expect("a first line");
     let addr = line
         .trim()
         .strip_prefix("kloub serve: listening on http://")
@@ -145,15 +110,10 @@ fn serve_announces_its_address_reads_env_and_stops_on_sigint() {
     let addr = addr.parse().expect("a socket address");
 
     let reply = common::request(addr, "GET", "/models/default.glb", &[]);
-    assert_eq!(
-        (reply.status, reply.body.as_slice()),
-        (200, b"fox".as_slice())
-    );
+    assert_eq!((reply.status, reply.body.as_slice()), (200, b"fox".as_slice()));
     assert_eq!(common::request(addr, "GET", "/", &[]).text(), "<p>hi</p>");
 
-    let killed = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status();
+    let killed = Command::new("kill").args(["-INT", &child.id().to_string()]).status();
     assert!(killed.expect("kill runs").success());
     let status = child.wait().expect("exits");
     assert!(status.success(), "graceful shutdown exits 0, got {status}");
@@ -163,11 +123,7 @@ fn serve_announces_its_address_reads_env_and_stops_on_sigint() {
 /// Runs `kloub ARGS`, expecting success; returns stdout.
 fn kloub_ok(args: &[&str]) -> Vec<u8> {
     let out = kloub().args(args).output().expect("runs");
-    assert!(
-        out.status.success(),
-        "{args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
     out.stdout
 }
 
@@ -184,23 +140,12 @@ fn worlds(doc: &serde_json::Value, f: usize) -> Vec<Vec<f64>> {
         .as_array()
         .expect("nodes")
         .iter()
-        .map(|n| {
-            n["world"]
-                .as_array()
-                .expect("world")
-                .iter()
-                .map(|x| x.as_f64().expect("a number"))
-                .collect()
-        })
+        .map(|n| n["world"].as_array().expect("world").iter().map(|x| x.as_f64().expect("a number")).collect())
         .collect()
 }
 
 fn max_difference(a: &[Vec<f64>], b: &[Vec<f64>]) -> f64 {
-    a.iter()
-        .flatten()
-        .zip(b.iter().flatten())
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f64::max)
+    a.iter().flatten().zip(b.iter().flatten()).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
 }
 
 fn fox() -> PathBuf {
@@ -215,17 +160,8 @@ fn robot() -> PathBuf {
 fn pose_crossfade_starts_from_the_source_and_ends_on_the_target() {
     // Walk plays from 0; at 0.5 s it fades to Run over 0.375 s (frozen source, linear).
     // Binary fractions, so that `time - at` is exact in f32.
-    let args = [
-        "--crossfade",
-        "Walk:Run:0.375",
-        "--at",
-        "0.5",
-        "--easing",
-        "linear",
-    ];
-    let times = [
-        "0.25", "0.5", "0.59375", "0.6875", "0.78125", "0.875", "1.25",
-    ];
+    let args = ["--crossfade", "Walk:Run:0.375", "--at", "0.5", "--easing", "linear"];
+    let times = ["0.25", "0.5", "0.59375", "0.6875", "0.78125", "0.875", "1.25"];
     let mut all = args.to_vec();
     for t in &times {
         all.extend(["--time", t]);
@@ -233,28 +169,13 @@ fn pose_crossfade_starts_from_the_source_and_ends_on_the_target() {
     let doc = pose_json(&fox(), &all);
     assert_eq!(doc["clip"]["name"], "Walk");
     let fade = &doc["crossfade"];
-    assert_eq!(
-        (&fade["from"]["name"], &fade["to"]["name"]),
-        (&"Walk".into(), &"Run".into())
-    );
-    assert_eq!(
-        (fade["duration"].as_f64(), fade["at"].as_f64()),
-        (Some(0.375), Some(0.5))
-    );
-    assert_eq!(
-        (&fade["easing"], &fade["outgoing"]),
-        (&"linear".into(), &"freeze".into())
-    );
+    assert_eq!((&fade["from"]["name"], &fade["to"]["name"]), (&"Walk".into(), &"Run".into()));
+    assert_eq!((fade["duration"].as_f64(), fade["at"].as_f64()), (Some(0.375), Some(0.5)));
+    assert_eq!((&fade["easing"], &fade["outgoing"]), (&"linear".into(), &"freeze".into()));
     assert!(doc.get("layers").is_none(), "no layers: no key");
 
-    let walk = pose_json(
-        &fox(),
-        &["--clip", "Walk", "--time", "0.25", "--time", "0.5"],
-    );
-    let run = pose_json(
-        &fox(),
-        &["--clip", "Run", "--time", "0.375", "--time", "0.75"],
-    );
+    let walk = pose_json(&fox(), &["--clip", "Walk", "--time", "0.25", "--time", "0.5"]);
+    let run = pose_json(&fox(), &["--clip", "Run", "--time", "0.375", "--time", "0.75"]);
     // Before and at the start: Walk exactly.
     assert_eq!(worlds(&doc, 0), worlds(&walk, 0));
     assert_eq!(worlds(&doc, 1), worlds(&walk, 1));
@@ -274,18 +195,11 @@ fn pose_crossfade_starts_from_the_source_and_ends_on_the_target() {
 
 #[test]
 fn pose_layer_moves_only_the_subtree_under_its_root() {
-    let inspect: serde_json::Value = serde_json::from_slice(&kloub_ok(&[
-        "inspect",
-        robot().to_str().expect("UTF-8"),
-        "--json",
-    ]))
-    .expect("JSON");
+    let inspect: serde_json::Value =
+        serde_json::from_slice(&kloub_ok(&["inspect", robot().to_str().expect("UTF-8"), "--json"])).expect("JSON");
     let nodes = inspect["nodes"].as_array().expect("nodes");
     let parent = |n: usize| nodes[n]["parent"].as_u64().map(|p| p as usize);
-    let root = nodes
-        .iter()
-        .position(|n| n["name"] == "Abdomen")
-        .expect("the robot has an Abdomen joint");
+    let root = nodes.iter().position(|n| n["name"] == "Abdomen").expect("the robot has an Abdomen joint");
     let under_root = |mut n: usize| loop {
         if n == root {
             break true;
@@ -297,17 +211,7 @@ fn pose_layer_moves_only_the_subtree_under_its_root() {
     };
 
     let base = pose_json(&robot(), &["--clip", "Walking", "--time", "0.4"]);
-    let layered = pose_json(
-        &robot(),
-        &[
-            "--clip",
-            "Walking",
-            "--time",
-            "0.4",
-            "--layer",
-            "Wave:Abdomen:1",
-        ],
-    );
+    let layered = pose_json(&robot(), &["--clip", "Walking", "--time", "0.4", "--layer", "Wave:Abdomen:1"]);
     assert_eq!(layered["layers"][0]["root"]["index"], root);
     assert_eq!(layered["layers"][0]["clip"]["name"], "Wave");
     let (base, layered) = (worlds(&base, 0), worlds(&layered, 0));
@@ -324,19 +228,8 @@ fn pose_layer_moves_only_the_subtree_under_its_root() {
     // By node index and with a falloff: the same subtree, moved less far down the arms.
     let root_index = root.to_string();
     let spec = format!("12:{root_index}:1");
-    let falloff = pose_json(
-        &robot(),
-        &[
-            "--clip",
-            "Walking",
-            "--time",
-            "0.4",
-            "--layer",
-            &spec,
-            "--layer-falloff",
-            "0.5",
-        ],
-    );
+    let falloff =
+        pose_json(&robot(), &["--clip", "Walking", "--time", "0.4", "--layer", &spec, "--layer-falloff", "0.5"]);
     assert_eq!(falloff["layers"][0]["falloff"], 0.5);
     let falloff = worlds(&falloff, 0);
     for (n, (b, f)) in base.iter().zip(&falloff).enumerate() {
@@ -356,18 +249,9 @@ fn pose_blending_errors_are_clear() {
             vec!["--crossfade", "Walk:Trot:1"],
             "/animations: --crossfade \"Walk:Trot:1\": no such pair of clips; available: 0 \"Survey\"",
         ),
-        (
-            vec!["--crossfade", "Walk:Run"],
-            "--crossfade \"Walk:Run\": \"Run\" is not a number",
-        ),
-        (
-            vec!["--layer", "Walk:nose:1"],
-            "--layer \"Walk:nose:1\": no clip and node of those names",
-        ),
-        (
-            vec!["--layer", "Walk:b_Head_05:-1"],
-            "must be a finite number ≥ 0",
-        ),
+        (vec!["--crossfade", "Walk:Run"], "--crossfade \"Walk:Run\": \"Run\" is not a number"),
+        (vec!["--layer", "Walk:nose:1"], "--layer \"Walk:nose:1\": no clip and node of those names"),
+        (vec!["--layer", "Walk:b_Head_05:-1"], "must be a finite number ≥ 0"),
         (
             vec!["--layer", "Walk:b_Head_05:1", "--time", "-1"],
             "time -1: with --crossfade or --layer, times count from the start",
@@ -378,17 +262,10 @@ fn pose_blending_errors_are_clear() {
         let out = kloub().args(&all).output().expect("runs");
         assert_eq!(out.status.code(), Some(1), "{args:?}");
         let err = String::from_utf8_lossy(&out.stderr);
-        assert!(
-            err.starts_with(&format!("kloub: {file}: ")) && err.contains(message),
-            "{args:?}: {err}"
-        );
+        assert!(err.starts_with(&format!("kloub: {file}: ")) && err.contains(message), "{args:?}: {err}");
     }
     let help = String::from_utf8(kloub_ok(&["pose", "--help"])).expect("UTF-8");
-    for needle in [
-        "--crossfade <FROM:TO:DURATION>",
-        "--layer <CLIP:ROOT_JOINT:WEIGHT>",
-        "\"layers\"",
-    ] {
+    for needle in ["--crossfade <FROM:TO:DURATION>", "--layer <CLIP:ROOT_JOINT:WEIGHT>", "\"layers\""] {
         assert!(help.contains(needle), "{needle}");
     }
 }
@@ -397,18 +274,14 @@ fn pose_blending_errors_are_clear() {
 fn inspect_describes_skins_clips_morph_targets_and_warnings() {
     let file = robot();
     let path = file.to_str().expect("UTF-8");
-    let doc: serde_json::Value =
-        serde_json::from_slice(&kloub_ok(&["inspect", path, "--json"])).expect("JSON");
+    let doc: serde_json::Value = serde_json::from_slice(&kloub_ok(&["inspect", path, "--json"])).expect("JSON");
     assert_eq!(doc["asset"], "RobotExpressive.glb");
     assert_eq!(doc["nodes"].as_array().expect("nodes").len(), 74);
     let skins = doc["skins"].as_array().expect("skins");
     assert_eq!(skins.len(), 2);
     let joints = skins[0]["joints"].as_array().expect("joints");
     assert_eq!(joints.len(), 43);
-    let hips = joints
-        .iter()
-        .find(|j| j["name"] == "Abdomen")
-        .expect("Abdomen");
+    let hips = joints.iter().find(|j| j["name"] == "Abdomen").expect("Abdomen");
     let parent = &joints[hips["parent_joint"].as_u64().expect("a parent joint") as usize];
     assert_eq!(parent["name"], "Hips");
     assert_eq!(hips["depth"], parent["depth"].as_u64().expect("depth") + 1);
@@ -419,53 +292,29 @@ fn inspect_describes_skins_clips_morph_targets_and_warnings() {
     assert_eq!(wave["channel_count"], channels.len());
     assert!(channels.iter().all(|c| c["interpolation"] == "LINEAR"));
     assert!(channels.iter().any(|c| c["path"] == "weights"));
-    let head = doc["meshes"]
-        .as_array()
-        .expect("meshes")
-        .iter()
-        .find(|m| m["name"] == "Head")
-        .expect("a Head mesh");
-    assert_eq!(
-        head["target_names"],
-        serde_json::json!(["Angry", "Surprised", "Sad"])
-    );
+    let head = doc["meshes"].as_array().expect("meshes").iter().find(|m| m["name"] == "Head").expect("a Head mesh");
+    assert_eq!(head["target_names"], serde_json::json!(["Angry", "Surprised", "Sad"]));
     let warnings = doc["warnings"].as_array().expect("warnings");
     assert!(
-        warnings.iter().any(|w| w["pointer"]
-            .as_str()
-            .is_some_and(|p| p.ends_with("WEIGHTS_0"))),
+        warnings.iter().any(|w| w["pointer"].as_str().is_some_and(|p| p.ends_with("WEIGHTS_0"))),
         "the unnormalized weights are reported"
     );
 
     let text = String::from_utf8(kloub_ok(&["inspect", path])).expect("UTF-8");
-    assert!(
-        text.starts_with("RobotExpressive.glb: 74 nodes, 1 scenes, 2 skins, 14 clips"),
-        "{text}"
-    );
-    assert!(
-        text.contains("3 morph targets (Angry, Surprised, Sad)"),
-        "{text}"
-    );
+    assert!(text.starts_with("RobotExpressive.glb: 74 nodes, 1 scenes, 2 skins, 14 clips"), "{text}");
+    assert!(text.contains("3 morph targets (Angry, Surprised, Sad)"), "{text}");
     assert!(text.contains("\"Wave\": 1.833 s"), "{text}");
     assert!(text.contains("WEIGHTS_0: skin weights"), "{text}");
 
-    let out = kloub()
-        .args(["inspect", "/nonexistent/x.glb"])
-        .output()
-        .expect("runs");
+    let out = kloub().args(["inspect", "/nonexistent/x.glb"]).output().expect("runs");
     assert_eq!(out.status.code(), Some(1));
-    assert!(
-        String::from_utf8_lossy(&out.stderr)
-            .starts_with("kloub: /nonexistent/x.glb: cannot read: ")
-    );
+    assert!(String::from_utf8_lossy(&out.stderr).starts_with("kloub: /nonexistent/x.glb: cannot read: "));
 }
 
 /// Skinned positions of frame 0, primitive 0, as points.
 fn positions(doc: &serde_json::Value) -> Vec<[f64; 3]> {
     let flat = doc["frames"][0]["primitives"][0]["positions"].as_array().expect("positions");
-    flat.chunks(3)
-        .map(|c| [0, 1, 2].map(|i| c[i].as_f64().expect("a number")))
-        .collect()
+    flat.chunks(3).map(|c| [0, 1, 2].map(|i| c[i].as_f64().expect("a number"))).collect()
 }
 
 #[test]
@@ -478,9 +327,12 @@ fn pose_skinning_methods_share_the_skeleton_and_differ_in_the_skin() {
     assert_eq!(positions(&lbs), positions(&explicit));
     let reach = |doc: &serde_json::Value| {
         let p = positions(doc);
-        p.iter().zip(positions(&lbs)).map(|(a, b)| (0..3).map(|i| (a[i] - b[i]).abs()).fold(0.0, f64::max)).fold(0.0, f64::max)
+        p.iter()
+            .zip(positions(&lbs))
+            .map(|(a, b)| (0..3).map(|i| (a[i] - b[i]).abs()).fold(0.0, f64::max))
+            .fold(0.0, f64::max)
     };
-    for (name, low, high) in [("dqs", 1e-4, 10.0), ("rigid", 1e-3, 40.0)] {
+    for (name, low, high) in [("dqs", 1e-4, 10.0), ("sjb", 1e-4, 10.0), ("rigid", 1e-3, 40.0)] {
         let doc = pose_json(&file, &[&args[..], &["--skinning", name]].concat());
         assert_eq!(doc["skinning"], name);
         assert_eq!(worlds(&doc, 0), worlds(&lbs, 0), "{name}: the skeleton does not depend on skinning");
@@ -489,6 +341,11 @@ fn pose_skinning_methods_share_the_skeleton_and_differ_in_the_skin() {
         // influences blend.
         assert!(d > low && d < high, "{name}: largest vertex difference from lbs {d}");
     }
-    let out = kloub().arg("pose").arg(&file).args(["--skinning", "sjb"]).output().expect("runs");
+    let sjb = pose_json(&file, &[&args[..], &["--skinning", "sjb"]].concat());
+    let fallbacks = sjb["frames"][0]["primitives"][0]["sjb_fallbacks"].as_u64().expect("sjb reports its fallbacks");
+    let count = sjb["frames"][0]["primitives"][0]["count"].as_u64().expect("count");
+    assert!(fallbacks < count, "{fallbacks} of {count} vertices fell back");
+    assert!(lbs["frames"][0]["primitives"][0].get("sjb_fallbacks").is_none());
+    let out = kloub().arg("pose").arg(&file).args(["--skinning", "vsp"]).output().expect("runs");
     assert_eq!(out.status.code(), Some(2), "an unknown method is a usage error");
 }

@@ -12,10 +12,7 @@ const HTML: &str = "text/html; charset=utf-8";
 /// Runs `check` against the site served from disk, then from memory.
 fn both_modes(tag: &str, check: impl Fn(&Http, &Site, &str)) {
     let site = site(tag);
-    for (mode, config) in [
-        ("disk", site.disk_config()),
-        ("memory", site.memory_config()),
-    ] {
+    for (mode, config) in [("disk", site.disk_config()), ("memory", site.memory_config())] {
         let server = start(&config);
         check(&Http::new(server.addr), &site, mode);
         server.stop();
@@ -28,10 +25,7 @@ fn assert_file(reply: &Reply, content_type: &str, body: &[u8], what: &str) {
     assert_eq!(reply.header("x-content-type-options"), Some("nosniff"), "{what}");
     assert_eq!(reply.header("accept-ranges"), Some("bytes"), "{what}");
     let etag = reply.header("etag").unwrap_or_default();
-    assert!(
-        etag.len() > 2 && etag.starts_with('"') && etag.ends_with('"'),
-        "{what}: strong ETag, got {etag:?}"
-    );
+    assert!(etag.len() > 2 && etag.starts_with('"') && etag.ends_with('"'), "{what}: strong ETag, got {etag:?}");
     assert_eq!(reply.body, body, "{what}");
 }
 
@@ -73,12 +67,7 @@ fn serves_bundle_and_library_with_exact_types_and_headers() {
             assert_eq!(r.header("cross-origin-resource-policy"), Some("cross-origin"));
         }
         assert_file(&http.get("/assets/sub/Man.gltf", &[]), "model/gltf+json", b"{}", mode);
-        assert_file(
-            &http.get("/assets/sub/Man.bin", &[]),
-            "application/octet-stream",
-            &[0u8; 4],
-            mode,
-        );
+        assert_file(&http.get("/assets/sub/Man.bin", &[]), "application/octet-stream", &[0u8; 4], mode);
         assert_file(
             &http.get("/big.bin", &[]),
             "application/octet-stream",
@@ -115,10 +104,7 @@ fn precompressed_siblings_are_chosen_by_accept_encoding() {
         assert_eq!(refused.body, wasm);
         let head = http.send("HEAD", "/kloub_web_bg.wasm", &[("accept-encoding", "gzip")], None);
         assert_eq!(head.header("content-encoding"), Some("gzip"));
-        assert_eq!(
-            head.header("content-length").map(str::to_owned),
-            Some(gz.body.len().to_string())
-        );
+        assert_eq!(head.header("content-length").map(str::to_owned), Some(gz.body.len().to_string()));
         assert!(head.body.is_empty());
         // A file without siblings is sent as is, without Vary.
         let js = http.get("/kloub_web.js", &[("accept-encoding", "gzip, br")]);
@@ -130,10 +116,7 @@ fn precompressed_siblings_are_chosen_by_accept_encoding() {
 fn stale_siblings_on_disk_are_not_served() {
     let site = site("serve-stale");
     let wasm = site.dist.join("kloub_web_bg.wasm");
-    let old = std::fs::File::options()
-        .write(true)
-        .open(site.dist.join("kloub_web_bg.wasm.gz"))
-        .expect("open");
+    let old = std::fs::File::options().write(true).open(site.dist.join("kloub_web_bg.wasm.gz")).expect("open");
     old.set_modified(std::time::UNIX_EPOCH).expect("set mtime");
     let server = start(&site.disk_config());
     let reply = Http::new(server.addr).get("/kloub_web_bg.wasm", &[("accept-encoding", "gzip")]);
@@ -162,10 +145,7 @@ fn strong_etags_answer_304() {
         assert_eq!((other.status, other.body.as_slice()), (200, b"export default 1;".as_slice()));
         let gz = http.get("/kloub_web_bg.wasm", &[("accept-encoding", "gzip")]);
         let gz_tag = gz.header("etag").expect("ETag").to_owned();
-        let r = http.get(
-            "/kloub_web_bg.wasm",
-            &[("accept-encoding", "gzip"), ("if-none-match", &gz_tag)],
-        );
+        let r = http.get("/kloub_web_bg.wasm", &[("accept-encoding", "gzip"), ("if-none-match", &gz_tag)]);
         assert_eq!(r.status, 304, "{mode}: 304 for the compressed representation");
         let r = http.get("/kloub_web_bg.wasm", &[("if-none-match", &gz_tag)]);
         assert_eq!(r.status, 200, "{mode}: another representation, another ETag");
@@ -335,21 +315,14 @@ fn api_assets_lists_models_with_files_licences_clips_and_errors() {
 
         let cesium_entry = &entries[1];
         assert_eq!(cesium_entry["url"], "/assets/men/Cesium%20Man/CesiumMan.gltf");
-        let files: Vec<&str> = cesium_entry["files"]
-            .as_array()
-            .expect("files")
-            .iter()
-            .filter_map(|f| f.as_str())
-            .collect();
+        let files: Vec<&str> =
+            cesium_entry["files"].as_array().expect("files").iter().filter_map(|f| f.as_str()).collect();
         assert_eq!(files[0], "/assets/men/Cesium%20Man/CesiumMan.gltf");
         let mut rest = files[1..].to_vec();
         rest.sort_unstable();
         assert_eq!(
             rest,
-            [
-                "/assets/men/Cesium%20Man/CesiumMan_data.bin",
-                "/assets/men/Cesium%20Man/CesiumMan_img0.jpg"
-            ],
+            ["/assets/men/Cesium%20Man/CesiumMan_data.bin", "/assets/men/Cesium%20Man/CesiumMan_img0.jpg"],
             "{mode}: the .gltf's buffer and image"
         );
         let total: u64 = ["CesiumMan.gltf", "CesiumMan_data.bin", "CesiumMan_img0.jpg"]
@@ -404,11 +377,7 @@ fn without_a_bundle_the_page_says_how_to_build_it() {
         assert_eq!(reply.header("content-type"), Some(HTML));
         assert_eq!(reply.header("x-content-type-options"), Some("nosniff"));
         assert_eq!(reply.header("content-security-policy"), Some(CSP));
-        assert!(
-            reply
-                .text()
-                .contains("web bundle not built: run <code>./scripts/run.sh</code>")
-        );
+        assert!(reply.text().contains("web bundle not built: run <code>./scripts/run.sh</code>"));
         let api = http.get("/api/assets", &[]);
         assert_eq!((api.status, api.text().as_str()), (200, "[]"));
         assert_eq!(http.get("/models/default.glb", &[]).status, 404);
@@ -425,25 +394,17 @@ fn the_default_configuration_serves_the_embedded_bundle_and_samples() {
     let dist = repo().join("web/dist");
     let on_disk = |dir: &std::path::Path| {
         let mem = if dir.is_dir() { common::memory_of(dir) } else { MemoryDir::default() };
-        mem.paths()
-            .map(|p| (p.to_owned(), mem.get(p).map(|b| b.to_vec())))
-            .collect::<Vec<_>>()
+        mem.paths().map(|p| (p.to_owned(), mem.get(p).map(|b| b.to_vec()))).collect::<Vec<_>>()
     };
-    let embedded_files = |mem: &MemoryDir| {
-        mem.paths()
-            .map(|p| (p.to_owned(), mem.get(p).map(|b| b.to_vec())))
-            .collect::<Vec<_>>()
-    };
+    let embedded_files =
+        |mem: &MemoryDir| mem.paths().map(|p| (p.to_owned(), mem.get(p).map(|b| b.to_vec()))).collect::<Vec<_>>();
     assert_eq!(embedded_files(&embedded::assets()), on_disk(&assets));
     assert!(embedded::assets().get("Fox.glb").is_some());
     assert_eq!(embedded_files(&embedded::dist()), on_disk(&dist));
     // Precompressed siblings, when built, decode to their file.
     let bundle = embedded::dist();
     for path in bundle.paths() {
-        let Some(original) = path
-            .strip_suffix(".gz")
-            .or_else(|| path.strip_suffix(".br"))
-            .and_then(|p| bundle.get(p))
+        let Some(original) = path.strip_suffix(".gz").or_else(|| path.strip_suffix(".br")).and_then(|p| bundle.get(p))
         else {
             continue;
         };

@@ -71,10 +71,7 @@ fn traversal_vectors_are_refused_without_echo() {
             let reply = request(server.addr, "GET", v, &[]);
             // hyper itself answers 400 to targets that are not valid HTTP (`\`, raw `%`
             // sequences it cannot parse): also a refusal, without a body.
-            assert!(
-                reply.status == 404 || reply.status == 400,
-                "{mode} {v}: {reply:?}"
-            );
+            assert!(reply.status == 404 || reply.status == 400, "{mode} {v}: {reply:?}");
             if reply.status == 404 {
                 assert_eq!(reply.header("x-content-type-options"), Some("nosniff"), "{v}");
                 assert_eq!(reply.text(), "not found\n", "{mode} {v}: a fixed body, no echo");
@@ -93,10 +90,7 @@ fn traversal_with_a_well_behaved_client_too() {
     let site = site("safety-client");
     let server = start(&site.disk_config());
     let http = Http::new(server.addr);
-    for v in TRAVERSAL
-        .iter()
-        .filter(|v| !v.contains('\\') && !v.ends_with('%'))
-    {
+    for v in TRAVERSAL.iter().filter(|v| !v.contains('\\') && !v.ends_with('%')) {
         let reply = http.get(v, &[]);
         assert_eq!(reply.status, 404, "{v}: {reply:?}");
         assert!(!reply.text().contains("secret"));
@@ -107,10 +101,8 @@ fn traversal_with_a_well_behaved_client_too() {
 fn oversized_request_heads_get_431() {
     let site = site("safety-431");
     let server = start(&site.disk_config());
-    let big = format!(
-        "GET / HTTP/1.1\r\nHost: x\r\nX-Big: {}\r\n\r\n",
-        "a".repeat(Limits::default().max_header_bytes + 1)
-    );
+    let big =
+        format!("GET / HTTP/1.1\r\nHost: x\r\nX-Big: {}\r\n\r\n", "a".repeat(Limits::default().max_header_bytes + 1));
     let reply = parse(&raw(server.addr, big.as_bytes()), false);
     assert_eq!(reply.status, 431);
     let mut many = String::from("GET / HTTP/1.1\r\nHost: x\r\n");
@@ -138,31 +130,19 @@ fn limited(limits: Limits) -> ServeConfig {
 
 #[test]
 fn connections_over_the_limit_wait_for_a_free_slot() {
-    let server = start(&limited(Limits {
-        max_connections: 2,
-        ..Limits::default()
-    }));
+    let server = start(&limited(Limits { max_connections: 2, ..Limits::default() }));
     // Two idle connections take both slots.
     let first = TcpStream::connect(server.addr).expect("connect");
     let second = TcpStream::connect(server.addr).expect("connect");
     std::thread::sleep(Duration::from_millis(200));
     let mut third = TcpStream::connect(server.addr).expect("the kernel still accepts");
-    third
-        .write_all(b"GET / HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n")
-        .expect("send");
-    third
-        .set_read_timeout(Some(Duration::from_millis(700)))
-        .expect("timeout");
+    third.write_all(b"GET / HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n").expect("send");
+    third.set_read_timeout(Some(Duration::from_millis(700))).expect("timeout");
     let mut buf = [0u8; 64];
     let waited = third.read(&mut buf);
-    assert!(
-        waited.is_err(),
-        "the third connection was served while two held the slots: {waited:?}"
-    );
+    assert!(waited.is_err(), "the third connection was served while two held the slots: {waited:?}");
     drop(first);
-    third
-        .set_read_timeout(Some(Duration::from_secs(10)))
-        .expect("timeout");
+    third.set_read_timeout(Some(Duration::from_secs(10))).expect("timeout");
     let mut out = Vec::new();
     third.read_to_end(&mut out).expect("served once a slot is free");
     let reply = parse(&out, false);
@@ -188,9 +168,7 @@ fn idle_and_slow_clients_are_cut_off() {
 
     // A client that asks for 64 MiB and does not read: the server gives up on it.
     let mut stuck = TcpStream::connect(server.addr).expect("connect");
-    stuck
-        .write_all(b"GET /big.bin HTTP/1.1\r\nHost: x\r\n\r\n")
-        .expect("send");
+    stuck.write_all(b"GET /big.bin HTTP/1.1\r\nHost: x\r\n\r\n").expect("send");
     std::thread::sleep(Duration::from_secs(3));
     stuck.set_read_timeout(Some(Duration::from_secs(10))).expect("timeout");
     let mut received = 0usize;
@@ -201,10 +179,7 @@ fn idle_and_slow_clients_are_cut_off() {
             Ok(n) => received += n,
         }
     }
-    assert!(
-        received < 64 * 1024 * 1024,
-        "the whole body arrived ({received} bytes): the stalled send was not cut"
-    );
+    assert!(received < 64 * 1024 * 1024, "the whole body arrived ({received} bytes): the stalled send was not cut");
     // The server still serves others.
     assert_eq!(request(server.addr, "GET", "/", &[]).status, 200);
 }
@@ -214,9 +189,7 @@ fn shutdown_finishes_requests_in_flight_then_refuses() {
     let server = start(&limited(Limits::default()));
     let addr = server.addr;
     let mut client = TcpStream::connect(addr).expect("connect");
-    client
-        .write_all(b"GET /big.bin HTTP/1.1\r\nHost: x\r\n\r\n")
-        .expect("send");
+    client.write_all(b"GET /big.bin HTTP/1.1\r\nHost: x\r\n\r\n").expect("send");
     let mut first = [0u8; 1024];
     client.read_exact(&mut first).expect("the response has started");
     let stopper = std::thread::spawn(move || server.stop());

@@ -110,8 +110,7 @@ impl Model {
         let mut animator = Animator::new(&asset);
         animator.play(&asset, clip).map_err(|e| format!("{name}: {e}"))?;
         animator.evaluate(&asset, &mut instance).map_err(|e| format!("{name}: {e}"))?;
-        let clip_names: Vec<String> =
-            asset.clips.iter().enumerate().map(|(i, c)| c.display_name(i)).collect();
+        let clip_names: Vec<String> = asset.clips.iter().enumerate().map(|(i, c)| c.display_name(i)).collect();
         let clips_json = serde_json::to_string(&clip_names).map_err(|e| e.to_string())?;
         let key_times = asset.clips.iter().map(key_times).collect();
         let in_joint_tree = joint_tree_nodes(&asset);
@@ -325,12 +324,9 @@ impl Model {
     /// `dataset.layer`: `"CLIP@ROOT:WEIGHT"` (weight with two decimals), `""` without a layer.
     pub fn layer_summary(&self) -> String {
         match self.animator.layers().first() {
-            Some(layer) => format!(
-                "{}@{}:{:.2}",
-                self.clip_name(layer.player.clip),
-                self.node_name(layer.root),
-                layer.weight
-            ),
+            Some(layer) => {
+                format!("{}@{}:{:.2}", self.clip_name(layer.player.clip), self.node_name(layer.root), layer.weight)
+            }
             None => String::new(),
         }
     }
@@ -546,7 +542,12 @@ impl App {
         if let Some((min, max)) = bounds {
             self.camera.frame_to_fit(min, max);
         }
-        log::info!("kloub: showing {} ({} clips, {} warnings)", model.name, model.clip_names.len(), model.warnings.len());
+        log::info!(
+            "kloub: showing {} ({} clips, {} warnings)",
+            model.name,
+            model.clip_names.len(),
+            model.warnings.len()
+        );
         let nodes = model.asset.nodes.iter().map(|n| n.name.clone()).collect();
         self.controls.publish(model.clip_names.clone(), nodes);
         self.model = Some(model);
@@ -691,7 +692,12 @@ impl App {
         let id = match &mut self.viewport {
             Some(texture) if texture.version == version => texture.id,
             Some(texture) => {
-                renderer.update_egui_texture_from_wgpu_texture(&gpu.device, &view, wgpu::FilterMode::Linear, texture.id);
+                renderer.update_egui_texture_from_wgpu_texture(
+                    &gpu.device,
+                    &view,
+                    wgpu::FilterMode::Linear,
+                    texture.id,
+                );
                 texture.version = version;
                 texture.id
             }
@@ -721,7 +727,8 @@ impl App {
         if ctx.input(|i| i.raw.hovered_files.is_empty()) {
             return;
         }
-        let painter = ctx.layer_painter(egui::LayerId::new(egui::Order::Foreground, egui::Id::unique("kloub-drop-hint")));
+        let painter =
+            ctx.layer_painter(egui::LayerId::new(egui::Order::Foreground, egui::Id::unique("kloub-drop-hint")));
         let rect = ctx.content_rect();
         painter.rect_filled(rect, 0.0, Color32::from_black_alpha(160));
         painter.text(
@@ -798,9 +805,7 @@ impl eframe::App for App {
         let actions = egui::Panel::left("controls")
             .resizable(true)
             .default_size(270.0)
-            .show(ui, |ui| {
-                ui::side_panel(ui, &state, self.model.as_mut(), &mut self.transition, &mut self.panel)
-            })
+            .show(ui, |ui| ui::side_panel(ui, &state, self.model.as_mut(), &mut self.transition, &mut self.panel))
             .inner;
         if actions.frame {
             self.frame_model();

@@ -164,9 +164,7 @@ async fn run(canvas_id: &str, controls: Controls) -> Result<(), JsValue> {
     // which logs the panic to the console and stops the runner.
     install_panic_hook();
     let config = AppConfig { model_url: Some("/models/default.glb".to_owned()), controls };
-    runner
-        .start(canvas, options, Box::new(move |cc| Ok(Box::new(App::new(cc, config)?))))
-        .await
+    runner.start(canvas, options, Box::new(move |cc| Ok(Box::new(App::new(cc, config)?)))).await
 }
 
 fn install_panic_hook() {

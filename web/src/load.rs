@@ -114,10 +114,7 @@ pub fn fetch_into(url: String, inbox: Inbox, ctx: egui::Context) {
 /// Fetching needs a browser; natively the delivery is an error.
 #[cfg(not(target_arch = "wasm32"))]
 pub fn fetch_into(url: String, inbox: Inbox, ctx: egui::Context) {
-    inbox.push(Delivery {
-        files: Err(format!("{url}: fetching URLs is only available in the browser")),
-        origin: url,
-    });
+    inbox.push(Delivery { files: Err(format!("{url}: fetching URLs is only available in the browser")), origin: url });
     ctx.request_repaint();
 }
 
@@ -136,8 +133,7 @@ async fn fetch_bytes(url: &str) -> Result<Vec<u8>, String> {
         return Err(format!("{url}: HTTP {} {}", response.status(), response.status_text()));
     }
     let buffer = response.array_buffer().map_err(|e| format!("{url}: {}", crate::dom::js_error_text(&e)))?;
-    let buffer =
-        JsFuture::from(buffer).await.map_err(|e| format!("{url}: {}", crate::dom::js_error_text(&e)))?;
+    let buffer = JsFuture::from(buffer).await.map_err(|e| format!("{url}: {}", crate::dom::js_error_text(&e)))?;
     Ok(js_sys::Uint8Array::new(&buffer).to_vec())
 }
 

@@ -161,30 +161,30 @@ fn transition_settings(ui: &mut egui::Ui, model: &Model, transition: &mut Crossf
         .on_hover_text("Duration of the crossfade when a clip is clicked; 0 switches at once");
         ui.horizontal(|ui| {
             ui.label("Easing");
-            egui::ComboBox::from_id_salt("easing")
-                .selected_text(easing_name(transition.easing))
-                .show_ui(ui, |ui| {
-                    for e in [Easing::SmoothStep, Easing::Linear] {
-                        ui.selectable_value(&mut transition.easing, e, easing_name(e));
-                    }
-                });
+            egui::ComboBox::from_id_salt("easing").selected_text(easing_name(transition.easing)).show_ui(ui, |ui| {
+                for e in [Easing::SmoothStep, Easing::Linear] {
+                    ui.selectable_value(&mut transition.easing, e, easing_name(e));
+                }
+            });
         });
         ui.horizontal(|ui| {
             ui.label("Outgoing");
-            egui::ComboBox::from_id_salt("outgoing")
-                .selected_text(outgoing_name(transition.outgoing))
-                .show_ui(ui, |ui| {
+            egui::ComboBox::from_id_salt("outgoing").selected_text(outgoing_name(transition.outgoing)).show_ui(
+                ui,
+                |ui| {
                     for o in [Outgoing::Freeze, Outgoing::KeepPlaying, Outgoing::SyncTime] {
                         ui.selectable_value(&mut transition.outgoing, o, outgoing_name(o))
                             .on_hover_text(outgoing_hint(o));
                     }
-                });
+                },
+            );
         });
         if let Some(fade) = model.animator.crossfade() {
-            ui.add(
-                egui::ProgressBar::new(fade.weight)
-                    .text(format!("to {}  {:.0}%", model.clip_name(model.animator.main().clip), fade.weight * 100.0)),
-            );
+            ui.add(egui::ProgressBar::new(fade.weight).text(format!(
+                "to {}  {:.0}%",
+                model.clip_name(model.animator.main().clip),
+                fade.weight * 100.0
+            )));
         }
     });
 }
@@ -312,14 +312,14 @@ fn timeline(
         3.0,
         visuals.selection.bg_fill.gamma_multiply(0.5),
     );
-    painter.line_segment([pos2(x, rect.top()), pos2(x, rect.bottom())], Stroke::new(2.0, Color32::from_rgb(255, 170, 40)));
+    painter
+        .line_segment([pos2(x, rect.top()), pos2(x, rect.bottom())], Stroke::new(2.0, Color32::from_rgb(255, 170, 40)));
 
     if duration <= 0.0 {
         return;
     }
-    let pointer_time = |pos: Option<egui::Pos2>| {
-        pos.map(|p| ((p.x - rect.left()) / rect.width()).clamp(0.0, 1.0) * duration)
-    };
+    let pointer_time =
+        |pos: Option<egui::Pos2>| pos.map(|p| ((p.x - rect.left()) / rect.width()).clamp(0.0, 1.0) * duration);
     if response.drag_started() {
         memory.scrub_resume = Some(playing);
         if playing {
@@ -410,8 +410,12 @@ fn joint_tree(ui: &mut egui::Ui, model: &Model, node: NodeIndex, selected: &mut 
         return;
     }
     let Some(n) = model.asset.nodes.get(node as usize) else { return };
-    let mut children =
-        n.children.iter().copied().filter(|&c| model.in_joint_tree.get(c as usize).copied().unwrap_or(false)).peekable();
+    let mut children = n
+        .children
+        .iter()
+        .copied()
+        .filter(|&c| model.in_joint_tree.get(c as usize).copied().unwrap_or(false))
+        .peekable();
     let label = model.node_name(node);
     if children.peek().is_none() {
         if ui.selectable_label(*selected == node, label).clicked() {
@@ -453,13 +457,14 @@ fn warnings(ui: &mut egui::Ui, model: &Model) {
     if model.warnings.is_empty() {
         return;
     }
-    egui::CollapsingHeader::new(format!("Import warnings ({})", model.warnings.len()))
-        .id_salt("warnings")
-        .show(ui, |ui| {
+    egui::CollapsingHeader::new(format!("Import warnings ({})", model.warnings.len())).id_salt("warnings").show(
+        ui,
+        |ui| {
             egui::ScrollArea::vertical().id_salt("warning-list").max_height(200.0).show(ui, |ui| {
                 for warning in &model.warnings {
                     ui.label(warning.to_string());
                 }
             });
-        });
+        },
+    );
 }

@@ -24,19 +24,28 @@ pub enum SkinningMethod {
     Linear,
     /// Dual-quaternion skinning: no collapse under twist, no volume loss under bend.
     DualQuaternion,
+    /// Spherical joint blending ([`super::sjb`]): rotation about the shared joint centre,
+    /// dual quaternions where the influences do not share one.
+    SphericalJointBlend,
 }
 
 impl SkinningMethod {
     /// Every method, in menu order.
-    pub const ALL: [SkinningMethod; 3] =
-        [SkinningMethod::Rigid, SkinningMethod::Linear, SkinningMethod::DualQuaternion];
+    pub const ALL: [SkinningMethod; 4] = [
+        SkinningMethod::Rigid,
+        SkinningMethod::Linear,
+        SkinningMethod::DualQuaternion,
+        SkinningMethod::SphericalJointBlend,
+    ];
 
-    /// The short name used by `kloub pose --skinning` and the page (`rigid`, `lbs`, `dqs`).
+    /// The short name used by `kloub pose --skinning` and the page (`rigid`, `lbs`, `dqs`,
+    /// `sjb`).
     pub fn name(self) -> &'static str {
         match self {
             SkinningMethod::Rigid => "rigid",
             SkinningMethod::Linear => "lbs",
             SkinningMethod::DualQuaternion => "dqs",
+            SkinningMethod::SphericalJointBlend => "sjb",
         }
     }
 
@@ -186,41 +195,55 @@ impl DqsJob<'_> {
         self.validate()?;
         let table = self.joints_dq;
         for v in 0..self.positions.len() {
-            let (mut real, mut dual) = (Quat::from_xyzw(0.0, 0.0, 0.0, 0.0), Quat::from_xyzw(0.0, 0.0, 0.0, 0.0));
-            let mut stretch = Mat3::ZERO;
-            let mut all_rigid = true;
-            let mut pivot: Option<Quat> = None;
-            for (&j, &w) in self.joints[v].iter().zip(&self.weights[v]) {
-                if w == 0.0 {
-                    continue;
-                }
-                let joint = joint_at(table, j)?;
-                // Hemisphere alignment to the first influence: q and −q are the same rotation.
-                let first = *pivot.get_or_insert(joint.dq.real);
-                let w_signed = if first.dot(joint.dq.real) < 0.0 { -w } else { w };
-                real += joint.dq.real * w_signed;
-                dual += joint.dq.dual * w_signed;
-                stretch += joint.stretch * w;
-                all_rigid &= joint.rigid;
-            }
-            let length = real.length();
-            let (dq, stretch) = if length > 1e-12 && length.is_finite() {
-                (DualQuat { real: real * (1.0 / length), dual: dual * (1.0 / length) }, stretch)
-            } else {
-                (DualQuat::IDENTITY, Mat3::IDENTITY)
-            };
-            let p = Vec3::from(self.positions[v]);
-            let p = if all_rigid { p } else { stretch * p };
-            self.out_positions[v] = dq.transform_point(p).to_array();
-            if let Some(n) = self.normals.get(v) {
-                let n = Vec3::from(*n);
-                let n = if all_rigid { n } else { stretch.inverse().transpose() * n };
-                let n = dq.real * n;
-                self.out_normals[v] = n.try_normalize().unwrap_or(Vec3::ZERO).to_array();
+            let (p, n) = dqs_vertex(table, &self.joints[v], &self.weights[v], self.positions[v], self.normals.get(v))?;
+            self.out_positions[v] = p;
+            if let (Some(out), Some(n)) = (self.out_normals.get_mut(v), n) {
+                *out = n;
             }
         }
         Ok(())
     }
+}
+
+/// Dual-quaternion skinning of one vertex (shared with the spherical-joint-blend fallback).
+pub(crate) fn dqs_vertex(
+    table: &[JointDq],
+    joints: &[u16; 8],
+    weights: &[f32; 8],
+    position: [f32; 3],
+    normal: Option<&[f32; 3]>,
+) -> Result<([f32; 3], Option<[f32; 3]>), JobError> {
+    let (mut real, mut dual) = (Quat::from_xyzw(0.0, 0.0, 0.0, 0.0), Quat::from_xyzw(0.0, 0.0, 0.0, 0.0));
+    let mut stretch = Mat3::ZERO;
+    let mut all_rigid = true;
+    let mut pivot: Option<Quat> = None;
+    for (&j, &w) in joints.iter().zip(weights) {
+        if w == 0.0 {
+            continue;
+        }
+        let joint = joint_at(table, j)?;
+        // Hemisphere alignment to the first influence: q and −q are the same rotation.
+        let first = *pivot.get_or_insert(joint.dq.real);
+        let w_signed = if first.dot(joint.dq.real) < 0.0 { -w } else { w };
+        real += joint.dq.real * w_signed;
+        dual += joint.dq.dual * w_signed;
+        stretch += joint.stretch * w;
+        all_rigid &= joint.rigid;
+    }
+    let length = real.length();
+    let (dq, stretch) = if length > 1e-12 && length.is_finite() {
+        (DualQuat { real: real * (1.0 / length), dual: dual * (1.0 / length) }, stretch)
+    } else {
+        (DualQuat::IDENTITY, Mat3::IDENTITY)
+    };
+    let p = Vec3::from(position);
+    let p = if all_rigid { p } else { stretch * p };
+    let n = normal.map(|n| {
+        let n = Vec3::from(*n);
+        let n = if all_rigid { n } else { stretch.inverse().transpose() * n };
+        (dq.real * n).try_normalize().unwrap_or(Vec3::ZERO).to_array()
+    });
+    Ok((dq.transform_point(p).to_array(), n))
 }
 
 /// Rigid skinning: each vertex follows its strongest influence only.
@@ -350,6 +373,31 @@ mod tests {
                 }
                 .run()
             }
+            SkinningMethod::SphericalJointBlend => {
+                use super::super::sjb::{SjbJob, SjbPlan};
+                // Joint 1 is a child of joint 0; both bind at the origin (the twist centre).
+                let skin = crate::asset::Skin {
+                    name: None,
+                    joints: vec![0, 1],
+                    inverse_bind: vec![Mat4::IDENTITY; 2],
+                    skeleton: None,
+                };
+                let plan = SjbPlan::build(&skin, &[None, Some(0)], &j, &w);
+                let mut table = vec![JointDq::default(); palette.len()];
+                DqPrepareJob { palette, out: &mut table }.run().expect("sized");
+                SjbJob {
+                    positions: &p,
+                    normals: &n,
+                    joints: &j,
+                    weights: &w,
+                    palette,
+                    joints_dq: &table,
+                    plan: &plan,
+                    out_positions: &mut out,
+                    out_normals: &mut out_n,
+                }
+                .run()
+            }
         }
         .expect("valid input");
         assert!(out_n.iter().all(|v| Vec3::from(*v).is_finite()));
@@ -357,13 +405,15 @@ mod tests {
     }
 
     #[test]
-    fn candy_wrapper_twist_collapses_lbs_but_not_dqs() {
+    fn candy_wrapper_twist_collapses_lbs_but_not_dqs_or_sjb() {
         let twist = [Mat4::IDENTITY, Mat4::from_rotation_x(PI)];
         let lbs = radius_kept(&skin(SkinningMethod::Linear, &twist));
         let dqs = radius_kept(&skin(SkinningMethod::DualQuaternion, &twist));
+        let sjb = radius_kept(&skin(SkinningMethod::SphericalJointBlend, &twist));
         let rigid = radius_kept(&skin(SkinningMethod::Rigid, &twist));
         assert!(lbs < 0.10, "LBS keeps {lbs} of the radius at 180° twist");
         assert!(dqs >= 0.95, "DQS keeps {dqs} of the radius at 180° twist");
+        assert!(sjb >= 0.95, "SJB keeps {sjb} of the radius at 180° twist");
         assert!((rigid - 1.0).abs() < 1e-5, "rigid moves whole rings: {rigid}");
     }
 
@@ -435,6 +485,6 @@ mod tests {
         for m in SkinningMethod::ALL {
             assert_eq!(SkinningMethod::from_name(m.name()), Some(m));
         }
-        assert_eq!(SkinningMethod::from_name("sjb"), None);
+        assert_eq!(SkinningMethod::from_name("vsp"), None);
     }
 }

@@ -9,12 +9,13 @@
 //! - [`morph::MorphJob`]: base + weighted morph deltas;
 //! - [`skin::LbsJob`]: linear blend skinning of positions and normals (CPU reference);
 //! - [`dqs::DqPrepareJob`] + [`dqs::DqsJob`]: dual-quaternion skinning; [`dqs::RigidJob`]: strongest
-//!   influence only.
+//!   influence only; [`sjb::SjbPlan`] + [`sjb::SjbJob`]: spherical joint blending.
 
 pub mod blend;
 pub mod dqs;
 pub mod morph;
 pub mod sample;
+pub mod sjb;
 pub mod skin;
 pub mod world;
 

@@ -12,14 +12,11 @@ mod tables {
 /// The embedded web bundle (hashed once per process, on first use).
 pub fn dist() -> MemoryDir {
     static DIST: OnceLock<MemoryDir> = OnceLock::new();
-    DIST.get_or_init(|| MemoryDir::from_static(tables::DIST))
-        .clone()
+    DIST.get_or_init(|| MemoryDir::from_static(tables::DIST)).clone()
 }
 
 /// The embedded sample library (`Fox.glb` and its licence).
 pub fn assets() -> MemoryDir {
     static ASSETS: OnceLock<MemoryDir> = OnceLock::new();
-    ASSETS
-        .get_or_init(|| MemoryDir::from_static(tables::ASSETS))
-        .clone()
+    ASSETS.get_or_init(|| MemoryDir::from_static(tables::ASSETS)).clone()
 }

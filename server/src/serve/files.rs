@@ -52,18 +52,12 @@ impl MemoryDir {
                 _ => log::warn!("in-memory file with an unsafe path skipped"),
             }
         }
-        Self {
-            files: Arc::new(map),
-        }
+        Self { files: Arc::new(map) }
     }
 
     /// [`MemoryDir::new`] over static data (the tables `build.rs` embeds), without copying.
     pub fn from_static(files: &'static [(&'static str, &'static [u8])]) -> Self {
-        Self::new(
-            files
-                .iter()
-                .map(|(path, bytes)| ((*path).to_owned(), Bytes::from_static(bytes))),
-        )
+        Self::new(files.iter().map(|(path, bytes)| ((*path).to_owned(), Bytes::from_static(bytes))))
     }
 
     /// Number of files (precompressed siblings included).
@@ -199,17 +193,9 @@ impl Root {
             Root::Dir(root) => {
                 let (identity, modified) = disk_variant(root, &key)?;
                 let sibling = |ext: &str| {
-                    disk_variant(root, &format!("{key}.{ext}"))
-                        .ok()
-                        .filter(|(_, m)| *m >= modified)
-                        .map(|(v, _)| v)
+                    disk_variant(root, &format!("{key}.{ext}")).ok().filter(|(_, m)| *m >= modified).map(|(v, _)| v)
                 };
-                Ok(Found {
-                    gzip: sibling("gz"),
-                    br: sibling("br"),
-                    path: key,
-                    identity,
-                })
+                Ok(Found { gzip: sibling("gz"), br: sibling("br"), path: key, identity })
             }
         }
     }
@@ -236,10 +222,7 @@ impl Root {
             Refusal::NotFound => "no such file".to_owned(),
         })?;
         if found.identity.len > max_bytes {
-            return Err(format!(
-                "{} bytes is over the {max_bytes}-byte budget",
-                found.identity.len
-            ));
+            return Err(format!("{} bytes is over the {max_bytes}-byte budget", found.identity.len));
         }
         match found.identity.content {
             Content::Memory(b) => Ok(b.to_vec()),
@@ -252,16 +235,9 @@ impl Root {
 fn disk_variant(root: &Path, key: &str) -> Result<(Variant, u128), Refusal> {
     let path = paths::resolve_decoded(root, key)?;
     let meta = path.metadata().map_err(|_| Refusal::NotFound)?;
-    let modified = meta
-        .modified()
-        .ok()
-        .and_then(|t| t.duration_since(UNIX_EPOCH).ok())
-        .map_or(0, |d| d.as_nanos());
-    let variant = Variant {
-        etag: format!("\"{:x}-{modified:x}\"", meta.len()),
-        len: meta.len(),
-        content: Content::Disk(path),
-    };
+    let modified = meta.modified().ok().and_then(|t| t.duration_since(UNIX_EPOCH).ok()).map_or(0, |d| d.as_nanos());
+    let variant =
+        Variant { etag: format!("\"{:x}-{modified:x}\"", meta.len()), len: meta.len(), content: Content::Disk(path) };
     Ok((variant, modified))
 }
 
@@ -284,11 +260,8 @@ fn walk(root: &Path, dir: &Path, depth: usize, out: &mut Vec<String>) {
             return;
         }
         let path = entry.path();
-        let Some(rel) = path
-            .strip_prefix(root)
-            .ok()
-            .and_then(|r| r.to_str())
-            .map(|r| r.replace(std::path::MAIN_SEPARATOR, "/"))
+        let Some(rel) =
+            path.strip_prefix(root).ok().and_then(|r| r.to_str()).map(|r| r.replace(std::path::MAIN_SEPARATOR, "/"))
         else {
             continue;
         };
@@ -312,11 +285,7 @@ mod tests {
     use super::*;
 
     fn mem(files: &[(&str, &[u8])]) -> Root {
-        Root::Memory(MemoryDir::new(
-            files
-                .iter()
-                .map(|(p, b)| ((*p).to_owned(), Bytes::copy_from_slice(b))),
-        ))
+        Root::Memory(MemoryDir::new(files.iter().map(|(p, b)| ((*p).to_owned(), Bytes::copy_from_slice(b)))))
     }
 
     #[test]
@@ -348,11 +317,7 @@ mod tests {
 
     #[test]
     fn content_etags_are_strong_hashes() {
-        assert_eq!(
-            content_etag(b""),
-            "\"e3b0c44298fc1c149afbf4c8996fb924\"",
-            "SHA-256 of nothing, first 128 bits"
-        );
+        assert_eq!(content_etag(b""), "\"e3b0c44298fc1c149afbf4c8996fb924\"", "SHA-256 of nothing, first 128 bits");
         assert_ne!(content_etag(b"a"), content_etag(b"b"));
     }
 
@@ -363,20 +328,14 @@ mod tests {
         std::fs::write(dir.join("a.js"), "js").expect("write");
         std::fs::write(dir.join("a.js.gz"), "old").expect("write");
         std::fs::write(dir.join("a.js.br"), "new").expect("write");
-        let old = std::fs::File::options()
-            .write(true)
-            .open(dir.join("a.js.gz"))
-            .expect("open");
+        let old = std::fs::File::options().write(true).open(dir.join("a.js.gz")).expect("open");
         old.set_modified(UNIX_EPOCH).expect("set mtime");
         let root = Root::open(&Source::Dir(dir.clone()), "test");
         let found = root.lookup("a.js").expect("found");
         assert!(found.gzip.is_none(), "stale .gz ignored");
         assert!(found.br.is_some());
         assert!(matches!(found.identity.content, Content::Disk(_)));
-        assert!(matches!(
-            Root::open(&Source::Dir(dir.join("nope")), "test"),
-            Root::Missing
-        ));
+        assert!(matches!(Root::open(&Source::Dir(dir.join("nope")), "test"), Root::Missing));
         std::fs::remove_dir_all(&dir).expect("cleanup");
     }
 }

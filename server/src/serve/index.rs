@@ -42,10 +42,7 @@ pub struct AssetEntry {
 /// Builds the index of every `.glb`/`.gltf` under `root`, sorted by path.
 pub fn build(root: &Root) -> Vec<AssetEntry> {
     let all = root.list();
-    all.iter()
-        .filter(|p| is_model(p))
-        .map(|p| entry(root, &all, p))
-        .collect()
+    all.iter().filter(|p| is_model(p)).map(|p| entry(root, &all, p)).collect()
 }
 
 fn is_model(path: &str) -> bool {
@@ -66,17 +63,10 @@ fn folder(path: &str) -> &str {
 
 fn entry(root: &Root, all: &[String], path: &str) -> AssetEntry {
     let file_name = path.rsplit('/').next().unwrap_or(path);
-    let stem = file_name
-        .rsplit_once('.')
-        .map_or(file_name, |(s, _)| s)
-        .to_owned();
+    let stem = file_name.rsplit_once('.').map_or(file_name, |(s, _)| s).to_owned();
     let options = ImportOptions::default();
-    let resolver = LibraryResolver {
-        root,
-        folder: folder(path),
-        budget: options.budget_bytes,
-        loaded: RefCell::new(Vec::new()),
-    };
+    let resolver =
+        LibraryResolver { root, folder: folder(path), budget: options.budget_bytes, loaded: RefCell::new(Vec::new()) };
     let mut entry = AssetEntry {
         licence: licence(root, all, path, &stem),
         name: stem,
@@ -97,12 +87,8 @@ fn entry(root: &Root, all: &[String], path: &str) -> AssetEntry {
     match kloub_core::import(&bytes, &resolver, &options) {
         Ok(imported) => {
             let asset = imported.asset;
-            entry.clips = (asset.clips.iter().enumerate())
-                .map(|(i, c)| c.display_name(i))
-                .collect();
-            let mut joints: Vec<u32> = (asset.skins.iter())
-                .flat_map(|s| s.joints.iter().copied())
-                .collect();
+            entry.clips = (asset.clips.iter().enumerate()).map(|(i, c)| c.display_name(i)).collect();
+            let mut joints: Vec<u32> = (asset.skins.iter()).flat_map(|s| s.joints.iter().copied()).collect();
             joints.sort_unstable();
             joints.dedup();
             entry.joints = joints.len();
@@ -130,13 +116,10 @@ struct LibraryResolver<'a> {
 impl Resolver for LibraryResolver<'_> {
     fn resolve(&self, uri: &str) -> Result<Vec<u8>, String> {
         let decoded = paths::percent_decode(uri).ok_or("refused: invalid percent-encoding")?;
-        let segments = paths::safe_segments(&decoded)
-            .map_err(|_| "refused: the uri leaves the file's folder".to_owned())?;
-        let rel = if self.folder.is_empty() {
-            segments.join("/")
-        } else {
-            format!("{}/{}", self.folder, segments.join("/"))
-        };
+        let segments =
+            paths::safe_segments(&decoded).map_err(|_| "refused: the uri leaves the file's folder".to_owned())?;
+        let rel =
+            if self.folder.is_empty() { segments.join("/") } else { format!("{}/{}", self.folder, segments.join("/")) };
         let bytes = self.root.read(&rel, self.budget)?;
         let mut loaded = self.loaded.borrow_mut();
         if !loaded.iter().any(|(f, _)| *f == rel) {
@@ -151,18 +134,10 @@ fn licence(root: &Root, all: &[String], path: &str, stem: &str) -> Option<String
     let mut dir = folder(path);
     loop {
         let join = |name: &str| {
-            if dir.is_empty() {
-                name.to_owned()
-            } else {
-                format!("{dir}/{name}")
-            }
+            if dir.is_empty() { name.to_owned() } else { format!("{dir}/{name}") }
         };
-        let candidates = [
-            join(&format!("{stem}.LICENSE.md")),
-            join("LICENSE.md"),
-            join("LICENSE"),
-            join("LICENSE.txt"),
-        ];
+        let candidates =
+            [join(&format!("{stem}.LICENSE.md")), join("LICENSE.md"), join("LICENSE"), join("LICENSE.txt")];
         for candidate in &candidates {
             if all.contains(candidate)
                 && let Ok(bytes) = root.read(candidate, 1 << 20)
@@ -175,9 +150,7 @@ fn licence(root: &Root, all: &[String], path: &str, stem: &str) -> Option<String
             && let Ok(bytes) = root.read(&readme, 1 << 20)
             && let Some(line) = String::from_utf8_lossy(&bytes).lines().find(|l| {
                 let l = l.to_ascii_lowercase();
-                ["licen", "copyright", "©", "&copy;"]
-                    .iter()
-                    .any(|k| l.contains(k))
+                ["licen", "copyright", "©", "&copy;"].iter().any(|k| l.contains(k))
             })
         {
             return Some(truncate(line.trim()));
@@ -207,11 +180,7 @@ mod tests {
     use bytes::Bytes;
 
     fn library(files: &[(&str, &[u8])]) -> Root {
-        Root::Memory(MemoryDir::new(
-            files
-                .iter()
-                .map(|(p, b)| ((*p).to_owned(), Bytes::copy_from_slice(b))),
-        ))
+        Root::Memory(MemoryDir::new(files.iter().map(|(p, b)| ((*p).to_owned(), Bytes::copy_from_slice(b)))))
     }
 
     /// A minimal .gltf: one external buffer, two skins sharing a joint, a named and an unnamed clip.
@@ -257,10 +226,7 @@ mod tests {
         let man = &index[1];
         assert_eq!(man.error, None, "{man:?}");
         assert_eq!(man.url, "/assets/men/Man.gltf");
-        assert_eq!(
-            man.files,
-            vec!["/assets/men/Man.gltf", "/assets/men/data%20file.bin"]
-        );
+        assert_eq!(man.files, vec!["/assets/men/Man.gltf", "/assets/men/data%20file.bin"]);
         assert_eq!(man.size, SKINNED_GLTF.len() as u64 + 16);
         assert_eq!(man.clips, vec!["Wave", "clip 1"]);
         assert_eq!(man.joints, 2, "distinct joint nodes");
@@ -279,10 +245,7 @@ mod tests {
     #[test]
     fn uris_leaving_the_folder_are_refused() {
         let escaping = SKINNED_GLTF.replace("data%20file.bin", "../data%20file.bin");
-        let root = library(&[
-            ("men/Man.gltf", escaping.as_bytes()),
-            ("data file.bin", &[0u8; 16]),
-        ]);
+        let root = library(&[("men/Man.gltf", escaping.as_bytes()), ("data file.bin", &[0u8; 16])]);
         let index = build(&root);
         let error = index[0].error.as_deref().unwrap_or_default();
         // The importer refuses a `..` URI itself, before asking the resolver (which would too).

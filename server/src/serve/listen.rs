@@ -54,11 +54,7 @@ impl Default for Limits {
 }
 
 /// Serves `app` on `listener` until `shutdown` completes, then shuts down gracefully.
-pub async fn run(
-    listener: TcpListener,
-    app: Arc<App>,
-    shutdown: impl Future<Output = ()>,
-) -> io::Result<()> {
+pub async fn run(listener: TcpListener, app: Arc<App>, shutdown: impl Future<Output = ()>) -> io::Result<()> {
     let limits = app.limits;
     // Tokio caps a semaphore's permits; no machine serves more connections than this anyway.
     let max = u32::try_from(limits.max_connections.clamp(1, 1 << 20)).unwrap_or(1 << 20);
@@ -97,10 +93,7 @@ pub async fn run(
     let _ = stop.send(true);
     match tokio::time::timeout(limits.shutdown_grace, permits.acquire_many(max)).await {
         Ok(_) => log::info!("stopped"),
-        Err(_) => log::warn!(
-            "stopped with connections still open after {:?}",
-            limits.shutdown_grace
-        ),
+        Err(_) => log::warn!("stopped with connections still open after {:?}", limits.shutdown_grace),
     }
     Ok(())
 }
@@ -145,24 +138,15 @@ struct SendTimeout<T> {
 
 impl<T> SendTimeout<T> {
     fn new(inner: T, limit: Duration) -> Self {
-        Self {
-            inner,
-            limit,
-            stalled: None,
-        }
+        Self { inner, limit, stalled: None }
     }
 
     /// Called when the inner write is pending: starts the clock, or fails once it ran out.
     fn pending<R>(&mut self, cx: &mut Context<'_>) -> Poll<io::Result<R>> {
         let limit = self.limit;
-        let sleep = self
-            .stalled
-            .get_or_insert_with(|| Box::pin(tokio::time::sleep(limit)));
+        let sleep = self.stalled.get_or_insert_with(|| Box::pin(tokio::time::sleep(limit)));
         match sleep.as_mut().poll(cx) {
-            Poll::Ready(()) => Poll::Ready(Err(io::Error::new(
-                io::ErrorKind::TimedOut,
-                "the client stopped reading",
-            ))),
+            Poll::Ready(()) => Poll::Ready(Err(io::Error::new(io::ErrorKind::TimedOut, "the client stopped reading"))),
             Poll::Pending => Poll::Pending,
         }
     }
@@ -179,21 +163,13 @@ impl<T> SendTimeout<T> {
 }
 
 impl<T: AsyncRead + Unpin> AsyncRead for SendTimeout<T> {
-    fn poll_read(
-        mut self: Pin<&mut Self>,
-        cx: &mut Context<'_>,
-        buf: &mut ReadBuf<'_>,
-    ) -> Poll<io::Result<()>> {
+    fn poll_read(mut self: Pin<&mut Self>, cx: &mut Context<'_>, buf: &mut ReadBuf<'_>) -> Poll<io::Result<()>> {
         Pin::new(&mut self.inner).poll_read(cx, buf)
     }
 }
 
 impl<T: AsyncWrite + Unpin> AsyncWrite for SendTimeout<T> {
-    fn poll_write(
-        mut self: Pin<&mut Self>,
-        cx: &mut Context<'_>,
-        buf: &[u8],
-    ) -> Poll<io::Result<usize>> {
+    fn poll_write(mut self: Pin<&mut Self>, cx: &mut Context<'_>, buf: &[u8]) -> Poll<io::Result<usize>> {
         let poll = Pin::new(&mut self.inner).poll_write(cx, buf);
         self.progress(poll, cx)
     }

@@ -5,11 +5,7 @@ use std::path::Path;
 /// `Content-Type` of a file served by `kloub serve`, from its extension (case-insensitive).
 /// Unknown extensions are `application/octet-stream`, which browsers never render inline.
 pub fn content_type(path: &Path) -> &'static str {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase)
-        .unwrap_or_default();
+    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
     match ext.as_str() {
         "html" | "htm" => "text/html; charset=utf-8",
         "js" | "mjs" => "text/javascript",

@@ -38,8 +38,8 @@ use http_body_util::combinators::UnsyncBoxBody;
 use http_body_util::{BodyExt, Empty, Full};
 use hyper::body::{Body as _, Frame};
 use hyper::header::{
-    ALLOW, CONNECTION, CONTENT_LENGTH, CONTENT_SECURITY_POLICY, CONTENT_TYPE, HeaderMap,
-    HeaderName, HeaderValue, TRANSFER_ENCODING, X_CONTENT_TYPE_OPTIONS,
+    ALLOW, CONNECTION, CONTENT_LENGTH, CONTENT_SECURITY_POLICY, CONTENT_TYPE, HeaderMap, HeaderName, HeaderValue,
+    TRANSFER_ENCODING, X_CONTENT_TYPE_OPTIONS,
 };
 use hyper::{Method, Request, Response, StatusCode};
 use std::fmt::Write as _;
@@ -127,16 +127,8 @@ impl App {
             started.elapsed().as_millis()
         );
         let json = serde_json::to_vec(&entries).unwrap_or_else(|_| b"[]".to_vec());
-        let index = Root::Memory(MemoryDir::new([(
-            "assets.json".to_owned(),
-            Bytes::from(json),
-        )]));
-        Self {
-            dist,
-            assets,
-            index,
-            limits: config.limits,
-        }
+        let index = Root::Memory(MemoryDir::new([("assets.json".to_owned(), Bytes::from(json))]));
+        Self { dist, assets, index, limits: config.limits }
     }
 
     /// Answers one request (the body is never read: requests with one are refused).
@@ -144,17 +136,13 @@ impl App {
         let started = Instant::now();
         let path = req.uri().path();
         let library = is_library(path);
-        let mut res = match tokio::time::timeout(self.limits.handler_timeout, self.route(&req))
-            .await
-        {
+        let mut res = match tokio::time::timeout(self.limits.handler_timeout, self.route(&req)).await {
             Ok(r) => r,
             Err(_) => text(StatusCode::SERVICE_UNAVAILABLE, "timed out\n"),
         };
         let headers = res.headers_mut();
         headers.insert(X_CONTENT_TYPE_OPTIONS, HeaderValue::from_static("nosniff"));
-        let html = headers
-            .get(CONTENT_TYPE)
-            .is_some_and(|t| t.as_bytes().starts_with(b"text/html"));
+        let html = headers.get(CONTENT_TYPE).is_some_and(|t| t.as_bytes().starts_with(b"text/html"));
         if html {
             headers.insert(CONTENT_SECURITY_POLICY, HeaderValue::from_static(CSP));
         }
@@ -171,8 +159,7 @@ impl App {
         let library = is_library(path);
         if has_body(req.headers()) {
             let mut res = text(StatusCode::PAYLOAD_TOO_LARGE, "request bodies are not accepted\n");
-            res.headers_mut()
-                .insert(CONNECTION, HeaderValue::from_static("close"));
+            res.headers_mut().insert(CONNECTION, HeaderValue::from_static("close"));
             return res;
         }
         if method == Method::OPTIONS && library {
@@ -181,8 +168,7 @@ impl App {
         if method != Method::GET && method != Method::HEAD {
             let mut res = text(StatusCode::METHOD_NOT_ALLOWED, "method not allowed\n");
             let allow = if library { ALLOW_LIBRARY } else { ALLOW_BUNDLE };
-            res.headers_mut()
-                .insert(ALLOW, HeaderValue::from_static(allow));
+            res.headers_mut().insert(ALLOW, HeaderValue::from_static(allow));
             return res;
         }
         let headers = req.headers();
@@ -190,9 +176,7 @@ impl App {
             "/" | "/index.html" if !self.dist.has("index.html") => not_built(),
             "/" | "/index.html" => serve_file(&self.dist, "index.html", method, headers).await,
             "/api/assets" => serve_file(&self.index, "assets.json", method, headers).await,
-            "/models/default.glb" => {
-                serve_file(&self.assets, DEFAULT_MODEL, method, headers).await
-            }
+            "/models/default.glb" => serve_file(&self.assets, DEFAULT_MODEL, method, headers).await,
             _ => match path.strip_prefix("/assets/") {
                 Some(rel) => serve_file(&self.assets, rel, method, headers).await,
                 None if path.starts_with("/models/") => not_found(),
@@ -209,11 +193,7 @@ fn is_library(path: &str) -> bool {
 
 /// A request carries a body: `Content-Length` other than 0, or any `Transfer-Encoding`.
 fn has_body(headers: &HeaderMap) -> bool {
-    headers.contains_key(TRANSFER_ENCODING)
-        || headers
-            .get_all(CONTENT_LENGTH)
-            .iter()
-            .any(|v| v.as_bytes() != b"0")
+    headers.contains_key(TRANSFER_ENCODING) || headers.get_all(CONTENT_LENGTH).iter().any(|v| v.as_bytes() != b"0")
 }
 
 fn cors(headers: &mut HeaderMap) {
@@ -221,11 +201,7 @@ fn cors(headers: &mut HeaderMap) {
         h.insert(HeaderName::from_static(name), HeaderValue::from_static(value));
     };
     set(headers, "access-control-allow-origin", "*");
-    set(
-        headers,
-        "access-control-expose-headers",
-        "ETag, Content-Range, Accept-Ranges, Content-Encoding",
-    );
+    set(headers, "access-control-expose-headers", "ETag, Content-Range, Accept-Ranges, Content-Encoding");
     set(headers, "cross-origin-resource-policy", "cross-origin");
 }
 
@@ -265,8 +241,7 @@ async fn serve_file(root: &Root, rel: &str, method: &Method, headers: &HeaderMap
     let prepared = match root {
         // Disk look-ups and small reads block: one trip to the blocking pool per request.
         Root::Dir(_) => {
-            let (root, rel, method, headers) =
-                (root.clone(), rel.to_owned(), method.clone(), headers.clone());
+            let (root, rel, method, headers) = (root.clone(), rel.to_owned(), method.clone(), headers.clone());
             tokio::task::spawn_blocking(move || prepare(&root, &rel, &method, &headers))
                 .await
                 .unwrap_or_else(|e| Err(Failure::Io(io::Error::other(e))))
@@ -344,10 +319,7 @@ struct FileBody {
 impl FileBody {
     fn new(file: std::fs::File, len: u64) -> Self {
         let file = tokio::fs::File::from_std(file).take(len);
-        Self {
-            stream: ReaderStream::with_capacity(file, 64 * 1024),
-            left: len,
-        }
+        Self { stream: ReaderStream::with_capacity(file, 64 * 1024), left: len }
     }
 }
 
@@ -355,10 +327,7 @@ impl hyper::body::Body for FileBody {
     type Data = Bytes;
     type Error = io::Error;
 
-    fn poll_frame(
-        mut self: Pin<&mut Self>,
-        cx: &mut Context<'_>,
-    ) -> Poll<Option<Result<Frame<Bytes>, io::Error>>> {
+    fn poll_frame(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<Option<Result<Frame<Bytes>, io::Error>>> {
         use futures_core::Stream;
         match Pin::new(&mut self.stream).poll_next(cx) {
             Poll::Ready(Some(Ok(chunk))) => {
@@ -366,10 +335,9 @@ impl hyper::body::Body for FileBody {
                 Poll::Ready(Some(Ok(Frame::data(chunk))))
             }
             // Fewer bytes than announced: fail, so hyper closes instead of hanging.
-            Poll::Ready(None) if self.left > 0 => Poll::Ready(Some(Err(io::Error::new(
-                io::ErrorKind::UnexpectedEof,
-                "the file shrank while sent",
-            )))),
+            Poll::Ready(None) if self.left > 0 => {
+                Poll::Ready(Some(Err(io::Error::new(io::ErrorKind::UnexpectedEof, "the file shrank while sent"))))
+            }
             other => other.map(|o| o.map(|r| r.map(Frame::data))),
         }
     }
@@ -390,10 +358,7 @@ fn empty() -> Body {
 fn text(status: StatusCode, body: &'static str) -> Response<Body> {
     let mut res = Response::new(full(Bytes::from_static(body.as_bytes())));
     *res.status_mut() = status;
-    res.headers_mut().insert(
-        CONTENT_TYPE,
-        HeaderValue::from_static("text/plain; charset=utf-8"),
-    );
+    res.headers_mut().insert(CONTENT_TYPE, HeaderValue::from_static("text/plain; charset=utf-8"));
     res
 }
 
@@ -413,10 +378,7 @@ fn not_built() -> Response<Body> {
     *res.status_mut() = StatusCode::INTERNAL_SERVER_ERROR;
     let h = res.headers_mut();
     h.insert(CONTENT_TYPE, HeaderValue::from_static("text/html; charset=utf-8"));
-    h.insert(
-        hyper::header::CACHE_CONTROL,
-        HeaderValue::from_static("no-store"),
-    );
+    h.insert(hyper::header::CACHE_CONTROL, HeaderValue::from_static("no-store"));
     res
 }
 
@@ -425,11 +387,7 @@ fn log_access(method: &Method, path: &str, res: &Response<Body>, started: Instan
     if !log::log_enabled!(target: logger::ACCESS, log::Level::Info) {
         return;
     }
-    let bytes = if method == Method::HEAD {
-        0
-    } else {
-        res.body().size_hint().exact().unwrap_or(0)
-    };
+    let bytes = if method == Method::HEAD { 0 } else { res.body().size_hint().exact().unwrap_or(0) };
     let mut shown = path;
     if shown.len() > MAX_LOGGED_PATH {
         let mut end = MAX_LOGGED_PATH;
@@ -440,12 +398,8 @@ fn log_access(method: &Method, path: &str, res: &Response<Body>, started: Instan
     }
     let mut line = format!("method={method} path=");
     logger::quote_into(&mut line, shown);
-    let _ = write!(
-        line,
-        " status={} bytes={bytes} ms={:.3}",
-        res.status().as_u16(),
-        started.elapsed().as_secs_f64() * 1e3
-    );
+    let _ =
+        write!(line, " status={} bytes={bytes} ms={:.3}", res.status().as_u16(), started.elapsed().as_secs_f64() * 1e3);
     log::info!(target: logger::ACCESS, "{line}");
 }
 

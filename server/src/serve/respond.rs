@@ -5,9 +5,8 @@
 use super::files::{Content, Found, Variant};
 use super::mime;
 use hyper::header::{
-    ACCEPT_ENCODING, ACCEPT_RANGES, CACHE_CONTROL, CONTENT_ENCODING, CONTENT_LENGTH,
-    CONTENT_RANGE, CONTENT_TYPE, ETAG, HeaderMap, HeaderValue, IF_NONE_MATCH, IF_RANGE, RANGE,
-    VARY,
+    ACCEPT_ENCODING, ACCEPT_RANGES, CACHE_CONTROL, CONTENT_ENCODING, CONTENT_LENGTH, CONTENT_RANGE, CONTENT_TYPE, ETAG,
+    HeaderMap, HeaderValue, IF_NONE_MATCH, IF_RANGE, RANGE, VARY,
 };
 use hyper::{Method, StatusCode};
 use std::ops::Range;
@@ -34,19 +33,12 @@ pub fn plan(method: &Method, request: &HeaderMap, found: &Found) -> Plan {
     let (variant, encoding) = negotiate(request, found);
     let mut headers = HeaderMap::new();
     insert(&mut headers, ETAG, &variant.etag);
-    headers.insert(
-        CACHE_CONTROL,
-        HeaderValue::from_static(cache_control(&found.path)),
-    );
+    headers.insert(CACHE_CONTROL, HeaderValue::from_static(cache_control(&found.path)));
     if found.gzip.is_some() || found.br.is_some() {
         headers.insert(VARY, HeaderValue::from_static("Accept-Encoding"));
     }
     if none_match(request, &variant.etag) {
-        return Plan {
-            status: StatusCode::NOT_MODIFIED,
-            headers,
-            body: None,
-        };
+        return Plan { status: StatusCode::NOT_MODIFIED, headers, body: None };
     }
     headers.insert(ACCEPT_RANGES, HeaderValue::from_static("bytes"));
     let len = variant.len;
@@ -60,28 +52,16 @@ pub fn plan(method: &Method, request: &HeaderMap, found: &Found) -> Plan {
         Ranged::Unsatisfiable => {
             insert(&mut headers, CONTENT_RANGE, &format!("bytes */{len}"));
             headers.insert(CONTENT_LENGTH, HeaderValue::from(0u64));
-            return Plan {
-                status: StatusCode::RANGE_NOT_SATISFIABLE,
-                headers,
-                body: None,
-            };
+            return Plan { status: StatusCode::RANGE_NOT_SATISFIABLE, headers, body: None };
         }
     };
-    headers.insert(
-        CONTENT_TYPE,
-        HeaderValue::from_static(mime::content_type(Path::new(&found.path))),
-    );
+    headers.insert(CONTENT_TYPE, HeaderValue::from_static(mime::content_type(Path::new(&found.path))));
     if let Some(encoding) = encoding {
         headers.insert(CONTENT_ENCODING, HeaderValue::from_static(encoding));
     }
     headers.insert(CONTENT_LENGTH, HeaderValue::from(range.end - range.start));
-    let body = (method != Method::HEAD && !range.is_empty())
-        .then(|| (variant.content.clone(), range));
-    Plan {
-        status,
-        headers,
-        body,
-    }
+    let body = (method != Method::HEAD && !range.is_empty()).then(|| (variant.content.clone(), range));
+    Plan { status, headers, body }
 }
 
 fn insert(headers: &mut HeaderMap, name: hyper::header::HeaderName, value: &str) {
@@ -94,12 +74,7 @@ fn insert(headers: &mut HeaderMap, name: hyper::header::HeaderName, value: &str)
 /// The representation to send: brotli, else gzip, when the client accepts it and the file has
 /// that sibling; else the file itself. Returns the `Content-Encoding` with it.
 fn negotiate<'a>(request: &HeaderMap, found: &'a Found) -> (&'a Variant, Option<&'static str>) {
-    let accept = request
-        .get_all(ACCEPT_ENCODING)
-        .iter()
-        .filter_map(|v| v.to_str().ok())
-        .collect::<Vec<_>>()
-        .join(",");
+    let accept = request.get_all(ACCEPT_ENCODING).iter().filter_map(|v| v.to_str().ok()).collect::<Vec<_>>().join(",");
     if let Some(br) = found.br.as_ref().filter(|_| accepts(&accept, "br")) {
         return (br, Some("br"));
     }
@@ -144,11 +119,7 @@ fn none_match(request: &HeaderMap, etag: &str) -> bool {
 
 /// `Cache-Control` for the file at relative path `path`.
 pub fn cache_control(path: &str) -> &'static str {
-    if is_content_hashed(path) {
-        CACHE_IMMUTABLE
-    } else {
-        CACHE_REVALIDATE
-    }
+    if is_content_hashed(path) { CACHE_IMMUTABLE } else { CACHE_REVALIDATE }
 }
 
 /// Whether a file name carries a content hash, by the bundlers' `name.HASH.ext` convention:
@@ -159,8 +130,7 @@ pub fn is_content_hashed(path: &str) -> bool {
     let parts: Vec<&str> = name.split('.').collect();
     parts.len() >= 3
         && parts[1..parts.len() - 1].iter().any(|p| {
-            (16..=64).contains(&p.len())
-                && p.bytes().all(|b| b.is_ascii_digit() || (b'a'..=b'f').contains(&b))
+            (16..=64).contains(&p.len()) && p.bytes().all(|b| b.is_ascii_digit() || (b'a'..=b'f').contains(&b))
         })
 }
 
@@ -187,11 +157,7 @@ fn byte_range(request: &HeaderMap, etag: &str, len: u64) -> Ranged {
         return Ranged::Full;
     }
     let spec = spec.trim();
-    let Some(set) = spec
-        .get(..6)
-        .filter(|unit| unit.eq_ignore_ascii_case("bytes="))
-        .and_then(|_| spec.get(6..))
-    else {
+    let Some(set) = spec.get(..6).filter(|unit| unit.eq_ignore_ascii_case("bytes=")).and_then(|_| spec.get(6..)) else {
         return Ranged::Full;
     };
     if set.contains(',') {
@@ -202,9 +168,7 @@ fn byte_range(request: &HeaderMap, etag: &str, len: u64) -> Ranged {
     };
     let number = |s: &str| {
         let s = s.trim();
-        (!s.is_empty() && s.bytes().all(|b| b.is_ascii_digit()))
-            .then(|| s.parse::<u64>().ok())
-            .flatten()
+        (!s.is_empty() && s.bytes().all(|b| b.is_ascii_digit())).then(|| s.parse::<u64>().ok()).flatten()
     };
     match (first.trim().is_empty(), number(first), number(last)) {
         // `-N`: the last N bytes.
@@ -223,11 +187,7 @@ fn byte_range(request: &HeaderMap, etag: &str, len: u64) -> Ranged {
                 None if last.trim().is_empty() => u64::MAX,
                 None => return Ranged::Full,
             };
-            if start >= len {
-                Ranged::Unsatisfiable
-            } else {
-                Ranged::Part(start..end.min(len - 1) + 1)
-            }
+            if start >= len { Ranged::Unsatisfiable } else { Ranged::Part(start..end.min(len - 1) + 1) }
         }
         _ => Ranged::Full,
     }
@@ -281,16 +241,9 @@ mod tests {
         assert_eq!(range("bytes=10-", 10), Ranged::Unsatisfiable);
         assert_eq!(range("bytes=-0", 10), Ranged::Unsatisfiable);
         assert_eq!(range("bytes=0-", 0), Ranged::Unsatisfiable);
-        for ignored in [
-            "bytes=3-1",
-            "bytes=0-1,3-4",
-            "items=0-1",
-            "bytes=x-1",
-            "bytes=+1-2",
-            "bytes=",
-            "bytes=-",
-            "bytes=1",
-        ] {
+        for ignored in
+            ["bytes=3-1", "bytes=0-1,3-4", "items=0-1", "bytes=x-1", "bytes=+1-2", "bytes=", "bytes=-", "bytes=1"]
+        {
             assert_eq!(range(ignored, 10), Ranged::Full, "{ignored}");
         }
         let h = headers(&[("range", "bytes=0-1"), ("if-range", "\"e\"")]);

@@ -29,10 +29,7 @@ impl Reply {
     /// The value of a header (case-insensitive name), if present.
     pub fn header(&self, name: &str) -> Option<&str> {
         let name = name.to_ascii_lowercase();
-        self.headers
-            .iter()
-            .find(|(n, _)| *n == name)
-            .map(|(_, v)| v.as_str())
+        self.headers.iter().find(|(n, _)| *n == name).map(|(_, v)| v.as_str())
     }
 
     pub fn text(&self) -> String {
@@ -81,12 +78,8 @@ pub fn start(config: &ServeConfig) -> Server {
             .build()
             .expect("a tokio runtime");
         runtime.block_on(async move {
-            let listener = tokio::net::TcpListener::bind("127.0.0.1:0")
-                .await
-                .expect("bind");
-            addr_tx
-                .send(listener.local_addr().expect("local address"))
-                .expect("report the address");
+            let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.expect("bind");
+            addr_tx.send(listener.local_addr().expect("local address")).expect("report the address");
             listen::run(listener, app, async {
                 let _ = stopped.await;
             })
@@ -94,11 +87,7 @@ pub fn start(config: &ServeConfig) -> Server {
             .expect("serve");
         });
     });
-    Server {
-        addr: addr_rx.recv().expect("the server started"),
-        stop: Some(stop),
-        thread: Some(thread),
-    }
+    Server { addr: addr_rx.recv().expect("the server started"), stop: Some(stop), thread: Some(thread) }
 }
 
 /// hyper's client on a runtime of its own.
@@ -110,16 +99,9 @@ pub struct Http {
 
 impl Http {
     pub fn new(addr: SocketAddr) -> Self {
-        let runtime = tokio::runtime::Builder::new_current_thread()
-            .enable_all()
-            .build()
-            .expect("a tokio runtime");
+        let runtime = tokio::runtime::Builder::new_current_thread().enable_all().build().expect("a tokio runtime");
         let client = Client::builder(TokioExecutor::new()).build_http();
-        Self {
-            runtime,
-            client,
-            addr,
-        }
+        Self { runtime, client, addr }
     }
 
     /// GET `target` with extra headers.
@@ -128,16 +110,8 @@ impl Http {
     }
 
     /// Sends one request and reads the whole response.
-    pub fn send(
-        &self,
-        method: &str,
-        target: &str,
-        headers: &[(&str, &str)],
-        body: Option<&[u8]>,
-    ) -> Reply {
-        let mut request = hyper::Request::builder()
-            .method(method)
-            .uri(format!("http://{}{target}", self.addr));
+    pub fn send(&self, method: &str, target: &str, headers: &[(&str, &str)], body: Option<&[u8]>) -> Reply {
+        let mut request = hyper::Request::builder().method(method).uri(format!("http://{}{target}", self.addr));
         for (n, v) in headers {
             request = request.header(*n, *v);
         }
@@ -152,25 +126,10 @@ impl Http {
             let headers = response
                 .headers()
                 .iter()
-                .map(|(n, v)| {
-                    (
-                        n.as_str().to_owned(),
-                        v.to_str().expect("ASCII header").to_owned(),
-                    )
-                })
+                .map(|(n, v)| (n.as_str().to_owned(), v.to_str().expect("ASCII header").to_owned()))
                 .collect();
-            let body = response
-                .into_body()
-                .collect()
-                .await
-                .expect("the whole body")
-                .to_bytes()
-                .to_vec();
-            Reply {
-                status,
-                headers,
-                body,
-            }
+            let body = response.into_body().collect().await.expect("the whole body").to_bytes().to_vec();
+            Reply { status, headers, body }
         })
     }
 }
@@ -178,9 +137,7 @@ impl Http {
 /// Sends `raw` bytes as they are and reads until the server closes (or 10 s pass).
 pub fn raw(addr: SocketAddr, raw: &[u8]) -> Vec<u8> {
     let mut stream = TcpStream::connect(addr).expect("connect to the test server");
-    stream
-        .set_read_timeout(Some(Duration::from_secs(10)))
-        .expect("timeout");
+    stream.set_read_timeout(Some(Duration::from_secs(10))).expect("timeout");
     stream.write_all(raw).expect("send the request");
     let mut out = Vec::new();
     // A reset after the answer (the server closing on unread input) still leaves the answer.
@@ -208,12 +165,7 @@ pub fn parse(raw: &[u8], head_only: bool) -> Reply {
     let head = std::str::from_utf8(&raw[..split]).expect("ASCII headers");
     let mut lines = head.split("\r\n");
     let status_line = lines.next().expect("a status line");
-    let status = status_line
-        .split(' ')
-        .nth(1)
-        .expect("a status code")
-        .parse()
-        .expect("numeric");
+    let status = status_line.split(' ').nth(1).expect("a status code").parse().expect("numeric");
     let headers: Vec<(String, String)> = lines
         .map(|l| {
             let (n, v) = l.split_once(':').expect("name: value");
@@ -221,9 +173,7 @@ pub fn parse(raw: &[u8], head_only: bool) -> Reply {
         })
         .collect();
     let rest = &raw[split + 4..];
-    let chunked = headers
-        .iter()
-        .any(|(n, v)| n == "transfer-encoding" && v.contains("chunked"));
+    let chunked = headers.iter().any(|(n, v)| n == "transfer-encoding" && v.contains("chunked"));
     let body = if head_only {
         rest.to_vec()
     } else if chunked {
@@ -231,23 +181,16 @@ pub fn parse(raw: &[u8], head_only: bool) -> Reply {
     } else {
         rest.to_vec()
     };
-    Reply {
-        status,
-        headers,
-        body,
-    }
+    Reply { status, headers, body }
 }
 
 fn dechunk(mut data: &[u8]) -> Vec<u8> {
     let mut out = Vec::new();
     loop {
-        let end = data
-            .windows(2)
-            .position(|w| w == b"\r\n")
-            .expect("chunk size line");
+        let end = data.windows(2).position(|w| w == b"\r\n").expect("chunk size line");
         let size_text = std::str::from_utf8(&data[..end]).expect("ASCII");
-        let size = usize::from_str_radix(size_text.split(';').next().expect("size").trim(), 16)
-            .expect("hex chunk size");
+        let size =
+            usize::from_str_radix(size_text.split(';').next().expect("size").trim(), 16).expect("hex chunk size");
         data = &data[end + 2..];
         if size == 0 {
             return out;
@@ -267,17 +210,12 @@ pub fn temp_dir(tag: &str) -> PathBuf {
 
 /// The repository root (this crate's parent folder).
 pub fn repo() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .expect("the server crate is in the repository")
-        .to_path_buf()
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).parent().expect("the server crate is in the repository").to_path_buf()
 }
 
 /// `../shared/assets` beside the checkout, overridable with `KLOUB_SHARED_ASSETS`.
 pub fn shared_assets() -> PathBuf {
-    std::env::var_os("KLOUB_SHARED_ASSETS")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| repo().join("../shared/assets"))
+    std::env::var_os("KLOUB_SHARED_ASSETS").map(PathBuf::from).unwrap_or_else(|| repo().join("../shared/assets"))
 }
 
 /// A test site: a bundle folder, a library folder, and a secret beside them.
@@ -338,17 +276,13 @@ pub fn gzip(data: &[u8]) -> Vec<u8> {
 
 pub fn gunzip(data: &[u8]) -> Vec<u8> {
     let mut out = Vec::new();
-    flate2::read::GzDecoder::new(data)
-        .read_to_end(&mut out)
-        .expect("valid gzip");
+    flate2::read::GzDecoder::new(data).read_to_end(&mut out).expect("valid gzip");
     out
 }
 
 pub fn unbrotli(data: &[u8]) -> Vec<u8> {
     let mut out = Vec::new();
-    brotli_decompressor::Decompressor::new(data, 4096)
-        .read_to_end(&mut out)
-        .expect("valid brotli");
+    brotli_decompressor::Decompressor::new(data, 4096).read_to_end(&mut out).expect("valid brotli");
     out
 }
 
@@ -381,8 +315,7 @@ pub fn site(tag: &str) -> Site {
     write(base.join("secret.txt"), b"top secret");
     #[cfg(unix)]
     {
-        std::os::unix::fs::symlink(base.join("secret.txt"), assets.join("link-out.txt"))
-            .expect("symlink");
+        std::os::unix::fs::symlink(base.join("secret.txt"), assets.join("link-out.txt")).expect("symlink");
         std::os::unix::fs::symlink(&base, dist.join("up")).expect("symlink");
     }
     Site { base, dist, assets }

@@ -28,14 +28,7 @@ const MAX_PITCH: f32 = std::f32::consts::FRAC_PI_2 - 0.01;
 
 impl Default for Camera {
     fn default() -> Self {
-        Self {
-            target: Vec3::ZERO,
-            yaw: 0.5,
-            pitch: 0.25,
-            distance: 3.0,
-            fov_y: 45f32.to_radians(),
-            radius: 1.0,
-        }
+        Self { target: Vec3::ZERO, yaw: 0.5, pitch: 0.25, distance: 3.0, fov_y: 45f32.to_radians(), radius: 1.0 }
     }
 }
 
@@ -64,20 +57,14 @@ impl Camera {
     /// Near and far clipping distances: tight around the framed sphere, with room for the
     /// ground grid (which extends to 10 radii).
     pub fn clip_planes(&self) -> (f32, f32) {
-        let near = (self.distance - 2.0 * self.radius)
-            .max(self.distance * 0.01)
-            .max(1e-4);
+        let near = (self.distance - 2.0 * self.radius).max(self.distance * 0.01).max(1e-4);
         let far = self.distance + 12.0 * self.radius;
         (near, far.max(near * 2.0))
     }
 
     /// View-to-clip matrix for `aspect` = width / height (depth 0..1 as wgpu expects).
     pub fn projection(&self, aspect: f32) -> Mat4 {
-        let aspect = if aspect.is_finite() && aspect > 0.0 {
-            aspect
-        } else {
-            1.0
-        };
+        let aspect = if aspect.is_finite() && aspect > 0.0 { aspect } else { 1.0 };
         let (near, far) = self.clip_planes();
         glam::camera::rh::proj::directx::perspective(self.fov(), aspect, near, far)
     }
@@ -162,10 +149,7 @@ mod tests {
             );
             let clip = vp * p.extend(1.0);
             let ndc = clip.truncate() / clip.w;
-            assert!(
-                ndc.x.abs() <= 1.0 && ndc.y.abs() <= 1.0,
-                "corner {p} at {ndc}"
-            );
+            assert!(ndc.x.abs() <= 1.0 && ndc.y.abs() <= 1.0, "corner {p} at {ndc}");
             assert!(ndc.z > 0.0 && ndc.z < 1.0, "corner {p} depth {}", ndc.z);
         }
     }
@@ -194,11 +178,7 @@ mod tests {
 
     #[test]
     fn pan_moves_target_in_view_plane() {
-        let mut camera = Camera {
-            yaw: 0.0,
-            pitch: 0.0,
-            ..Camera::default()
-        };
+        let mut camera = Camera { yaw: 0.0, pitch: 0.0, ..Camera::default() };
         camera.pan_pixels(10.0, 0.0, 100.0);
         // Looking down −Z with +X to the right: dragging right moves the target left.
         assert!(camera.target.x < 0.0);

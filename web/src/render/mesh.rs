@@ -2,6 +2,7 @@
 
 use bytemuck::{Pod, Zeroable};
 use kloub_core::asset::Primitive;
+use kloub_core::job::sjb::{NO_PIVOT, SjbPlan};
 use wgpu::util::DeviceExt;
 
 /// One vertex of the geometry stream.
@@ -28,6 +29,34 @@ struct SkinVertex {
     weights: [f32; 8],
 }
 
+/// One vertex of the spherical-joint-blend stream (per draw: it depends on the skin).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct PivotVertex {
+    pivot: [f32; 3],
+    /// Carrying joint | driver joint << 16, or `NO_PIVOT`.
+    joints: u32,
+}
+
+/// Byte stride of the spherical-joint-blend stream: the joint centre (`f32x3`) and its
+/// joints (`u32`).
+pub const PIVOT_STRIDE: u64 = size_of::<PivotVertex>() as u64;
+
+/// Uploads the per-vertex joint centres of `plan` (vertices past the plan fall back to dual
+/// quaternions).
+pub fn pivot_buffer(device: &wgpu::Device, plan: &SjbPlan, vertices: usize) -> wgpu::Buffer {
+    let data: Vec<PivotVertex> = (0..vertices.max(1))
+        .map(|v| {
+            let pivot = plan.vertex_pivots.get(v).and_then(|&i| plan.pivots.get(i as usize));
+            match pivot {
+                Some(p) => PivotVertex { pivot: p.bind, joints: u32::from(p.joint) | (u32::from(p.driver) << 16) },
+                None => PivotVertex { pivot: [0.0; 3], joints: NO_PIVOT },
+            }
+        })
+        .collect();
+    buffer(device, "kloub skin pivots", bytemuck::cast_slice(&data), wgpu::BufferUsages::VERTEX)
+}
+
 /// Byte stride of the geometry stream: position, normal (`f32x3` each). Skinned on the CPU,
 /// this is the stream rewritten every frame.
 pub const GEOMETRY_STRIDE: u64 = size_of::<GeometryVertex>() as u64;
@@ -43,10 +72,7 @@ pub fn interleave(positions: &[[f32; 3]], normals: &[[f32; 3]], out: &mut Vec<Ge
         positions
             .iter()
             .enumerate()
-            .map(|(i, &position)| GeometryVertex {
-                position,
-                normal: normals.get(i).copied().unwrap_or_default(),
-            }),
+            .map(|(i, &position)| GeometryVertex { position, normal: normals.get(i).copied().unwrap_or_default() }),
     );
 }
 
@@ -90,21 +116,11 @@ impl GpuPrimitive {
                     weights: primitive.weights.get(i).copied().unwrap_or_default(),
                 })
                 .collect();
-            buffer(
-                device,
-                "kloub skin",
-                bytemuck::cast_slice(&skin),
-                wgpu::BufferUsages::VERTEX,
-            )
+            buffer(device, "kloub skin", bytemuck::cast_slice(&skin), wgpu::BufferUsages::VERTEX)
         });
         let has_normals = primitive.normals.len() == n;
         Some(Self {
-            geometry: buffer(
-                device,
-                "kloub geometry",
-                bytemuck::cast_slice(&geometry),
-                wgpu::BufferUsages::VERTEX,
-            ),
+            geometry: buffer(device, "kloub geometry", bytemuck::cast_slice(&geometry), wgpu::BufferUsages::VERTEX),
             attributes: buffer(
                 device,
                 "kloub attributes",
@@ -135,15 +151,6 @@ impl GpuPrimitive {
     }
 }
 
-fn buffer(
-    device: &wgpu::Device,
-    label: &str,
-    contents: &[u8],
-    usage: wgpu::BufferUsages,
-) -> wgpu::Buffer {
-    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some(label),
-        contents,
-        usage,
-    })
+fn buffer(device: &wgpu::Device, label: &str, contents: &[u8], usage: wgpu::BufferUsages) -> wgpu::Buffer {
+    device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
 }

@@ -47,6 +47,7 @@
 
 pub mod camera;
 pub mod mesh;
+pub mod morph;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod offscreen;
 pub mod palette;

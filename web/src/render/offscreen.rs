@@ -23,12 +23,9 @@ pub struct Offscreen {
 impl Offscreen {
     /// Opens the adapter and device.
     pub fn new() -> Result<Self, String> {
-        let instance =
-            wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
-        let adapter = pollster::block_on(wgpu::util::initialize_adapter_from_env_or_default(
-            &instance, None,
-        ))
-        .map_err(|e| format!("no wgpu adapter: {e}"))?;
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        let adapter = pollster::block_on(wgpu::util::initialize_adapter_from_env_or_default(&instance, None))
+            .map_err(|e| format!("no wgpu adapter: {e}"))?;
         let limits = wgpu::Limits::downlevel_webgl2_defaults()
             .using_resolution(adapter.limits())
             .using_alignment(adapter.limits());
@@ -38,12 +35,7 @@ impl Offscreen {
             ..Default::default()
         }))
         .map_err(|e| format!("no wgpu device: {e}"))?;
-        Ok(Self {
-            sample_count: msaa_samples(&adapter),
-            adapter: adapter.get_info(),
-            device,
-            queue,
-        })
+        Ok(Self { sample_count: msaa_samples(&adapter), adapter: adapter.get_info(), device, queue })
     }
 
     /// The device.
@@ -78,14 +70,7 @@ impl Offscreen {
         width: u32,
         height: u32,
     ) -> Result<RgbaImage, String> {
-        renderer.render(
-            &self.device,
-            &self.queue,
-            asset,
-            instance,
-            camera,
-            [width, height],
-        )?;
+        renderer.render(&self.device, &self.queue, asset, instance, camera, [width, height])?;
         let texture = renderer.target_texture().ok_or("nothing rendered")?;
         self.read_texture(texture)
     }
@@ -94,19 +79,15 @@ impl Offscreen {
     pub fn read_texture(&self, texture: &wgpu::Texture) -> Result<RgbaImage, String> {
         let (width, height) = (texture.width(), texture.height());
         let row = width * 4;
-        let padded =
-            row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+        let padded = row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
         let buffer = self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("kloub readback"),
             size: u64::from(padded) * u64::from(height),
             usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
             mapped_at_creation: false,
         });
-        let mut encoder = self
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("kloub readback"),
-            });
+        let mut encoder =
+            self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("kloub readback") });
         encoder.copy_texture_to_buffer(
             texture.as_image_copy(),
             wgpu::TexelCopyBufferInfo {
@@ -125,25 +106,17 @@ impl Offscreen {
             // The receiver waits below; a send error only means it is gone.
             let _ = sender.send(result);
         });
-        self.device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| format!("device poll: {e}"))?;
-        receiver
-            .recv()
-            .map_err(|e| format!("readback: {e}"))?
-            .map_err(|e| format!("readback map: {e}"))?;
+        self.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| format!("device poll: {e}"))?;
+        receiver.recv().map_err(|e| format!("readback: {e}"))?.map_err(|e| format!("readback map: {e}"))?;
         let mut pixels = Vec::with_capacity((row * height) as usize);
         {
-            let mapped = buffer
-                .get_mapped_range(..)
-                .map_err(|e| format!("readback range: {e}"))?;
+            let mapped = buffer.get_mapped_range(..).map_err(|e| format!("readback range: {e}"))?;
             for chunk in mapped.chunks_exact(padded as usize).take(height as usize) {
                 pixels.extend_from_slice(&chunk[..row as usize]);
             }
         }
         buffer.unmap();
-        RgbaImage::from_raw(width, height, pixels)
-            .ok_or_else(|| "readback size mismatch".to_string())
+        RgbaImage::from_raw(width, height, pixels).ok_or_else(|| "readback size mismatch".to_string())
     }
 }
 

@@ -1,19 +1,23 @@
-//! The joint palette texture: every skin's skinning matrices, as affine 3×4 rows, in one
-//! `rgba32float` texture read by the vertex shader with `textureLoad`.
+//! The joint palette texture: every skin's skinning matrices, as affine 3×4 rows, and their
+//! dual-quaternion split, in one `rgba32float` texture read by the vertex shader with
+//! `textureLoad`.
 //!
 //! Layout: joint `j` (absolute: a skin's first joint plus the joint index) occupies texels
-//! `3j, 3j+1, 3j+2` in row-major order over a texture [`PALETTE_WIDTH`] texels wide; texel
-//! `3j + r` is row `r` of the matrix. Textures (not storage buffers) keep this working on
-//! WebGL2, and the width keeps any joint count inside the 2048-texel limit of WebGL2 for up
-//! to 349 525 joints.
+//! `8j .. 8j+8` in row-major order over a texture [`PALETTE_WIDTH`] texels wide: rows 0–2 of
+//! the matrix, the rotation quaternion, its dual part, and rows 0–2 of the stretch with `w`
+//! of the first set to 1 when the joint is rigid (`TEXELS_PER_JOINT` in mesh.wgsl). The
+//! dual-quaternion texels are written only for the methods that read them. Textures (not
+//! storage buffers) keep this working on WebGL2; the width keeps any joint count inside the
+//! 2048-texel limit of WebGL2 for up to 196 608 joints.
 
 use glam::Mat4;
+use kloub_core::job::dqs::JointDq;
 
-/// Width of the palette texture in texels (a multiple of 3: a joint never straddles rows).
+/// Width of the palette texture in texels (a multiple of 8: a joint never straddles rows).
 pub const PALETTE_WIDTH: u32 = 768;
 
 /// Texels per joint.
-pub const TEXELS_PER_JOINT: u32 = 3;
+pub const TEXELS_PER_JOINT: u32 = 8;
 
 /// CPU staging and GPU texture of the joint palette.
 pub struct PaletteTexture {
@@ -32,9 +36,7 @@ impl PaletteTexture {
         let max = device.limits().max_texture_dimension_2d;
         match u32::try_from(height) {
             Ok(height) if height <= max => Ok(Self::with_rows(device, height)),
-            _ => Err(format!(
-                "{joints} joints do not fit a {PALETTE_WIDTH}x{max} palette texture"
-            )),
+            _ => Err(format!("{joints} joints do not fit a {PALETTE_WIDTH}x{max} palette texture")),
         }
     }
 
@@ -43,11 +45,7 @@ impl PaletteTexture {
         let height = height.max(1);
         let texture = device.create_texture(&wgpu::TextureDescriptor {
             label: Some("kloub joint palette"),
-            size: wgpu::Extent3d {
-                width: PALETTE_WIDTH,
-                height,
-                depth_or_array_layers: 1,
-            },
+            size: wgpu::Extent3d { width: PALETTE_WIDTH, height, depth_or_array_layers: 1 },
             mip_level_count: 1,
             sample_count: 1,
             dimension: wgpu::TextureDimension::D2,
@@ -57,12 +55,7 @@ impl PaletteTexture {
         });
         let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
         let texels = vec![[0.0; 4]; (PALETTE_WIDTH * height) as usize];
-        Self {
-            texture,
-            view,
-            texels,
-            height,
-        }
+        Self { texture, view, texels, height }
     }
 
     /// The view bound to the vertex shader.
@@ -75,11 +68,13 @@ impl PaletteTexture {
         PALETTE_WIDTH * self.height / TEXELS_PER_JOINT
     }
 
-    /// Writes `matrices` into the staging copy starting at joint `first`.
-    /// Fails (writing nothing) when they do not fit.
-    pub fn set(&mut self, first: u32, matrices: &[Mat4]) -> Result<(), String> {
-        let start = first as usize * TEXELS_PER_JOINT as usize;
-        let end = start + matrices.len() * TEXELS_PER_JOINT as usize;
+    /// Writes `matrices` (and, when given, their dual-quaternion split `dqs`, one per matrix)
+    /// into the staging copy starting at joint `first`. Fails (writing nothing) when they do
+    /// not fit.
+    pub fn set(&mut self, first: u32, matrices: &[Mat4], dqs: Option<&[JointDq]>) -> Result<(), String> {
+        let per = TEXELS_PER_JOINT as usize;
+        let start = first as usize * per;
+        let end = start + matrices.len() * per;
         let Some(dst) = self.texels.get_mut(start..end) else {
             return Err(format!(
                 "palette joints {first}..{} exceed the capacity {}",
@@ -87,9 +82,17 @@ impl PaletteTexture {
                 self.capacity()
             ));
         };
-        for (rows, m) in dst.chunks_exact_mut(3).zip(matrices) {
-            for (r, row) in rows.iter_mut().enumerate() {
+        for (joint, (texels, m)) in dst.chunks_exact_mut(per).zip(matrices).enumerate() {
+            for (r, row) in texels[..3].iter_mut().enumerate() {
                 *row = m.row(r).to_array();
+            }
+            if let Some(dq) = dqs.and_then(|d| d.get(joint)) {
+                texels[3] = dq.dq.real.to_array();
+                texels[4] = dq.dq.dual.to_array();
+                for (r, row) in texels[5..8].iter_mut().enumerate() {
+                    *row = dq.stretch.row(r).extend(0.0).to_array();
+                }
+                texels[5][3] = if dq.rigid { 1.0 } else { 0.0 };
             }
         }
         Ok(())
@@ -110,11 +113,7 @@ impl PaletteTexture {
                 bytes_per_row: Some(PALETTE_WIDTH * 16),
                 rows_per_image: Some(self.height),
             },
-            wgpu::Extent3d {
-                width: PALETTE_WIDTH,
-                height: self.height,
-                depth_or_array_layers: 1,
-            },
+            wgpu::Extent3d { width: PALETTE_WIDTH, height: self.height, depth_or_array_layers: 1 },
         );
     }
 }

@@ -13,7 +13,7 @@ pub fn topology(topology: Topology) -> wgpu::PrimitiveTopology {
     }
 }
 
-use super::mesh::{ATTRIBUTE_STRIDE, GEOMETRY_STRIDE, SKIN_STRIDE};
+use super::mesh::{ATTRIBUTE_STRIDE, GEOMETRY_STRIDE, PIVOT_STRIDE, SKIN_STRIDE};
 use super::texture::COLOR_FORMAT;
 use super::uniforms::{DrawUniform, FrameUniform, MaterialUniform};
 
@@ -25,12 +25,27 @@ pub const MESH_WGSL: &str = include_str!("../../../shaders/mesh.wgsl");
 /// `shaders/environment.wgsl`.
 pub const ENVIRONMENT_WGSL: &str = include_str!("../../../shaders/environment.wgsl");
 
-const GEOMETRY_ATTRIBUTES: [wgpu::VertexAttribute; 2] =
-    wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3];
-const ATTRIBUTE_ATTRIBUTES: [wgpu::VertexAttribute; 2] =
-    wgpu::vertex_attr_array![2 => Float32x2, 3 => Float32x4];
+const GEOMETRY_ATTRIBUTES: [wgpu::VertexAttribute; 2] = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3];
+const ATTRIBUTE_ATTRIBUTES: [wgpu::VertexAttribute; 2] = wgpu::vertex_attr_array![2 => Float32x2, 3 => Float32x4];
 const SKIN_ATTRIBUTES: [wgpu::VertexAttribute; 4] =
     wgpu::vertex_attr_array![4 => Uint16x4, 5 => Uint16x4, 6 => Float32x4, 7 => Float32x4];
+const PIVOT_ATTRIBUTES: [wgpu::VertexAttribute; 2] = wgpu::vertex_attr_array![8 => Float32x3, 9 => Uint32];
+
+/// Format of the capture targets (the bits of the world position and unit normal).
+pub const CAPTURE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Uint;
+
+/// The vertex buffer layouts of a skinned draw: geometry, attributes, skin, pivots.
+fn skinned_buffers() -> [Option<wgpu::VertexBufferLayout<'static>>; 4] {
+    let layout = |stride, attributes| {
+        Some(wgpu::VertexBufferLayout { array_stride: stride, step_mode: wgpu::VertexStepMode::Vertex, attributes })
+    };
+    [
+        layout(GEOMETRY_STRIDE, &GEOMETRY_ATTRIBUTES),
+        layout(ATTRIBUTE_STRIDE, &ATTRIBUTE_ATTRIBUTES),
+        layout(SKIN_STRIDE, &SKIN_ATTRIBUTES),
+        layout(PIVOT_STRIDE, &PIVOT_ATTRIBUTES),
+    ]
+}
 
 fn uniform_entry(
     binding: u32,
@@ -69,7 +84,7 @@ fn texture_entry(
 
 /// The bind group layouts shared by all pipelines.
 pub struct Layouts {
-    /// Group 0: frame uniform + joint palette texture.
+    /// Group 0: frame uniform + joint palette texture + morph texture.
     pub frame: wgpu::BindGroupLayout,
     /// Group 1: material uniform + base colour texture + sampler.
     pub material: wgpu::BindGroupLayout,
@@ -85,27 +100,15 @@ impl Layouts {
             label: Some("kloub frame"),
             entries: &[
                 uniform_entry(0, vf, size_of::<FrameUniform>(), false),
-                texture_entry(
-                    1,
-                    wgpu::ShaderStages::VERTEX,
-                    wgpu::TextureSampleType::Float { filterable: false },
-                ),
+                texture_entry(1, wgpu::ShaderStages::VERTEX, wgpu::TextureSampleType::Float { filterable: false }),
+                texture_entry(2, wgpu::ShaderStages::VERTEX, wgpu::TextureSampleType::Float { filterable: false }),
             ],
         });
         let material = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("kloub material"),
             entries: &[
-                uniform_entry(
-                    0,
-                    wgpu::ShaderStages::FRAGMENT,
-                    size_of::<MaterialUniform>(),
-                    false,
-                ),
-                texture_entry(
-                    1,
-                    wgpu::ShaderStages::FRAGMENT,
-                    wgpu::TextureSampleType::Float { filterable: true },
-                ),
+                uniform_entry(0, wgpu::ShaderStages::FRAGMENT, size_of::<MaterialUniform>(), false),
+                texture_entry(1, wgpu::ShaderStages::FRAGMENT, wgpu::TextureSampleType::Float { filterable: true }),
                 wgpu::BindGroupLayoutEntry {
                     binding: 2,
                     visibility: wgpu::ShaderStages::FRAGMENT,
@@ -118,11 +121,7 @@ impl Layouts {
             label: Some("kloub draw"),
             entries: &[uniform_entry(0, vf, size_of::<DrawUniform>(), true)],
         });
-        Self {
-            frame,
-            material,
-            draw,
-        }
+        Self { frame, material, draw }
     }
 }
 
@@ -131,7 +130,7 @@ impl Layouts {
 pub enum VertexPath {
     /// Transformed by the draw's model matrix (`vs_static`).
     Static,
-    /// Linear blend skinning with the palette texture (`vs_skinned`).
+    /// Morphed and skinned with the palette texture (`vs_skinned`).
     Skinned,
 }
 
@@ -185,11 +184,7 @@ fn color_target(blend: bool) -> [Option<wgpu::ColorTargetState>; 1] {
             operation: wgpu::BlendOperation::Add,
         },
     });
-    [Some(wgpu::ColorTargetState {
-        format: COLOR_FORMAT,
-        blend,
-        write_mask: wgpu::ColorWrites::ALL,
-    })]
+    [Some(wgpu::ColorTargetState { format: COLOR_FORMAT, blend, write_mask: wgpu::ColorWrites::ALL })]
 }
 
 impl Pipelines {
@@ -205,11 +200,7 @@ impl Pipelines {
         });
         let mesh_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("kloub mesh"),
-            bind_group_layouts: &[
-                Some(&layouts.frame),
-                Some(&layouts.material),
-                Some(&layouts.draw),
-            ],
+            bind_group_layouts: &[Some(&layouts.frame), Some(&layouts.material), Some(&layouts.draw)],
             immediate_size: 0,
         });
         let env_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -229,10 +220,7 @@ impl Pipelines {
                 },
                 primitive: wgpu::PrimitiveState::default(),
                 depth_stencil: depth,
-                multisample: wgpu::MultisampleState {
-                    count: sample_count,
-                    ..Default::default()
-                },
+                multisample: wgpu::MultisampleState { count: sample_count, ..Default::default() },
                 fragment: Some(wgpu::FragmentState {
                     module: &env_module,
                     entry_point: Some(fs),
@@ -250,21 +238,9 @@ impl Pipelines {
             depth_state(wgpu::CompareFunction::Always, false),
             false,
         );
-        let grid = environment(
-            "kloub grid",
-            "vs_grid",
-            "fs_grid",
-            depth_state(wgpu::CompareFunction::LessEqual, false),
-            true,
-        );
-        Self {
-            sample_count,
-            mesh_module,
-            mesh_layout,
-            background,
-            grid,
-            mesh: HashMap::new(),
-        }
+        let grid =
+            environment("kloub grid", "vs_grid", "fs_grid", depth_state(wgpu::CompareFunction::LessEqual, false), true);
+        Self { sample_count, mesh_module, mesh_layout, background, grid, mesh: HashMap::new() }
     }
 
     /// Builds the mesh pipeline of `key` if it does not exist yet.
@@ -272,27 +248,10 @@ impl Pipelines {
         if self.mesh.contains_key(&key) {
             return;
         }
-        let geometry = wgpu::VertexBufferLayout {
-            array_stride: GEOMETRY_STRIDE,
-            step_mode: wgpu::VertexStepMode::Vertex,
-            attributes: &GEOMETRY_ATTRIBUTES,
-        };
-        let attributes = wgpu::VertexBufferLayout {
-            array_stride: ATTRIBUTE_STRIDE,
-            step_mode: wgpu::VertexStepMode::Vertex,
-            attributes: &ATTRIBUTE_ATTRIBUTES,
-        };
-        let skin = wgpu::VertexBufferLayout {
-            array_stride: SKIN_STRIDE,
-            step_mode: wgpu::VertexStepMode::Vertex,
-            attributes: &SKIN_ATTRIBUTES,
-        };
-        let (entry, buffers) = match key.vertex {
-            VertexPath::Static => ("vs_static", vec![Some(geometry), Some(attributes)]),
-            VertexPath::Skinned => (
-                "vs_skinned",
-                vec![Some(geometry), Some(attributes), Some(skin)],
-            ),
+        let skinned = skinned_buffers();
+        let (entry, buffers): (_, &[_]) = match key.vertex {
+            VertexPath::Static => ("vs_static", &skinned[..2]),
+            VertexPath::Skinned => ("vs_skinned", &skinned[..]),
         };
         let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("kloub mesh"),
@@ -301,23 +260,16 @@ impl Pipelines {
                 module: &self.mesh_module,
                 entry_point: Some(entry),
                 compilation_options: Default::default(),
-                buffers: &buffers,
+                buffers,
             },
             primitive: wgpu::PrimitiveState {
                 topology: key.topology,
-                front_face: if key.mirrored {
-                    wgpu::FrontFace::Cw
-                } else {
-                    wgpu::FrontFace::Ccw
-                },
+                front_face: if key.mirrored { wgpu::FrontFace::Cw } else { wgpu::FrontFace::Ccw },
                 cull_mode: (!key.double_sided).then_some(wgpu::Face::Back),
                 ..Default::default()
             },
             depth_stencil: depth_state(wgpu::CompareFunction::Less, !key.blend),
-            multisample: wgpu::MultisampleState {
-                count: self.sample_count,
-                ..Default::default()
-            },
+            multisample: wgpu::MultisampleState { count: self.sample_count, ..Default::default() },
             fragment: Some(wgpu::FragmentState {
                 module: &self.mesh_module,
                 entry_point: Some("fs_main"),
@@ -328,6 +280,34 @@ impl Pipelines {
             cache: None,
         });
         self.mesh.insert(key, pipeline);
+    }
+
+    /// The capture pipeline: `vs_capture_skinned` over a point list into two
+    /// [`CAPTURE_FORMAT`] targets, single-sampled, no depth.
+    pub fn capture(&self, device: &wgpu::Device) -> wgpu::RenderPipeline {
+        let target =
+            Some(wgpu::ColorTargetState { format: CAPTURE_FORMAT, blend: None, write_mask: wgpu::ColorWrites::ALL });
+        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("kloub capture"),
+            layout: Some(&self.mesh_layout),
+            vertex: wgpu::VertexState {
+                module: &self.mesh_module,
+                entry_point: Some("vs_capture_skinned"),
+                compilation_options: Default::default(),
+                buffers: &skinned_buffers(),
+            },
+            primitive: wgpu::PrimitiveState { topology: wgpu::PrimitiveTopology::PointList, ..Default::default() },
+            depth_stencil: None,
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &self.mesh_module,
+                entry_point: Some("fs_capture"),
+                compilation_options: Default::default(),
+                targets: &[target.clone(), target],
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
     }
 
     /// The mesh pipeline of `key`, if [`Pipelines::prepare`] built it.

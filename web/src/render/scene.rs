@@ -7,17 +7,27 @@ use kloub_core::Instance;
 use kloub_core::asset::{AlphaMode, Asset, Material};
 
 use super::camera::Camera;
-use super::mesh::{GeometryVertex, GpuPrimitive, interleave};
+use kloub_core::job::dqs::SkinningMethod;
+use kloub_core::job::sjb::SjbPlan;
+
+use super::mesh::{GeometryVertex, GpuPrimitive, interleave, pivot_buffer};
+use super::morph::{MorphSlot, MorphTexture};
 use super::palette::PaletteTexture;
 use super::pipelines::{DEPTH_FORMAT, Layouts, PipelineKey, Pipelines, VertexPath, topology};
 use super::texture::{COLOR_FORMAT, SamplerKey, upload_image, white_texture};
 use super::uniforms::{DrawUniform, FrameUniform, Ground, MaterialUniform};
 
+#[cfg(not(target_arch = "wasm32"))]
+mod capture;
+#[cfg(not(target_arch = "wasm32"))]
+pub use capture::CapturedDraw;
+
 /// Where skinned (and morphed) vertices are deformed.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum SkinningPath {
-    /// Linear blend skinning in the vertex shader with the palette texture. Primitives with
-    /// morph targets are still deformed on the CPU (GPU morphing is not implemented yet).
+    /// Morphing and skinning (the instance's method) in the vertex shader, with the palette
+    /// and morph textures. Primitives whose targets do not fit the morph texture are
+    /// deformed on the CPU.
     #[default]
     Gpu,
     /// `kloub_core`'s CPU reference ([`Instance::deform_primitive`]: morph, then skin),
@@ -28,17 +38,8 @@ pub enum SkinningPath {
 /// Sample count to use with `adapter`: 4× MSAA when both the colour and depth formats
 /// support it, else 1.
 pub fn msaa_samples(adapter: &wgpu::Adapter) -> u32 {
-    let supports = |format| {
-        adapter
-            .get_texture_format_features(format)
-            .flags
-            .sample_count_supported(4)
-    };
-    if supports(COLOR_FORMAT) && supports(DEPTH_FORMAT) {
-        4
-    } else {
-        1
-    }
+    let supports = |format| adapter.get_texture_format_features(format).flags.sample_count_supported(4);
+    if supports(COLOR_FORMAT) && supports(DEPTH_FORMAT) { 4 } else { 1 }
 }
 
 /// The render target: resolved colour (sampled by egui, copied by tests), MSAA colour, depth.
@@ -52,11 +53,7 @@ struct Target {
 
 impl Target {
     fn new(device: &wgpu::Device, size: [u32; 2], sample_count: u32) -> Self {
-        let extent = wgpu::Extent3d {
-            width: size[0],
-            height: size[1],
-            depth_or_array_layers: 1,
-        };
+        let extent = wgpu::Extent3d { width: size[0], height: size[1], depth_or_array_layers: 1 };
         let texture = |label, format, samples, usage| {
             device.create_texture(&wgpu::TextureDescriptor {
                 label: Some(label),
@@ -83,13 +80,7 @@ impl Target {
         let depth = texture("kloub scene depth", DEPTH_FORMAT, sample_count, usage)
             .create_view(&wgpu::TextureViewDescriptor::default());
         let view = resolved.create_view(&wgpu::TextureViewDescriptor::default());
-        Self {
-            size,
-            texture: resolved,
-            view,
-            msaa,
-            depth,
-        }
+        Self { size, texture: resolved, view, msaa, depth }
     }
 }
 
@@ -105,6 +96,12 @@ struct DrawItem {
     blend: bool,
     double_sided: bool,
     morphed: bool,
+    /// Where the morph targets are on the GPU (`None`: not morphed, or morphed on the CPU).
+    morph: Option<MorphSlot>,
+    /// Spherical-joint-blend centres per vertex (skinned draws).
+    pivots: Option<wgpu::Buffer>,
+    /// Vertices of `pivots` that fall back to dual quaternions.
+    sjb_fallbacks: usize,
     /// Geometry stream rewritten each frame when deformed on the CPU (created on first use).
     deformed: Option<wgpu::Buffer>,
     /// Set each frame.
@@ -173,9 +170,8 @@ impl SceneRenderer {
         });
         let align = u64::from(device.limits().min_uniform_buffer_offset_alignment).max(1);
         let draw_stride = (size_of::<DrawUniform>() as u64).div_ceil(align) * align;
-        let white =
-            white_texture(device, queue).create_view(&wgpu::TextureViewDescriptor::default());
-        let empty = GpuScene::empty(device, &layouts, &frame_buffer, draw_stride);
+        let white = white_texture(device, queue).create_view(&wgpu::TextureViewDescriptor::default());
+        let empty = GpuScene::empty(device, queue, &layouts, &frame_buffer, draw_stride);
         Self {
             sample_count,
             draw_stride,
@@ -198,20 +194,10 @@ impl SceneRenderer {
     /// Uploads `asset` (meshes of the default scene, materials, textures with mips, a palette
     /// texture sized for all skins) and places the ground under its rest pose. On error the
     /// previous asset stays loaded.
-    pub fn set_asset(
-        &mut self,
-        device: &wgpu::Device,
-        queue: &wgpu::Queue,
-        asset: &Asset,
-    ) -> Result<(), String> {
+    pub fn set_asset(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, asset: &Asset) -> Result<(), String> {
         let mut primitives = Vec::with_capacity(asset.meshes.len());
         for mesh in &asset.meshes {
-            primitives.push(
-                mesh.primitives
-                    .iter()
-                    .map(|p| GpuPrimitive::new(device, p))
-                    .collect::<Vec<_>>(),
-            );
+            primitives.push(mesh.primitives.iter().map(|p| GpuPrimitive::new(device, p)).collect::<Vec<_>>());
         }
         let materials = self.upload_materials(device, queue, asset)?;
         let default_material = materials.len() - 1;
@@ -220,10 +206,8 @@ impl SceneRenderer {
         let mut joints = 0u32;
         for skin in &asset.skins {
             skin_base.push(joints);
-            joints = u32::try_from(skin.joints.len())
-                .ok()
-                .and_then(|n| joints.checked_add(n))
-                .ok_or("too many joints")?;
+            joints =
+                u32::try_from(skin.joints.len()).ok().and_then(|n| joints.checked_add(n)).ok_or("too many joints")?;
         }
         let palette = PaletteTexture::new(device, joints)?;
 
@@ -239,27 +223,24 @@ impl SceneRenderer {
                 continue;
             };
             for (p, primitive) in mesh.primitives.iter().enumerate() {
-                if primitives
-                    .get(mesh_index)
-                    .and_then(|m| m.get(p))
-                    .is_none_or(Option::is_none)
-                {
+                if primitives.get(mesh_index).and_then(|m| m.get(p)).is_none_or(Option::is_none) {
                     continue;
                 }
-                let material_index = primitive
-                    .material
-                    .map(|m| m as usize)
-                    .filter(|&m| m < default_material);
+                let material_index = primitive.material.map(|m| m as usize).filter(|&m| m < default_material);
                 let material = material_index.and_then(|m| asset.materials.get(m));
-                let skin = node
-                    .skin
-                    .map(|s| s as usize)
-                    .filter(|&s| s < asset.skins.len() && primitive.is_skinned());
+                let skin = node.skin.map(|s| s as usize).filter(|&s| s < asset.skins.len() && primitive.is_skinned());
+                let plan = skin.and_then(|s| asset.skins.get(s)).map(|s| {
+                    let parents: Vec<Option<u32>> = asset.nodes.iter().map(|n| n.parent).collect();
+                    SjbPlan::build(s, &parents, &primitive.joints, &primitive.weights)
+                });
                 draws.push(DrawItem {
                     node: node_index,
                     mesh: mesh_index,
                     primitive: p,
                     skin,
+                    morph: None,
+                    pivots: plan.as_ref().map(|plan| pivot_buffer(device, plan, primitive.positions.len())),
+                    sjb_fallbacks: plan.map_or(0, |p| p.fallbacks),
                     material: material_index.unwrap_or(default_material),
                     blend: material.is_some_and(|m| m.alpha == AlphaMode::Blend),
                     double_sided: material.is_some_and(|m| m.double_sided),
@@ -270,17 +251,16 @@ impl SceneRenderer {
                 });
             }
         }
-        let (draw_buffer, draw_bind_group) =
-            draw_resources(device, &self.layouts, draws.len(), self.draw_stride);
-        let frame_bind_group =
-            frame_bind_group(device, &self.layouts, &self.frame_buffer, &palette);
+        let morphs =
+            MorphTexture::new(device, queue, asset, draws.iter().filter(|d| d.morphed).map(|d| (d.mesh, d.primitive)));
+        for draw in &mut draws {
+            draw.morph = morphs.slot(draw.mesh, draw.primitive);
+        }
+        let (draw_buffer, draw_bind_group) = draw_resources(device, &self.layouts, draws.len(), self.draw_stride);
+        let frame_bind_group = frame_bind_group(device, &self.layouts, &self.frame_buffer, &palette, &morphs);
 
         let mut rest = Instance::new(asset);
-        self.ground = match rest
-            .evaluate(asset, None, 0.0)
-            .ok()
-            .and_then(|()| rest.scene_bounds(asset))
-        {
+        self.ground = match rest.evaluate(asset, None, 0.0).ok().and_then(|()| rest.scene_bounds(asset)) {
             Some((min, max)) => Ground::under(min, max),
             None => Ground::default(),
         };
@@ -296,6 +276,23 @@ impl SceneRenderer {
             node_count: asset.nodes.len(),
         });
         Ok(())
+    }
+
+    /// Per skinned draw of the loaded asset: `(mesh, vertices, vertices without a shared joint
+    /// centre)`; the latter are skinned by dual quaternions under spherical joint blending.
+    pub fn sjb_fallbacks(&self) -> Vec<(usize, usize, usize)> {
+        let Some(scene) = &self.scene else {
+            return Vec::new();
+        };
+        scene
+            .draws
+            .iter()
+            .filter(|d| d.skin.is_some())
+            .filter_map(|d| {
+                let gpu = scene.primitives.get(d.mesh)?.get(d.primitive)?.as_ref()?;
+                Some((d.mesh, gpu.vertex_count as usize, d.sjb_fallbacks))
+            })
+            .collect()
     }
 
     /// Drops the loaded asset (the view then shows only the background and grid).
@@ -369,12 +366,7 @@ impl SceneRenderer {
         }
 
         let aspect = size[0] as f32 / size[1] as f32;
-        let frame = FrameUniform::new(
-            camera.view_proj(aspect),
-            camera.eye(),
-            camera.target,
-            &self.ground,
-        );
+        let frame = FrameUniform::new(camera.view_proj(aspect), camera.eye(), camera.target, &self.ground);
         queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&frame));
 
         if let Some(scene) = self.scene.as_mut() {
@@ -397,9 +389,7 @@ impl SceneRenderer {
 
         let target = self.target.as_ref().ok_or("render target missing")?;
         let scene = self.scene.as_ref().unwrap_or(&self.empty);
-        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some("kloub scene"),
-        });
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("kloub scene") });
         {
             let (view, resolve_target) = match &target.msaa {
                 Some(msaa) => (msaa, Some(&target.view)),
@@ -413,19 +403,12 @@ impl SceneRenderer {
                     resolve_target,
                     ops: wgpu::Operations {
                         load: wgpu::LoadOp::Clear(FrameUniform::clear_color()),
-                        store: if resolve_target.is_some() {
-                            wgpu::StoreOp::Discard
-                        } else {
-                            wgpu::StoreOp::Store
-                        },
+                        store: if resolve_target.is_some() { wgpu::StoreOp::Discard } else { wgpu::StoreOp::Store },
                     },
                 })],
                 depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                     view: &target.depth,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(1.0),
-                        store: wgpu::StoreOp::Discard,
-                    }),
+                    depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }),
                     stencil_ops: None,
                 }),
                 timestamp_writes: None,
@@ -436,12 +419,7 @@ impl SceneRenderer {
             pass.set_pipeline(&self.pipelines.background);
             pass.draw(0..3, 0..1);
 
-            let opaque = scene
-                .draws
-                .iter()
-                .enumerate()
-                .filter(|(_, d)| !d.blend)
-                .map(|(i, _)| i);
+            let opaque = scene.draws.iter().enumerate().filter(|(_, d)| !d.blend).map(|(i, _)| i);
             scene.encode(&mut pass, &self.pipelines, opaque, self.draw_stride);
             pass.set_pipeline(&self.pipelines.grid);
             pass.draw(0..6, 0..1);
@@ -462,32 +440,25 @@ impl SceneRenderer {
         let mut images: Vec<Option<wgpu::TextureView>> = vec![None; asset.images.len()];
         for material in &asset.materials {
             if let Some(t) = &material.base_color_texture {
-                let slot = images
-                    .get_mut(t.image as usize)
-                    .ok_or("material references a missing image")?;
+                let slot = images.get_mut(t.image as usize).ok_or("material references a missing image")?;
                 if slot.is_none() {
                     let image = &asset.images[t.image as usize];
                     let label = image.name.as_deref().unwrap_or("kloub image");
-                    let texture = upload_image(device, queue, image, label)
-                        .map_err(|e| format!("image {}: {e}", t.image))?;
+                    let texture =
+                        upload_image(device, queue, image, label).map_err(|e| format!("image {}: {e}", t.image))?;
                     *slot = Some(texture.create_view(&wgpu::TextureViewDescriptor::default()));
                 }
             }
         }
         let default_material = Material::default();
-        let all: Vec<&Material> = asset
-            .materials
-            .iter()
-            .chain(std::iter::once(&default_material))
-            .collect();
+        let all: Vec<&Material> = asset.materials.iter().chain(std::iter::once(&default_material)).collect();
         let align = u64::from(device.limits().min_uniform_buffer_offset_alignment).max(1);
         let stride = (size_of::<MaterialUniform>() as u64).div_ceil(align) * align;
         let mut bytes = vec![0u8; stride as usize * all.len()];
         for (i, material) in all.iter().enumerate() {
             let start = i * stride as usize;
             let uniform = MaterialUniform::new(material);
-            bytes[start..start + size_of::<MaterialUniform>()]
-                .copy_from_slice(bytemuck::bytes_of(&uniform));
+            bytes[start..start + size_of::<MaterialUniform>()].copy_from_slice(bytemuck::bytes_of(&uniform));
         }
         let buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("kloub materials"),
@@ -499,15 +470,10 @@ impl SceneRenderer {
         let mut groups = Vec::with_capacity(all.len());
         for (i, material) in all.iter().enumerate() {
             let texture = material.base_color_texture.as_ref();
-            let view = texture
-                .and_then(|t| images.get(t.image as usize))
-                .and_then(Option::as_ref)
-                .unwrap_or(&self.white);
+            let view =
+                texture.and_then(|t| images.get(t.image as usize)).and_then(Option::as_ref).unwrap_or(&self.white);
             let key = SamplerKey::of(texture);
-            let sampler = self
-                .samplers
-                .entry(key)
-                .or_insert_with(|| key.create(device));
+            let sampler = self.samplers.entry(key).or_insert_with(|| key.create(device));
             groups.push(device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: material.name.as_deref(),
                 layout: &self.layouts.material,
@@ -520,14 +486,8 @@ impl SceneRenderer {
                             size: wgpu::BufferSize::new(size_of::<MaterialUniform>() as u64),
                         }),
                     },
-                    wgpu::BindGroupEntry {
-                        binding: 1,
-                        resource: wgpu::BindingResource::TextureView(view),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 2,
-                        resource: wgpu::BindingResource::Sampler(sampler),
-                    },
+                    wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(view) },
+                    wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::Sampler(sampler) },
                 ],
             }));
         }
@@ -568,29 +528,26 @@ fn frame_bind_group(
     layouts: &Layouts,
     frame: &wgpu::Buffer,
     palette: &PaletteTexture,
+    morphs: &MorphTexture,
 ) -> wgpu::BindGroup {
     device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("kloub frame"),
         layout: &layouts.frame,
         entries: &[
-            wgpu::BindGroupEntry {
-                binding: 0,
-                resource: frame.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 1,
-                resource: wgpu::BindingResource::TextureView(palette.view()),
-            },
+            wgpu::BindGroupEntry { binding: 0, resource: frame.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(palette.view()) },
+            wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(morphs.view()) },
         ],
     })
 }
 
 impl GpuScene {
     /// A scene with nothing to draw (background and grid only).
-    fn empty(device: &wgpu::Device, layouts: &Layouts, frame: &wgpu::Buffer, stride: u64) -> Self {
+    fn empty(device: &wgpu::Device, queue: &wgpu::Queue, layouts: &Layouts, frame: &wgpu::Buffer, stride: u64) -> Self {
         let palette = PaletteTexture::with_rows(device, 1);
+        let morphs = MorphTexture::empty(device, queue);
         let (draw_buffer, draw_bind_group) = draw_resources(device, layouts, 0, stride);
-        let frame_bind_group = frame_bind_group(device, layouts, frame, &palette);
+        let frame_bind_group = frame_bind_group(device, layouts, frame, &palette, &morphs);
         Self {
             primitives: Vec::new(),
             materials: Vec::new(),
@@ -606,10 +563,7 @@ impl GpuScene {
 
     /// Uploads this frame's palette and draw uniforms, deforms CPU-path primitives, picks
     /// each draw's pipeline and orders the blended draws back to front.
-    #[expect(
-        clippy::too_many_arguments,
-        reason = "one call site; the pieces are disjoint borrows of the renderer"
-    )]
+    #[expect(clippy::too_many_arguments, reason = "one call site; the pieces are disjoint borrows of the renderer")]
     fn prepare(
         &mut self,
         device: &wgpu::Device,
@@ -625,12 +579,13 @@ impl GpuScene {
             || asset.skins.len() != self.skin_base.len()
             || instance.worlds().len() != self.node_count
         {
-            return Err(
-                "the asset or instance does not match the one uploaded with set_asset".into(),
-            );
+            return Err("the asset or instance does not match the one uploaded with set_asset".into());
         }
+        let method = instance.skinning();
+        let dual = matches!(method, SkinningMethod::DualQuaternion | SkinningMethod::SphericalJointBlend);
         for (skin, &base) in self.skin_base.iter().enumerate() {
-            self.palette.set(base, instance.palette(skin))?;
+            let dqs = dual.then(|| instance.joint_dqs(skin));
+            self.palette.set(base, instance.palette(skin), dqs)?;
         }
         if !self.skin_base.is_empty() {
             self.palette.upload(queue);
@@ -638,43 +593,27 @@ impl GpuScene {
 
         let eye = camera.eye();
         scratch.draw_bytes.clear();
-        scratch
-            .draw_bytes
-            .resize(stride as usize * self.draws.len(), 0);
+        scratch.draw_bytes.resize(stride as usize * self.draws.len(), 0);
         scratch.blend_order.clear();
         for (i, draw) in self.draws.iter_mut().enumerate() {
-            let primitive = self
-                .primitives
-                .get(draw.mesh)
-                .and_then(|m| m.get(draw.primitive))
-                .and_then(Option::as_ref);
-            let (Some(gpu), Some(source)) = (
-                primitive,
-                asset
-                    .meshes
-                    .get(draw.mesh)
-                    .and_then(|m| m.primitives.get(draw.primitive)),
-            ) else {
+            let primitive = self.primitives.get(draw.mesh).and_then(|m| m.get(draw.primitive)).and_then(Option::as_ref);
+            let (Some(gpu), Some(source)) =
+                (primitive, asset.meshes.get(draw.mesh).and_then(|m| m.primitives.get(draw.primitive)))
+            else {
                 draw.key = None;
                 continue;
             };
             let world = instance.worlds()[draw.node as usize];
-            draw.on_cpu = draw.morphed || (draw.skin.is_some() && path == SkinningPath::Cpu);
+            let deforms = draw.morphed || draw.skin.is_some();
+            draw.on_cpu = (deforms && path == SkinningPath::Cpu) || (draw.morphed && draw.morph.is_none());
+            let morph = |u: DrawUniform| match draw.morph {
+                Some(slot) => u.with_morph(slot, instance.node_weights(asset, draw.node)),
+                None => u,
+            };
             let (uniform, vertex, mirrored) = if draw.on_cpu {
                 instance
-                    .deform_primitive(
-                        asset,
-                        draw.node,
-                        draw.primitive,
-                        &mut scratch.positions,
-                        &mut scratch.normals,
-                    )
-                    .map_err(|e| {
-                        format!(
-                            "deforming node {} primitive {}: {e}",
-                            draw.node, draw.primitive
-                        )
-                    })?;
+                    .deform_primitive(asset, draw.node, draw.primitive, &mut scratch.positions, &mut scratch.normals)
+                    .map_err(|e| format!("deforming node {} primitive {}: {e}", draw.node, draw.primitive))?;
                 if scratch.positions.len() != gpu.vertex_count as usize {
                     return Err(format!(
                         "node {} primitive {}: deformed vertex count differs",
@@ -682,33 +621,22 @@ impl GpuScene {
                     ));
                 }
                 interleave(&scratch.positions, &scratch.normals, &mut scratch.geometry);
-                let buffer = draw
-                    .deformed
-                    .get_or_insert_with(|| gpu.deform_buffer(device));
+                let buffer = draw.deformed.get_or_insert_with(|| gpu.deform_buffer(device));
                 queue.write_buffer(buffer, 0, bytemuck::cast_slice(&scratch.geometry));
                 let has_normals = scratch.normals.len() == scratch.positions.len();
-                (
-                    DrawUniform::new(Mat4::IDENTITY, 0, has_normals),
-                    VertexPath::Static,
-                    false,
-                )
+                (DrawUniform::new(Mat4::IDENTITY, 0, has_normals), VertexPath::Static, false)
             } else if let Some(skin) = draw.skin {
                 let base = self.skin_base[skin];
                 (
-                    DrawUniform::new(Mat4::IDENTITY, base, gpu.has_normals),
+                    morph(DrawUniform::new(Mat4::IDENTITY, base, gpu.has_normals).with_skinning(method)),
                     VertexPath::Skinned,
                     false,
                 )
             } else {
-                (
-                    DrawUniform::new(world, 0, gpu.has_normals),
-                    VertexPath::Static,
-                    world.determinant() < 0.0,
-                )
+                (morph(DrawUniform::new(world, 0, gpu.has_normals)), VertexPath::Static, world.determinant() < 0.0)
             };
             let start = i * stride as usize;
-            scratch.draw_bytes[start..start + size_of::<DrawUniform>()]
-                .copy_from_slice(bytemuck::bytes_of(&uniform));
+            scratch.draw_bytes[start..start + size_of::<DrawUniform>()].copy_from_slice(bytemuck::bytes_of(&uniform));
             draw.key = Some(PipelineKey {
                 vertex,
                 topology: topology(source.topology),
@@ -719,9 +647,7 @@ impl GpuScene {
             if draw.blend {
                 let (min, max) = source.bounds;
                 let center = world.transform_point3(0.5 * (Vec3::from(min) + Vec3::from(max)));
-                scratch
-                    .blend_order
-                    .push((-(center - eye).length_squared(), i));
+                scratch.blend_order.push((-(center - eye).length_squared(), i));
             }
         }
         scratch.blend_order.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -746,22 +672,14 @@ impl GpuScene {
             let Some(pipeline) = draw.key.as_ref().and_then(|k| pipelines.mesh(k)) else {
                 continue;
             };
-            let Some(gpu) = self
-                .primitives
-                .get(draw.mesh)
-                .and_then(|m| m.get(draw.primitive))
-                .and_then(Option::as_ref)
+            let Some(gpu) = self.primitives.get(draw.mesh).and_then(|m| m.get(draw.primitive)).and_then(Option::as_ref)
             else {
                 continue;
             };
             let Some(material) = self.materials.get(draw.material) else {
                 continue;
             };
-            let geometry = if draw.on_cpu {
-                draw.deformed.as_ref()
-            } else {
-                Some(&gpu.geometry)
-            };
+            let geometry = if draw.on_cpu { draw.deformed.as_ref() } else { Some(&gpu.geometry) };
             let Some(geometry) = geometry else { continue };
             pass.set_pipeline(pipeline);
             pass.set_bind_group(1, material, &[]);
@@ -770,8 +688,11 @@ impl GpuScene {
             pass.set_vertex_buffer(0, geometry.slice(..));
             pass.set_vertex_buffer(1, gpu.attributes.slice(..));
             if draw.key.is_some_and(|k| k.vertex == VertexPath::Skinned) {
-                let Some(skin) = &gpu.skin else { continue };
+                let (Some(skin), Some(pivots)) = (&gpu.skin, &draw.pivots) else {
+                    continue;
+                };
                 pass.set_vertex_buffer(2, skin.slice(..));
+                pass.set_vertex_buffer(3, pivots.slice(..));
             }
             pass.set_index_buffer(gpu.indices.slice(..), wgpu::IndexFormat::Uint32);
             pass.draw_indexed(0..gpu.index_count, 0, 0..1);

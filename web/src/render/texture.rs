@@ -19,20 +19,12 @@ pub struct MipLevel {
 
 fn srgb_to_linear(c: u8) -> f32 {
     let c = f32::from(c) / 255.0;
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
+    if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
 }
 
 fn linear_to_srgb(c: f32) -> u8 {
     let c = c.clamp(0.0, 1.0);
-    let s = if c <= 0.003_130_8 {
-        c * 12.92
-    } else {
-        1.055 * c.powf(1.0 / 2.4) - 0.055
-    };
+    let s = if c <= 0.003_130_8 { c * 12.92 } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 };
     // In 0..=255 after the clamp above, so the cast cannot truncate.
     (s * 255.0 + 0.5) as u8
 }
@@ -46,12 +38,7 @@ fn downsample(level: &MipLevel, to_linear: &[f32; 256]) -> MipLevel {
     for y in 0..nh {
         for x in 0..nw {
             let mut sum = [0.0f32; 4];
-            for (sx, sy) in [
-                (2 * x, 2 * y),
-                (2 * x + 1, 2 * y),
-                (2 * x, 2 * y + 1),
-                (2 * x + 1, 2 * y + 1),
-            ] {
+            for (sx, sy) in [(2 * x, 2 * y), (2 * x + 1, 2 * y), (2 * x, 2 * y + 1), (2 * x + 1, 2 * y + 1)] {
                 let i = (sy.min(h - 1) * w + sx.min(w - 1)) * 4;
                 for c in 0..3 {
                     sum[c] += to_linear[usize::from(level.rgba8[i + c])];
@@ -66,11 +53,7 @@ fn downsample(level: &MipLevel, to_linear: &[f32; 256]) -> MipLevel {
             rgba8[o + 3] = (sum[3] * 0.25 + 0.5) as u8;
         }
     }
-    MipLevel {
-        width: nw as u32,
-        height: nh as u32,
-        rgba8,
-    }
+    MipLevel { width: nw as u32, height: nh as u32, rgba8 }
 }
 
 /// The full mip chain of `image` down to 1×1, skipping the levels larger than `max_size`
@@ -91,11 +74,7 @@ pub fn mip_chain(image: &Image, max_size: u32) -> Result<Vec<MipLevel>, String> 
         *v = srgb_to_linear(i as u8);
     }
     let mut levels = Vec::new();
-    let mut level = MipLevel {
-        width: image.width,
-        height: image.height,
-        rgba8: image.rgba8.clone(),
-    };
+    let mut level = MipLevel { width: image.width, height: image.height, rgba8: image.rgba8.clone() };
     loop {
         let next = (level.width > 1 || level.height > 1).then(|| downsample(&level, &to_linear));
         if level.width <= max_size && level.height <= max_size {
@@ -118,16 +97,10 @@ pub fn upload_image(
 ) -> Result<wgpu::Texture, String> {
     let max = device.limits().max_texture_dimension_2d;
     let levels = mip_chain(image, max)?;
-    let first = levels
-        .first()
-        .ok_or("image has no level that fits the device")?;
+    let first = levels.first().ok_or("image has no level that fits the device")?;
     let texture = device.create_texture(&wgpu::TextureDescriptor {
         label: Some(label),
-        size: wgpu::Extent3d {
-            width: first.width,
-            height: first.height,
-            depth_or_array_layers: 1,
-        },
+        size: wgpu::Extent3d { width: first.width, height: first.height, depth_or_array_layers: 1 },
         mip_level_count: levels.len() as u32,
         sample_count: 1,
         dimension: wgpu::TextureDimension::D2,
@@ -156,11 +129,7 @@ pub fn write_level(queue: &wgpu::Queue, texture: &wgpu::Texture, mip: u32, level
             bytes_per_row: Some(level.width * 4),
             rows_per_image: Some(level.height),
         },
-        wgpu::Extent3d {
-            width: level.width,
-            height: level.height,
-            depth_or_array_layers: 1,
-        },
+        wgpu::Extent3d { width: level.width, height: level.height, depth_or_array_layers: 1 },
     );
 }
 
@@ -168,11 +137,7 @@ pub fn write_level(queue: &wgpu::Queue, texture: &wgpu::Texture, mip: u32, level
 pub fn white_texture(device: &wgpu::Device, queue: &wgpu::Queue) -> wgpu::Texture {
     let texture = device.create_texture(&wgpu::TextureDescriptor {
         label: Some("kloub white"),
-        size: wgpu::Extent3d {
-            width: 1,
-            height: 1,
-            depth_or_array_layers: 1,
-        },
+        size: wgpu::Extent3d { width: 1, height: 1, depth_or_array_layers: 1 },
         mip_level_count: 1,
         sample_count: 1,
         dimension: wgpu::TextureDimension::D2,
@@ -180,16 +145,7 @@ pub fn white_texture(device: &wgpu::Device, queue: &wgpu::Queue) -> wgpu::Textur
         usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
         view_formats: &[],
     });
-    write_level(
-        queue,
-        &texture,
-        0,
-        &MipLevel {
-            width: 1,
-            height: 1,
-            rgba8: vec![255; 4],
-        },
-    );
+    write_level(queue, &texture, 0, &MipLevel { width: 1, height: 1, rgba8: vec![255; 4] });
     texture
 }
 
@@ -205,36 +161,19 @@ pub struct SamplerKey {
 impl SamplerKey {
     /// The key of a material's texture reference; linear repeat when there is none.
     pub fn of(texture: Option<&TextureRef>) -> Self {
-        texture.map_or(
-            Self {
-                repeat: [true; 2],
-                nearest: false,
-            },
-            |t| Self {
-                repeat: t.repeat,
-                nearest: t.nearest,
-            },
-        )
+        texture.map_or(Self { repeat: [true; 2], nearest: false }, |t| Self { repeat: t.repeat, nearest: t.nearest })
     }
 
     /// Creates the sampler (trilinear minification).
     pub fn create(&self, device: &wgpu::Device) -> wgpu::Sampler {
         let mode = |repeat: bool| {
-            if repeat {
-                wgpu::AddressMode::Repeat
-            } else {
-                wgpu::AddressMode::ClampToEdge
-            }
+            if repeat { wgpu::AddressMode::Repeat } else { wgpu::AddressMode::ClampToEdge }
         };
         device.create_sampler(&wgpu::SamplerDescriptor {
             label: Some("kloub base colour"),
             address_mode_u: mode(self.repeat[0]),
             address_mode_v: mode(self.repeat[1]),
-            mag_filter: if self.nearest {
-                wgpu::FilterMode::Nearest
-            } else {
-                wgpu::FilterMode::Linear
-            },
+            mag_filter: if self.nearest { wgpu::FilterMode::Nearest } else { wgpu::FilterMode::Linear },
             min_filter: wgpu::FilterMode::Linear,
             mipmap_filter: wgpu::MipmapFilterMode::Linear,
             ..Default::default()
@@ -255,12 +194,7 @@ mod tests {
                 rgba8.extend_from_slice(&[v, v, v, 255]);
             }
         }
-        let image = Image {
-            name: None,
-            width: 3,
-            height: 2,
-            rgba8,
-        };
+        let image = Image { name: None, width: 3, height: 2, rgba8 };
         let chain = mip_chain(&image, 4096).expect("valid image");
         let sizes: Vec<(u32, u32)> = chain.iter().map(|l| (l.width, l.height)).collect();
         assert_eq!(sizes, vec![(3, 2), (1, 1)]);
@@ -272,20 +206,10 @@ mod tests {
 
     #[test]
     fn oversized_levels_are_skipped_and_bad_sizes_refused() {
-        let image = Image {
-            name: None,
-            width: 8,
-            height: 2,
-            rgba8: vec![128; 8 * 2 * 4],
-        };
+        let image = Image { name: None, width: 8, height: 2, rgba8: vec![128; 8 * 2 * 4] };
         let chain = mip_chain(&image, 4).expect("valid image");
         assert_eq!((chain[0].width, chain[0].height), (4, 1));
-        let bad = Image {
-            name: None,
-            width: 8,
-            height: 2,
-            rgba8: vec![0; 3],
-        };
+        let bad = Image { name: None, width: 8, height: 2, rgba8: vec![0; 3] };
         assert!(mip_chain(&bad, 4096).is_err());
     }
 

@@ -4,6 +4,9 @@
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3};
 use kloub_core::asset::{AlphaMode, Material};
+use kloub_core::job::dqs::SkinningMethod;
+
+use super::morph::MorphSlot;
 
 /// `Frame` in mesh.wgsl and environment.wgsl.
 #[repr(C)]
@@ -45,11 +48,7 @@ pub struct Ground {
 impl Ground {
     /// Ground under the box `min..max`.
     pub fn under(min: Vec3, max: Vec3) -> Self {
-        Self {
-            height: min.y,
-            radius: (0.5 * (max - min).length()).max(1e-3),
-            center: 0.5 * (min + max),
-        }
+        Self { height: min.y, radius: (0.5 * (max - min).length()).max(1e-3), center: 0.5 * (min + max) }
     }
 
     /// Grid cell size: a power of ten, about a tenth of the scene radius or finer.
@@ -60,11 +59,7 @@ impl Ground {
 
 impl Default for Ground {
     fn default() -> Self {
-        Self {
-            height: 0.0,
-            radius: 1.0,
-            center: Vec3::ZERO,
-        }
+        Self { height: 0.0, radius: 1.0, center: Vec3::ZERO }
     }
 }
 
@@ -135,10 +130,7 @@ const MATERIAL_ALPHA_BLEND: u32 = 4;
 impl MaterialUniform {
     /// The uniform of a glTF material.
     pub fn new(material: &Material) -> Self {
-        let uv = material
-            .base_color_texture
-            .map(|t| t.transform.matrix())
-            .unwrap_or(glam::Mat3::IDENTITY);
+        let uv = material.base_color_texture.map(|t| t.transform.matrix()).unwrap_or(glam::Mat3::IDENTITY);
         let (mut flags, cutoff) = match material.alpha {
             AlphaMode::Opaque => (0, 0.0),
             AlphaMode::Mask(cutoff) => (MATERIAL_ALPHA_MASK, cutoff),
@@ -166,33 +158,61 @@ pub struct DrawUniform {
     pub model: [[f32; 4]; 4],
     /// Inverse transpose of `model`.
     pub normal_matrix: [[f32; 4]; 4],
-    /// First palette joint, flags.
+    /// First palette joint, flags, skinning method, capture target size.
     pub params: [u32; 4],
+    /// Morph slot: first texel, target count, vertex count, normal deltas.
+    pub morph: [u32; 4],
+    /// Morph weights, four per element.
+    pub weights: [[f32; 4]; 16],
 }
 
 /// `DRAW_HAS_NORMALS` in mesh.wgsl.
 const DRAW_HAS_NORMALS: u32 = 1;
 
+/// The `SKIN_*` constant of mesh.wgsl for `method`.
+pub fn skin_code(method: SkinningMethod) -> u32 {
+    match method {
+        SkinningMethod::Rigid => 0,
+        SkinningMethod::Linear => 1,
+        SkinningMethod::DualQuaternion => 2,
+        SkinningMethod::SphericalJointBlend => 3,
+    }
+}
+
 impl DrawUniform {
     /// A draw with object-to-world `model`, its skin's first palette joint, and whether its
-    /// vertices carry normals.
+    /// vertices carry normals (no morphing, linear blend skinning).
     pub fn new(model: Mat4, joint_base: u32, has_normals: bool) -> Self {
         let normal = model.inverse().transpose();
-        let normal = if normal.is_finite() {
-            normal
-        } else {
-            Mat4::IDENTITY
-        };
+        let normal = if normal.is_finite() { normal } else { Mat4::IDENTITY };
         Self {
             model: model.to_cols_array_2d(),
             normal_matrix: normal.to_cols_array_2d(),
-            params: [
-                joint_base,
-                if has_normals { DRAW_HAS_NORMALS } else { 0 },
-                0,
-                0,
-            ],
+            params: [joint_base, if has_normals { DRAW_HAS_NORMALS } else { 0 }, skin_code(SkinningMethod::Linear), 0],
+            morph: [0; 4],
+            weights: [[0.0; 4]; 16],
         }
+    }
+
+    /// Skins with `method` in the vertex shader.
+    pub fn with_skinning(mut self, method: SkinningMethod) -> Self {
+        self.params[2] = skin_code(method);
+        self
+    }
+
+    /// Applies the morph targets in `slot` with `weights` (extra weights are ignored).
+    pub fn with_morph(mut self, slot: MorphSlot, weights: &[f32]) -> Self {
+        self.morph = [slot.base, slot.targets, slot.vertices, u32::from(slot.normals)];
+        for (i, &w) in weights.iter().take(slot.targets as usize).take(64).enumerate() {
+            self.weights[i / 4][i % 4] = w;
+        }
+        self
+    }
+
+    /// Places vertex `i` of a capture draw on pixel `(i % width, i / width)`.
+    pub fn with_capture_size(mut self, width: u32, height: u32) -> Self {
+        self.params[3] = (width & 0xffff) | (height << 16);
+        self
     }
 }
 
@@ -202,11 +222,7 @@ mod tests {
 
     #[test]
     fn sizes_are_multiples_of_16() {
-        for size in [
-            size_of::<FrameUniform>(),
-            size_of::<MaterialUniform>(),
-            size_of::<DrawUniform>(),
-        ] {
+        for size in [size_of::<FrameUniform>(), size_of::<MaterialUniform>(), size_of::<DrawUniform>()] {
             assert_eq!(size % 16, 0);
         }
     }

@@ -1,0 +1,185 @@
+//! Readback of the GPU vertex stage (native only): the skinned draws run through the same
+//! `skinned()` WGSL function as `vs_skinned`, but each vertex is drawn as one point on its
+//! own pixel of two `rgba32uint` targets holding its world position and unit normal. This
+//! is how the tests compare GPU skinning with `kloub_core`'s CPU reference without transform
+//! feedback, on every backend wgpu has.
+
+use kloub_core::{Asset, Instance};
+
+use super::super::camera::Camera;
+use super::super::pipelines::CAPTURE_FORMAT;
+use super::super::uniforms::DrawUniform;
+use super::{SceneRenderer, SkinningPath};
+
+/// Capture targets are at most this wide.
+const CAPTURE_WIDTH: u32 = 1024;
+
+/// One skinned draw as the vertex shader deformed it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CapturedDraw {
+    /// Node instancing the mesh.
+    pub node: u32,
+    /// Mesh index.
+    pub mesh: usize,
+    /// Primitive index within the mesh.
+    pub primitive: usize,
+    /// World-space positions, one per vertex.
+    pub positions: Vec<[f32; 3]>,
+    /// Unit normals (zero where the vertex has none).
+    pub normals: Vec<[f32; 3]>,
+}
+
+impl SceneRenderer {
+    /// Deforms every skinned draw of the loaded asset on the GPU with `instance`'s skinning
+    /// method (morph targets included) and reads the vertices back. Blocks until the GPU is
+    /// done. Draws that this renderer deforms on the CPU are left out.
+    pub fn capture_skinned(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        asset: &Asset,
+        instance: &mut Instance,
+    ) -> Result<Vec<CapturedDraw>, String> {
+        let Some(scene) = self.scene.as_mut() else {
+            return Ok(Vec::new());
+        };
+        scene.prepare(
+            device,
+            queue,
+            asset,
+            instance,
+            &Camera::default(),
+            SkinningPath::Gpu,
+            self.draw_stride,
+            &mut self.scratch,
+        )?;
+        let pipeline = self.pipelines.capture(device);
+        let params = std::mem::offset_of!(DrawUniform, params);
+        let mut captures = Vec::new();
+        for (i, draw) in scene.draws.iter().enumerate() {
+            if draw.skin.is_none() || draw.on_cpu {
+                continue;
+            }
+            let Some(gpu) =
+                scene.primitives.get(draw.mesh).and_then(|m| m.get(draw.primitive)).and_then(Option::as_ref)
+            else {
+                continue;
+            };
+            let (Some(skin), Some(pivots), Some(material)) =
+                (&gpu.skin, &draw.pivots, scene.materials.get(draw.material))
+            else {
+                continue;
+            };
+            let count = gpu.vertex_count;
+            let width = count.clamp(1, CAPTURE_WIDTH);
+            let height = count.div_ceil(width).max(1);
+            let start = i * self.draw_stride as usize + params + 12;
+            let size = (width & 0xffff) | (height << 16);
+            self.scratch.draw_bytes[start..start + 4].copy_from_slice(&size.to_ne_bytes());
+            queue.write_buffer(&scene.draw_buffer, 0, &self.scratch.draw_bytes);
+
+            let target = |label| {
+                device.create_texture(&wgpu::TextureDescriptor {
+                    label: Some(label),
+                    size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format: CAPTURE_FORMAT,
+                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+                    view_formats: &[],
+                })
+            };
+            let targets = [target("kloub capture positions"), target("kloub capture normals")];
+            let views = targets.each_ref().map(|t| t.create_view(&wgpu::TextureViewDescriptor::default()));
+            let mut encoder =
+                device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("kloub capture") });
+            {
+                let attachment = |view| {
+                    Some(wgpu::RenderPassColorAttachment {
+                        view,
+                        depth_slice: None,
+                        resolve_target: None,
+                        ops: wgpu::Operations {
+                            load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                            store: wgpu::StoreOp::Store,
+                        },
+                    })
+                };
+                let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some("kloub capture"),
+                    color_attachments: &[attachment(&views[0]), attachment(&views[1])],
+                    depth_stencil_attachment: None,
+                    timestamp_writes: None,
+                    occlusion_query_set: None,
+                    multiview_mask: None,
+                });
+                pass.set_pipeline(&pipeline);
+                pass.set_bind_group(0, &scene.frame_bind_group, &[]);
+                pass.set_bind_group(1, material, &[]);
+                pass.set_bind_group(2, &scene.draw_bind_group, &[(i as u64 * self.draw_stride) as u32]);
+                pass.set_vertex_buffer(0, gpu.geometry.slice(..));
+                pass.set_vertex_buffer(1, gpu.attributes.slice(..));
+                pass.set_vertex_buffer(2, skin.slice(..));
+                pass.set_vertex_buffer(3, pivots.slice(..));
+                pass.draw(0..count, 0..1);
+            }
+            queue.submit([encoder.finish()]);
+            let [positions, normals] = targets.each_ref().map(|t| read_texels(device, queue, t));
+            let (positions, normals) = (positions?, normals?);
+            captures.push(CapturedDraw {
+                node: draw.node,
+                mesh: draw.mesh,
+                primitive: draw.primitive,
+                positions: positions.into_iter().take(count as usize).collect(),
+                normals: normals.into_iter().take(count as usize).collect(),
+            });
+        }
+        Ok(captures)
+    }
+}
+
+/// The xyz of every texel of a capture texture (float bits in `rgba32uint`), row-major.
+fn read_texels(device: &wgpu::Device, queue: &wgpu::Queue, texture: &wgpu::Texture) -> Result<Vec<[f32; 3]>, String> {
+    let (width, height) = (texture.width(), texture.height());
+    let row = width * 16;
+    let padded = row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("kloub capture readback"),
+        size: u64::from(padded) * u64::from(height),
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    let mut encoder =
+        device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("kloub capture readback") });
+    encoder.copy_texture_to_buffer(
+        texture.as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer: &buffer,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(padded),
+                rows_per_image: Some(height),
+            },
+        },
+        texture.size(),
+    );
+    queue.submit([encoder.finish()]);
+    let (sender, receiver) = std::sync::mpsc::channel();
+    buffer.map_async(wgpu::MapMode::Read, .., move |result| {
+        // The receiver waits below; a send error only means it is gone.
+        let _ = sender.send(result);
+    });
+    device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| format!("device poll: {e}"))?;
+    receiver.recv().map_err(|e| format!("capture readback: {e}"))?.map_err(|e| format!("capture readback map: {e}"))?;
+    let mut out = Vec::with_capacity((width * height) as usize);
+    {
+        let mapped = buffer.get_mapped_range(..).map_err(|e| format!("capture readback range: {e}"))?;
+        for chunk in mapped.chunks_exact(padded as usize).take(height as usize) {
+            let texels: &[[u32; 4]] = bytemuck::cast_slice(&chunk[..row as usize]);
+            out.extend(texels.iter().map(|t| t.map(f32::from_bits)).map(|t| [t[0], t[1], t[2]]));
+        }
+    }
+    buffer.unmap();
+    Ok(out)
+}
