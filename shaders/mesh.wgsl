@@ -44,7 +44,8 @@ struct Material {
 }
 
 struct Draw {
-    // Object to world (static path); identity for vertices already in world space.
+    // Object to world (static path); for vertices already in world space (skinned, CPU
+    // deformed) the placement of the character's copy (identity for the first).
     model: mat4x4<f32>,
     // Inverse transpose of `model` (upper 3x3 used).
     normal_matrix: mat4x4<f32>,
@@ -346,10 +347,14 @@ fn skinned(g: GeometryIn, s: SkinIn) -> Vertex {
     }
 }
 
+/// Skinned vertices are in world space; `draw.model` places a copy of the character (a
+/// translation; the identity for the first).
 @vertex
 fn vs_skinned(g: GeometryIn, s: SkinIn) -> VsOut {
     let v = skinned(g, s);
-    return finish(v.position, v.normal, g);
+    let world = draw.model * vec4<f32>(v.position, 1.0);
+    let normal = (draw.normal_matrix * vec4<f32>(v.normal, 0.0)).xyz;
+    return finish(world.xyz, normal, g);
 }
 
 /// Readback of the vertex stage (tests, CPU/GPU comparison): vertex `i` of a point-list draw

@@ -172,7 +172,7 @@ fn cylinder() -> Primitive {
         [1.0 - w1, w1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
     };
     let color = |x: f32, k: usize| {
-        let stripe = if (k / 4).is_multiple_of(2) { 1.0 } else { 0.35 };
+        let stripe = if (k / 4).is_multiple_of(2) { 1.0 } else { 0.15 };
         let base = if x < 0.0 { [0.95, 0.55, 0.2] } else { [0.25, 0.6, 0.95] };
         [base[0] * stripe, base[1] * stripe, base[2] * stripe, 1.0]
     };

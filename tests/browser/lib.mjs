@@ -59,10 +59,10 @@ export function pageUrl(base, backend) {
   return backend === 'webgl2' ? `${base}/?backend=gl` : `${base}/`;
 }
 
-/** Waits until `predicate(document.body.dataset)` holds (evaluated in the page). */
-export async function waitForDataset(page, predicate, what, timeout = 60000) {
+/** Waits until `predicate(arg)` holds (evaluated in the page); on timeout the error shows the dataset. */
+export async function waitForDataset(page, predicate, what, timeout = 60000, arg = null) {
   try {
-    await page.waitForFunction(predicate, null, { timeout, polling: 100 });
+    await page.waitForFunction(predicate, arg, { timeout, polling: 100 });
   } catch (e) {
     const ds = await page.evaluate(() => ({ ...document.body.dataset }));
     throw new Error(`timed out waiting for ${what}; dataset = ${JSON.stringify(ds)}`);

@@ -129,6 +129,38 @@ for (const backend of BACKENDS) {
     await waitForDataset(page, () => document.body.dataset.layer === '', 'the layer to be removed');
   });
 
+  test(`${backend}: the candy wrapper shows LBS collapse and DQS/SJB keeping volume, on GPU and CPU`, async (ctx) => {
+    const { page } = ctx;
+    await openApp(ctx, backend);
+    await control(page, 'loadSample', 'candy-wrapper');
+    // The sample starts still (posed by its sliders): it paints only on change, so no frame wait here.
+    await waitForDataset(page, () => document.body.dataset.model === 'Candy wrapper', 'the candy-wrapper sample');
+    await control(page, 'setCandyPose', 150, 0);
+    const shots = {};
+    for (const method of ['lbs', 'dqs', 'sjb']) {
+      await control(page, 'setSkinning', method);
+      await waitForDataset(page, () => document.body.dataset.quality !== '', 'the quality readout');
+      await waitForDataset(page, (m) => document.body.dataset.skinning === m, `skinning ${method}`, 30000, method);
+      await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
+      const radius = Number((await dataset(page)).quality.split(',')[0]);
+      if (method === 'lbs') assert(Math.abs(radius - 0.259) < 0.01, `LBS keeps ${radius} of the radius at 150°`);
+      else assert(radius > 0.99, `${method} keeps ${radius} of the radius at 150°`);
+      shots[method] = await viewportShot(page);
+      savePng(shots[method], `${backend}-candy-${method}.png`);
+    }
+    const changed = diffFraction(shots.lbs, shots.dqs);
+    assert(changed > 0.004, `switching LBS to DQS changed only ${(changed * 100).toFixed(3)}% of the viewport`);
+    await control(page, 'setSkinningPath', 'cpu');
+    await waitForDataset(page, () => document.body.dataset.skinningPath === 'cpu', 'the CPU path', 30000);
+    await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
+    const cpu = await viewportShot(page);
+    const gpuVsCpu = diffFraction(shots.sjb, cpu);
+    assert(gpuVsCpu < 0.001, `SJB on the GPU and on the CPU differ in ${(gpuVsCpu * 100).toFixed(3)}% of the viewport`);
+    let threw = false;
+    try { await control(page, 'setSkinning', 'vsp'); } catch { threw = true; }
+    assert(threw, 'an unknown skinning method did not throw');
+  });
+
   test(`${backend}: a broken file shows an error and keeps the previous model`, async (ctx) => {
     await openApp(ctx, backend);
     await dropFiles(ctx.page, [{ path: FOX }]);

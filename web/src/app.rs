@@ -10,7 +10,10 @@ use kloub_core::clip::Clip;
 use kloub_core::player::{LoopMode, Player};
 use kloub_core::{Animator, Asset, Instance, Warning};
 
+use kloub_core::job::dqs::SkinningMethod;
+
 use crate::backend::backend_name;
+use crate::candy::{CandyPanel, Sample};
 use crate::control::{Command, Controls};
 use crate::dom::{Dataset, Key};
 use crate::load::{self, Inbox, LoadedModel};
@@ -91,7 +94,22 @@ pub struct Model {
     pub blend_weights: Vec<f32>,
     /// The layer panel's settings.
     pub layer: LayerDraft,
+    /// The candy-wrapper sample's sliders and readout, when this model is that sample.
+    pub candy: Option<CandyPanel>,
+    /// Extra copies of the character in a grid (seed 000 demo 05): each plays what the main
+    /// one plays, [`COPY_TIME_STEP`] later than the previous.
+    pub copies: Vec<(Animator, Instance)>,
+    /// Grid cell size: the larger horizontal extent of the framed bounds, plus a margin.
+    pub copy_spacing: f32,
+    /// World bounds the camera frames (animated, one copy).
+    pub bounds: Option<(Vec3, Vec3)>,
 }
+
+/// Most copies of the character the grid shows.
+pub const MAX_COPIES: usize = 100;
+
+/// Time offset between neighbouring copies, in seconds.
+pub const COPY_TIME_STEP: f32 = 0.37;
 
 /// Frames sampled across a clip to frame the camera on the animated (skinned) bounds.
 const FIT_SAMPLES: u32 = 8;
@@ -140,6 +158,10 @@ impl Model {
             in_joint_tree,
             blend_weights,
             layer,
+            candy: None,
+            copies: Vec::new(),
+            copy_spacing: 1.0,
+            bounds: None,
         })
     }
 
@@ -180,7 +202,75 @@ impl Model {
     /// # Errors
     /// The job error (not expected for an asset the importer accepted).
     pub fn evaluate(&mut self) -> Result<(), String> {
-        self.animator.evaluate(&self.asset, &mut self.instance).map_err(|e| e.to_string())
+        self.animator.evaluate(&self.asset, &mut self.instance).map_err(|e| e.to_string())?;
+        for (animator, instance) in &mut self.copies {
+            animator.evaluate(&self.asset, instance).map_err(|e| e.to_string())?;
+        }
+        if let Some(candy) = &mut self.candy {
+            candy.apply(&mut self.instance)?;
+            for (_, instance) in &mut self.copies {
+                candy.apply(instance)?;
+            }
+            candy.update_quality(self.instance.pose());
+        }
+        Ok(())
+    }
+
+    /// Number of characters shown (the main one plus its copies).
+    pub fn copy_count(&self) -> usize {
+        1 + self.copies.len()
+    }
+
+    /// Shows `n` characters (clamped to 1..=[`MAX_COPIES`]).
+    pub fn set_copies(&mut self, n: usize) {
+        let n = n.clamp(1, MAX_COPIES);
+        self.copies.truncate(n - 1);
+        self.copies.reserve(n - 1 - self.copies.len());
+        while self.copies.len() < n - 1 {
+            self.copies.push((self.animator.clone(), self.instance.clone()));
+        }
+        self.sync_copies();
+    }
+
+    /// Makes every copy play what the main character plays (clips, crossfade, layers, speed,
+    /// skinning method), copy `c` offset by `c ·` [`COPY_TIME_STEP`].
+    pub fn sync_copies(&mut self) {
+        for (c, (animator, instance)) in self.copies.iter_mut().enumerate() {
+            animator.clone_from(&self.animator);
+            let offset = (c + 1) as f32 * COPY_TIME_STEP;
+            let asset = &self.asset;
+            let shift = |player: &mut Player| {
+                let d = player.duration(asset);
+                if d > 0.0 && player.time.is_finite() {
+                    player.time = (player.time + offset).rem_euclid(d);
+                }
+            };
+            animator.tracks_mut().iter_mut().for_each(|t| shift(&mut t.player));
+            animator.layers_mut().iter_mut().for_each(|l| shift(&mut l.player));
+            instance.set_skinning(asset, self.instance.skinning());
+        }
+    }
+
+    /// Where copy `c` stands: a square grid centred on the main character's place.
+    pub fn copy_offset(&self, c: usize) -> Vec3 {
+        let n = self.copy_count();
+        let columns = (n as f32).sqrt().ceil().max(1.0) as usize;
+        let rows = n.div_ceil(columns);
+        let (column, row) = (c % columns, c / columns);
+        let centre = |i: usize, count: usize| (i as f32 - (count - 1) as f32 / 2.0) * self.copy_spacing;
+        Vec3::new(centre(column, columns), 0.0, centre(row, rows))
+    }
+
+    /// The bounds of every copy together (for framing the camera).
+    pub fn grid_bounds(&self) -> Option<(Vec3, Vec3)> {
+        let (min, max) = self.bounds?;
+        let (mut lo, mut hi) = (min, max);
+        for c in 0..self.copy_count() {
+            let o = self.copy_offset(c);
+            lo = lo.min(min + o);
+            hi = hi.max(max + o);
+        }
+        Some((lo, hi))
     }
 
     /// Plays `clip` (`None`: rest pose) as a click in the clip list does: crossfades with
@@ -199,6 +289,10 @@ impl Model {
             self.animator.play(&self.asset, clip)
         };
         result.map_err(|e| e.to_string())?;
+        if let Some(candy) = &mut self.candy {
+            // A clip takes over from the sliders.
+            candy.manual = clip.is_none();
+        }
         self.blend_weights.iter_mut().for_each(|w| *w = 0.0);
         if let Some(w) = clip.and_then(|c| self.blend_weights.get_mut(c)) {
             *w = 1.0;
@@ -319,6 +413,9 @@ impl Model {
     pub fn advance(&mut self, dt: f32) {
         let dt = if self.is_animating() { dt } else { 0.0 };
         self.animator.advance(&self.asset, dt);
+        for (animator, _) in &mut self.copies {
+            animator.advance(&self.asset, dt);
+        }
     }
 
     /// `dataset.layer`: `"CLIP@ROOT:WEIGHT"` (weight with two decimals), `""` without a layer.
@@ -438,6 +535,21 @@ pub struct App {
     dataset: Dataset,
     frames: u64,
     fps: Fps,
+    /// The skinning method every model is shown with.
+    skinning: SkinningMethod,
+    /// Smoothed CPU time per stage.
+    stages: ui::StageTimes,
+}
+
+/// Exponential smoothing of a per-frame figure (a first value is taken as is).
+fn smooth(mean: f32, value: f32) -> f32 {
+    if !value.is_finite() {
+        mean
+    } else if mean > 0.0 {
+        mean * 0.9 + value * 0.1
+    } else {
+        value
+    }
 }
 
 /// The largest frame step the clock takes (a background tab resumes without a jump).
@@ -474,6 +586,8 @@ impl App {
             dataset: Dataset::default(),
             frames: 0,
             fps: Fps::default(),
+            skinning: SkinningMethod::default(),
+            stages: ui::StageTimes::default(),
         };
         app.controls.set_repaint(cc.egui_ctx.clone());
         app.dataset.set(Key::Backend, backend);
@@ -515,7 +629,7 @@ impl App {
     fn receive(&mut self) {
         for delivery in self.inbox.take() {
             self.pending = self.pending.saturating_sub(1);
-            let result = delivery.files.and_then(load::import_files).and_then(|m| self.install(m));
+            let result = delivery.files.and_then(load::import_files).and_then(|m| self.install(m, None));
             match result {
                 Ok(()) => {
                     self.status = Status::Ready;
@@ -530,16 +644,26 @@ impl App {
         }
     }
 
-    /// Makes `loaded` the shown model, playing its first clip; on error nothing changes.
-    fn install(&mut self, loaded: LoadedModel) -> Result<(), String> {
-        let clip = if loaded.asset.clips.is_empty() { None } else { Some(0) };
+    /// Makes `loaded` the shown model, playing its first clip (a sample starts posed by its
+    /// sliders instead); on error nothing changes.
+    fn install(&mut self, loaded: LoadedModel, candy: Option<CandyPanel>) -> Result<(), String> {
+        let clip = if loaded.asset.clips.is_empty() || candy.is_some() { None } else { Some(0) };
         let mut model = Model::new(loaded, clip)?;
+        model.instance.set_skinning(&model.asset, self.skinning);
+        model.candy = candy;
+        let copies = self.model.as_ref().map_or(1, Model::copy_count);
         let bounds = model.animated_bounds(clip);
+        model.bounds = bounds;
+        if let Some((min, max)) = bounds {
+            let extent = max - min;
+            model.copy_spacing = (extent.x.max(extent.z) * 1.25).max(1e-3);
+        }
         model.evaluate().map_err(|e| format!("{}: {e}", model.name))?;
+        model.set_copies(copies);
         self.scene
             .set_asset(&self.gpu.device, &self.gpu.queue, &model.asset)
             .map_err(|e| format!("{}: {e}", model.name))?;
-        if let Some((min, max)) = bounds {
+        if let Some((min, max)) = model.grid_bounds() {
             self.camera.frame_to_fit(min, max);
         }
         log::info!(
@@ -582,8 +706,47 @@ impl App {
 
     /// Applies one command to the shown model (the side panel's actions go through here too).
     fn apply(&mut self, command: Command) -> Result<(), String> {
+        match command {
+            Command::SetSkinning(method) => {
+                self.skinning = method;
+                if let Some(model) = &mut self.model {
+                    model.instance.set_skinning(&model.asset, method);
+                    model.sync_copies();
+                }
+                return Ok(());
+            }
+            Command::SetSkinningPath(path) => {
+                self.scene.set_skinning_path(path);
+                return Ok(());
+            }
+            Command::LoadSample(Sample::CandyWrapper) => {
+                let panel = CandyPanel::new();
+                let loaded = panel.model();
+                self.install(loaded, Some(panel))?;
+                self.status = Status::Ready;
+                self.last_error.clear();
+                self.error_window = None;
+                return Ok(());
+            }
+            _ => {}
+        }
         let Some(model) = &mut self.model else { return Ok(()) };
         match command {
+            Command::SetSkinning(_) | Command::SetSkinningPath(_) | Command::LoadSample(_) => {}
+            Command::SetCopies(n) => {
+                model.set_copies(n);
+                if let Some((min, max)) = model.grid_bounds() {
+                    self.camera.frame_to_fit(min, max);
+                }
+            }
+            Command::SetCandyPose { twist, bend } => {
+                if let Some(candy) = &mut model.candy {
+                    candy.twist = twist.clamp(-360.0, 360.0);
+                    candy.bend = bend.clamp(-180.0, 180.0);
+                    candy.manual = true;
+                    model.set_playing(false);
+                }
+            }
             Command::Play => model.set_playing(true),
             Command::Pause => model.set_playing(false),
             Command::PlayClip(clip) => model.play_clip(clip, self.transition)?,
@@ -615,13 +778,19 @@ impl App {
                 model.apply_blend()?;
             }
         }
+        if !model.copies.is_empty() {
+            model.sync_copies();
+        }
         Ok(())
     }
 
     /// Evaluates the pose for this frame.
     fn evaluate(&mut self) {
         let Some(model) = &mut self.model else { return };
-        if let Err(e) = model.evaluate() {
+        let started = web_time::Instant::now();
+        let result = model.evaluate();
+        self.stages.animate = smooth(self.stages.animate, started.elapsed().as_secs_f32() * 1000.0);
+        if let Err(e) = result {
             // Fall back to the rest pose so the error is reported once, not every frame.
             let message = format!("{}: cannot play {:?}: {e}", model.name, model.clip_name(model.animator.main().clip));
             model.animator = Animator::new(&model.asset);
@@ -673,11 +842,26 @@ impl App {
         let ppp = ui.ctx().pixels_per_point();
         let size = [(rect.width() * ppp).round() as u32, (rect.height() * ppp).round() as u32];
         let gpu = &self.gpu;
-        let rendered =
-            self.scene.render(&gpu.device, &gpu.queue, &model.asset, &mut model.instance, &self.camera, size);
+        let offsets: Vec<Vec3> = (0..model.copy_count()).map(|c| model.copy_offset(c)).collect();
+        let mut instances: Vec<&mut Instance> =
+            std::iter::once(&mut model.instance).chain(model.copies.iter_mut().map(|(_, i)| i)).collect();
+        let rendered = self.scene.render_copies(
+            &gpu.device,
+            &gpu.queue,
+            &model.asset,
+            &mut instances,
+            &offsets,
+            &self.camera,
+            size,
+        );
+        // A cheap handle clone, so the renderer can be asked for its times and target version.
+        let rendered = rendered.cloned();
+        let times = self.scene.times();
+        self.stages.cpu_skin = smooth(self.stages.cpu_skin, times.cpu_skin_ms);
+        self.stages.upload = smooth(self.stages.upload, times.upload_ms);
+        self.stages.draw = smooth(self.stages.draw, times.draw_ms);
         let view = match rendered {
-            // A cheap handle clone, so the renderer can be asked for its target version.
-            Ok(view) => view.clone(),
+            Ok(view) => view,
             Err(e) => {
                 // Unreachable with an asset the renderer accepted; drop it rather than fail every frame.
                 let message = format!("{}: cannot draw: {e}", model.name);
@@ -776,6 +960,15 @@ impl App {
         let fade = model.and_then(|m| m.animator.crossfade());
         d.set(Key::Crossfade, &fade.map_or(String::new(), |f| format!("{:.2}", f.weight)));
         d.set(Key::Layer, &model.map_or(String::new(), Model::layer_summary));
+        d.set(Key::Skinning, self.skinning.name());
+        d.set(Key::SkinningPath, self.scene.skinning_path().name());
+        let quality = model.and_then(|m| m.candy.as_ref()).and_then(|c| {
+            let i = SkinningMethod::ALL.iter().position(|&m| m == self.skinning)?;
+            let q = c.quality[i];
+            Some(format!("{:.3},{:.3}", q.radius_kept, q.volume_ratio))
+        });
+        d.set(Key::Quality, quality.as_deref().unwrap_or(""));
+        d.set(Key::Copies, &model.map_or(String::new(), |m| m.copy_count().to_string()));
         d.set(Key::Frames, &self.frames.to_string());
     }
 }
@@ -797,10 +990,16 @@ impl eframe::App for App {
 
         // Frames are painted on demand: a rate means something only while the model moves.
         let animating = self.model.as_ref().is_some_and(Model::is_animating);
+        let sjb_fallbacks =
+            if self.skinning == SkinningMethod::SphericalJointBlend { self.scene.sjb_fallbacks() } else { Vec::new() };
         let state = ui::PanelState {
             loading: self.status == Status::Loading,
             backend: self.backend,
             fps: animating.then(|| self.fps.fps()),
+            stages: self.stages,
+            skinning: self.skinning,
+            skinning_path: self.scene.skinning_path(),
+            sjb_fallbacks: &sjb_fallbacks,
         };
         let actions = egui::Panel::left("controls")
             .resizable(true)
@@ -818,6 +1017,9 @@ impl eframe::App for App {
         if let Some(model) = &mut self.model {
             let result = if actions.layer_changed { model.sync_layer() } else { Ok(()) };
             let result = result.and_then(|()| if actions.blend_changed { model.apply_blend() } else { Ok(()) });
+            if actions.layer_changed || actions.blend_changed {
+                model.sync_copies();
+            }
             if let Err(message) = result {
                 self.fail(message);
             }

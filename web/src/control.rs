@@ -10,7 +10,14 @@
 use std::cell::RefCell;
 use std::rc::Rc;
 
+use kloub_core::job::dqs::SkinningMethod;
 use kloub_core::player::LoopMode;
+
+use crate::candy::Sample;
+use crate::render::SkinningPath;
+
+/// The generation of commands that apply whatever model is shown (or none).
+const ANY_MODEL: u64 = u64::MAX;
 
 /// One request from the page, with names already resolved to indices of the shown model.
 #[derive(Clone, Debug, PartialEq)]
@@ -47,6 +54,22 @@ pub enum Command {
     },
     /// A weighted blend of clips as the base (clip index, weight).
     SetBlend(Vec<(usize, f32)>),
+    /// How skinned vertices follow their joints (kept across models).
+    SetSkinning(SkinningMethod),
+    /// Where vertices are deformed (kept across models).
+    SetSkinningPath(SkinningPath),
+    /// Shows a built-in sample.
+    LoadSample(Sample),
+    /// Shows this many characters in a grid (1 ..= [`crate::app::MAX_COPIES`]), each
+    /// [`crate::app::COPY_TIME_STEP`] seconds later than the previous.
+    SetCopies(usize),
+    /// Poses the candy-wrapper sample by its sliders: twist and bend in degrees.
+    SetCandyPose {
+        /// Twist about the bone axis.
+        twist: f32,
+        /// Bend about Z.
+        bend: f32,
+    },
 }
 
 /// What the app published about the shown model, and the queue.
@@ -104,6 +127,19 @@ impl Controls {
         })
     }
 
+    /// Queues a command that does not depend on the shown model (skinning settings, samples):
+    /// it survives a model change.
+    pub fn send_global(&self, command: Command) {
+        let repaint = {
+            let mut shared = self.0.borrow_mut();
+            shared.queue.push((ANY_MODEL, command));
+            shared.repaint.clone()
+        };
+        if let Some(ctx) = repaint {
+            ctx.request_repaint();
+        }
+    }
+
     /// Index of the first node named `name` in the shown model.
     ///
     /// # Errors
@@ -127,7 +163,7 @@ impl Controls {
     pub(crate) fn publish(&self, clips: Vec<String>, nodes: Vec<Option<String>>) {
         let mut shared = self.0.borrow_mut();
         shared.generation += 1;
-        shared.queue.clear();
+        shared.queue.retain(|(g, _)| *g == ANY_MODEL);
         shared.clips = clips;
         shared.nodes = nodes;
     }
@@ -137,11 +173,16 @@ impl Controls {
         self.0.borrow_mut().repaint = Some(ctx);
     }
 
-    /// The app's side: takes the commands queued for the current model, in order.
+    /// The app's side: takes the commands queued for the current model (and the global ones),
+    /// in order.
     pub(crate) fn take(&self) -> Vec<Command> {
         let mut shared = self.0.borrow_mut();
         let generation = shared.generation;
-        std::mem::take(&mut shared.queue).into_iter().filter(|(g, _)| *g == generation).map(|(_, c)| c).collect()
+        std::mem::take(&mut shared.queue)
+            .into_iter()
+            .filter(|(g, _)| *g == generation || *g == ANY_MODEL)
+            .map(|(_, c)| c)
+            .collect()
     }
 }
 

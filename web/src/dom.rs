@@ -28,11 +28,20 @@ pub enum Key {
     Crossfade,
     /// The layer as `"CLIP@ROOT:WEIGHT"`; `""` without a layer.
     Layer,
+    /// The skinning method: `"rigid"` | `"lbs"` | `"dqs"` | `"sjb"`.
+    Skinning,
+    /// Where vertices are deformed: `"gpu"` | `"cpu"`.
+    SkinningPath,
+    /// The candy-wrapper sample's quality under the current method, `"RADIUS,VOLUME"` (radius
+    /// kept at the joint and volume ratio to rest, three decimals); `""` for other models.
+    Quality,
+    /// Characters shown (the model and its copies), a decimal integer; `""` without a model.
+    Copies,
 }
 
 impl Key {
     /// Every key, in a fixed order.
-    pub const ALL: [Key; 12] = [
+    pub const ALL: [Key; 16] = [
         Key::Backend,
         Key::Status,
         Key::Model,
@@ -45,6 +54,10 @@ impl Key {
         Key::Playing,
         Key::Crossfade,
         Key::Layer,
+        Key::Skinning,
+        Key::SkinningPath,
+        Key::Quality,
+        Key::Copies,
     ];
 
     /// The dataset property name (`dataset.<name>` in JS).
@@ -62,6 +75,10 @@ impl Key {
             Key::Playing => "playing",
             Key::Crossfade => "crossfade",
             Key::Layer => "layer",
+            Key::Skinning => "skinning",
+            Key::SkinningPath => "skinningPath",
+            Key::Quality => "quality",
+            Key::Copies => "copies",
         }
     }
 }

@@ -6,8 +6,12 @@ use wasm_bindgen::prelude::*;
 
 use crate::app::{App, AppConfig};
 use crate::backend::BackendChoice;
+use kloub_core::job::dqs::SkinningMethod;
+
+use crate::candy::Sample;
 use crate::control::{Command, Controls, parse_loop_mode};
 use crate::dom::{self, Key};
+use crate::render::SkinningPath;
 
 /// Starts the viewer on the `<canvas>` with id `canvas_id`.
 ///
@@ -126,6 +130,55 @@ impl Viewer {
             blend.push((self.controls.clip_index(name).map_err(|e| JsValue::from_str(&e))?, weight));
         }
         self.controls.send(Command::SetBlend(blend));
+        Ok(())
+    }
+
+    /// Skinning method: `"rigid"`, `"lbs"` (linear blend), `"dqs"` (dual quaternion) or `"sjb"`
+    /// (spherical joint blending). Kept across models.
+    #[wasm_bindgen(js_name = setSkinning)]
+    pub fn set_skinning(&self, method: &str) -> Result<(), JsValue> {
+        let method = SkinningMethod::from_name(method).ok_or_else(|| {
+            JsValue::from_str(&format!("skinning {method:?}: expected \"rigid\", \"lbs\", \"dqs\" or \"sjb\""))
+        })?;
+        self.controls.send_global(Command::SetSkinning(method));
+        Ok(())
+    }
+
+    /// Where vertices are deformed: `"gpu"` (vertex shader) or `"cpu"` (kloub_core's
+    /// reference, uploaded every frame). Kept across models.
+    #[wasm_bindgen(js_name = setSkinningPath)]
+    pub fn set_skinning_path(&self, path: &str) -> Result<(), JsValue> {
+        let path = SkinningPath::from_name(path).map_err(|e| JsValue::from_str(&e))?;
+        self.controls.send_global(Command::SetSkinningPath(path));
+        Ok(())
+    }
+
+    /// Shows `n` characters in a grid (1 to 100), each playing 0.37 s later than the previous.
+    /// Kept across models.
+    #[wasm_bindgen(js_name = setCopies)]
+    pub fn set_copies(&self, n: u32) -> Result<(), JsValue> {
+        if !(1..=crate::app::MAX_COPIES as u32).contains(&n) {
+            return Err(JsValue::from_str(&format!("setCopies: {n} copies: expected 1 to {}", crate::app::MAX_COPIES)));
+        }
+        self.controls.send(Command::SetCopies(n as usize));
+        Ok(())
+    }
+
+    /// Shows a built-in sample: `"candy-wrapper"`.
+    #[wasm_bindgen(js_name = loadSample)]
+    pub fn load_sample(&self, name: &str) -> Result<(), JsValue> {
+        let sample = Sample::from_name(name).map_err(|e| JsValue::from_str(&e))?;
+        self.controls.send_global(Command::LoadSample(sample));
+        Ok(())
+    }
+
+    /// Poses the candy-wrapper sample: `twist` about the bone axis and `bend`, in degrees.
+    #[wasm_bindgen(js_name = setCandyPose)]
+    pub fn set_candy_pose(&self, twist: f32, bend: f32) -> Result<(), JsValue> {
+        if !(twist.is_finite() && bend.is_finite()) {
+            return Err(JsValue::from_str("setCandyPose: angles must be finite numbers"));
+        }
+        self.controls.send(Command::SetCandyPose { twist, bend });
         Ok(())
     }
 

@@ -11,6 +11,7 @@
 
 pub mod app;
 pub mod backend;
+pub mod candy;
 pub mod control;
 pub mod dom;
 #[cfg(target_arch = "wasm32")]

@@ -8,11 +8,14 @@
 use egui::{Color32, Sense, Stroke, pos2, vec2};
 use kloub_core::animator::{Crossfade, Easing, Outgoing};
 use kloub_core::asset::NodeIndex;
+use kloub_core::job::dqs::SkinningMethod;
 use kloub_core::job::sample::RotationLerp;
 use kloub_core::player::LoopMode;
 
-use crate::app::Model;
+use crate::app::{MAX_COPIES, Model};
+use crate::candy::{CandyPanel, Sample, TABLE_BENDS};
 use crate::control::Command;
+use crate::render::SkinningPath;
 
 /// Read-only facts the panel shows.
 pub struct PanelState<'a> {
@@ -22,6 +25,28 @@ pub struct PanelState<'a> {
     pub backend: &'a str,
     /// Smoothed frames per second while animating (`None`: idle, painting only on input).
     pub fps: Option<f32>,
+    /// Smoothed CPU time per stage.
+    pub stages: StageTimes,
+    /// The skinning method.
+    pub skinning: SkinningMethod,
+    /// Where vertices are deformed.
+    pub skinning_path: SkinningPath,
+    /// Under spherical joint blending: `(mesh, vertices, vertices falling back to DQS)` per
+    /// skinned draw.
+    pub sjb_fallbacks: &'a [(usize, usize, usize)],
+}
+
+/// Smoothed CPU milliseconds per frame of each stage (the GPU's own time is not included).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StageTimes {
+    /// Clocks, sampling, blending, world matrices and skin palettes of every copy.
+    pub animate: f32,
+    /// Deforming vertices on the CPU (the CPU path, or morphs too large for the GPU).
+    pub cpu_skin: f32,
+    /// Writing palettes, uniforms and CPU-deformed vertices to the GPU.
+    pub upload: f32,
+    /// Recording and submitting the draws.
+    pub draw: f32,
 }
 
 /// Panel state that lives across frames and models.
@@ -59,7 +84,19 @@ pub fn side_panel(
 ) -> PanelActions {
     let mut actions = PanelActions::default();
     ui.add_space(6.0);
-    ui.heading("Kloub");
+    ui.horizontal(|ui| {
+        ui.heading("Kloub");
+        ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
+            ui.menu_button("Samples", |ui| {
+                for sample in Sample::ALL {
+                    if ui.button(sample.label()).clicked() {
+                        actions.commands.push(Command::LoadSample(sample));
+                        ui.close();
+                    }
+                }
+            });
+        });
+    });
     ui.horizontal(|ui| {
         match &model {
             Some(model) => ui.strong(&model.name),
@@ -85,6 +122,15 @@ pub fn side_panel(
                 layer_panel(ui, model, &mut actions);
                 ui.separator();
             }
+            if let Some(candy) = &model.candy {
+                candy_panel(ui, candy, state.skinning, &mut actions);
+                ui.separator();
+            }
+            if model.asset.skins.iter().any(|s| !s.joints.is_empty()) {
+                skinning_panel(ui, state, &mut actions);
+                ui.separator();
+            }
+            copies_control(ui, model, &mut actions);
             if ui.button("Frame model").on_hover_text("Or double-click the viewport").clicked() {
                 actions.frame = true;
             }
@@ -105,10 +151,21 @@ fn stats(ui: &mut egui::Ui, state: &PanelState<'_>) {
         ui.end_row();
         ui.label("FPS");
         match state.fps {
-            Some(fps) => ui.monospace(format!("{fps:.0}")),
+            Some(fps) => ui.monospace(format!("{fps:.0}  ({:.1} ms)", 1000.0 / fps.max(1e-3))),
             None => ui.weak("idle"),
         };
         ui.end_row();
+        let s = state.stages;
+        for (name, ms, hint) in [
+            ("animate", s.animate, "Sample, blend, world matrices and skin palettes (all copies)"),
+            ("CPU skin", s.cpu_skin, "Morphing and skinning on the CPU"),
+            ("upload", s.upload, "Palettes, uniforms and CPU-deformed vertices written to the GPU"),
+            ("draw", s.draw, "Recording and submitting the render pass"),
+        ] {
+            ui.label(name).on_hover_text(hint);
+            ui.monospace(format!("{ms:.3} ms"));
+            ui.end_row();
+        }
     });
     ui.separator();
     ui.weak("Drop a .glb (or a .gltf with its .bin and textures) onto the page to open it.");
@@ -186,6 +243,121 @@ fn transition_settings(ui: &mut egui::Ui, model: &Model, transition: &mut Crossf
                 fade.weight * 100.0
             )));
         }
+    });
+}
+
+fn method_label(method: SkinningMethod) -> &'static str {
+    match method {
+        SkinningMethod::Rigid => "Rigid (strongest joint)",
+        SkinningMethod::Linear => "Linear blend (LBS)",
+        SkinningMethod::DualQuaternion => "Dual quaternion (DQS)",
+        SkinningMethod::SphericalJointBlend => "Spherical joint blend (SJB)",
+    }
+}
+
+fn method_hint(method: SkinningMethod) -> &'static str {
+    match method {
+        SkinningMethod::Rigid => "Each vertex follows its strongest joint only: rigid parts, cracks at joints",
+        SkinningMethod::Linear => {
+            "Blends the joint matrices: the glTF reference; collapses under twist, loses volume when bent"
+        }
+        SkinningMethod::DualQuaternion => {
+            "Blends rigid transforms as dual quaternions: keeps volume under twist and bend"
+        }
+        SkinningMethod::SphericalJointBlend => {
+            "Rotates vertices about their shared joint centre (Hejl); vertices whose joints share no centre use DQS"
+        }
+    }
+}
+
+/// Skinning method and path, and SJB's fallback count.
+fn skinning_panel(ui: &mut egui::Ui, state: &PanelState<'_>, actions: &mut PanelActions) {
+    ui.strong("Skinning");
+    egui::ComboBox::from_id_salt("skinning method").selected_text(method_label(state.skinning)).show_ui(ui, |ui| {
+        for method in SkinningMethod::ALL {
+            let response = ui.selectable_label(state.skinning == method, method_label(method));
+            if response.on_hover_text(method_hint(method)).clicked() && state.skinning != method {
+                actions.commands.push(Command::SetSkinning(method));
+            }
+        }
+    });
+    ui.horizontal(|ui| {
+        for path in SkinningPath::ALL {
+            if ui.radio(state.skinning_path == path, path.label()).clicked() && state.skinning_path != path {
+                actions.commands.push(Command::SetSkinningPath(path));
+            }
+        }
+    });
+    if state.skinning == SkinningMethod::SphericalJointBlend {
+        let (vertices, fallbacks) =
+            state.sjb_fallbacks.iter().fold((0, 0), |(v, f), &(_, vertices, fallbacks)| (v + vertices, f + fallbacks));
+        ui.label(format!("{fallbacks} of {vertices} vertices share no joint centre and use DQS"))
+            .on_hover_text(sjb_breakdown(state.sjb_fallbacks));
+    }
+}
+
+/// How many characters the grid shows.
+fn copies_control(ui: &mut egui::Ui, model: &Model, actions: &mut PanelActions) {
+    let mut copies = model.copy_count();
+    let response = ui
+        .add(egui::Slider::new(&mut copies, 1..=MAX_COPIES).logarithmic(true).text("copies"))
+        .on_hover_text("Characters in a grid, each playing a little later than the previous (stress test)");
+    if response.changed() {
+        actions.commands.push(Command::SetCopies(copies));
+    }
+}
+
+fn sjb_breakdown(draws: &[(usize, usize, usize)]) -> String {
+    let lines: Vec<String> =
+        draws.iter().map(|(mesh, vertices, fallbacks)| format!("mesh {mesh}: {fallbacks} of {vertices}")).collect();
+    lines.join("\n")
+}
+
+/// The candy-wrapper sample: twist and bend sliders, quality per method, the volume table.
+fn candy_panel(ui: &mut egui::Ui, candy: &CandyPanel, current: SkinningMethod, actions: &mut PanelActions) {
+    ui.strong("Candy wrapper");
+    let (mut twist, mut bend) = (candy.twist, candy.bend);
+    let twisted = ui.add(egui::Slider::new(&mut twist, -180.0..=180.0).suffix("°").text("twist")).changed();
+    let bent = ui.add(egui::Slider::new(&mut bend, 0.0..=150.0).suffix("°").text("bend")).changed();
+    if twisted || bent || (!candy.manual && ui.button("Pose by sliders").clicked()) {
+        actions.commands.push(Command::SetCandyPose { twist, bend });
+    }
+    if !candy.manual {
+        ui.weak("A clip poses the rig; move a slider to take over.");
+    }
+    egui::Grid::new("candy quality").striped(true).show(ui, |ui| {
+        ui.label("method");
+        ui.label("radius at joint")
+            .on_hover_text("Mean distance of the joint's cross-section from its centre, over the rest radius");
+        ui.label("volume").on_hover_text("Enclosed volume over the rest volume");
+        ui.end_row();
+        for (method, q) in SkinningMethod::ALL.into_iter().zip(&candy.quality) {
+            let name = method.name().to_uppercase();
+            if method == current {
+                ui.strong(name)
+            } else {
+                ui.label(name)
+            };
+            ui.label(format!("{:.0}%", q.radius_kept * 100.0));
+            ui.label(format!("{:.1}%", q.volume_ratio * 100.0));
+            ui.end_row();
+        }
+    });
+    egui::CollapsingHeader::new("Volume under bend").id_salt("candy volume table").show(ui, |ui| {
+        egui::Grid::new("candy volume").striped(true).show(ui, |ui| {
+            ui.label("bend");
+            for method in SkinningMethod::ALL {
+                ui.label(method.name().to_uppercase());
+            }
+            ui.end_row();
+            for (bend, row) in TABLE_BENDS.iter().zip(&candy.volume_table) {
+                ui.label(format!("{bend:.0}°"));
+                for v in row {
+                    ui.label(format!("{:.1}%", v * 100.0));
+                }
+                ui.end_row();
+            }
+        });
     });
 }
 

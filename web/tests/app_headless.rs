@@ -356,3 +356,94 @@ fn a_layer_moves_the_subtree_under_its_root_only() {
     h.step(0.016, Vec::new());
     assert_eq!(h.get(Key::Layer), "");
 }
+
+/// The candy-wrapper sample from the page controls: LBS pinches it at 150° twist, DQS and SJB
+/// keep its radius, the quality readout follows the method, the picture changes, and the
+/// method and path survive loading another model.
+#[test]
+fn candy_wrapper_sample_compares_skinning_methods() {
+    use kloub_core::job::dqs::SkinningMethod;
+    use kloub_web::candy::Sample;
+    use kloub_web::render::SkinningPath;
+
+    let mut h = Harness::new();
+    let controls = h.app.controls().clone();
+    controls.send_global(Command::LoadSample(Sample::CandyWrapper));
+    h.step(0.016, Vec::new());
+    assert_eq!(h.get(Key::Model), "Candy wrapper");
+    assert_eq!(h.get(Key::Clips), r#"["Twist","Bend"]"#);
+    controls.send(Command::SetCandyPose { twist: 150.0, bend: 0.0 });
+    h.step(0.016, Vec::new());
+    let lbs = h.step(0.016, Vec::new());
+    assert_eq!(h.get(Key::Skinning), "lbs");
+    let radius = |h: &Harness| -> f32 {
+        let q = h.get(Key::Quality);
+        q.split(',').next().and_then(|r| r.parse().ok()).unwrap_or_else(|| panic!("quality {q:?}"))
+    };
+    assert!((radius(&h) - 0.259).abs() < 0.01, "LBS radius at 150°: {}", h.get(Key::Quality));
+
+    let mut pictures = vec![lbs];
+    for method in [SkinningMethod::DualQuaternion, SkinningMethod::SphericalJointBlend] {
+        controls.send_global(Command::SetSkinning(method));
+        h.step(0.016, Vec::new());
+        pictures.push(h.step(0.016, Vec::new()));
+        assert_eq!(h.get(Key::Skinning), method.name());
+        assert!(radius(&h) > 0.99, "{}: {}", method.name(), h.get(Key::Quality));
+    }
+    save(&pictures[0], "candy-lbs.png");
+    save(&pictures[1], "candy-dqs.png");
+    let changed = changed_pixels(&pictures[0], &pictures[1], (280, 40, SIZE[0], SIZE[1] - 40));
+    assert!(changed > 200, "switching LBS → DQS changed only {changed} pixels");
+
+    // The CPU path draws the same picture as the GPU one.
+    controls.send_global(Command::SetSkinningPath(SkinningPath::Cpu));
+    h.step(0.016, Vec::new());
+    let cpu = h.step(0.016, Vec::new());
+    assert_eq!(h.get(Key::SkinningPath), "cpu");
+    let differ = changed_pixels(&pictures[2], &cpu, (280, 40, SIZE[0], SIZE[1] - 40));
+    assert!(differ < 40, "GPU and CPU SJB differ in {differ} pixels");
+
+    // A clip takes over from the sliders; the settings stay for the next model.
+    let twist = controls.clip_index("Twist").expect("Twist");
+    controls.send(Command::PlayClip(Some(twist)));
+    h.step(0.016, Vec::new());
+    assert!(!h.app.model().and_then(|m| m.candy.as_ref()).expect("sample").manual);
+    load_paused(&mut h, "Fox.glb", shared_asset("khronos/Fox/glTF-Binary/Fox.glb"));
+    assert_eq!(h.get(Key::Skinning), "sjb");
+    assert_eq!(h.get(Key::SkinningPath), "cpu");
+    assert_eq!(h.get(Key::Quality), "");
+}
+
+/// Copies of the character fill a grid, each at its own time, and follow the main clip.
+#[test]
+fn copies_fill_a_grid_and_follow_the_main_clip() {
+    let mut h = Harness::new();
+    load_paused(&mut h, "Fox.glb", shared_asset("khronos/Fox/glTF-Binary/Fox.glb"));
+    let controls = h.app.controls().clone();
+    let one = h.step(0.016, Vec::new());
+    assert_eq!(h.get(Key::Copies), "1");
+    controls.send(Command::SetCopies(9));
+    h.step(0.016, Vec::new());
+    let nine = h.step(0.016, Vec::new());
+    assert_eq!(h.get(Key::Copies), "9");
+    save(&nine, "copies-9.png");
+    let model = h.app.model().expect("a model");
+    assert_eq!(model.copies.len(), 8);
+    // Neighbouring copies stand apart and are at different times of the same clip.
+    assert!(model.copy_offset(0).distance(model.copy_offset(1)) > 1.0);
+    let main = model.animator.main();
+    let (first, _) = &model.copies[0];
+    assert_eq!(first.main().clip, main.clip);
+    assert!((first.main().time - main.time).abs() > 0.1, "copy 1 plays at the main time");
+    let changed = changed_pixels(&one, &nine, (280, 40, SIZE[0], SIZE[1] - 40));
+    assert!(changed > 500, "nine copies changed only {changed} pixels");
+
+    let run = controls.clip_index("Run").expect("Run");
+    controls.send(Command::CrossfadeTo { clip: Some(run), seconds: 0.0 });
+    h.step(0.016, Vec::new());
+    let model = h.app.model().expect("a model");
+    assert!(model.copies.iter().all(|(a, _)| a.main().clip == Some(run)), "copies did not follow the clip change");
+    controls.send(Command::SetCopies(1));
+    h.step(0.016, Vec::new());
+    assert_eq!(h.get(Key::Copies), "1");
+}

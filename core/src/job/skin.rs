@@ -3,7 +3,7 @@
 use super::world::affine_mul;
 use super::{check_eq, check_index, check_len};
 use crate::error::JobError;
-use crate::math::{Mat3, Mat4, Vec3};
+use crate::math::{Mat3, Mat4, Vec3, Vec4};
 
 /// Computes `palette[j] = worlds[joints[j]] * inverse_bind[j]` for one skin.
 #[derive(Debug)]
@@ -78,21 +78,155 @@ impl LbsJob<'_> {
 
     /// Validates, then skins every vertex. Stops with `IndexOutOfRange` at the first
     /// weighted joint index outside `palette`.
+    ///
+    /// Vertices go in blocks of [`BLOCK`]: the matrices are blended per vertex (four-wide
+    /// column adds), then positions and normals are transformed across the block from
+    /// structure-of-arrays scratch on the stack, a loop the compiler vectorizes (SSE natively,
+    /// SIMD128 on wasm).
     pub fn run(&mut self) -> Result<(), JobError> {
         self.validate()?;
-        for v in 0..self.positions.len() {
-            let mut m = Mat4::ZERO;
-            for (&j, &w) in self.joints[v].iter().zip(&self.weights[v]) {
-                if w != 0.0 {
-                    m += *joint_at(self.palette, j)? * w;
+        let n = self.positions.len();
+        let with_normals = !self.normals.is_empty();
+        let mut block = Block::default();
+        // An empty palette with any weight is an error below; with none, nothing is read.
+        let empty = [Mat4::ZERO];
+        let palette = if self.palette.is_empty() { &empty[..] } else { self.palette };
+        let last = palette.len() - 1;
+        let mut start = 0;
+        while start < n {
+            let len = BLOCK.min(n - start);
+            for i in 0..len {
+                let v = start + i;
+                let (mut c0, mut c1, mut c2, mut c3) = (Vec4::ZERO, Vec4::ZERO, Vec4::ZERO, Vec4::ZERO);
+                let (joints, weights) = (&self.joints[v], &self.weights[v]);
+                // JOINTS_0 without branches: a zero weight adds nothing, so its joint only has
+                // to be a valid index (clamped; an out-of-range joint with a weight is an error).
+                for k in 0..4 {
+                    let (j, w) = (joints[k] as usize, weights[k]);
+                    if w != 0.0 && j >= self.palette.len() {
+                        return Err(out_of_range(j, self.palette.len()));
+                    }
+                    let m = &palette[j.min(last)];
+                    c0 += m.x_axis * w;
+                    c1 += m.y_axis * w;
+                    c2 += m.z_axis * w;
+                    c3 += m.w_axis * w;
+                }
+                // Most vertices have at most four influences: JOINTS_1 in one test.
+                if weights[4..] != [0.0; 4] {
+                    for k in 4..8 {
+                        let w = weights[k];
+                        if w != 0.0 {
+                            let m = joint_at(self.palette, joints[k])?;
+                            c0 += m.x_axis * w;
+                            c1 += m.y_axis * w;
+                            c2 += m.z_axis * w;
+                            c3 += m.w_axis * w;
+                        }
+                    }
+                }
+                block.set_matrix(i, c0, c1, c2, c3);
+                let p = self.positions[v];
+                block.p[0][i] = p[0];
+                block.p[1][i] = p[1];
+                block.p[2][i] = p[2];
+                if with_normals {
+                    let q = self.normals[v];
+                    block.n[0][i] = q[0];
+                    block.n[1][i] = q[1];
+                    block.n[2][i] = q[2];
                 }
             }
-            self.out_positions[v] = m.transform_point3(Vec3::from(self.positions[v])).to_array();
-            if let Some(n) = self.normals.get(v) {
-                self.out_normals[v] = transform_normal(&m, Vec3::from(*n)).to_array();
+            block.transform_points();
+            for (i, out) in self.out_positions[start..start + len].iter_mut().enumerate() {
+                *out = [block.o[0][i], block.o[1][i], block.o[2][i]];
             }
+            if with_normals {
+                block.transform_normals();
+                for (i, out) in self.out_normals[start..start + len].iter_mut().enumerate() {
+                    *out = [block.o[0][i], block.o[1][i], block.o[2][i]];
+                }
+            }
+            start += len;
         }
         Ok(())
+    }
+}
+
+fn out_of_range(index: usize, len: usize) -> JobError {
+    JobError::IndexOutOfRange { what: "joints", index, len }
+}
+
+/// Vertices per block of [`LbsJob::run`].
+pub const BLOCK: usize = 16;
+
+/// Structure-of-arrays scratch of one block: blended matrices (`m[row * 4 + col]`, affine
+/// rows only), inputs and outputs.
+struct Block {
+    m: [[f32; BLOCK]; 12],
+    p: [[f32; BLOCK]; 3],
+    n: [[f32; BLOCK]; 3],
+    o: [[f32; BLOCK]; 3],
+}
+
+impl Default for Block {
+    fn default() -> Self {
+        Self { m: [[0.0; BLOCK]; 12], p: [[0.0; BLOCK]; 3], n: [[0.0; BLOCK]; 3], o: [[0.0; BLOCK]; 3] }
+    }
+}
+
+impl Block {
+    /// Stores the matrix with columns `c0..c3` as lane `i`.
+    #[inline]
+    fn set_matrix(&mut self, i: usize, c0: Vec4, c1: Vec4, c2: Vec4, c3: Vec4) {
+        for (r, col) in [(0, c0), (1, c1), (2, c2), (3, c3)] {
+            self.m[r][i] = col.x;
+            self.m[4 + r][i] = col.y;
+            self.m[8 + r][i] = col.z;
+        }
+    }
+
+    /// `o = M · p` (as `Mat4::transform_point3`: `x·c0 + y·c1 + z·c2 + c3`).
+    #[inline]
+    fn transform_points(&mut self) {
+        let m = &self.m;
+        let [x, y, z] = &self.p;
+        for row in 0..3 {
+            let (a, b, c, d) = (&m[row * 4], &m[row * 4 + 1], &m[row * 4 + 2], &m[row * 4 + 3]);
+            let out = &mut self.o[row];
+            for i in 0..BLOCK {
+                out[i] = a[i] * x[i] + b[i] * y[i] + c[i] * z[i] + d[i];
+            }
+        }
+    }
+
+    /// `o = normalize(cofactor(M₃) · n · sign(det M₃))`, zero for a zero result (as
+    /// [`transform_normal`]).
+    #[inline]
+    fn transform_normals(&mut self) {
+        let m = &self.m;
+        let [nx, ny, nz] = &self.n;
+        let [ox, oy, oz] = &mut self.o;
+        for i in 0..BLOCK {
+            // Columns of the 3×3 part.
+            let (c0x, c0y, c0z) = (m[0][i], m[4][i], m[8][i]);
+            let (c1x, c1y, c1z) = (m[1][i], m[5][i], m[9][i]);
+            let (c2x, c2y, c2z) = (m[2][i], m[6][i], m[10][i]);
+            // c1 × c2, c2 × c0, c0 × c1.
+            let (ax, ay, az) = (c1y * c2z - c1z * c2y, c1z * c2x - c1x * c2z, c1x * c2y - c1y * c2x);
+            let (bx, by, bz) = (c2y * c0z - c2z * c0y, c2z * c0x - c2x * c0z, c2x * c0y - c2y * c0x);
+            let (cx, cy, cz) = (c0y * c1z - c0z * c1y, c0z * c1x - c0x * c1z, c0x * c1y - c0y * c1x);
+            let det = c0x * ax + c0y * ay + c0z * az;
+            let sign = if det < 0.0 { -1.0 } else { 1.0 };
+            let x = (ax * nx[i] + bx * ny[i] + cx * nz[i]) * sign;
+            let y = (ay * nx[i] + by * ny[i] + cy * nz[i]) * sign;
+            let z = (az * nx[i] + bz * ny[i] + cz * nz[i]) * sign;
+            let len2 = x * x + y * y + z * z;
+            let inv = if len2 > 0.0 && len2.is_finite() { 1.0 / len2.sqrt() } else { 0.0 };
+            ox[i] = x * inv;
+            oy[i] = y * inv;
+            oz[i] = z * inv;
+        }
     }
 }
 

@@ -35,6 +35,38 @@ pub enum SkinningPath {
     Cpu,
 }
 
+impl SkinningPath {
+    /// Every path, in menu order.
+    pub const ALL: [SkinningPath; 2] = [SkinningPath::Gpu, SkinningPath::Cpu];
+
+    /// The name the page uses: `"gpu"` or `"cpu"`.
+    pub fn name(self) -> &'static str {
+        match self {
+            SkinningPath::Gpu => "gpu",
+            SkinningPath::Cpu => "cpu",
+        }
+    }
+
+    /// The menu label.
+    pub fn label(self) -> &'static str {
+        match self {
+            SkinningPath::Gpu => "GPU (vertex shader)",
+            SkinningPath::Cpu => "CPU (reference)",
+        }
+    }
+
+    /// The path named `name` ([`SkinningPath::name`]).
+    ///
+    /// # Errors
+    /// A message listing the names.
+    pub fn from_name(name: &str) -> Result<Self, String> {
+        Self::ALL
+            .into_iter()
+            .find(|p| p.name() == name)
+            .ok_or_else(|| format!("skinning path {name:?}: expected \"gpu\" or \"cpu\""))
+    }
+}
+
 /// Sample count to use with `adapter`: 4× MSAA when both the colour and depth formats
 /// support it, else 1.
 pub fn msaa_samples(adapter: &wgpu::Adapter) -> u32 {
@@ -102,8 +134,9 @@ struct DrawItem {
     pivots: Option<wgpu::Buffer>,
     /// Vertices of `pivots` that fall back to dual quaternions.
     sjb_fallbacks: usize,
-    /// Geometry stream rewritten each frame when deformed on the CPU (created on first use).
-    deformed: Option<wgpu::Buffer>,
+    /// Per copy: the geometry stream rewritten each frame when deformed on the CPU (created
+    /// on first use).
+    deformed: Vec<Option<wgpu::Buffer>>,
     /// Set each frame.
     key: Option<PipelineKey>,
     /// Set each frame: vertices come from `deformed`.
@@ -120,8 +153,14 @@ struct GpuScene {
     /// First palette joint of each skin.
     skin_base: Vec<u32>,
     palette: PaletteTexture,
+    /// The morph texture's view (bound with the palette).
+    morph_view: wgpu::TextureView,
     frame_bind_group: wgpu::BindGroup,
     node_count: usize,
+    /// Palette joints of one copy of the character (all skins).
+    joints: u32,
+    /// Copies the palette and draw buffer have room for.
+    copies: usize,
 }
 
 /// Per-frame scratch space, kept to avoid allocating every frame.
@@ -132,6 +171,22 @@ struct Scratch {
     geometry: Vec<GeometryVertex>,
     draw_bytes: Vec<u8>,
     blend_order: Vec<(f32, usize)>,
+    /// Time spent deforming on the CPU in the last prepare.
+    cpu_skin: std::time::Duration,
+    /// Time the last prepare took (palettes, CPU deformation, uploads).
+    prepare: std::time::Duration,
+}
+
+/// CPU time of the renderer's stages in the last frame, in milliseconds.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RenderTimes {
+    /// Deforming primitives on the CPU (the CPU path, and morphs that do not fit the GPU).
+    pub cpu_skin_ms: f32,
+    /// Writing palettes, draw uniforms and CPU-deformed vertices to the GPU (CPU skinning
+    /// excluded).
+    pub upload_ms: f32,
+    /// Recording and submitting the render pass.
+    pub draw_ms: f32,
 }
 
 /// Renders one loaded [`Asset`] posed by an [`Instance`] into an offscreen texture.
@@ -153,6 +208,7 @@ pub struct SceneRenderer {
     skinning: SkinningPath,
     ground: Ground,
     scratch: Scratch,
+    times: RenderTimes,
 }
 
 impl SceneRenderer {
@@ -188,6 +244,7 @@ impl SceneRenderer {
             skinning: SkinningPath::Gpu,
             ground: Ground::default(),
             scratch: Scratch::default(),
+            times: RenderTimes::default(),
         }
     }
 
@@ -245,7 +302,7 @@ impl SceneRenderer {
                     blend: material.is_some_and(|m| m.alpha == AlphaMode::Blend),
                     double_sided: material.is_some_and(|m| m.double_sided),
                     morphed: !primitive.targets.is_empty(),
-                    deformed: None,
+                    deformed: Vec::new(),
                     key: None,
                     on_cpu: false,
                 });
@@ -257,7 +314,8 @@ impl SceneRenderer {
             draw.morph = morphs.slot(draw.mesh, draw.primitive);
         }
         let (draw_buffer, draw_bind_group) = draw_resources(device, &self.layouts, draws.len(), self.draw_stride);
-        let frame_bind_group = frame_bind_group(device, &self.layouts, &self.frame_buffer, &palette, &morphs);
+        let morph_view = morphs.view().clone();
+        let frame_bind_group = frame_bind_group(device, &self.layouts, &self.frame_buffer, &palette, &morph_view);
 
         let mut rest = Instance::new(asset);
         self.ground = match rest.evaluate(asset, None, 0.0).ok().and_then(|()| rest.scene_bounds(asset)) {
@@ -272,8 +330,11 @@ impl SceneRenderer {
             draw_bind_group,
             skin_base,
             palette,
+            morph_view,
             frame_bind_group,
             node_count: asset.nodes.len(),
+            joints,
+            copies: 1,
         });
         Ok(())
     }
@@ -358,6 +419,22 @@ impl SceneRenderer {
         camera: &Camera,
         size: [u32; 2],
     ) -> Result<&wgpu::TextureView, String> {
+        self.render_copies(device, queue, asset, &mut [instance], &[Vec3::ZERO], camera, size)
+    }
+
+    /// [`SceneRenderer::render`] for several copies of the character: `instances[c]` (each
+    /// evaluated by the caller) drawn moved by `offsets[c]`.
+    #[expect(clippy::too_many_arguments, reason = "render's arguments plus the copies")]
+    pub fn render_copies(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        asset: &Asset,
+        instances: &mut [&mut Instance],
+        offsets: &[Vec3],
+        camera: &Camera,
+        size: [u32; 2],
+    ) -> Result<&wgpu::TextureView, String> {
         let max = device.limits().max_texture_dimension_2d;
         let size = [size[0].clamp(1, max), size[1].clamp(1, max)];
         if self.target.as_ref().is_none_or(|t| t.size != size) {
@@ -369,12 +446,15 @@ impl SceneRenderer {
         let frame = FrameUniform::new(camera.view_proj(aspect), camera.eye(), camera.target, &self.ground);
         queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&frame));
 
+        let copies = instances.len();
         if let Some(scene) = self.scene.as_mut() {
+            scene.reserve(device, &self.layouts, &self.frame_buffer, copies, self.draw_stride)?;
             scene.prepare(
                 device,
                 queue,
                 asset,
-                instance,
+                instances,
+                offsets,
                 camera,
                 self.skinning,
                 self.draw_stride,
@@ -386,6 +466,7 @@ impl SceneRenderer {
                 }
             }
         }
+        let encode_started = web_time::Instant::now();
 
         let target = self.target.as_ref().ok_or("render target missing")?;
         let scene = self.scene.as_ref().unwrap_or(&self.empty);
@@ -419,7 +500,8 @@ impl SceneRenderer {
             pass.set_pipeline(&self.pipelines.background);
             pass.draw(0..3, 0..1);
 
-            let opaque = scene.draws.iter().enumerate().filter(|(_, d)| !d.blend).map(|(i, _)| i);
+            let draws = scene.draws.len();
+            let opaque = (0..copies * draws).filter(|slot| scene.draws.get(slot % draws).is_some_and(|d| !d.blend));
             scene.encode(&mut pass, &self.pipelines, opaque, self.draw_stride);
             pass.set_pipeline(&self.pipelines.grid);
             pass.draw(0..6, 0..1);
@@ -427,7 +509,19 @@ impl SceneRenderer {
             scene.encode(&mut pass, &self.pipelines, blended, self.draw_stride);
         }
         queue.submit([encoder.finish()]);
+        let ms = |d: std::time::Duration| d.as_secs_f32() * 1000.0;
+        let prepared = self.scene.is_some();
+        self.times = RenderTimes {
+            cpu_skin_ms: ms(self.scratch.cpu_skin) * f32::from(u8::from(prepared)),
+            upload_ms: ms(self.scratch.prepare.saturating_sub(self.scratch.cpu_skin)) * f32::from(u8::from(prepared)),
+            draw_ms: ms(encode_started.elapsed()),
+        };
         Ok(&target.view)
+    }
+
+    /// CPU time of the stages of the last [`SceneRenderer::render`].
+    pub fn times(&self) -> RenderTimes {
+        self.times
     }
 
     /// One bind group per material plus a last one for the glTF default material.
@@ -528,7 +622,7 @@ fn frame_bind_group(
     layouts: &Layouts,
     frame: &wgpu::Buffer,
     palette: &PaletteTexture,
-    morphs: &MorphTexture,
+    morphs: &wgpu::TextureView,
 ) -> wgpu::BindGroup {
     device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("kloub frame"),
@@ -536,7 +630,7 @@ fn frame_bind_group(
         entries: &[
             wgpu::BindGroupEntry { binding: 0, resource: frame.as_entire_binding() },
             wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(palette.view()) },
-            wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(morphs.view()) },
+            wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(morphs) },
         ],
     })
 }
@@ -545,9 +639,9 @@ impl GpuScene {
     /// A scene with nothing to draw (background and grid only).
     fn empty(device: &wgpu::Device, queue: &wgpu::Queue, layouts: &Layouts, frame: &wgpu::Buffer, stride: u64) -> Self {
         let palette = PaletteTexture::with_rows(device, 1);
-        let morphs = MorphTexture::empty(device, queue);
+        let morph_view = MorphTexture::empty(device, queue).view().clone();
         let (draw_buffer, draw_bind_group) = draw_resources(device, layouts, 0, stride);
-        let frame_bind_group = frame_bind_group(device, layouts, frame, &palette, &morphs);
+        let frame_bind_group = frame_bind_group(device, layouts, frame, &palette, &morph_view);
         Self {
             primitives: Vec::new(),
             materials: Vec::new(),
@@ -556,20 +650,51 @@ impl GpuScene {
             draw_bind_group,
             skin_base: Vec::new(),
             palette,
+            morph_view,
             frame_bind_group,
             node_count: 0,
+            joints: 0,
+            copies: 1,
         }
     }
 
-    /// Uploads this frame's palette and draw uniforms, deforms CPU-path primitives, picks
-    /// each draw's pipeline and orders the blended draws back to front.
+    /// Makes room in the palette texture and the draw buffer for `copies` copies of the
+    /// character (grows only; rebuilds the bind groups that point at them).
+    fn reserve(
+        &mut self,
+        device: &wgpu::Device,
+        layouts: &Layouts,
+        frame: &wgpu::Buffer,
+        copies: usize,
+        stride: u64,
+    ) -> Result<(), String> {
+        if copies <= self.copies {
+            return Ok(());
+        }
+        let joints = u32::try_from(copies)
+            .ok()
+            .and_then(|c| c.checked_mul(self.joints))
+            .ok_or("too many copies for the joint palette")?;
+        self.palette = PaletteTexture::new(device, joints)?;
+        self.frame_bind_group = frame_bind_group(device, layouts, frame, &self.palette, &self.morph_view);
+        let (buffer, group) = draw_resources(device, layouts, self.draws.len() * copies, stride);
+        self.draw_buffer = buffer;
+        self.draw_bind_group = group;
+        self.copies = copies;
+        Ok(())
+    }
+
+    /// Uploads this frame's palettes and draw uniforms for every copy (`instances[c]` placed
+    /// at `offsets[c]`), deforms CPU-path primitives, picks each draw's pipeline and orders
+    /// the blended draws back to front. Draw slot `c * draws + i` is copy `c` of draw `i`.
     #[expect(clippy::too_many_arguments, reason = "one call site; the pieces are disjoint borrows of the renderer")]
     fn prepare(
         &mut self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         asset: &Asset,
-        instance: &mut Instance,
+        instances: &mut [&mut Instance],
+        offsets: &[Vec3],
         camera: &Camera,
         path: SkinningPath,
         stride: u64,
@@ -577,15 +702,22 @@ impl GpuScene {
     ) -> Result<(), String> {
         if asset.nodes.len() != self.node_count
             || asset.skins.len() != self.skin_base.len()
-            || instance.worlds().len() != self.node_count
+            || instances.iter().any(|i| i.worlds().len() != self.node_count)
+            || instances.len() > self.copies
+            || offsets.len() != instances.len()
         {
-            return Err("the asset or instance does not match the one uploaded with set_asset".into());
+            return Err("the asset or instances do not match the ones uploaded with set_asset".into());
         }
-        let method = instance.skinning();
-        let dual = matches!(method, SkinningMethod::DualQuaternion | SkinningMethod::SphericalJointBlend);
-        for (skin, &base) in self.skin_base.iter().enumerate() {
-            let dqs = dual.then(|| instance.joint_dqs(skin));
-            self.palette.set(base, instance.palette(skin), dqs)?;
+        let started = web_time::Instant::now();
+        let draws = self.draws.len();
+        for (c, instance) in instances.iter().enumerate() {
+            let method = instance.skinning();
+            let dual = matches!(method, SkinningMethod::DualQuaternion | SkinningMethod::SphericalJointBlend);
+            let first = c as u32 * self.joints;
+            for (skin, &base) in self.skin_base.iter().enumerate() {
+                let dqs = dual.then(|| instance.joint_dqs(skin));
+                self.palette.set(first + base, instance.palette(skin), dqs)?;
+            }
         }
         if !self.skin_base.is_empty() {
             self.palette.upload(queue);
@@ -593,8 +725,9 @@ impl GpuScene {
 
         let eye = camera.eye();
         scratch.draw_bytes.clear();
-        scratch.draw_bytes.resize(stride as usize * self.draws.len(), 0);
+        scratch.draw_bytes.resize(stride as usize * draws * instances.len(), 0);
         scratch.blend_order.clear();
+        scratch.cpu_skin = std::time::Duration::ZERO;
         for (i, draw) in self.draws.iter_mut().enumerate() {
             let primitive = self.primitives.get(draw.mesh).and_then(|m| m.get(draw.primitive)).and_then(Option::as_ref);
             let (Some(gpu), Some(source)) =
@@ -603,69 +736,89 @@ impl GpuScene {
                 draw.key = None;
                 continue;
             };
-            let world = instance.worlds()[draw.node as usize];
             let deforms = draw.morphed || draw.skin.is_some();
             draw.on_cpu = (deforms && path == SkinningPath::Cpu) || (draw.morphed && draw.morph.is_none());
-            let morph = |u: DrawUniform| match draw.morph {
-                Some(slot) => u.with_morph(slot, instance.node_weights(asset, draw.node)),
-                None => u,
-            };
-            let (uniform, vertex, mirrored) = if draw.on_cpu {
-                instance
-                    .deform_primitive(asset, draw.node, draw.primitive, &mut scratch.positions, &mut scratch.normals)
-                    .map_err(|e| format!("deforming node {} primitive {}: {e}", draw.node, draw.primitive))?;
-                if scratch.positions.len() != gpu.vertex_count as usize {
-                    return Err(format!(
-                        "node {} primitive {}: deformed vertex count differs",
-                        draw.node, draw.primitive
-                    ));
+            if draw.deformed.len() < instances.len() {
+                draw.deformed.resize_with(instances.len(), || None);
+            }
+            let mut mirrored = false;
+            for (c, instance) in instances.iter_mut().enumerate() {
+                let place = Mat4::from_translation(offsets[c]);
+                let world = instance.worlds()[draw.node as usize];
+                let morph = |u: DrawUniform| match draw.morph {
+                    Some(slot) => u.with_morph(slot, instance.node_weights(asset, draw.node)),
+                    None => u,
+                };
+                let (uniform, vertex) = if draw.on_cpu {
+                    let skin_started = web_time::Instant::now();
+                    instance
+                        .deform_primitive(
+                            asset,
+                            draw.node,
+                            draw.primitive,
+                            &mut scratch.positions,
+                            &mut scratch.normals,
+                        )
+                        .map_err(|e| format!("deforming node {} primitive {}: {e}", draw.node, draw.primitive))?;
+                    scratch.cpu_skin += skin_started.elapsed();
+                    if scratch.positions.len() != gpu.vertex_count as usize {
+                        return Err(format!(
+                            "node {} primitive {}: deformed vertex count differs",
+                            draw.node, draw.primitive
+                        ));
+                    }
+                    interleave(&scratch.positions, &scratch.normals, &mut scratch.geometry);
+                    let buffer = draw.deformed[c].get_or_insert_with(|| gpu.deform_buffer(device));
+                    queue.write_buffer(buffer, 0, bytemuck::cast_slice(&scratch.geometry));
+                    let has_normals = scratch.normals.len() == scratch.positions.len();
+                    (DrawUniform::new(place, 0, has_normals), VertexPath::Static)
+                } else if let Some(skin) = draw.skin {
+                    let base = c as u32 * self.joints + self.skin_base[skin];
+                    (
+                        morph(DrawUniform::new(place, base, gpu.has_normals).with_skinning(instance.skinning())),
+                        VertexPath::Skinned,
+                    )
+                } else {
+                    mirrored = world.determinant() < 0.0;
+                    (morph(DrawUniform::new(place * world, 0, gpu.has_normals)), VertexPath::Static)
+                };
+                let start = (c * draws + i) * stride as usize;
+                scratch.draw_bytes[start..start + size_of::<DrawUniform>()]
+                    .copy_from_slice(bytemuck::bytes_of(&uniform));
+                draw.key = Some(PipelineKey {
+                    vertex,
+                    topology: topology(source.topology),
+                    blend: draw.blend,
+                    double_sided: draw.double_sided,
+                    mirrored,
+                });
+                if draw.blend {
+                    let (min, max) = source.bounds;
+                    let center = world.transform_point3(0.5 * (Vec3::from(min) + Vec3::from(max))) + offsets[c];
+                    scratch.blend_order.push((-(center - eye).length_squared(), c * draws + i));
                 }
-                interleave(&scratch.positions, &scratch.normals, &mut scratch.geometry);
-                let buffer = draw.deformed.get_or_insert_with(|| gpu.deform_buffer(device));
-                queue.write_buffer(buffer, 0, bytemuck::cast_slice(&scratch.geometry));
-                let has_normals = scratch.normals.len() == scratch.positions.len();
-                (DrawUniform::new(Mat4::IDENTITY, 0, has_normals), VertexPath::Static, false)
-            } else if let Some(skin) = draw.skin {
-                let base = self.skin_base[skin];
-                (
-                    morph(DrawUniform::new(Mat4::IDENTITY, base, gpu.has_normals).with_skinning(method)),
-                    VertexPath::Skinned,
-                    false,
-                )
-            } else {
-                (morph(DrawUniform::new(world, 0, gpu.has_normals)), VertexPath::Static, world.determinant() < 0.0)
-            };
-            let start = i * stride as usize;
-            scratch.draw_bytes[start..start + size_of::<DrawUniform>()].copy_from_slice(bytemuck::bytes_of(&uniform));
-            draw.key = Some(PipelineKey {
-                vertex,
-                topology: topology(source.topology),
-                blend: draw.blend,
-                double_sided: draw.double_sided,
-                mirrored,
-            });
-            if draw.blend {
-                let (min, max) = source.bounds;
-                let center = world.transform_point3(0.5 * (Vec3::from(min) + Vec3::from(max)));
-                scratch.blend_order.push((-(center - eye).length_squared(), i));
             }
         }
         scratch.blend_order.sort_by(|a, b| a.0.total_cmp(&b.0));
         if !scratch.draw_bytes.is_empty() {
             queue.write_buffer(&self.draw_buffer, 0, &scratch.draw_bytes);
         }
+        scratch.prepare = started.elapsed();
         Ok(())
     }
 
-    /// Records the draws `indices` (those prepared this frame).
+    /// Records the draw slots `slots` (copy `c` of draw `i` is slot `c * draws + i`; those
+    /// prepared this frame).
     fn encode(
         &self,
         pass: &mut wgpu::RenderPass<'_>,
         pipelines: &Pipelines,
-        indices: impl Iterator<Item = usize>,
+        slots: impl Iterator<Item = usize>,
         stride: u64,
     ) {
-        for i in indices {
+        let draws = self.draws.len().max(1);
+        for slot in slots {
+            let (c, i) = (slot / draws, slot % draws);
             let Some(draw) = self.draws.get(i) else {
                 continue;
             };
@@ -679,12 +832,13 @@ impl GpuScene {
             let Some(material) = self.materials.get(draw.material) else {
                 continue;
             };
-            let geometry = if draw.on_cpu { draw.deformed.as_ref() } else { Some(&gpu.geometry) };
+            let geometry =
+                if draw.on_cpu { draw.deformed.get(c).and_then(Option::as_ref) } else { Some(&gpu.geometry) };
             let Some(geometry) = geometry else { continue };
             pass.set_pipeline(pipeline);
             pass.set_bind_group(1, material, &[]);
             // `i * stride` is within the draw buffer sized `draws.len() * stride`.
-            pass.set_bind_group(2, &self.draw_bind_group, &[(i as u64 * stride) as u32]);
+            pass.set_bind_group(2, &self.draw_bind_group, &[(slot as u64 * stride) as u32]);
             pass.set_vertex_buffer(0, geometry.slice(..));
             pass.set_vertex_buffer(1, gpu.attributes.slice(..));
             if draw.key.is_some_and(|k| k.vertex == VertexPath::Skinned) {

@@ -1,0 +1,123 @@
+//! The CPU skinning workload shared by `benches/skin.rs` (native, criterion) and
+//! `tests/wasm_skin.rs` (wasm32 in Node): CesiumMan's skinned mesh posed mid-walk, its vertex
+//! streams repeated to [`VERTICES`] vertices so they do not fit any cache, skinned by every
+//! method; plus a `stream` kernel that reads and writes the same bytes with almost no
+//! arithmetic — the memory-bandwidth bound of this data layout on this machine.
+
+use kloub_core::Instance;
+use kloub_core::asset::Asset;
+use kloub_core::job::dqs::{DqPrepareJob, DqsJob, JointDq, RigidJob, SkinningMethod};
+use kloub_core::job::sjb::{SjbJob, SjbPlan};
+use kloub_core::job::skin::LbsJob;
+use kloub_core::math::Mat4;
+
+/// Vertices skinned per run (CesiumMan's 3,273 repeated): ~100 MB of streams.
+pub const VERTICES: usize = 1 << 20;
+
+/// Bytes one vertex moves: position, normal, 8 joints (u16), 8 weights in; position, normal out.
+pub const BYTES_PER_VERTEX: usize = 12 + 12 + 16 + 32 + 12 + 12;
+
+/// Streams, palette and prepared tables of one posed mesh.
+pub struct Workload {
+    pub positions: Vec<[f32; 3]>,
+    pub normals: Vec<[f32; 3]>,
+    pub joints: Vec<[u16; 8]>,
+    pub weights: Vec<[f32; 8]>,
+    pub palette: Vec<Mat4>,
+    pub dqs: Vec<JointDq>,
+    pub plan: SjbPlan,
+    pub out_positions: Vec<[f32; 3]>,
+    pub out_normals: Vec<[f32; 3]>,
+}
+
+fn repeat<T: Copy>(v: &[T]) -> Vec<T> {
+    v.iter().copied().cycle().take(VERTICES).collect()
+}
+
+impl Workload {
+    /// CesiumMan (`asset`) at 0.5 s of its clip, repeated to [`VERTICES`].
+    pub fn new(asset: &Asset) -> Self {
+        let mut instance = Instance::new(asset);
+        instance.evaluate(asset, Some(0), 0.5).expect("samples");
+        let node = asset.nodes.iter().position(|n| n.skin.is_some() && n.mesh.is_some()).expect("a skinned mesh");
+        let (skin, mesh) =
+            (asset.nodes[node].skin.expect("skin") as usize, asset.nodes[node].mesh.expect("mesh") as usize);
+        let p = &asset.meshes[mesh].primitives[0];
+        let palette = instance.palette(skin).to_vec();
+        let mut dqs = vec![JointDq::default(); palette.len()];
+        DqPrepareJob { palette: &palette, out: &mut dqs }.run().expect("sized");
+        let parents: Vec<Option<u32>> = asset.nodes.iter().map(|n| n.parent).collect();
+        let (joints, weights) = (repeat(&p.joints), repeat(&p.weights));
+        let plan = SjbPlan::build(&asset.skins[skin], &parents, &joints, &weights);
+        Self {
+            positions: repeat(&p.positions),
+            normals: repeat(&p.normals),
+            joints,
+            weights,
+            palette,
+            dqs,
+            plan,
+            out_positions: vec![[0.0; 3]; VERTICES],
+            out_normals: vec![[0.0; 3]; VERTICES],
+        }
+    }
+
+    /// Skins every vertex with `method`.
+    pub fn skin(&mut self, method: SkinningMethod) {
+        let result = match method {
+            SkinningMethod::Linear => LbsJob {
+                positions: &self.positions,
+                normals: &self.normals,
+                joints: &self.joints,
+                weights: &self.weights,
+                palette: &self.palette,
+                out_positions: &mut self.out_positions,
+                out_normals: &mut self.out_normals,
+            }
+            .run(),
+            SkinningMethod::Rigid => RigidJob {
+                positions: &self.positions,
+                normals: &self.normals,
+                joints: &self.joints,
+                weights: &self.weights,
+                palette: &self.palette,
+                out_positions: &mut self.out_positions,
+                out_normals: &mut self.out_normals,
+            }
+            .run(),
+            SkinningMethod::DualQuaternion => DqsJob {
+                positions: &self.positions,
+                normals: &self.normals,
+                joints: &self.joints,
+                weights: &self.weights,
+                joints_dq: &self.dqs,
+                out_positions: &mut self.out_positions,
+                out_normals: &mut self.out_normals,
+            }
+            .run(),
+            SkinningMethod::SphericalJointBlend => SjbJob {
+                positions: &self.positions,
+                normals: &self.normals,
+                joints: &self.joints,
+                weights: &self.weights,
+                palette: &self.palette,
+                joints_dq: &self.dqs,
+                plan: &self.plan,
+                out_positions: &mut self.out_positions,
+                out_normals: &mut self.out_normals,
+            }
+            .run(),
+        };
+        result.expect("valid workload");
+    }
+
+    /// Touches the same bytes as skinning with next to no arithmetic: the bandwidth bound.
+    pub fn stream(&mut self) {
+        let inputs = self.positions.iter().zip(&self.normals).zip(&self.joints).zip(&self.weights);
+        for ((((p, n), j), w), (op, on)) in inputs.zip(self.out_positions.iter_mut().zip(self.out_normals.iter_mut())) {
+            let s = w[0] + w[7] + f32::from(j[0] ^ j[7]);
+            *op = [p[0] + s, p[1], p[2]];
+            *on = [n[0], n[1] + s, n[2]];
+        }
+    }
+}
