@@ -1,6 +1,7 @@
 // GPU-path frame time of the real page in headless Debian chromium: N = 1, 10, 100 copies of Fox
 // playing Run, per backend (WebGPU and WebGL2, both on SwiftShader: the CPU emulates the GPU here)
-// and skinning method/path. Prints a Markdown table of milliseconds per painted frame.
+// and skinning method/path (the compute path on WebGPU only). Prints a Markdown table of milliseconds per
+// painted frame.
 //
 //   scripts/build-web.sh && cargo build -p kloub-server && node scripts/bench-gpu.mjs
 //
@@ -12,7 +13,7 @@ import { SHARED, control, dropFiles, openBrowser, pageUrl, startServer, waitForD
 const SECONDS = Number(process.env.KLOUB_BENCH_SECONDS ?? 5);
 const BACKENDS = (process.env.KLOUB_BACKENDS ?? 'webgpu,webgl2').split(',');
 const COUNTS = [1, 10, 100];
-const CONFIGS = [['lbs', 'gpu'], ['dqs', 'gpu'], ['sjb', 'gpu'], ['lbs', 'cpu']];
+const CONFIGS = [['lbs', 'gpu'], ['dqs', 'gpu'], ['sjb', 'gpu'], ['lbs', 'compute'], ['sjb', 'compute'], ['lbs', 'cpu']];
 const FOX = join(SHARED, 'khronos/Fox/glTF-Binary/Fox.glb');
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 
@@ -29,7 +30,7 @@ try {
       await waitForDataset(page, () => document.body.dataset.model === 'Fox.glb' && document.body.dataset.status === 'ready', 'Fox.glb');
       await sleep(300);
       await control(page, 'crossfadeTo', 'Run', 0);
-      for (const [method, path] of CONFIGS) {
+      for (const [method, path] of CONFIGS.filter(([, p]) => p !== 'compute' || backend === 'webgpu')) {
         await control(page, 'setSkinning', method);
         await control(page, 'setSkinningPath', path);
         const cells = [];

@@ -234,7 +234,7 @@ fn gpu_skinning_matches_cpu_reference() {
         let (mut instance, camera) = pose(&asset, Some(0), time, None);
         let mut renderer = offscreen.scene_renderer(&asset).expect("uploading");
         let mut frame = |path| {
-            renderer.set_skinning_path(path);
+            renderer.set_skinning_path(path).expect("the GPU and CPU paths exist everywhere");
             offscreen.render(&mut renderer, &asset, &mut instance, &camera, 192, 192).expect("rendering")
         };
         let gpu = frame(SkinningPath::Gpu);

@@ -1,10 +1,13 @@
-//! Every `shaders/*.wgsl` file must parse and validate with naga, and translate to GLSL ES
-//! 3.00 (what wgpu's WebGL2 backend feeds the browser) for every entry point. Structs with
-//! the same name in different files (the shared `Frame` uniform) must have the same layout.
+//! Every shader module the renderer compiles ([`SHADER_MODULES`]: `shaders/*.wgsl` files, the
+//! skinning library prepended where it is used) must parse and validate with naga, and the
+//! WebGL2 ones translate to GLSL ES 3.00 (what wgpu's WebGL2 backend feeds the browser) for
+//! every entry point. Every `shaders/*.wgsl` file must be part of a module. Structs with the
+//! same name in different modules (the shared `Frame` uniform) must have the same layout.
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
+use kloub_web::render::pipelines::SHADER_MODULES;
 use naga::back::glsl;
 use naga::valid::{Capabilities, ModuleInfo, ValidationFlags, Validator};
 
@@ -63,44 +66,50 @@ fn struct_layouts(module: &naga::Module) -> BTreeMap<String, Layout> {
 }
 
 #[test]
-fn every_wgsl_file_validates_for_webgpu_and_webgl2() {
-    let files = shader_files();
-    assert!(files.len() >= 2, "expected the mesh and environment shaders, found {files:?}");
+fn every_shader_module_validates_for_webgpu_and_webgl2() {
     let mut failures = Vec::new();
-    for path in &files {
-        let result = std::fs::read_to_string(path)
-            .map_err(|e| e.to_string())
-            .and_then(|source| validate(&source))
-            .and_then(|(module, info)| translate_for_webgl2(&module, &info).map(|()| module));
+    for (name, source, webgl2) in SHADER_MODULES {
+        let result = validate(source).and_then(|(module, info)| {
+            if webgl2 { translate_for_webgl2(&module, &info).map(|()| module) } else { Ok(module) }
+        });
         match result {
-            Ok(module) => assert!(!module.entry_points.is_empty(), "{}: no entry points", path.display()),
-            Err(e) => failures.push(format!("{}:\n{e}", path.display())),
+            Ok(module) => assert!(!module.entry_points.is_empty(), "{name}: no entry points"),
+            Err(e) => failures.push(format!("{name}:\n{e}")),
         }
     }
-    assert!(failures.is_empty(), "{} shader file(s) failed:\n\n{}", failures.len(), failures.join("\n\n"));
+    assert!(failures.is_empty(), "{} shader module(s) failed:\n\n{}", failures.len(), failures.join("\n\n"));
+}
+
+#[test]
+fn every_wgsl_file_is_compiled() {
+    let files = shader_files();
+    assert!(files.len() >= 4, "expected the mesh, skinning, compute and environment shaders, found {files:?}");
+    for path in files {
+        let source = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        assert!(
+            SHADER_MODULES.iter().any(|(_, module, _)| module.contains(source.trim())),
+            "{} is in no shader module the renderer compiles",
+            path.display()
+        );
+    }
 }
 
 #[test]
 fn shared_structs_have_one_layout() {
-    let mut seen: BTreeMap<String, (PathBuf, Layout)> = BTreeMap::new();
+    let mut seen: BTreeMap<String, (&str, Layout)> = BTreeMap::new();
     let mut failures = Vec::new();
-    for path in shader_files() {
-        let source = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-        let Ok((module, _)) = validate(&source) else {
+    for (name, source, _) in SHADER_MODULES {
+        let Ok((module, _)) = validate(source) else {
             continue;
         }; // reported by the test above
-        for (name, layout) in struct_layouts(&module) {
-            match seen.get(&name) {
-                Some((first, known)) if *known != layout => failures.push(format!(
-                    "struct {name}: {} has {:?}, {} has {:?}",
-                    first.display(),
-                    known,
-                    path.display(),
-                    layout
-                )),
+        for (struct_name, layout) in struct_layouts(&module) {
+            match seen.get(&struct_name) {
+                Some((first, known)) if *known != layout => {
+                    failures.push(format!("struct {struct_name}: {first} has {known:?}, {name} has {layout:?}"))
+                }
                 Some(_) => {}
                 None => {
-                    seen.insert(name, (path.clone(), layout));
+                    seen.insert(struct_name, (name, layout));
                 }
             }
         }

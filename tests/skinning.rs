@@ -1,6 +1,7 @@
 //! GPU skinning agrees with `kloub_core`'s CPU reference, vertex by vertex: every method
-//! (rigid, LBS, DQS, SJB) in the vertex shader, read back through the capture pipeline
-//! ([`SceneRenderer::capture_skinned`]) on whatever adapter wgpu picks (lavapipe in CI),
+//! (rigid, LBS, DQS, SJB) in the vertex shader (read back through the capture pipeline) and in
+//! the compute pass (its output buffer read back) — [`SceneRenderer::capture_skinned`] — on
+//! whatever adapter wgpu picks (lavapipe in CI),
 //! within 1e-4 of the model's bounding-box diagonal, normals within 0.5°. Morph targets are
 //! applied on the GPU before skinning (RobotExpressive's face is morphed and skinned).
 
@@ -8,6 +9,7 @@ use glam::Vec3;
 use kloub_core::candy::CandyWrapper;
 use kloub_core::job::dqs::SkinningMethod;
 use kloub_core::{Asset, Instance};
+use kloub_web::render::SkinningPath;
 use kloub_web::render::offscreen::Offscreen;
 use kloub_web::render::scene::SceneRenderer;
 
@@ -29,13 +31,34 @@ fn compare(
 ) -> Vec<String> {
     let (min, max) = instance.scene_bounds(asset).expect("drawable");
     let diagonal = (max - min).length();
-    let captures = renderer.capture_skinned(offscreen.device(), offscreen.queue(), asset, instance).expect("capturing");
-    assert!(!captures.is_empty(), "{name}: no skinned draw was captured");
-    let method = instance.skinning().name();
+    let mut failures = Vec::new();
+    for path in [SkinningPath::Gpu, SkinningPath::Compute] {
+        if path == SkinningPath::Compute && !renderer.supports_compute() {
+            eprintln!("{name}: this adapter has no compute shaders; the compute path is not compared");
+            continue;
+        }
+        let captures =
+            renderer.capture_skinned(offscreen.device(), offscreen.queue(), asset, instance, path).expect("capturing");
+        failures.extend(compare_captures(name, path, &captures, asset, instance, diagonal));
+    }
+    failures
+}
+
+/// Compares captured draws with the CPU reference.
+fn compare_captures(
+    name: &str,
+    path: SkinningPath,
+    captures: &[kloub_web::render::scene::CapturedDraw],
+    asset: &Asset,
+    instance: &mut Instance,
+    diagonal: f32,
+) -> Vec<String> {
+    assert!(!captures.is_empty(), "{name}: no skinned draw was captured on {}", path.name());
+    let method = format!("{} on {}", instance.skinning().name(), path.name());
     let mut failures = Vec::new();
     let (mut positions, mut normals) = (Vec::new(), Vec::new());
     let (mut worst, mut worst_angle) = (0.0f32, 0.0f32);
-    for draw in &captures {
+    for draw in captures {
         instance
             .deform_primitive(asset, draw.node, draw.primitive, &mut positions, &mut normals)
             .expect("CPU reference");
@@ -66,9 +89,22 @@ fn compare(
     failures
 }
 
+/// The devices compared: WebGL2's limits (the vertex-shader path as the browser's WebGL2
+/// backend runs it) and WebGPU's (the vertex shader and the compute pass).
+fn devices() -> [Offscreen; 2] {
+    let webgl2 = Offscreen::new().expect("a wgpu adapter (install Mesa lavapipe on machines without a GPU)");
+    let webgpu = Offscreen::webgpu().expect("a device with WebGPU's default limits");
+    [webgl2, webgpu]
+}
+
 #[test]
 fn every_method_on_the_gpu_matches_the_cpu_reference() {
-    let offscreen = Offscreen::new().expect("a wgpu adapter (install Mesa lavapipe on machines without a GPU)");
+    for offscreen in devices() {
+        every_method_matches_on(&offscreen);
+    }
+}
+
+fn every_method_matches_on(offscreen: &Offscreen) {
     let mut failures = Vec::new();
     for (model, time) in [
         ("khronos/CesiumMan/glTF-Binary/CesiumMan.glb", 0.7),
@@ -86,7 +122,7 @@ fn every_method_on_the_gpu_matches_the_cpu_reference() {
                 *w = 0.5;
             }
             instance.update(&asset).expect("updating");
-            failures.extend(compare(model, &offscreen, &mut renderer, &asset, &mut instance));
+            failures.extend(compare(model, offscreen, &mut renderer, &asset, &mut instance));
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
@@ -94,7 +130,12 @@ fn every_method_on_the_gpu_matches_the_cpu_reference() {
 
 #[test]
 fn candy_wrapper_twisted_and_bent_matches_on_the_gpu() {
-    let offscreen = Offscreen::new().expect("a wgpu adapter");
+    for offscreen in devices() {
+        candy_wrapper_matches_on(&offscreen);
+    }
+}
+
+fn candy_wrapper_matches_on(offscreen: &Offscreen) {
     let rig = CandyWrapper::new();
     let mut renderer = offscreen.scene_renderer(&rig.asset).expect("uploading");
     let mut instance = Instance::new(&rig.asset);
@@ -105,7 +146,7 @@ fn candy_wrapper_twisted_and_bent_matches_on_the_gpu() {
             rig.pose(&mut instance, twist, bend).expect("posing");
             failures.extend(compare(
                 &format!("candy wrapper {twist}°/{bend}°"),
-                &offscreen,
+                offscreen,
                 &mut renderer,
                 &rig.asset,
                 &mut instance,

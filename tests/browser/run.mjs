@@ -129,7 +129,7 @@ for (const backend of BACKENDS) {
     await waitForDataset(page, () => document.body.dataset.layer === '', 'the layer to be removed');
   });
 
-  test(`${backend}: the candy wrapper shows LBS collapse and DQS/SJB keeping volume, on GPU and CPU`, async (ctx) => {
+  test(`${backend}: the candy wrapper shows LBS collapse and DQS/SJB keeping volume, on every path`, async (ctx) => {
     const { page } = ctx;
     await openApp(ctx, backend);
     await control(page, 'loadSample', 'candy-wrapper');
@@ -150,6 +150,19 @@ for (const backend of BACKENDS) {
     }
     const changed = diffFraction(shots.lbs, shots.dqs);
     assert(changed > 0.004, `switching LBS to DQS changed only ${(changed * 100).toFixed(3)}% of the viewport`);
+    if (backend === 'webgpu') {
+      await control(page, 'setSkinningPath', 'compute');
+      await waitForDataset(page, () => document.body.dataset.skinningPath === 'compute', 'the compute path', 30000);
+      await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
+      const compute = await viewportShot(page);
+      savePng(compute, `${backend}-candy-sjb-compute.png`);
+      const d = diffFraction(shots.sjb, compute);
+      assert(d < 0.001, `SJB in the vertex shader and in the compute pass differ in ${(d * 100).toFixed(3)}% of the viewport`);
+    } else {
+      let refused = false;
+      try { await control(page, 'setSkinningPath', 'compute'); } catch { refused = true; }
+      assert(refused, 'WebGL2 accepted the compute skinning path');
+    }
     await control(page, 'setSkinningPath', 'cpu');
     await waitForDataset(page, () => document.body.dataset.skinningPath === 'cpu', 'the CPU path', 30000);
     await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));

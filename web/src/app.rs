@@ -590,6 +590,7 @@ impl App {
             stages: ui::StageTimes::default(),
         };
         app.controls.set_repaint(cc.egui_ctx.clone());
+        app.controls.set_supports_compute(app.scene.supports_compute());
         app.dataset.set(Key::Backend, backend);
         if let Some(url) = config.model_url {
             app.pending += 1;
@@ -716,8 +717,7 @@ impl App {
                 return Ok(());
             }
             Command::SetSkinningPath(path) => {
-                self.scene.set_skinning_path(path);
-                return Ok(());
+                return self.scene.set_skinning_path(path);
             }
             Command::LoadSample(Sample::CandyWrapper) => {
                 let panel = CandyPanel::new();
@@ -999,6 +999,7 @@ impl eframe::App for App {
             stages: self.stages,
             skinning: self.skinning,
             skinning_path: self.scene.skinning_path(),
+            compute: self.scene.supports_compute(),
             sjb_fallbacks: &sjb_fallbacks,
         };
         let actions = egui::Panel::left("controls")

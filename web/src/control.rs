@@ -81,6 +81,7 @@ struct Shared {
     clips: Vec<String>,
     nodes: Vec<Option<String>>,
     repaint: Option<egui::Context>,
+    compute: bool,
 }
 
 /// A cheap, clonable handle on the command channel (single-threaded, like the page).
@@ -152,6 +153,16 @@ impl Controls {
             .position(|n| n.as_deref() == Some(name))
             .and_then(|i| u32::try_from(i).ok())
             .ok_or_else(|| format!("no joint or node named {name:?} in the shown model"))
+    }
+
+    /// Whether the renderer has the compute skinning path (WebGPU, native; not WebGL2).
+    pub fn supports_compute(&self) -> bool {
+        self.0.borrow().compute
+    }
+
+    /// The app's side: announces whether the compute skinning path exists.
+    pub(crate) fn set_supports_compute(&self, supported: bool) {
+        self.0.borrow_mut().compute = supported;
     }
 
     /// Names of the shown model's clips.

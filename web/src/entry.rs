@@ -144,11 +144,15 @@ impl Viewer {
         Ok(())
     }
 
-    /// Where vertices are deformed: `"gpu"` (vertex shader) or `"cpu"` (kloub_core's
-    /// reference, uploaded every frame). Kept across models.
+    /// Where vertices are deformed: `"gpu"` (vertex shader), `"compute"` (a compute pass;
+    /// WebGPU only) or `"cpu"` (kloub_core's reference, uploaded every frame). Kept across
+    /// models.
     #[wasm_bindgen(js_name = setSkinningPath)]
     pub fn set_skinning_path(&self, path: &str) -> Result<(), JsValue> {
         let path = SkinningPath::from_name(path).map_err(|e| JsValue::from_str(&e))?;
+        if path == SkinningPath::Compute && !self.controls.supports_compute() {
+            return Err(JsValue::from_str("setSkinningPath: \"compute\" needs WebGPU; this page runs on WebGL2"));
+        }
         self.controls.send_global(Command::SetSkinningPath(path));
         Ok(())
     }

@@ -31,6 +31,8 @@ pub struct PanelState<'a> {
     pub skinning: SkinningMethod,
     /// Where vertices are deformed.
     pub skinning_path: SkinningPath,
+    /// Whether the compute path exists here (not on WebGL2).
+    pub compute: bool,
     /// Under spherical joint blending: `(mesh, vertices, vertices falling back to DQS)` per
     /// skinned draw.
     pub sjb_fallbacks: &'a [(usize, usize, usize)],
@@ -282,7 +284,7 @@ fn skinning_panel(ui: &mut egui::Ui, state: &PanelState<'_>, actions: &mut Panel
         }
     });
     ui.horizontal(|ui| {
-        for path in SkinningPath::ALL {
+        for path in SkinningPath::ALL.into_iter().filter(|&p| p != SkinningPath::Compute || state.compute) {
             if ui.radio(state.skinning_path == path, path.label()).clicked() && state.skinning_path != path {
                 actions.commands.push(Command::SetSkinningPath(path));
             }

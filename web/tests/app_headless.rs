@@ -395,6 +395,14 @@ fn candy_wrapper_sample_compares_skinning_methods() {
     let changed = changed_pixels(&pictures[0], &pictures[1], (280, 40, SIZE[0], SIZE[1] - 40));
     assert!(changed > 200, "switching LBS → DQS changed only {changed} pixels");
 
+    // The compute pass (native has compute shaders) draws the same picture as the vertex shader.
+    controls.send_global(Command::SetSkinningPath(SkinningPath::Compute));
+    h.step(0.016, Vec::new());
+    let compute = h.step(0.016, Vec::new());
+    assert_eq!(h.get(Key::SkinningPath), "compute");
+    let differ = changed_pixels(&pictures[2], &compute, (280, 40, SIZE[0], SIZE[1] - 40));
+    assert!(differ < 40, "vertex-shader and compute SJB differ in {differ} pixels");
+
     // The CPU path draws the same picture as the GPU one.
     controls.send_global(Command::SetSkinningPath(SkinningPath::Cpu));
     h.step(0.016, Vec::new());

@@ -44,7 +44,7 @@ pub const PIVOT_STRIDE: u64 = size_of::<PivotVertex>() as u64;
 
 /// Uploads the per-vertex joint centres of `plan` (vertices past the plan fall back to dual
 /// quaternions).
-pub fn pivot_buffer(device: &wgpu::Device, plan: &SjbPlan, vertices: usize) -> wgpu::Buffer {
+pub fn pivot_buffer(device: &wgpu::Device, plan: &SjbPlan, vertices: usize, storage: bool) -> wgpu::Buffer {
     let data: Vec<PivotVertex> = (0..vertices.max(1))
         .map(|v| {
             let pivot = plan.vertex_pivots.get(v).and_then(|&i| plan.pivots.get(i as usize));
@@ -54,7 +54,7 @@ pub fn pivot_buffer(device: &wgpu::Device, plan: &SjbPlan, vertices: usize) -> w
             }
         })
         .collect();
-    buffer(device, "kloub skin pivots", bytemuck::cast_slice(&data), wgpu::BufferUsages::VERTEX)
+    buffer(device, "kloub skin pivots", bytemuck::cast_slice(&data), stream_usage(storage))
 }
 
 /// Byte stride of the geometry stream: position, normal (`f32x3` each). Skinned on the CPU,
@@ -95,8 +95,9 @@ pub struct GpuPrimitive {
 }
 
 impl GpuPrimitive {
-    /// Uploads `primitive`; `None` when it has nothing to draw.
-    pub fn new(device: &wgpu::Device, primitive: &Primitive) -> Option<Self> {
+    /// Uploads `primitive`; `None` when it has nothing to draw. With `storage`, the geometry
+    /// and skin streams are also readable by the compute skinning pass.
+    pub fn new(device: &wgpu::Device, primitive: &Primitive, storage: bool) -> Option<Self> {
         let n = primitive.positions.len();
         if n == 0 || primitive.indices.is_empty() {
             return None;
@@ -116,11 +117,11 @@ impl GpuPrimitive {
                     weights: primitive.weights.get(i).copied().unwrap_or_default(),
                 })
                 .collect();
-            buffer(device, "kloub skin", bytemuck::cast_slice(&skin), wgpu::BufferUsages::VERTEX)
+            buffer(device, "kloub skin", bytemuck::cast_slice(&skin), stream_usage(storage))
         });
         let has_normals = primitive.normals.len() == n;
         Some(Self {
-            geometry: buffer(device, "kloub geometry", bytemuck::cast_slice(&geometry), wgpu::BufferUsages::VERTEX),
+            geometry: buffer(device, "kloub geometry", bytemuck::cast_slice(&geometry), stream_usage(storage)),
             attributes: buffer(
                 device,
                 "kloub attributes",
@@ -140,15 +141,25 @@ impl GpuPrimitive {
         })
     }
 
-    /// A geometry-stream buffer for vertices deformed on the CPU and rewritten every frame.
-    pub fn deform_buffer(&self, device: &wgpu::Device) -> wgpu::Buffer {
+    /// A geometry-stream buffer for vertices deformed every frame: written by the CPU, or with
+    /// `storage` also by the compute skinning pass (and readable back).
+    pub fn deform_buffer(&self, device: &wgpu::Device, storage: bool) -> wgpu::Buffer {
+        let mut usage = wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST;
+        if storage {
+            usage |= wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
+        }
         device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("kloub cpu-deformed geometry"),
+            label: Some("kloub deformed geometry"),
             size: u64::from(self.vertex_count) * GEOMETRY_STRIDE,
-            usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+            usage,
             mapped_at_creation: false,
         })
     }
+}
+
+/// Vertex usage, plus storage for the compute pass when `storage`.
+fn stream_usage(storage: bool) -> wgpu::BufferUsages {
+    if storage { wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::STORAGE } else { wgpu::BufferUsages::VERTEX }
 }
 
 fn buffer(device: &wgpu::Device, label: &str, contents: &[u8], usage: wgpu::BufferUsages) -> wgpu::Buffer {

@@ -23,12 +23,20 @@ pub struct Offscreen {
 impl Offscreen {
     /// Opens the adapter and device.
     pub fn new() -> Result<Self, String> {
+        Self::with_limits(wgpu::Limits::downlevel_webgl2_defaults())
+    }
+
+    /// A device with WebGPU's default limits (storage buffers and compute shaders, as the
+    /// browser's WebGPU backend has) instead of WebGL2's.
+    pub fn webgpu() -> Result<Self, String> {
+        Self::with_limits(wgpu::Limits::default())
+    }
+
+    fn with_limits(base: wgpu::Limits) -> Result<Self, String> {
         let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
         let adapter = pollster::block_on(wgpu::util::initialize_adapter_from_env_or_default(&instance, None))
             .map_err(|e| format!("no wgpu adapter: {e}"))?;
-        let limits = wgpu::Limits::downlevel_webgl2_defaults()
-            .using_resolution(adapter.limits())
-            .using_alignment(adapter.limits());
+        let limits = base.using_resolution(adapter.limits()).using_alignment(adapter.limits());
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("kloub offscreen"),
             required_limits: limits,

@@ -20,10 +20,18 @@ use super::uniforms::{DrawUniform, FrameUniform, MaterialUniform};
 /// Depth buffer format.
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
-/// `shaders/mesh.wgsl`.
-pub const MESH_WGSL: &str = include_str!("../../../shaders/mesh.wgsl");
+/// `shaders/skinning.wgsl` + `shaders/mesh.wgsl`: the mesh pipelines (vertex-shader skinning).
+pub const MESH_WGSL: &str =
+    concat!(include_str!("../../../shaders/skinning.wgsl"), include_str!("../../../shaders/mesh.wgsl"));
+/// `shaders/skinning.wgsl` + `shaders/skin_compute.wgsl`: compute skinning (not on WebGL2).
+pub const SKIN_COMPUTE_WGSL: &str =
+    concat!(include_str!("../../../shaders/skinning.wgsl"), include_str!("../../../shaders/skin_compute.wgsl"));
 /// `shaders/environment.wgsl`.
 pub const ENVIRONMENT_WGSL: &str = include_str!("../../../shaders/environment.wgsl");
+
+/// Every shader module the renderer compiles: name, WGSL source, whether it runs on WebGL2.
+pub const SHADER_MODULES: [(&str, &str, bool); 3] =
+    [("mesh", MESH_WGSL, true), ("skin_compute", SKIN_COMPUTE_WGSL, false), ("environment", ENVIRONMENT_WGSL, true)];
 
 const GEOMETRY_ATTRIBUTES: [wgpu::VertexAttribute; 2] = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3];
 const ATTRIBUTE_ATTRIBUTES: [wgpu::VertexAttribute; 2] = wgpu::vertex_attr_array![2 => Float32x2, 3 => Float32x4];
@@ -313,5 +321,91 @@ impl Pipelines {
     /// The mesh pipeline of `key`, if [`Pipelines::prepare`] built it.
     pub fn mesh(&self, key: &PipelineKey) -> Option<&wgpu::RenderPipeline> {
         self.mesh.get(key)
+    }
+}
+
+/// Whether `device` can run the compute skinning pass (WebGPU and native; not WebGL2).
+pub fn supports_compute(device: &wgpu::Device) -> bool {
+    let limits = device.limits();
+    limits.max_storage_buffers_per_shader_stage >= 4
+        && limits.max_compute_invocations_per_workgroup >= 64
+        && limits.max_compute_workgroup_size_x >= 64
+        && limits.max_compute_workgroups_per_dimension > 0
+}
+
+/// Workgroup size of `cs_skin` in skin_compute.wgsl.
+pub const SKIN_WORKGROUP: u32 = 64;
+
+/// The compute skinning pipeline and its bind group layouts (see skin_compute.wgsl).
+pub struct ComputeKit {
+    /// Group 0: palette and morph textures.
+    pub textures: wgpu::BindGroupLayout,
+    /// Group 1: empty.
+    pub empty_group: wgpu::BindGroup,
+    /// Group 2: the Draw uniform with a dynamic offset.
+    pub draw: wgpu::BindGroupLayout,
+    /// Group 3: the primitive's streams and the output.
+    pub io: wgpu::BindGroupLayout,
+    /// `cs_skin`.
+    pub pipeline: wgpu::ComputePipeline,
+}
+
+impl ComputeKit {
+    /// Builds the pipeline; `None` where compute is not available ([`supports_compute`]).
+    pub fn new(device: &wgpu::Device) -> Option<Self> {
+        if !supports_compute(device) {
+            return None;
+        }
+        let c = wgpu::ShaderStages::COMPUTE;
+        let float = wgpu::TextureSampleType::Float { filterable: false };
+        let textures = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("kloub compute textures"),
+            entries: &[texture_entry(1, c, float), texture_entry(2, c, float)],
+        });
+        let empty = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("kloub compute empty"),
+            entries: &[],
+        });
+        let empty_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("kloub compute empty"),
+            layout: &empty,
+            entries: &[],
+        });
+        let draw = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("kloub compute draw"),
+            entries: &[uniform_entry(0, c, size_of::<DrawUniform>(), true)],
+        });
+        let storage = |binding, read_only| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: c,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        let io = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("kloub compute streams"),
+            entries: &[storage(0, true), storage(1, true), storage(2, true), storage(3, false)],
+        });
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("kloub compute skinning"),
+            bind_group_layouts: &[Some(&textures), Some(&empty), Some(&draw), Some(&io)],
+            immediate_size: 0,
+        });
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("kloub skin_compute.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(SKIN_COMPUTE_WGSL.into()),
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("kloub compute skinning"),
+            layout: Some(&layout),
+            module: &module,
+            entry_point: Some("cs_skin"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        Some(Self { textures, empty_group, draw, io, pipeline })
     }
 }

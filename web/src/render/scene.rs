@@ -13,7 +13,9 @@ use kloub_core::job::sjb::SjbPlan;
 use super::mesh::{GeometryVertex, GpuPrimitive, interleave, pivot_buffer};
 use super::morph::{MorphSlot, MorphTexture};
 use super::palette::PaletteTexture;
-use super::pipelines::{DEPTH_FORMAT, Layouts, PipelineKey, Pipelines, VertexPath, topology};
+use super::pipelines::{
+    ComputeKit, DEPTH_FORMAT, Layouts, PipelineKey, Pipelines, SKIN_WORKGROUP, VertexPath, topology,
+};
 use super::texture::{COLOR_FORMAT, SamplerKey, upload_image, white_texture};
 use super::uniforms::{DrawUniform, FrameUniform, Ground, MaterialUniform};
 
@@ -30,6 +32,9 @@ pub enum SkinningPath {
     /// deformed on the CPU.
     #[default]
     Gpu,
+    /// A compute pass morphs and skins every skinned primitive once per frame into a vertex
+    /// buffer the draws read (WebGPU and native only: WebGL2 has no compute shaders).
+    Compute,
     /// `kloub_core`'s CPU reference ([`Instance::deform_primitive`]: morph, then skin),
     /// uploaded every frame.
     Cpu,
@@ -37,12 +42,13 @@ pub enum SkinningPath {
 
 impl SkinningPath {
     /// Every path, in menu order.
-    pub const ALL: [SkinningPath; 2] = [SkinningPath::Gpu, SkinningPath::Cpu];
+    pub const ALL: [SkinningPath; 3] = [SkinningPath::Gpu, SkinningPath::Compute, SkinningPath::Cpu];
 
-    /// The name the page uses: `"gpu"` or `"cpu"`.
+    /// The name the page uses: `"gpu"`, `"compute"` or `"cpu"`.
     pub fn name(self) -> &'static str {
         match self {
             SkinningPath::Gpu => "gpu",
+            SkinningPath::Compute => "compute",
             SkinningPath::Cpu => "cpu",
         }
     }
@@ -50,8 +56,9 @@ impl SkinningPath {
     /// The menu label.
     pub fn label(self) -> &'static str {
         match self {
-            SkinningPath::Gpu => "GPU (vertex shader)",
-            SkinningPath::Cpu => "CPU (reference)",
+            SkinningPath::Gpu => "GPU vertex shader",
+            SkinningPath::Compute => "GPU compute",
+            SkinningPath::Cpu => "CPU",
         }
     }
 
@@ -63,7 +70,7 @@ impl SkinningPath {
         Self::ALL
             .into_iter()
             .find(|p| p.name() == name)
-            .ok_or_else(|| format!("skinning path {name:?}: expected \"gpu\" or \"cpu\""))
+            .ok_or_else(|| format!("skinning path {name:?}: expected \"gpu\", \"compute\" or \"cpu\""))
     }
 }
 
@@ -139,8 +146,12 @@ struct DrawItem {
     deformed: Vec<Option<wgpu::Buffer>>,
     /// Set each frame.
     key: Option<PipelineKey>,
-    /// Set each frame: vertices come from `deformed`.
+    /// Set each frame: vertices come from `deformed`, written by the CPU.
     on_cpu: bool,
+    /// Set each frame: vertices come from `deformed`, written by the compute pass.
+    on_compute: bool,
+    /// Per copy: the compute pass's streams (created on first use).
+    compute_groups: Vec<Option<wgpu::BindGroup>>,
 }
 
 /// GPU resources of one asset.
@@ -161,6 +172,8 @@ struct GpuScene {
     joints: u32,
     /// Copies the palette and draw buffer have room for.
     copies: usize,
+    /// The compute pass's textures and draw-uniform bind groups (where compute exists).
+    compute: Option<(wgpu::BindGroup, wgpu::BindGroup)>,
 }
 
 /// Per-frame scratch space, kept to avoid allocating every frame.
@@ -209,6 +222,8 @@ pub struct SceneRenderer {
     ground: Ground,
     scratch: Scratch,
     times: RenderTimes,
+    /// The compute skinning pipeline, where the device has compute shaders.
+    compute: Option<ComputeKit>,
 }
 
 impl SceneRenderer {
@@ -245,6 +260,7 @@ impl SceneRenderer {
             ground: Ground::default(),
             scratch: Scratch::default(),
             times: RenderTimes::default(),
+            compute: ComputeKit::new(device),
         }
     }
 
@@ -252,9 +268,10 @@ impl SceneRenderer {
     /// texture sized for all skins) and places the ground under its rest pose. On error the
     /// previous asset stays loaded.
     pub fn set_asset(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, asset: &Asset) -> Result<(), String> {
+        let storage = self.compute.is_some();
         let mut primitives = Vec::with_capacity(asset.meshes.len());
         for mesh in &asset.meshes {
-            primitives.push(mesh.primitives.iter().map(|p| GpuPrimitive::new(device, p)).collect::<Vec<_>>());
+            primitives.push(mesh.primitives.iter().map(|p| GpuPrimitive::new(device, p, storage)).collect::<Vec<_>>());
         }
         let materials = self.upload_materials(device, queue, asset)?;
         let default_material = materials.len() - 1;
@@ -296,7 +313,7 @@ impl SceneRenderer {
                     primitive: p,
                     skin,
                     morph: None,
-                    pivots: plan.as_ref().map(|plan| pivot_buffer(device, plan, primitive.positions.len())),
+                    pivots: plan.as_ref().map(|plan| pivot_buffer(device, plan, primitive.positions.len(), storage)),
                     sjb_fallbacks: plan.map_or(0, |p| p.fallbacks),
                     material: material_index.unwrap_or(default_material),
                     blend: material.is_some_and(|m| m.alpha == AlphaMode::Blend),
@@ -305,6 +322,8 @@ impl SceneRenderer {
                     deformed: Vec::new(),
                     key: None,
                     on_cpu: false,
+                    on_compute: false,
+                    compute_groups: Vec::new(),
                 });
             }
         }
@@ -313,9 +332,10 @@ impl SceneRenderer {
         for draw in &mut draws {
             draw.morph = morphs.slot(draw.mesh, draw.primitive);
         }
-        let (draw_buffer, draw_bind_group) = draw_resources(device, &self.layouts, draws.len(), self.draw_stride);
+        let (draw_buffer, draw_bind_group) = draw_resources(device, &self.layouts, 2 * draws.len(), self.draw_stride);
         let morph_view = morphs.view().clone();
         let frame_bind_group = frame_bind_group(device, &self.layouts, &self.frame_buffer, &palette, &morph_view);
+        let compute = self.compute.as_ref().map(|kit| compute_groups(device, kit, &palette, &morph_view, &draw_buffer));
 
         let mut rest = Instance::new(asset);
         self.ground = match rest.evaluate(asset, None, 0.0).ok().and_then(|()| rest.scene_bounds(asset)) {
@@ -335,6 +355,7 @@ impl SceneRenderer {
             node_count: asset.nodes.len(),
             joints,
             copies: 1,
+            compute,
         });
         Ok(())
     }
@@ -363,8 +384,21 @@ impl SceneRenderer {
     }
 
     /// Chooses where skinned vertices are deformed (takes effect at the next render).
-    pub fn set_skinning_path(&mut self, path: SkinningPath) {
+    ///
+    /// # Errors
+    /// [`SkinningPath::Compute`] on a device without compute shaders (WebGL2); the path is
+    /// then unchanged.
+    pub fn set_skinning_path(&mut self, path: SkinningPath) -> Result<(), String> {
+        if path == SkinningPath::Compute && self.compute.is_none() {
+            return Err("compute skinning needs WebGPU or a native GPU: this backend has no compute shaders".into());
+        }
         self.skinning = path;
+        Ok(())
+    }
+
+    /// Whether [`SkinningPath::Compute`] is available on this device.
+    pub fn supports_compute(&self) -> bool {
+        self.compute.is_some()
     }
 
     /// Where skinned vertices are deformed.
@@ -448,7 +482,14 @@ impl SceneRenderer {
 
         let copies = instances.len();
         if let Some(scene) = self.scene.as_mut() {
-            scene.reserve(device, &self.layouts, &self.frame_buffer, copies, self.draw_stride)?;
+            scene.reserve(
+                device,
+                &self.layouts,
+                &self.frame_buffer,
+                self.compute.as_ref(),
+                copies,
+                self.draw_stride,
+            )?;
             scene.prepare(
                 device,
                 queue,
@@ -457,6 +498,7 @@ impl SceneRenderer {
                 offsets,
                 camera,
                 self.skinning,
+                self.compute.as_ref(),
                 self.draw_stride,
                 &mut self.scratch,
             )?;
@@ -471,6 +513,15 @@ impl SceneRenderer {
         let target = self.target.as_ref().ok_or("render target missing")?;
         let scene = self.scene.as_ref().unwrap_or(&self.empty);
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("kloub scene") });
+        if let Some(kit) = &self.compute {
+            scene.dispatch_compute(
+                &mut encoder,
+                kit,
+                copies,
+                self.draw_stride,
+                device.limits().max_compute_workgroups_per_dimension,
+            );
+        }
         {
             let (view, resolve_target) = match &target.msaa {
                 Some(msaa) => (msaa, Some(&target.view)),
@@ -617,6 +668,37 @@ fn draw_resources(
     (buffer, group)
 }
 
+/// The compute pass's bind groups for the palette and morph textures, and the draw uniforms.
+fn compute_groups(
+    device: &wgpu::Device,
+    kit: &ComputeKit,
+    palette: &PaletteTexture,
+    morphs: &wgpu::TextureView,
+    draw_buffer: &wgpu::Buffer,
+) -> (wgpu::BindGroup, wgpu::BindGroup) {
+    let textures = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("kloub compute textures"),
+        layout: &kit.textures,
+        entries: &[
+            wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(palette.view()) },
+            wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(morphs) },
+        ],
+    });
+    let draws = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("kloub compute draws"),
+        layout: &kit.draw,
+        entries: &[wgpu::BindGroupEntry {
+            binding: 0,
+            resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                buffer: draw_buffer,
+                offset: 0,
+                size: wgpu::BufferSize::new(size_of::<DrawUniform>() as u64),
+            }),
+        }],
+    });
+    (textures, draws)
+}
+
 fn frame_bind_group(
     device: &wgpu::Device,
     layouts: &Layouts,
@@ -655,6 +737,7 @@ impl GpuScene {
             node_count: 0,
             joints: 0,
             copies: 1,
+            compute: None,
         }
     }
 
@@ -665,6 +748,7 @@ impl GpuScene {
         device: &wgpu::Device,
         layouts: &Layouts,
         frame: &wgpu::Buffer,
+        kit: Option<&ComputeKit>,
         copies: usize,
         stride: u64,
     ) -> Result<(), String> {
@@ -677,9 +761,10 @@ impl GpuScene {
             .ok_or("too many copies for the joint palette")?;
         self.palette = PaletteTexture::new(device, joints)?;
         self.frame_bind_group = frame_bind_group(device, layouts, frame, &self.palette, &self.morph_view);
-        let (buffer, group) = draw_resources(device, layouts, self.draws.len() * copies, stride);
+        let (buffer, group) = draw_resources(device, layouts, 2 * self.draws.len() * copies, stride);
         self.draw_buffer = buffer;
         self.draw_bind_group = group;
+        self.compute = kit.map(|kit| compute_groups(device, kit, &self.palette, &self.morph_view, &self.draw_buffer));
         self.copies = copies;
         Ok(())
     }
@@ -697,6 +782,7 @@ impl GpuScene {
         offsets: &[Vec3],
         camera: &Camera,
         path: SkinningPath,
+        kit: Option<&ComputeKit>,
         stride: u64,
         scratch: &mut Scratch,
     ) -> Result<(), String> {
@@ -725,7 +811,9 @@ impl GpuScene {
 
         let eye = camera.eye();
         scratch.draw_bytes.clear();
-        scratch.draw_bytes.resize(stride as usize * draws * instances.len(), 0);
+        // Render uniforms first, then the compute pass's (slot `n · draws + c · draws + i`).
+        let compute_base = draws * instances.len();
+        scratch.draw_bytes.resize(2 * stride as usize * compute_base, 0);
         scratch.blend_order.clear();
         scratch.cpu_skin = std::time::Duration::ZERO;
         for (i, draw) in self.draws.iter_mut().enumerate() {
@@ -738,8 +826,17 @@ impl GpuScene {
             };
             let deforms = draw.morphed || draw.skin.is_some();
             draw.on_cpu = (deforms && path == SkinningPath::Cpu) || (draw.morphed && draw.morph.is_none());
+            draw.on_compute = !draw.on_cpu
+                && path == SkinningPath::Compute
+                && kit.is_some()
+                && draw.skin.is_some()
+                && gpu.skin.is_some()
+                && draw.pivots.is_some();
             if draw.deformed.len() < instances.len() {
                 draw.deformed.resize_with(instances.len(), || None);
+            }
+            if draw.compute_groups.len() < instances.len() {
+                draw.compute_groups.resize_with(instances.len(), || None);
             }
             let mut mirrored = false;
             for (c, instance) in instances.iter_mut().enumerate() {
@@ -768,10 +865,36 @@ impl GpuScene {
                         ));
                     }
                     interleave(&scratch.positions, &scratch.normals, &mut scratch.geometry);
-                    let buffer = draw.deformed[c].get_or_insert_with(|| gpu.deform_buffer(device));
+                    let storage = kit.is_some();
+                    let buffer = draw.deformed[c].get_or_insert_with(|| gpu.deform_buffer(device, storage));
                     queue.write_buffer(buffer, 0, bytemuck::cast_slice(&scratch.geometry));
                     let has_normals = scratch.normals.len() == scratch.positions.len();
                     (DrawUniform::new(place, 0, has_normals), VertexPath::Static)
+                } else if let (true, Some(skin), Some(kit)) = (draw.on_compute, draw.skin, kit) {
+                    let base = c as u32 * self.joints + self.skin_base[skin];
+                    let skinning = morph(DrawUniform::new(Mat4::IDENTITY, base, gpu.has_normals))
+                        .with_skinning(instance.skinning())
+                        .with_vertex_count(gpu.vertex_count);
+                    let start = (compute_base + c * draws + i) * stride as usize;
+                    scratch.draw_bytes[start..start + size_of::<DrawUniform>()]
+                        .copy_from_slice(bytemuck::bytes_of(&skinning));
+                    let output = draw.deformed[c].get_or_insert_with(|| gpu.deform_buffer(device, true));
+                    if draw.compute_groups[c].is_none() {
+                        let (Some(skin_stream), Some(pivots)) = (&gpu.skin, &draw.pivots) else {
+                            return Err("a compute-skinned draw lacks its skin streams".into());
+                        };
+                        draw.compute_groups[c] = Some(device.create_bind_group(&wgpu::BindGroupDescriptor {
+                            label: Some("kloub compute streams"),
+                            layout: &kit.io,
+                            entries: &[
+                                wgpu::BindGroupEntry { binding: 0, resource: gpu.geometry.as_entire_binding() },
+                                wgpu::BindGroupEntry { binding: 1, resource: skin_stream.as_entire_binding() },
+                                wgpu::BindGroupEntry { binding: 2, resource: pivots.as_entire_binding() },
+                                wgpu::BindGroupEntry { binding: 3, resource: output.as_entire_binding() },
+                            ],
+                        }));
+                    }
+                    (DrawUniform::new(place, 0, gpu.has_normals), VertexPath::Static)
                 } else if let Some(skin) = draw.skin {
                     let base = c as u32 * self.joints + self.skin_base[skin];
                     (
@@ -807,6 +930,44 @@ impl GpuScene {
         Ok(())
     }
 
+    /// Records the compute pass that skins every draw prepared for it (nothing when none is).
+    fn dispatch_compute(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        kit: &ComputeKit,
+        copies: usize,
+        stride: u64,
+        max_groups: u32,
+    ) {
+        let Some((textures, draw_group)) = &self.compute else { return };
+        if !self.draws.iter().any(|d| d.on_compute) {
+            return;
+        }
+        let draws = self.draws.len();
+        let mut pass = encoder
+            .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("kloub skinning"), timestamp_writes: None });
+        pass.set_pipeline(&kit.pipeline);
+        pass.set_bind_group(0, textures, &[]);
+        pass.set_bind_group(1, &kit.empty_group, &[]);
+        for c in 0..copies {
+            for (i, draw) in self.draws.iter().enumerate() {
+                let group = draw.compute_groups.get(c).and_then(Option::as_ref);
+                let vertices =
+                    self.primitives.get(draw.mesh).and_then(|m| m.get(draw.primitive)).and_then(Option::as_ref);
+                let (true, Some(group), Some(gpu)) = (draw.on_compute, group, vertices) else { continue };
+                let groups = gpu.vertex_count.div_ceil(SKIN_WORKGROUP);
+                if groups > max_groups {
+                    log::warn!("mesh {}: {} vertices exceed one compute dispatch", draw.mesh, gpu.vertex_count);
+                    continue;
+                }
+                let slot = copies * draws + c * draws + i;
+                pass.set_bind_group(2, draw_group, &[(slot as u64 * stride) as u32]);
+                pass.set_bind_group(3, group, &[]);
+                pass.dispatch_workgroups(groups, 1, 1);
+            }
+        }
+    }
+
     /// Records the draw slots `slots` (copy `c` of draw `i` is slot `c * draws + i`; those
     /// prepared this frame).
     fn encode(
@@ -832,8 +993,11 @@ impl GpuScene {
             let Some(material) = self.materials.get(draw.material) else {
                 continue;
             };
-            let geometry =
-                if draw.on_cpu { draw.deformed.get(c).and_then(Option::as_ref) } else { Some(&gpu.geometry) };
+            let geometry = if draw.on_cpu || draw.on_compute {
+                draw.deformed.get(c).and_then(Option::as_ref)
+            } else {
+                Some(&gpu.geometry)
+            };
             let Some(geometry) = geometry else { continue };
             pass.set_pipeline(pipeline);
             pass.set_bind_group(1, material, &[]);

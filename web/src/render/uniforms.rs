@@ -209,6 +209,12 @@ impl DrawUniform {
         self
     }
 
+    /// The vertex count a compute dispatch covers (`cs_skin` in skin_compute.wgsl).
+    pub fn with_vertex_count(mut self, vertices: u32) -> Self {
+        self.params[3] = vertices;
+        self
+    }
+
     /// Places vertex `i` of a capture draw on pixel `(i % width, i / width)`.
     pub fn with_capture_size(mut self, width: u32, height: u32) -> Self {
         self.params[3] = (width & 0xffff) | (height << 16);

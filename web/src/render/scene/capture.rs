@@ -31,9 +31,81 @@ pub struct CapturedDraw {
 
 impl SceneRenderer {
     /// Deforms every skinned draw of the loaded asset on the GPU with `instance`'s skinning
-    /// method (morph targets included) and reads the vertices back. Blocks until the GPU is
-    /// done. Draws that this renderer deforms on the CPU are left out.
+    /// method (morph targets included) and reads the vertices back: through the vertex
+    /// shader ([`SkinningPath::Gpu`]) or the compute pass ([`SkinningPath::Compute`]). Blocks
+    /// until the GPU is done. Draws that this renderer deforms on the CPU are left out.
+    ///
+    /// # Errors
+    /// [`SkinningPath::Cpu`], compute on a device without it, or a failed readback.
     pub fn capture_skinned(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        asset: &Asset,
+        instance: &mut Instance,
+        path: SkinningPath,
+    ) -> Result<Vec<CapturedDraw>, String> {
+        match path {
+            SkinningPath::Gpu => self.capture_vertex_stage(device, queue, asset, instance),
+            SkinningPath::Compute => self.capture_compute(device, queue, asset, instance),
+            SkinningPath::Cpu => Err("capture reads back GPU skinning; the CPU path has nothing to capture".into()),
+        }
+    }
+
+    /// The compute pass's output buffers, read back.
+    fn capture_compute(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        asset: &Asset,
+        instance: &mut Instance,
+    ) -> Result<Vec<CapturedDraw>, String> {
+        let kit = self.compute.as_ref().ok_or("this device has no compute shaders")?;
+        let Some(scene) = self.scene.as_mut() else {
+            return Ok(Vec::new());
+        };
+        scene.prepare(
+            device,
+            queue,
+            asset,
+            &mut [instance],
+            &[glam::Vec3::ZERO],
+            &Camera::default(),
+            SkinningPath::Compute,
+            Some(kit),
+            self.draw_stride,
+            &mut self.scratch,
+        )?;
+        let mut encoder =
+            device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("kloub capture compute") });
+        scene.dispatch_compute(
+            &mut encoder,
+            kit,
+            1,
+            self.draw_stride,
+            device.limits().max_compute_workgroups_per_dimension,
+        );
+        queue.submit([encoder.finish()]);
+        let mut captures = Vec::new();
+        for draw in scene.draws.iter().filter(|d| d.on_compute) {
+            let Some(output) = draw.deformed.first().and_then(Option::as_ref) else { continue };
+            let words = read_buffer(device, queue, output)?;
+            let floats: Vec<f32> = words.into_iter().map(f32::from_bits).collect();
+            let vertices: Vec<([f32; 3], [f32; 3])> =
+                floats.chunks_exact(6).map(|v| ([v[0], v[1], v[2]], [v[3], v[4], v[5]])).collect();
+            captures.push(CapturedDraw {
+                node: draw.node,
+                mesh: draw.mesh,
+                primitive: draw.primitive,
+                positions: vertices.iter().map(|v| v.0).collect(),
+                normals: vertices.iter().map(|v| normalized(v.1)).collect(),
+            });
+        }
+        Ok(captures)
+    }
+
+    /// The vertex stage, captured as points on two integer targets.
+    fn capture_vertex_stage(
         &mut self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
@@ -51,6 +123,7 @@ impl SceneRenderer {
             &[glam::Vec3::ZERO],
             &Camera::default(),
             SkinningPath::Gpu,
+            None,
             self.draw_stride,
             &mut self.scratch,
         )?;
@@ -138,6 +211,38 @@ impl SceneRenderer {
         }
         Ok(captures)
     }
+}
+
+/// A unit vector along `v` (zero stays zero), as the capture shader normalizes.
+fn normalized(v: [f32; 3]) -> [f32; 3] {
+    glam::Vec3::from(v).normalize_or_zero().to_array()
+}
+
+/// Every 32-bit word of `buffer` (which must allow `COPY_SRC`).
+fn read_buffer(device: &wgpu::Device, queue: &wgpu::Queue, buffer: &wgpu::Buffer) -> Result<Vec<u32>, String> {
+    let size = buffer.size();
+    let readback = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("kloub compute readback"),
+        size,
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("kloub readback") });
+    encoder.copy_buffer_to_buffer(buffer, 0, &readback, 0, size);
+    queue.submit([encoder.finish()]);
+    let (sender, receiver) = std::sync::mpsc::channel();
+    readback.map_async(wgpu::MapMode::Read, .., move |result| {
+        // The receiver waits below; a send error only means it is gone.
+        let _ = sender.send(result);
+    });
+    device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| format!("device poll: {e}"))?;
+    receiver.recv().map_err(|e| format!("readback: {e}"))?.map_err(|e| format!("readback map: {e}"))?;
+    let words = {
+        let mapped = readback.get_mapped_range(..).map_err(|e| format!("readback range: {e}"))?;
+        bytemuck::cast_slice::<u8, u32>(&mapped).to_vec()
+    };
+    readback.unmap();
+    Ok(words)
 }
 
 /// The xyz of every texel of a capture texture (float bits in `rgba32uint`), row-major.
