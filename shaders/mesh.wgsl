@@ -44,6 +44,8 @@ const MATERIAL_UNLIT: u32 = 1u;
 const MATERIAL_ALPHA_MASK: u32 = 2u;
 const MATERIAL_ALPHA_BLEND: u32 = 4u;
 const DRAW_HAS_NORMALS: u32 = 1u;
+// Colour skinned vertices by their distance from another method's result.
+const DRAW_HEATMAP: u32 = 2u;
 
 @group(0) @binding(0) var<uniform> frame: Frame;
 @group(1) @binding(0) var<uniform> material: Material;
@@ -81,10 +83,24 @@ fn vs_static(g: GeometryIn) -> VsOut {
 /// translation; the identity for the first).
 @vertex
 fn vs_skinned(g: GeometryIn, s: SkinIn) -> VsOut {
-    let v = skinned(g, s);
+    let rest = morphed(g);
+    let v = skin_with(rest, s, draw.params.z);
     let world = draw.model * vec4<f32>(v.position, 1.0);
     let normal = (draw.normal_matrix * vec4<f32>(v.normal, 0.0)).xyz;
-    return finish(world.xyz, normal, g);
+    var out = finish(world.xyz, normal, g);
+    if (draw.params.y & DRAW_HEATMAP) != 0u {
+        // Deviation from linear blend skinning (from dual quaternions when LBS is shown).
+        let reference = select(SKIN_LINEAR, SKIN_DUAL_QUATERNION, draw.params.z == SKIN_LINEAR);
+        let other = skin_with(rest, s, reference);
+        out.color = vec4<f32>(heat_color(distance(v.position, other.position) / max(draw.heat.x, 1e-20)), 1.0);
+    }
+    return out;
+}
+
+/// Blue (0) through green and yellow to red (1 and beyond).
+fn heat_color(t: f32) -> vec3<f32> {
+    let x = clamp(t, 0.0, 1.0);
+    return clamp(vec3<f32>(2.0 * x - 0.5, 1.5 - abs(2.0 * x - 1.0) * 1.5, 1.0 - 2.0 * x), vec3<f32>(0.0), vec3<f32>(1.0));
 }
 
 /// Readback of the vertex stage (tests, CPU/GPU comparison): vertex `i` of a point-list draw
@@ -138,6 +154,9 @@ fn fs_main(in: VsOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f
 
     let flags = material.flags.x;
     var color = material.base_color * texel * in.color;
+    if (draw.params.y & DRAW_HEATMAP) != 0u {
+        color = vec4<f32>(in.color.rgb, 1.0);
+    }
     if (flags & MATERIAL_ALPHA_MASK) != 0u {
         if color.a < material.emissive.w {
             discard;

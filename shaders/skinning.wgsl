@@ -24,6 +24,8 @@ struct Draw {
     morph: vec4<u32>,
     // Morph weights, four per vec4 (target t: weights[t / 4][t % 4]).
     weights: array<vec4<f32>, 16>,
+    // Deviation heatmap (DRAW_HEATMAP): x: the distance drawn fully red.
+    heat: vec4<f32>,
 }
 
 const SKIN_RIGID: u32 = 0u;
@@ -262,8 +264,12 @@ fn skin_spherical(v: Vertex, s: SkinIn) -> Vertex {
 /// Morph, then skin with the draw's method. The palette is in world space (joint world *
 /// inverse bind), so the mesh node's own transform is ignored, as glTF requires.
 fn skinned(g: GeometryIn, s: SkinIn) -> Vertex {
-    let v = morphed(g);
-    switch draw.params.z {
+    return skin_with(morphed(g), s, draw.params.z);
+}
+
+/// Skins the (morphed) vertex `v` with `method` (a SKIN_* constant).
+fn skin_with(v: Vertex, s: SkinIn, method: u32) -> Vertex {
+    switch method {
         case SKIN_RIGID: {
             return skin_rigid(v, s);
         }

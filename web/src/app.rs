@@ -719,6 +719,10 @@ impl App {
             Command::SetSkinningPath(path) => {
                 return self.scene.set_skinning_path(path);
             }
+            Command::SetHeatmap(on) => {
+                self.scene.set_heatmap(on);
+                return Ok(());
+            }
             Command::LoadSample(Sample::CandyWrapper) => {
                 let panel = CandyPanel::new();
                 let loaded = panel.model();
@@ -732,7 +736,8 @@ impl App {
         }
         let Some(model) = &mut self.model else { return Ok(()) };
         match command {
-            Command::SetSkinning(_) | Command::SetSkinningPath(_) | Command::LoadSample(_) => {}
+            Command::SetSkinning(_) | Command::SetSkinningPath(_) | Command::SetHeatmap(_) | Command::LoadSample(_) => {
+            }
             Command::SetCopies(n) => {
                 model.set_copies(n);
                 if let Some((min, max)) = model.grid_bounds() {
@@ -962,6 +967,7 @@ impl App {
         d.set(Key::Layer, &model.map_or(String::new(), Model::layer_summary));
         d.set(Key::Skinning, self.skinning.name());
         d.set(Key::SkinningPath, self.scene.skinning_path().name());
+        d.set(Key::Heatmap, if self.scene.heatmap() { "true" } else { "false" });
         let quality = model.and_then(|m| m.candy.as_ref()).and_then(|c| {
             let i = SkinningMethod::ALL.iter().position(|&m| m == self.skinning)?;
             let q = c.quality[i];
@@ -1000,6 +1006,7 @@ impl eframe::App for App {
             skinning: self.skinning,
             skinning_path: self.scene.skinning_path(),
             compute: self.scene.supports_compute(),
+            heatmap: self.scene.heatmap(),
             sjb_fallbacks: &sjb_fallbacks,
         };
         let actions = egui::Panel::left("controls")

@@ -58,6 +58,8 @@ pub enum Command {
     SetSkinning(SkinningMethod),
     /// Where vertices are deformed (kept across models).
     SetSkinningPath(SkinningPath),
+    /// Colours skinned vertices by their deviation from another skinning method.
+    SetHeatmap(bool),
     /// Shows a built-in sample.
     LoadSample(Sample),
     /// Shows this many characters in a grid (1 ..= [`crate::app::MAX_COPIES`]), each

@@ -35,13 +35,15 @@ pub enum Key {
     /// The candy-wrapper sample's quality under the current method, `"RADIUS,VOLUME"` (radius
     /// kept at the joint and volume ratio to rest, three decimals); `""` for other models.
     Quality,
+    /// `"true"` while the deviation heatmap is on, else `"false"`.
+    Heatmap,
     /// Characters shown (the model and its copies), a decimal integer; `""` without a model.
     Copies,
 }
 
 impl Key {
     /// Every key, in a fixed order.
-    pub const ALL: [Key; 16] = [
+    pub const ALL: [Key; 17] = [
         Key::Backend,
         Key::Status,
         Key::Model,
@@ -57,6 +59,7 @@ impl Key {
         Key::Skinning,
         Key::SkinningPath,
         Key::Quality,
+        Key::Heatmap,
         Key::Copies,
     ];
 
@@ -79,6 +82,7 @@ impl Key {
             Key::SkinningPath => "skinningPath",
             Key::Quality => "quality",
             Key::Copies => "copies",
+            Key::Heatmap => "heatmap",
         }
     }
 }

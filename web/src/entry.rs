@@ -168,6 +168,14 @@ impl Viewer {
         Ok(())
     }
 
+    /// Colours skinned vertices by their distance from linear blend skinning's result (from
+    /// dual quaternions' when LBS is the method): blue none, red 2% of the model's size.
+    /// Vertex-shader path only.
+    #[wasm_bindgen(js_name = setHeatmap)]
+    pub fn set_heatmap(&self, on: bool) {
+        self.controls.send_global(Command::SetHeatmap(on));
+    }
+
     /// Shows a built-in sample: `"candy-wrapper"`.
     #[wasm_bindgen(js_name = loadSample)]
     pub fn load_sample(&self, name: &str) -> Result<(), JsValue> {

@@ -33,6 +33,8 @@ pub struct PanelState<'a> {
     pub skinning_path: SkinningPath,
     /// Whether the compute path exists here (not on WebGL2).
     pub compute: bool,
+    /// Whether the deviation heatmap is on.
+    pub heatmap: bool,
     /// Under spherical joint blending: `(mesh, vertices, vertices falling back to DQS)` per
     /// skinned draw.
     pub sjb_fallbacks: &'a [(usize, usize, usize)],
@@ -290,6 +292,17 @@ fn skinning_panel(ui: &mut egui::Ui, state: &PanelState<'_>, actions: &mut Panel
             }
         }
     });
+    let mut heatmap = state.heatmap;
+    let reference = if state.skinning == SkinningMethod::Linear { "DQS" } else { "LBS" };
+    let toggle = ui
+        .add_enabled(state.skinning_path == SkinningPath::Gpu, egui::Checkbox::new(&mut heatmap, "Deviation heatmap"))
+        .on_hover_text(format!(
+            "Colours each vertex by its distance from {reference}'s result: blue none, red 2% of the model's size \
+             (vertex-shader path)"
+        ));
+    if toggle.changed() {
+        actions.commands.push(Command::SetHeatmap(heatmap));
+    }
     if state.skinning == SkinningMethod::SphericalJointBlend {
         let (vertices, fallbacks) =
             state.sjb_fallbacks.iter().fold((0, 0), |(v, f), &(_, vertices, fallbacks)| (v + vertices, f + fallbacks));

@@ -395,6 +395,26 @@ fn candy_wrapper_sample_compares_skinning_methods() {
     let changed = changed_pixels(&pictures[0], &pictures[1], (280, 40, SIZE[0], SIZE[1] - 40));
     assert!(changed > 200, "switching LBS → DQS changed only {changed} pixels");
 
+    // The heatmap colours where SJB departs from LBS: the twisted joint.
+    controls.send_global(Command::SetHeatmap(true));
+    h.step(0.016, Vec::new());
+    let heat = h.step(0.016, Vec::new());
+    assert_eq!(h.get(Key::Heatmap), "true");
+    save(&heat, "candy-sjb-heatmap.png");
+    let reddish = (280..SIZE[0])
+        .flat_map(|x| (40..SIZE[1] - 40).map(move |y| (x, y)))
+        .filter(|&(x, y)| {
+            let p = heat.get_pixel(x, y).0;
+            p[0] > 150 && p[1] < 90 && p[2] < 90
+        })
+        .count();
+    assert!(reddish > 100, "the heatmap shows only {reddish} red pixels at a 150° twist");
+    controls.send_global(Command::SetHeatmap(false));
+    h.step(0.016, Vec::new());
+    let off = h.step(0.016, Vec::new());
+    let differ = changed_pixels(&pictures[2], &off, (280, 40, SIZE[0], SIZE[1] - 40));
+    assert!(differ < 40, "turning the heatmap off left {differ} changed pixels");
+
     // The compute pass (native has compute shaders) draws the same picture as the vertex shader.
     controls.send_global(Command::SetSkinningPath(SkinningPath::Compute));
     h.step(0.016, Vec::new());

@@ -103,7 +103,7 @@ impl LbsJob<'_> {
                 // to be a valid index (clamped; an out-of-range joint with a weight is an error).
                 for k in 0..4 {
                     let (j, w) = (joints[k] as usize, weights[k]);
-                    if w != 0.0 && j >= self.palette.len() {
+                    if j >= self.palette.len() && w != 0.0 {
                         return Err(out_of_range(j, self.palette.len()));
                     }
                     let m = &palette[j.min(last)];

@@ -74,6 +74,9 @@ impl SkinningPath {
     }
 }
 
+/// The heatmap's full-scale distance as a fraction of the rest pose's bounding-box diagonal.
+const HEATMAP_FULL_SCALE: f32 = 0.02;
+
 /// Sample count to use with `adapter`: 4× MSAA when both the colour and depth formats
 /// support it, else 1.
 pub fn msaa_samples(adapter: &wgpu::Adapter) -> u32 {
@@ -172,6 +175,8 @@ struct GpuScene {
     joints: u32,
     /// Copies the palette and draw buffer have room for.
     copies: usize,
+    /// Bounding-box diagonal of the rest pose (scales the heatmap).
+    diagonal: f32,
     /// The compute pass's textures and draw-uniform bind groups (where compute exists).
     compute: Option<(wgpu::BindGroup, wgpu::BindGroup)>,
 }
@@ -224,6 +229,8 @@ pub struct SceneRenderer {
     times: RenderTimes,
     /// The compute skinning pipeline, where the device has compute shaders.
     compute: Option<ComputeKit>,
+    /// Deviation heatmap on: the full-scale distance (a fraction of the model's size).
+    heatmap: Option<f32>,
 }
 
 impl SceneRenderer {
@@ -261,6 +268,7 @@ impl SceneRenderer {
             scratch: Scratch::default(),
             times: RenderTimes::default(),
             compute: ComputeKit::new(device),
+            heatmap: None,
         }
     }
 
@@ -338,10 +346,12 @@ impl SceneRenderer {
         let compute = self.compute.as_ref().map(|kit| compute_groups(device, kit, &palette, &morph_view, &draw_buffer));
 
         let mut rest = Instance::new(asset);
-        self.ground = match rest.evaluate(asset, None, 0.0).ok().and_then(|()| rest.scene_bounds(asset)) {
+        let bounds = rest.evaluate(asset, None, 0.0).ok().and_then(|()| rest.scene_bounds(asset));
+        self.ground = match bounds {
             Some((min, max)) => Ground::under(min, max),
             None => Ground::default(),
         };
+        let diagonal = bounds.map_or(1.0, |(min, max)| (max - min).length()).max(1e-6);
         self.scene = Some(GpuScene {
             primitives,
             materials,
@@ -355,6 +365,7 @@ impl SceneRenderer {
             node_count: asset.nodes.len(),
             joints,
             copies: 1,
+            diagonal,
             compute,
         });
         Ok(())
@@ -394,6 +405,18 @@ impl SceneRenderer {
         }
         self.skinning = path;
         Ok(())
+    }
+
+    /// Colours skinned vertices by how far they are from linear blend skinning's result (from
+    /// dual quaternions' when LBS is the method): blue for none, red at 2% of the rest
+    /// pose's bounding-box diagonal. Only on the vertex-shader path (other paths draw normally).
+    pub fn set_heatmap(&mut self, on: bool) {
+        self.heatmap = on.then_some(HEATMAP_FULL_SCALE);
+    }
+
+    /// Whether the deviation heatmap is on.
+    pub fn heatmap(&self) -> bool {
+        self.heatmap.is_some()
     }
 
     /// Whether [`SkinningPath::Compute`] is available on this device.
@@ -499,6 +522,7 @@ impl SceneRenderer {
                 camera,
                 self.skinning,
                 self.compute.as_ref(),
+                self.heatmap,
                 self.draw_stride,
                 &mut self.scratch,
             )?;
@@ -737,6 +761,7 @@ impl GpuScene {
             node_count: 0,
             joints: 0,
             copies: 1,
+            diagonal: 1.0,
             compute: None,
         }
     }
@@ -783,6 +808,7 @@ impl GpuScene {
         camera: &Camera,
         path: SkinningPath,
         kit: Option<&ComputeKit>,
+        heatmap: Option<f32>,
         stride: u64,
         scratch: &mut Scratch,
     ) -> Result<(), String> {
@@ -897,10 +923,13 @@ impl GpuScene {
                     (DrawUniform::new(place, 0, gpu.has_normals), VertexPath::Static)
                 } else if let Some(skin) = draw.skin {
                     let base = c as u32 * self.joints + self.skin_base[skin];
-                    (
-                        morph(DrawUniform::new(place, base, gpu.has_normals).with_skinning(instance.skinning())),
-                        VertexPath::Skinned,
-                    )
+                    let uniform =
+                        morph(DrawUniform::new(place, base, gpu.has_normals).with_skinning(instance.skinning()));
+                    let uniform = match heatmap {
+                        Some(scale) => uniform.with_heatmap(scale * self.diagonal),
+                        None => uniform,
+                    };
+                    (uniform, VertexPath::Skinned)
                 } else {
                     mirrored = world.determinant() < 0.0;
                     (morph(DrawUniform::new(place * world, 0, gpu.has_normals)), VertexPath::Static)

@@ -164,10 +164,14 @@ pub struct DrawUniform {
     pub morph: [u32; 4],
     /// Morph weights, four per element.
     pub weights: [[f32; 4]; 16],
+    /// Deviation heatmap: x = the distance drawn fully red.
+    pub heat: [f32; 4],
 }
 
 /// `DRAW_HAS_NORMALS` in mesh.wgsl.
 const DRAW_HAS_NORMALS: u32 = 1;
+/// `DRAW_HEATMAP` in mesh.wgsl.
+const DRAW_HEATMAP: u32 = 2;
 
 /// The `SKIN_*` constant of mesh.wgsl for `method`.
 pub fn skin_code(method: SkinningMethod) -> u32 {
@@ -191,6 +195,7 @@ impl DrawUniform {
             params: [joint_base, if has_normals { DRAW_HAS_NORMALS } else { 0 }, skin_code(SkinningMethod::Linear), 0],
             morph: [0; 4],
             weights: [[0.0; 4]; 16],
+            heat: [0.0; 4],
         }
     }
 
@@ -206,6 +211,14 @@ impl DrawUniform {
         for (i, &w) in weights.iter().take(slot.targets as usize).take(64).enumerate() {
             self.weights[i / 4][i % 4] = w;
         }
+        self
+    }
+
+    /// Colours the skinned vertices by their distance from another method's result: blue at
+    /// zero, red at `full_scale` (a skinned draw in the vertex shader only).
+    pub fn with_heatmap(mut self, full_scale: f32) -> Self {
+        self.params[1] |= DRAW_HEATMAP;
+        self.heat[0] = full_scale;
         self
     }
 

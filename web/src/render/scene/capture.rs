@@ -73,6 +73,7 @@ impl SceneRenderer {
             &Camera::default(),
             SkinningPath::Compute,
             Some(kit),
+            None,
             self.draw_stride,
             &mut self.scratch,
         )?;
@@ -123,6 +124,7 @@ impl SceneRenderer {
             &[glam::Vec3::ZERO],
             &Camera::default(),
             SkinningPath::Gpu,
+            None,
             None,
             self.draw_stride,
             &mut self.scratch,
