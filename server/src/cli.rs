@@ -45,6 +45,66 @@ pub enum Command {
     /// Describe a glTF/GLB file: scenes, skins, clips, morph targets, import warnings.
     #[command(after_long_help = INSPECT_HELP)]
     Inspect(InspectArgs),
+    /// Bring an end effector to a target by inverse kinematics and print the chain as JSON.
+    Ik(IkArgs),
+}
+
+/// `kloub ik` arguments.
+#[derive(Debug, clap::Args)]
+pub struct IkArgs {
+    /// The glTF/GLB file.
+    pub file: std::path::PathBuf,
+    /// Pose with this clip (name or index) first; the rest pose without.
+    #[arg(long)]
+    pub clip: Option<String>,
+    /// Time in the clip, seconds.
+    #[arg(long, default_value_t = 0.0)]
+    pub time: f32,
+    /// End effector: a joint (node) name or index.
+    #[arg(long)]
+    pub effector: String,
+    /// Joints above the effector that rotate.
+    #[arg(long)]
+    pub depth: usize,
+    /// Target in world space: x,y,z.
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub target: [f32; 3],
+    /// Solver.
+    #[arg(long, value_enum, default_value_t = IkSolverArg::Ccd)]
+    pub solver: IkSolverArg,
+    /// Most iterations (CCD sweeps, FABRIK passes).
+    #[arg(long, default_value_t = 32)]
+    pub iterations: u32,
+    /// Stop within this distance of the target (world units).
+    #[arg(long, default_value_t = 1e-4)]
+    pub tolerance: f32,
+    /// Two-bone: bend the middle joint towards this world point x,y,z.
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub pole: Option<[f32; 3]>,
+    /// CCD stiffness per rotating joint, root first, comma-separated in [0, 1].
+    #[arg(long, value_delimiter = ',')]
+    pub stiffness: Vec<f32>,
+}
+
+/// `--solver` values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum IkSolverArg {
+    /// Cyclic coordinate descent (seed 000 eqs. 3.21–3.24).
+    Ccd,
+    /// Analytic two-bone (depth 2) with an optional pole.
+    Twobone,
+    /// FABRIK.
+    Fabrik,
+}
+
+fn parse_vec3(s: &str) -> Result<[f32; 3], String> {
+    let parts: Vec<&str> = s.split(',').collect();
+    let [x, y, z] = parts.as_slice() else {
+        return Err(format!("{s:?}: expected x,y,z"));
+    };
+    let num =
+        |p: &str| p.trim().parse::<f32>().ok().filter(|v| v.is_finite()).ok_or(format!("{p:?} is not a finite number"));
+    Ok([num(x)?, num(y)?, num(z)?])
 }
 
 const POSE_HELP: &str = "\
@@ -205,6 +265,40 @@ where
         Command::Serve(args) => run_serve(args),
         Command::Pose(args) => run_pose(&args),
         Command::Inspect(args) => run_inspect(&args),
+        Command::Ik(args) => run_ik(&args),
+    }
+}
+
+fn run_ik(args: &IkArgs) -> ExitCode {
+    let file = args.file.display().to_string();
+    let request = crate::ik::IkRequest {
+        clip: args.clip.clone(),
+        time: args.time,
+        effector: args.effector.clone(),
+        depth: args.depth,
+        target: args.target,
+        pole: args.pole,
+        stiffness: args.stiffness.clone(),
+        settings: kloub_core::job::ik::IkSettings {
+            solver: match args.solver {
+                IkSolverArg::Ccd => kloub_core::job::ik::IkSolver::Ccd,
+                IkSolverArg::Twobone => kloub_core::job::ik::IkSolver::TwoBone,
+                IkSolverArg::Fabrik => kloub_core::job::ik::IkSolver::Fabrik,
+            },
+            iterations: args.iterations,
+            tolerance: args.tolerance,
+            weight: 1.0,
+        },
+    };
+    match crate::ik::ik_file(&args.file, &request) {
+        Ok(doc) => write_stdout(&file, |out| {
+            serde_json::to_writer(&mut *out, &doc).map_err(std::io::Error::from)?;
+            writeln!(out)
+        }),
+        Err(e) => {
+            eprintln!("kloub: {file}: {e}");
+            ExitCode::FAILURE
+        }
     }
 }
 

@@ -4,6 +4,7 @@
 //! [`cli::run`] the whole command line.
 
 pub mod cli;
+pub mod ik;
 pub mod inspect;
 pub mod logger;
 pub mod paths;

@@ -349,3 +349,71 @@ fn pose_skinning_methods_share_the_skeleton_and_differ_in_the_skin() {
     let out = kloub().arg("pose").arg(&file).args(["--skinning", "vsp"]).output().expect("runs");
     assert_eq!(out.status.code(), Some(2), "an unknown method is a usage error");
 }
+
+/// `kloub ik` brings RiggedFigure's left hand from its pose at 0 s to where the clip has it at
+/// 0.9 s, with every solver; the JSON contract's fields are there; bad input is an error.
+#[test]
+fn ik_reaches_a_target_with_every_solver() {
+    let file = shared_assets().join("khronos/RiggedFigure/glTF-Binary/RiggedFigure.glb");
+    let path = file.to_str().expect("a UTF-8 path");
+    let later = pose_json(&file, &["--clip", "0", "--time", "0.9"]);
+    let hand = later["frames"][0]["nodes"]
+        .as_array()
+        .expect("nodes")
+        .iter()
+        .find(|n| n["name"] == "arm_joint_L_3")
+        .expect("the left hand")["world"]
+        .as_array()
+        .expect("world")
+        .iter()
+        .map(|x| x.as_f64().expect("a number"))
+        .collect::<Vec<f64>>();
+    let target = format!("{},{},{}", hand[12], hand[13], hand[14]);
+    for solver in ["ccd", "twobone", "fabrik"] {
+        let args = [
+            "ik",
+            path,
+            "--clip",
+            "0",
+            "--time",
+            "0",
+            "--effector",
+            "arm_joint_L_3",
+            "--depth",
+            "2",
+            "--target",
+            &target,
+            "--solver",
+            solver,
+            "--iterations",
+            "200",
+        ];
+        let doc: serde_json::Value = serde_json::from_slice(&kloub_ok(&args)).expect("JSON on stdout");
+        assert_eq!(doc["solver"], solver);
+        assert_eq!(doc["effector"]["name"], "arm_joint_L_3");
+        let error = doc["error"].as_f64().expect("error");
+        assert!(error < 1e-3, "{solver}: error {error}");
+        let chain = doc["chain"].as_array().expect("chain");
+        assert_eq!(chain.len(), 3);
+        assert_eq!(chain[0]["name"], "arm_joint_L_1");
+        let reached = doc["reached"].as_array().expect("reached");
+        let last = chain[2]["world"].as_array().expect("world");
+        assert_eq!(reached, last, "{solver}: reached is the effector's world position");
+        assert!(doc["iterations"].as_u64().expect("iterations") >= 1);
+    }
+    for bad in [
+        vec!["--effector", "nope", "--depth", "2", "--target", "0,0,0"],
+        vec!["--effector", "arm_joint_L_3", "--depth", "40", "--target", "0,0,0"],
+        vec!["--effector", "arm_joint_L_3", "--depth", "3", "--target", "0,0,0", "--solver", "twobone"],
+        vec!["--effector", "arm_joint_L_3", "--depth", "2", "--target", "0,0,0", "--stiffness", "1,2"],
+    ] {
+        let out = kloub().args(["ik", path]).args(&bad).output().expect("runs");
+        assert_eq!(out.status.code(), Some(1), "{bad:?} should fail: {}", String::from_utf8_lossy(&out.stdout));
+        assert!(!out.stderr.is_empty());
+    }
+    let out = kloub()
+        .args(["ik", path, "--effector", "arm_joint_L_3", "--depth", "2", "--target", "0,nan,0"])
+        .output()
+        .expect("runs");
+    assert_eq!(out.status.code(), Some(2), "a non-finite target is a usage error");
+}

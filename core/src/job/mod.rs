@@ -9,10 +9,12 @@
 //! - [`morph::MorphJob`]: base + weighted morph deltas;
 //! - [`skin::LbsJob`]: linear blend skinning of positions and normals (CPU reference);
 //! - [`dqs::DqPrepareJob`] + [`dqs::DqsJob`]: dual-quaternion skinning; [`dqs::RigidJob`]: strongest
-//!   influence only; [`sjb::SjbPlan`] + [`sjb::SjbJob`]: spherical joint blending.
+//!   influence only; [`sjb::SjbPlan`] + [`sjb::SjbJob`]: spherical joint blending;
+//! - [`ik::IkJob`]: inverse kinematics on the blended pose (CCD, two-bone) with joint limits.
 
 pub mod blend;
 pub mod dqs;
+pub mod ik;
 pub mod morph;
 pub mod sample;
 pub mod sjb;
