@@ -10,6 +10,7 @@ const BACKENDS = (process.env.KLOUB_BACKENDS ?? 'webgpu,webgl2').split(',');
 const FOX = join(SHARED, 'khronos/Fox/glTF-Binary/Fox.glb');
 const RIGGED_SIMPLE = join(SHARED, 'khronos/RiggedSimple/glTF-Binary/RiggedSimple.glb');
 const ROBOT = join(SHARED, 'threejs/RobotExpressive/RobotExpressive.glb');
+const RIGGED_FIGURE = join(SHARED, 'khronos/RiggedFigure/glTF-Binary/RiggedFigure.glb');
 
 const tests = [];
 const test = (name, fn) => tests.push({ name, fn });
@@ -172,6 +173,33 @@ for (const backend of BACKENDS) {
     let threw = false;
     try { await control(page, 'setSkinning', 'vsp'); } catch { threw = true; }
     assert(threw, 'an unknown skinning method did not throw');
+  });
+
+  test(`${backend}: dragging the IK target moves RiggedFigure's hand onto it`, async (ctx) => {
+    const { page } = ctx;
+    await openApp(ctx, backend);
+    await dropModel(page, RIGGED_FIGURE);
+    await control(page, 'pause');
+    await control(page, 'setIkTarget', 'arm_joint_L_3');
+    await waitForDataset(page, () => (document.body.dataset.ik ?? '').startsWith('arm_joint_L_3:') && document.body.dataset.ikTarget !== '', 'IK on the hand');
+    await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
+    const before = await viewportShot(page);
+    const [x, y] = (await dataset(page)).ikTarget.split(',').map(Number);
+    await page.mouse.move(x, y);
+    await page.mouse.down();
+    for (let i = 1; i <= 10; i++) await page.mouse.move(x - 4 * i, y - 3 * i);
+    await page.mouse.up();
+    await waitForDataset(page, ([tx, ty]) => {
+      const [mx, my] = (document.body.dataset.ikTarget ?? '').split(',').map(Number);
+      return Math.abs(mx - tx) < 2 && Math.abs(my - ty) < 2;
+    }, 'the target ring to follow the pointer', 20000, [x - 40, y - 30]);
+    await waitForDataset(page, () => Number(document.body.dataset.ik.split(':')[1]) < 1e-3, 'the hand to reach the target', 20000);
+    await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
+    const after = await viewportShot(page);
+    savePng(before, `${backend}-ik-before.png`);
+    savePng(after, `${backend}-ik-after.png`);
+    const changed = diffFraction(before, after);
+    assert(changed > 0.002, `dragging the target changed only ${(changed * 100).toFixed(3)}% of the viewport`);
   });
 
   test(`${backend}: a broken file shows an error and keeps the previous model`, async (ctx) => {

@@ -3,7 +3,7 @@
 //! state into the page ([`crate::dom`]).
 
 use egui::{Color32, Pos2, Rect, Sense};
-use glam::Vec3;
+use glam::{Mat4, Vec3};
 use kloub_core::animator::{Crossfade, Layer};
 use kloub_core::asset::NodeIndex;
 use kloub_core::clip::Clip;
@@ -16,6 +16,7 @@ use crate::backend::backend_name;
 use crate::candy::{CandyPanel, Sample};
 use crate::control::{Command, Controls};
 use crate::dom::{Dataset, Key};
+use crate::ik::IkState;
 use crate::load::{self, Inbox, LoadedModel};
 use crate::render::{Camera, SceneRenderer, msaa_samples};
 use crate::ui;
@@ -103,6 +104,8 @@ pub struct Model {
     pub copy_spacing: f32,
     /// World bounds the camera frames (animated, one copy).
     pub bounds: Option<(Vec3, Vec3)>,
+    /// The inverse-kinematics goal, solved on the main character after animation.
+    pub ik: Option<IkState>,
 }
 
 /// Most copies of the character the grid shows.
@@ -162,6 +165,7 @@ impl Model {
             copies: Vec::new(),
             copy_spacing: 1.0,
             bounds: None,
+            ik: None,
         })
     }
 
@@ -213,7 +217,18 @@ impl Model {
             }
             candy.update_quality(self.instance.pose());
         }
+        if let Some(ik) = &mut self.ik {
+            ik.apply(&self.asset, &mut self.instance)?;
+        }
         Ok(())
+    }
+
+    /// `dataset.ik`: `"EFFECTOR:ERROR"` (error with five decimals), `""` without IK.
+    pub fn ik_summary(&self) -> String {
+        match &self.ik {
+            Some(ik) => format!("{}:{:.5}", self.node_name(ik.effector()), ik.report.error),
+            None => String::new(),
+        }
     }
 
     /// Number of characters shown (the main one plus its copies).
@@ -539,6 +554,10 @@ pub struct App {
     skinning: SkinningMethod,
     /// Smoothed CPU time per stage.
     stages: ui::StageTimes,
+    /// The IK target is being dragged in the viewport.
+    ik_drag: bool,
+    /// Where the IK target was drawn last frame, in points (for `dataset.ikTarget`).
+    ik_marker: Option<Pos2>,
 }
 
 /// Exponential smoothing of a per-frame figure (a first value is taken as is).
@@ -550,6 +569,89 @@ fn smooth(mean: f32, value: f32) -> f32 {
     } else {
         value
     }
+}
+
+/// Pointer distance (points) within which the IK target or a joint is grabbed.
+const IK_GRAB_RADIUS: f32 = 14.0;
+
+/// World ↔ viewport points for one frame's camera.
+struct Projection {
+    view_proj: Mat4,
+    inverse: Mat4,
+    rect: Rect,
+}
+
+impl Projection {
+    fn new(camera: &Camera, rect: Rect) -> Self {
+        let aspect = (rect.width() / rect.height().max(1.0)).max(1e-3);
+        let view_proj = camera.view_proj(aspect);
+        Self { view_proj, inverse: view_proj.inverse(), rect }
+    }
+
+    /// Where `p` appears, and its depth (NDC z); `None` behind the camera.
+    fn to_screen(&self, p: Vec3) -> Option<(Pos2, f32)> {
+        let c = self.view_proj * p.extend(1.0);
+        if c.w <= 1e-6 || !c.is_finite() {
+            return None;
+        }
+        let n = c.truncate() / c.w;
+        let r = self.rect;
+        Some((Pos2::new(r.min.x + (n.x + 1.0) * 0.5 * r.width(), r.min.y + (1.0 - n.y) * 0.5 * r.height()), n.z))
+    }
+
+    /// The world point under `at` at NDC depth `depth`.
+    fn unproject(&self, at: Pos2, depth: f32) -> Option<Vec3> {
+        let r = self.rect;
+        let ndc = Vec3::new((at.x - r.min.x) / r.width() * 2.0 - 1.0, 1.0 - (at.y - r.min.y) / r.height() * 2.0, depth);
+        let w = self.inverse * ndc.extend(1.0);
+        (w.w.abs() > 1e-12).then(|| w.truncate() / w.w).filter(|p| p.is_finite())
+    }
+}
+
+/// Number of ancestors of `node`.
+fn ancestors(asset: &Asset, node: NodeIndex) -> usize {
+    let mut count = 0;
+    let mut p = asset.nodes.get(node as usize).and_then(|n| n.parent);
+    while let Some(n) = p {
+        count += 1;
+        p = asset.nodes.get(n as usize).and_then(|n| n.parent);
+        if count > 1024 {
+            break;
+        }
+    }
+    count
+}
+
+/// Draws the IK chain, the target (green when reached) and the error; returns the target's
+/// position.
+fn paint_ik(
+    painter: &egui::Painter,
+    projection: &Projection,
+    ik: &IkState,
+    origin: Vec3,
+    dragging: bool,
+) -> Option<Pos2> {
+    let points: Vec<Pos2> = ik.joints.iter().filter_map(|&p| projection.to_screen(p + origin).map(|s| s.0)).collect();
+    let chain = egui::Stroke::new(2.0, Color32::from_rgb(255, 214, 64));
+    for w in points.windows(2) {
+        painter.line_segment([w[0], w[1]], chain);
+    }
+    for &p in &points {
+        painter.circle_filled(p, 3.5, Color32::from_rgb(255, 214, 64));
+    }
+    let (at, _) = projection.to_screen(ik.target + origin)?;
+    let reached = ik.report.error <= 1e-3;
+    let color = if reached { Color32::from_rgb(80, 220, 120) } else { Color32::from_rgb(255, 90, 80) };
+    painter.circle_stroke(at, if dragging { 11.0 } else { 9.0 }, egui::Stroke::new(2.5, color));
+    painter.circle_filled(at, 2.5, color);
+    painter.text(
+        at + egui::vec2(14.0, -14.0),
+        egui::Align2::LEFT_BOTTOM,
+        format!("error {:.4}", ik.report.error),
+        egui::FontId::monospace(12.0),
+        color,
+    );
+    Some(at)
 }
 
 /// The largest frame step the clock takes (a background tab resumes without a jump).
@@ -588,6 +690,8 @@ impl App {
             fps: Fps::default(),
             skinning: SkinningMethod::default(),
             stages: ui::StageTimes::default(),
+            ik_drag: false,
+            ik_marker: None,
         };
         app.controls.set_repaint(cc.egui_ctx.clone());
         app.controls.set_supports_compute(app.scene.supports_compute());
@@ -738,6 +842,20 @@ impl App {
         match command {
             Command::SetSkinning(_) | Command::SetSkinningPath(_) | Command::SetHeatmap(_) | Command::LoadSample(_) => {
             }
+            Command::SetIk { effector, depth, target } => match effector {
+                Some(effector) => {
+                    let state = IkState::new(&model.asset, &model.instance, effector, depth, target.map(Vec3::from))?;
+                    let solver = model.ik.as_ref().map(|ik| (ik.solver, ik.iterations));
+                    model.ik = Some(state);
+                    if let (Some(ik), Some((solver, iterations))) = (&mut model.ik, solver) {
+                        ik.iterations = iterations;
+                        if solver != kloub_core::job::ik::IkSolver::TwoBone || ik.depth() == 2 {
+                            ik.solver = solver;
+                        }
+                    }
+                }
+                None => model.ik = None,
+            },
             Command::SetCopies(n) => {
                 model.set_copies(n);
                 if let Some((min, max)) = model.grid_bounds() {
@@ -812,7 +930,50 @@ impl App {
         let height = rect.height();
         let delta = response.drag_delta();
         let shift = ui.input(|i| i.modifiers.shift);
-        if response.dragged_by(egui::PointerButton::Primary) && !shift {
+        let projection = Projection::new(&self.camera, rect);
+        let origin = self.model.as_ref().map_or(Vec3::ZERO, |m| m.copy_offset(0));
+        let marker =
+            self.model.as_ref().and_then(|m| m.ik.as_ref()).and_then(|ik| projection.to_screen(ik.target + origin));
+        if response.drag_started_by(egui::PointerButton::Primary) && !shift {
+            let pointer = response.interact_pointer_pos();
+            self.ik_drag = matches!((marker, pointer), (Some((at, _)), Some(p)) if at.distance(p) <= IK_GRAB_RADIUS);
+        }
+        let mut pending = None;
+        if self.ik_drag {
+            if let (Some((_, depth)), Some(pointer), Some(ik)) =
+                (marker, response.interact_pointer_pos(), self.model.as_mut().and_then(|m| m.ik.as_mut()))
+                && let Some(world) = projection.unproject(pointer, depth)
+            {
+                ik.target = world - origin;
+            }
+            if !response.dragged() || response.drag_stopped() {
+                self.ik_drag = false;
+            }
+        } else if response.clicked()
+            && let (Some(model), Some(pointer)) = (self.model.as_ref(), response.interact_pointer_pos())
+            && let Some(ik) = &model.ik
+        {
+            // A click on a joint makes it the effector (keeping the depth where possible).
+            let nearest = model
+                .asset
+                .skins
+                .iter()
+                .flat_map(|s| s.joints.iter().copied())
+                .filter_map(|j| {
+                    let p = model.instance.worlds().get(j as usize)?.w_axis.truncate();
+                    projection.to_screen(p + origin).map(|(at, _)| (at.distance(pointer), j))
+                })
+                .filter(|(d, _)| *d <= IK_GRAB_RADIUS)
+                .min_by(|a, b| a.0.total_cmp(&b.0));
+            if let Some((_, joint)) = nearest {
+                let available = ancestors(&model.asset, joint);
+                pending = Some(Command::SetIk {
+                    effector: Some(joint),
+                    depth: ik.depth().min(available).max(1),
+                    target: None,
+                });
+            }
+        } else if response.dragged_by(egui::PointerButton::Primary) && !shift {
             self.camera.orbit_pixels(delta.x, delta.y, height);
         } else if response.dragged_by(egui::PointerButton::Secondary)
             || response.dragged_by(egui::PointerButton::Middle)
@@ -898,6 +1059,16 @@ impl App {
         };
         let uv = Rect::from_min_max(Pos2::ZERO, Pos2::new(1.0, 1.0));
         ui.painter().image(id, rect, uv, Color32::WHITE);
+        drop(renderer);
+        self.ik_marker = None;
+        if let Some(ik) = self.model.as_ref().and_then(|m| m.ik.as_ref()) {
+            self.ik_marker = paint_ik(ui.painter(), &projection, ik, origin, self.ik_drag);
+        }
+        if let Some(command) = pending
+            && let Err(message) = self.apply(command)
+        {
+            self.fail(message);
+        }
     }
 
     /// Frames the camera on the current model's animated bounds.
@@ -975,6 +1146,9 @@ impl App {
         });
         d.set(Key::Quality, quality.as_deref().unwrap_or(""));
         d.set(Key::Copies, &model.map_or(String::new(), |m| m.copy_count().to_string()));
+        d.set(Key::Ik, &model.map_or(String::new(), Model::ik_summary));
+        let marker = self.ik_marker.filter(|_| model.is_some_and(|m| m.ik.is_some()));
+        d.set(Key::IkTarget, &marker.map_or(String::new(), |p| format!("{:.1},{:.1}", p.x, p.y)));
         d.set(Key::Frames, &self.frames.to_string());
     }
 }

@@ -62,6 +62,16 @@ pub enum Command {
     SetHeatmap(bool),
     /// Shows a built-in sample.
     LoadSample(Sample),
+    /// Drags `effector` (with `depth` rotating joints above it) towards `target` by inverse
+    /// kinematics; `None` effector turns IK off. No target: where the effector is now.
+    SetIk {
+        /// The end effector node.
+        effector: Option<u32>,
+        /// Rotating joints above it.
+        depth: usize,
+        /// World-space target.
+        target: Option<[f32; 3]>,
+    },
     /// Shows this many characters in a grid (1 ..= [`crate::app::MAX_COPIES`]), each
     /// [`crate::app::COPY_TIME_STEP`] seconds later than the previous.
     SetCopies(usize),

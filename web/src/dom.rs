@@ -37,13 +37,17 @@ pub enum Key {
     Quality,
     /// `"true"` while the deviation heatmap is on, else `"false"`.
     Heatmap,
+    /// The IK goal as `"EFFECTOR:ERROR"` (five decimals); `""` without IK.
+    Ik,
+    /// Where the IK target is drawn, `"x,y"` in CSS pixels of the page; `""` without IK.
+    IkTarget,
     /// Characters shown (the model and its copies), a decimal integer; `""` without a model.
     Copies,
 }
 
 impl Key {
     /// Every key, in a fixed order.
-    pub const ALL: [Key; 17] = [
+    pub const ALL: [Key; 19] = [
         Key::Backend,
         Key::Status,
         Key::Model,
@@ -60,6 +64,8 @@ impl Key {
         Key::SkinningPath,
         Key::Quality,
         Key::Heatmap,
+        Key::Ik,
+        Key::IkTarget,
         Key::Copies,
     ];
 
@@ -83,6 +89,8 @@ impl Key {
             Key::Quality => "quality",
             Key::Copies => "copies",
             Key::Heatmap => "heatmap",
+            Key::Ik => "ik",
+            Key::IkTarget => "ikTarget",
         }
     }
 }

@@ -176,6 +176,36 @@ impl Viewer {
         self.controls.send_global(Command::SetHeatmap(on));
     }
 
+    /// Inverse kinematics: drags the joint named `effector` (with `depth` joints above it
+    /// rotating, default 2) towards the world point `x, y, z` (all three omitted: where the
+    /// joint is now, to drag it from there in the viewport); `null` turns IK off.
+    #[wasm_bindgen(js_name = setIkTarget)]
+    pub fn set_ik_target(
+        &self,
+        effector: Option<String>,
+        x: Option<f32>,
+        y: Option<f32>,
+        z: Option<f32>,
+        depth: Option<u32>,
+    ) -> Result<(), JsValue> {
+        let Some(name) = effector else {
+            self.controls.send(Command::SetIk { effector: None, depth: 0, target: None });
+            return Ok(());
+        };
+        let target = match (x, y, z) {
+            (None, None, None) => None,
+            (Some(x), Some(y), Some(z)) if x.is_finite() && y.is_finite() && z.is_finite() => Some([x, y, z]),
+            _ => return Err(JsValue::from_str("setIkTarget: give x, y and z as finite numbers, or none of them")),
+        };
+        let effector = self.controls.node_index(&name).map_err(|e| JsValue::from_str(&e))?;
+        let depth = depth.unwrap_or(2) as usize;
+        if !(1..32).contains(&depth) {
+            return Err(JsValue::from_str(&format!("setIkTarget: depth {depth}: expected 1 to 31")));
+        }
+        self.controls.send(Command::SetIk { effector: Some(effector), depth, target });
+        Ok(())
+    }
+
     /// Shows a built-in sample: `"candy-wrapper"`.
     #[wasm_bindgen(js_name = loadSample)]
     pub fn load_sample(&self, name: &str) -> Result<(), JsValue> {

@@ -16,6 +16,7 @@ pub mod control;
 pub mod dom;
 #[cfg(target_arch = "wasm32")]
 mod entry;
+pub mod ik;
 pub mod load;
 pub mod render;
 pub mod ui;

@@ -9,6 +9,7 @@ use egui::{Color32, Sense, Stroke, pos2, vec2};
 use kloub_core::animator::{Crossfade, Easing, Outgoing};
 use kloub_core::asset::NodeIndex;
 use kloub_core::job::dqs::SkinningMethod;
+use kloub_core::job::ik::IkSolver;
 use kloub_core::job::sample::RotationLerp;
 use kloub_core::player::LoopMode;
 
@@ -134,6 +135,7 @@ pub fn side_panel(
                 skinning_panel(ui, state, &mut actions);
                 ui.separator();
             }
+            ik_panel(ui, model, &mut actions);
             copies_control(ui, model, &mut actions);
             if ui.button("Frame model").on_hover_text("Or double-click the viewport").clicked() {
                 actions.frame = true;
@@ -308,6 +310,69 @@ fn skinning_panel(ui: &mut egui::Ui, state: &PanelState<'_>, actions: &mut Panel
             state.sjb_fallbacks.iter().fold((0, 0), |(v, f), &(_, vertices, fallbacks)| (v + vertices, f + fallbacks));
         ui.label(format!("{fallbacks} of {vertices} vertices share no joint centre and use DQS"))
             .on_hover_text(sjb_breakdown(state.sjb_fallbacks));
+    }
+}
+
+/// Inverse kinematics: effector, depth, solver, iterations and the solve's error.
+fn ik_panel(ui: &mut egui::Ui, model: &mut Model, actions: &mut PanelActions) {
+    let mut on = model.ik.is_some();
+    let toggled = ui
+        .checkbox(&mut on, "Inverse kinematics")
+        .on_hover_text("Drag the ring in the viewport to move the target; click a joint to make it the end effector")
+        .changed();
+    if toggled {
+        let command = match (on, crate::ik::default_effector(&model.asset)) {
+            (true, Some((effector, depth))) => Command::SetIk { effector: Some(effector), depth, target: None },
+            _ => Command::SetIk { effector: None, depth: 0, target: None },
+        };
+        actions.commands.push(command);
+    }
+    let Some(ik) = &model.ik else { return };
+    let (effector, depth, target) = (ik.effector(), ik.depth(), ik.target.to_array());
+    let mut chosen = effector;
+    egui::ComboBox::from_label("effector").selected_text(model.node_name(effector)).show_ui(ui, |ui| {
+        let joints = model.asset.skins.iter().flat_map(|s| s.joints.iter().copied());
+        for joint in joints {
+            ui.selectable_value(&mut chosen, joint, model.node_name(joint));
+        }
+    });
+    let mut new_depth = depth;
+    ui.add(egui::Slider::new(&mut new_depth, 1..=31).text("joints above"));
+    if chosen != effector || new_depth != depth {
+        let depth = if chosen != effector { depth.min(2) } else { new_depth };
+        actions.commands.push(Command::SetIk { effector: Some(chosen), depth, target: Some(target) });
+    }
+    let Some(ik) = &mut model.ik else { return };
+    let two_bone_ok = ik.depth() == 2;
+    egui::ComboBox::from_label("solver").selected_text(solver_label(ik.solver)).show_ui(ui, |ui| {
+        for solver in IkSolver::ALL {
+            if solver == IkSolver::TwoBone && !two_bone_ok {
+                continue;
+            }
+            ui.selectable_value(&mut ik.solver, solver, solver_label(solver));
+        }
+    });
+    ui.add(egui::Slider::new(&mut ik.iterations, 1..=128).text("iterations"));
+    let reached = ik.report.error <= 1e-3;
+    ui.label(format!(
+        "error {:.5} after {} iteration{}{}",
+        ik.report.error,
+        ik.report.iterations,
+        if ik.report.iterations == 1 { "" } else { "s" },
+        if reached { " (reached)" } else { "" }
+    ));
+    if ui.button("Target to effector").clicked()
+        && let Some(p) = ik.joints.last()
+    {
+        ik.target = *p;
+    }
+}
+
+fn solver_label(solver: IkSolver) -> &'static str {
+    match solver {
+        IkSolver::Ccd => "CCD",
+        IkSolver::TwoBone => "Two-bone (analytic)",
+        IkSolver::Fabrik => "FABRIK",
     }
 }
 

@@ -71,6 +71,20 @@ impl Harness {
     /// Runs one frame of `dt` seconds with `files` dropped on it and paints it as eframe does
     /// (into an `Rgba8Unorm` target, like the web surface); returns the pixels.
     fn step(&mut self, dt: f64, files: Vec<egui::DroppedFileHandle>) -> image::RgbaImage {
+        self.step_with(dt, files, Vec::new())
+    }
+
+    /// One frame with input `events` (pointer moves and presses).
+    fn step_events(&mut self, dt: f64, events: Vec<egui::Event>) -> image::RgbaImage {
+        self.step_with(dt, Vec::new(), events)
+    }
+
+    fn step_with(
+        &mut self,
+        dt: f64,
+        files: Vec<egui::DroppedFileHandle>,
+        events: Vec<egui::Event>,
+    ) -> image::RgbaImage {
         use eframe::App as _;
         self.time += dt;
         let input = egui::RawInput {
@@ -78,6 +92,7 @@ impl Harness {
             time: Some(self.time),
             predicted_dt: dt as f32,
             dropped_files: files,
+            events,
             ..Default::default()
         };
         let (app, frame) = (&mut self.app, &mut self.frame);
@@ -474,4 +489,60 @@ fn copies_fill_a_grid_and_follow_the_main_clip() {
     controls.send(Command::SetCopies(1));
     h.step(0.016, Vec::new());
     assert_eq!(h.get(Key::Copies), "1");
+}
+
+/// IK from the page controls and by dragging the target in the viewport: RiggedFigure's left
+/// hand follows the target; the overlay's error readout says it reached it.
+#[test]
+fn dragging_the_ik_target_moves_the_hand_onto_it() {
+    let mut h = Harness::new();
+    load_paused(&mut h, "RiggedFigure.glb", shared_asset("khronos/RiggedFigure/glTF-Binary/RiggedFigure.glb"));
+    let controls = h.app.controls().clone();
+    let hand = controls.node_index("arm_joint_L_3").expect("the left hand");
+    let world = |h: &Harness| h.app.model().expect("a model").instance.worlds()[hand as usize].w_axis.truncate();
+    let start = world(&h);
+    let target = start + glam::Vec3::new(0.0, 0.06, 0.05);
+    controls.send(Command::SetIk { effector: Some(hand), depth: 2, target: Some(target.to_array()) });
+    h.step(0.016, Vec::new());
+    let before = h.step(0.016, Vec::new());
+    assert!(world(&h).distance(target) < 1e-3, "the hand is at {} instead of {target}", world(&h));
+    let ik = h.get(Key::Ik).to_owned();
+    assert!(ik.starts_with("arm_joint_L_3:"), "dataset.ik = {ik:?}");
+
+    // Drag the target ring 40 points to the left and 30 up.
+    let marker = h.get(Key::IkTarget).to_owned();
+    let (x, y) =
+        marker.split_once(',').map(|(x, y)| (x.parse::<f32>().expect("x"), y.parse::<f32>().expect("y"))).expect("x,y");
+    let from = egui::pos2(x, y);
+    let press = |pos, pressed| egui::Event::PointerButton {
+        pos,
+        button: egui::PointerButton::Primary,
+        pressed,
+        modifiers: egui::Modifiers::NONE,
+    };
+    h.step_events(0.016, vec![egui::Event::PointerMoved(from)]);
+    h.step_events(0.016, vec![press(from, true)]);
+    for i in 1..=10 {
+        h.step_events(0.016, vec![egui::Event::PointerMoved(from + egui::vec2(-4.0, -3.0) * i as f32)]);
+    }
+    let to = from + egui::vec2(-40.0, -30.0);
+    h.step_events(0.016, vec![press(to, false)]);
+    let after = h.step(0.016, Vec::new());
+    save(&before, "ik-before.png");
+    save(&after, "ik-after.png");
+    let moved = h.app.model().and_then(|m| m.ik.as_ref()).expect("ik").target;
+    assert!(moved.distance(target) > 0.02, "the drag did not move the target ({moved} vs {target})");
+    assert!(world(&h).distance(moved) < 1e-3, "the hand {} did not follow the target {moved}", world(&h));
+    let marker = h.get(Key::IkTarget).to_owned();
+    let (x2, y2) =
+        marker.split_once(',').map(|(x, y)| (x.parse::<f32>().expect("x"), y.parse::<f32>().expect("y"))).expect("x,y");
+    assert!(
+        (x2 - to.x).abs() < 2.0 && (y2 - to.y).abs() < 2.0,
+        "the ring is at {x2},{y2}, the pointer let go at {to:?}"
+    );
+    assert!(changed_pixels(&before, &after, (280, 40, SIZE[0], SIZE[1] - 40)) > 30, "the arm did not move on screen");
+
+    controls.send(Command::SetIk { effector: None, depth: 0, target: None });
+    h.step(0.016, Vec::new());
+    assert_eq!(h.get(Key::Ik), "");
 }

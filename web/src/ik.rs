@@ -1,0 +1,125 @@
+//! Inverse kinematics in the viewer: one end effector dragged towards a target, solved every
+//! frame on top of the animation with kloub_core's [`IkJob`].
+
+use glam::{Mat4, Vec3};
+use kloub_core::Instance;
+use kloub_core::asset::{Asset, NodeIndex};
+use kloub_core::job::ik::{IkChain, IkGoal, IkJob, IkReport, IkSettings, IkSolver};
+use kloub_core::math::Transform;
+
+/// The IK goal of the shown model.
+#[derive(Clone, Debug)]
+pub struct IkState {
+    /// The chain (effector last).
+    pub chain: IkChain,
+    /// The solver.
+    pub solver: IkSolver,
+    /// Most iterations per frame.
+    pub iterations: u32,
+    /// World-space target.
+    pub target: Vec3,
+    /// How the last solve ended.
+    pub report: IkReport,
+    parents: Vec<Option<NodeIndex>>,
+    rest: Vec<Transform>,
+    /// World positions of the chain joints after the last solve (for the overlay).
+    pub joints: Vec<Vec3>,
+}
+
+impl IkState {
+    /// A goal for `effector` with `depth` rotating joints above it, aiming at `target` (default:
+    /// where the effector is in `instance`'s current pose, so nothing jumps).
+    ///
+    /// # Errors
+    /// An effector or depth the hierarchy does not have.
+    pub fn new(
+        asset: &Asset,
+        instance: &Instance,
+        effector: NodeIndex,
+        depth: usize,
+        target: Option<Vec3>,
+    ) -> Result<Self, String> {
+        let parents: Vec<Option<NodeIndex>> = asset.nodes.iter().map(|n| n.parent).collect();
+        let chain = IkChain::new(&parents, effector, depth).map_err(|e| e.to_string())?;
+        let here = instance.worlds().get(effector as usize).map_or(Vec3::ZERO, |w| w.w_axis.truncate());
+        let solver = IkSolver::Ccd;
+        Ok(Self {
+            joints: chain.joints().iter().map(|&j| position(instance.worlds(), j)).collect(),
+            chain,
+            solver,
+            iterations: 32,
+            target: target.unwrap_or(here),
+            report: IkReport::default(),
+            parents,
+            rest: asset.nodes.iter().map(|n| n.rest).collect(),
+        })
+    }
+
+    /// The end effector.
+    pub fn effector(&self) -> NodeIndex {
+        self.chain.effector()
+    }
+
+    /// Rotating joints above the effector.
+    pub fn depth(&self) -> usize {
+        self.chain.depth()
+    }
+
+    /// Solves on `instance`'s pose (already evaluated for this frame) and updates its worlds
+    /// and palettes.
+    ///
+    /// # Errors
+    /// A job error (a goal the job rejects, e.g. two-bone on a chain that is not depth 2).
+    pub fn apply(&mut self, asset: &Asset, instance: &mut Instance) -> Result<(), String> {
+        let goal = IkGoal { chain: &self.chain, target: self.target, stiffness: &[], limits: &[], pole: None };
+        let settings = IkSettings { solver: self.solver, iterations: self.iterations, tolerance: 1e-5, weight: 1.0 };
+        let mut reports = [IkReport::default()];
+        IkJob {
+            parents: &self.parents,
+            rest: &self.rest,
+            locals: &mut instance.pose_mut().locals,
+            goals: &[goal],
+            settings,
+            reports: &mut reports,
+        }
+        .run()
+        .map_err(|e| e.to_string())?;
+        instance.update(asset).map_err(|e| e.to_string())?;
+        self.report = reports[0];
+        for (p, &j) in self.joints.iter_mut().zip(self.chain.joints()) {
+            *p = position(instance.worlds(), j);
+        }
+        Ok(())
+    }
+}
+
+fn position(worlds: &[Mat4], node: NodeIndex) -> Vec3 {
+    worlds.get(node as usize).map_or(Vec3::ZERO, |w| w.w_axis.truncate())
+}
+
+/// A sensible first effector: a joint named like a hand or wrist, else the deepest joint of
+/// the first skin; with the depth its hierarchy allows (up to 2).
+pub fn default_effector(asset: &Asset) -> Option<(NodeIndex, usize)> {
+    let joints: Vec<NodeIndex> = asset.skins.iter().flat_map(|s| s.joints.iter().copied()).collect();
+    let name =
+        |j: NodeIndex| asset.nodes.get(j as usize).and_then(|n| n.name.as_deref()).unwrap_or("").to_ascii_lowercase();
+    let depth_of = |j: NodeIndex| {
+        let mut d = 0;
+        let mut p = asset.nodes.get(j as usize).and_then(|n| n.parent);
+        while let Some(n) = p {
+            d += 1;
+            p = asset.nodes.get(n as usize).and_then(|n| n.parent);
+            if d > 1024 {
+                break;
+            }
+        }
+        d
+    };
+    let effector = joints
+        .iter()
+        .copied()
+        .find(|&j| ["hand", "wrist", "arm_joint_l_3", "lowerarm"].iter().any(|k| name(j).contains(k)))
+        .or_else(|| joints.iter().copied().max_by_key(|&j| depth_of(j)))?;
+    let depth = depth_of(effector).min(2);
+    (depth >= 1).then_some((effector, depth))
+}
