@@ -65,7 +65,7 @@ fn ik(c: &mut Criterion) {
 
     let cases = [
         ("3 joints", figure_parents.clone(), figure_rest.clone(), hand, 2, &IkSolver::ALL[..]),
-        ("6 joints", line_parents, line_rest, 5, 5, &[IkSolver::Ccd, IkSolver::Fabrik][..]),
+        ("6 joints", line_parents, line_rest, 5, 5, &[IkSolver::Ccd, IkSolver::Fabrik, IkSolver::Dls][..]),
     ];
     let mut group = c.benchmark_group("ik");
     group.throughput(Throughput::Elements(TARGETS as u64));

@@ -95,6 +95,8 @@ pub enum IkSolverArg {
     Twobone,
     /// FABRIK.
     Fabrik,
+    /// Damped least squares on the Jacobian (Buss).
+    Dls,
 }
 
 fn parse_vec3(s: &str) -> Result<[f32; 3], String> {
@@ -284,6 +286,7 @@ fn run_ik(args: &IkArgs) -> ExitCode {
                 IkSolverArg::Ccd => kloub_core::job::ik::IkSolver::Ccd,
                 IkSolverArg::Twobone => kloub_core::job::ik::IkSolver::TwoBone,
                 IkSolverArg::Fabrik => kloub_core::job::ik::IkSolver::Fabrik,
+                IkSolverArg::Dls => kloub_core::job::ik::IkSolver::Dls,
             },
             iterations: args.iterations,
             tolerance: args.tolerance,

@@ -68,7 +68,7 @@ pub struct ChainJoint {
 pub struct IkDoc {
     /// File name of the input.
     pub asset: String,
-    /// `"ccd"`, `"twobone"` or `"fabrik"`.
+    /// `"ccd"`, `"twobone"`, `"fabrik"` or `"dls"`.
     pub solver: &'static str,
     /// The clip posed first, if any.
     pub clip: Option<NodeRef>,
@@ -168,7 +168,7 @@ pub fn ik_asset(asset_name: &str, asset: &Asset, request: &IkRequest) -> Result<
     })
 }
 
-/// `ccd`, `twobone` or `fabrik`.
+/// `ccd`, `twobone`, `fabrik` or `dls`.
 pub fn parse_solver(name: &str) -> Option<IkSolver> {
     IkSolver::ALL.into_iter().find(|s| s.name() == name)
 }

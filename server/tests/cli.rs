@@ -369,7 +369,7 @@ fn ik_reaches_a_target_with_every_solver() {
         .map(|x| x.as_f64().expect("a number"))
         .collect::<Vec<f64>>();
     let target = format!("{},{},{}", hand[12], hand[13], hand[14]);
-    for solver in ["ccd", "twobone", "fabrik"] {
+    for solver in ["ccd", "twobone", "fabrik", "dls"] {
         let args = [
             "ik",
             path,

@@ -373,6 +373,7 @@ fn solver_label(solver: IkSolver) -> &'static str {
         IkSolver::Ccd => "CCD",
         IkSolver::TwoBone => "Two-bone (analytic)",
         IkSolver::Fabrik => "FABRIK",
+        IkSolver::Dls => "Damped least squares",
     }
 }
 

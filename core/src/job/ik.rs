@@ -165,11 +165,15 @@ pub enum IkSolver {
     /// chain, then turned into rotations (shortest arc per joint, limits applied). Converges
     /// in a few iterations where CCD is slow (near full reach); ignores stiffness.
     Fabrik,
+    /// Damped least squares on the positional Jacobian (Buss 2004): every rotating joint
+    /// turns at once by `Jᵀ (J Jᵀ + λ² I)⁻¹ e` (3 rotational degrees of freedom per joint,
+    /// λ and the step scaled to the chain's length), stiffness scaling each joint's share.
+    Dls,
 }
 
 impl IkSolver {
     /// Every solver.
-    pub const ALL: [IkSolver; 3] = [IkSolver::Ccd, IkSolver::TwoBone, IkSolver::Fabrik];
+    pub const ALL: [IkSolver; 4] = [IkSolver::Ccd, IkSolver::TwoBone, IkSolver::Fabrik, IkSolver::Dls];
 
     /// The name `kloub ik --solver` uses.
     pub fn name(self) -> &'static str {
@@ -177,6 +181,7 @@ impl IkSolver {
             IkSolver::Ccd => "ccd",
             IkSolver::TwoBone => "twobone",
             IkSolver::Fabrik => "fabrik",
+            IkSolver::Dls => "dls",
         }
     }
 }
@@ -312,6 +317,11 @@ impl IkJob<'_> {
             IkSolver::Fabrik => {
                 for (g, goal) in self.goals.iter().enumerate() {
                     self.reports[g] = fabrik(self.parents, self.rest, self.locals, goal, &self.settings);
+                }
+            }
+            IkSolver::Dls => {
+                for (g, goal) in self.goals.iter().enumerate() {
+                    self.reports[g] = dls(self.parents, self.rest, self.locals, goal, &self.settings);
                 }
             }
         }
@@ -505,6 +515,63 @@ fn fabrik(
     }
     chain_worlds(parents, locals, joints, &mut worlds);
     IkReport { error: worlds[n - 1].w_axis.truncate().distance(target), iterations }
+}
+
+/// Damping λ of [`IkSolver::Dls`] as a fraction of the chain's length.
+const DLS_DAMPING: f32 = 0.02;
+/// Largest error step of one [`IkSolver::Dls`] iteration, as a fraction of the chain's length.
+const DLS_MAX_STEP: f32 = 0.5;
+
+/// Damped least squares on one goal.
+fn dls(
+    parents: &[Option<NodeIndex>],
+    rest: &[Transform],
+    locals: &mut [Transform],
+    goal: &IkGoal<'_>,
+    settings: &IkSettings,
+) -> IkReport {
+    let joints = goal.chain.joints();
+    let n = joints.len();
+    let mut worlds = [Mat4::IDENTITY; MAX_CHAIN];
+    chain_worlds(parents, locals, joints, &mut worlds);
+    let length: f32 = (0..n - 1).map(|k| worlds[k].w_axis.truncate().distance(worlds[k + 1].w_axis.truncate())).sum();
+    let (lambda, max_step) = (DLS_DAMPING * length, DLS_MAX_STEP * length);
+    let mut iterations = 0;
+    loop {
+        let effector = worlds[n - 1].w_axis.truncate();
+        let error = goal.target - effector;
+        if error.length() <= settings.tolerance || iterations >= settings.iterations || length <= 0.0 {
+            break;
+        }
+        let e = if error.length() > max_step { error * (max_step / error.length()) } else { error };
+        // J Jᵀ = Σ over joints and world axes a of (a × r)(a × r)ᵀ, r = effector − joint; for the
+        // three axes that sum is |r|² I − r rᵀ.
+        let mut jjt = Mat3::IDENTITY * (lambda * lambda);
+        for (k, world) in worlds[..n - 1].iter().enumerate() {
+            let r = effector - world.w_axis.truncate();
+            let eta = goal.stiffness.get(k).copied().unwrap_or(1.0);
+            jjt += (Mat3::IDENTITY * r.length_squared() - outer(r, r)) * eta;
+        }
+        let Some(y) = Some(jjt.inverse() * e).filter(|y| y.is_finite()) else { break };
+        // Δθ_k = Jₖᵀ y: for the axes x, y, z the rotation vector is r × y.
+        for k in (0..n - 1).rev() {
+            let r = effector - worlds[k].w_axis.truncate();
+            let eta = goal.stiffness.get(k).copied().unwrap_or(1.0);
+            let omega = r.cross(y) * eta;
+            if omega.length_squared() > 0.0 {
+                let parent = if k == 0 { parent_world(parents, locals, joints[0]) } else { worlds[k - 1] };
+                rotate_joint(locals, rest, joints[k], goal.limits.get(k), &parent, Quat::from_scaled_axis(omega));
+            }
+        }
+        chain_worlds(parents, locals, joints, &mut worlds);
+        iterations += 1;
+    }
+    IkReport { error: worlds[n - 1].w_axis.truncate().distance(goal.target), iterations }
+}
+
+/// The outer product `a bᵀ`.
+fn outer(a: Vec3, b: Vec3) -> Mat3 {
+    Mat3::from_cols(a * b.x, a * b.y, a * b.z)
 }
 
 /// Turns `joint` by the world-space rotation `turn` about its own origin (given its parent's
@@ -722,9 +789,11 @@ mod tests {
             ("arm", &arm, IkSolver::Ccd, 128, 970),
             ("arm", &arm, IkSolver::TwoBone, 1, 1000),
             ("arm", &arm, IkSolver::Fabrik, 32, 950),
+            ("arm", &arm, IkSolver::Dls, 32, 980),
             ("leg", &leg, IkSolver::Ccd, 32, 740),
             ("leg", &leg, IkSolver::Ccd, 128, 985),
             ("leg", &leg, IkSolver::Fabrik, 32, 950),
+            ("leg", &leg, IkSolver::Dls, 32, 980),
         ];
         for (name, chain, solver, iterations, floor) in cases {
             let mut seed = 0x9e37_79b9_u32;
