@@ -84,6 +84,10 @@ pub struct IkArgs {
     /// CCD stiffness per rotating joint, root first, comma-separated in [0, 1].
     #[arg(long, value_delimiter = ',')]
     pub stiffness: Vec<f32>,
+    /// Respect joint limits inferred from humanoid joint names (hinge elbows and knees, ball
+    /// shoulders and hips).
+    #[arg(long)]
+    pub humanoid_limits: bool,
 }
 
 /// `--solver` values.
@@ -281,6 +285,7 @@ fn run_ik(args: &IkArgs) -> ExitCode {
         target: args.target,
         pole: args.pole,
         stiffness: args.stiffness.clone(),
+        humanoid_limits: args.humanoid_limits,
         settings: kloub_core::job::ik::IkSettings {
             solver: match args.solver {
                 IkSolverArg::Ccd => kloub_core::job::ik::IkSolver::Ccd,

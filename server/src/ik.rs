@@ -14,7 +14,7 @@ use std::path::Path;
 
 use kloub_core::Instance;
 use kloub_core::asset::Asset;
-use kloub_core::job::ik::{IkChain, IkGoal, IkJob, IkReport, IkSettings, IkSolver};
+use kloub_core::job::ik::{IkChain, IkGoal, IkJob, IkReport, IkSettings, IkSolver, JointLimit, humanoid_limits};
 use kloub_core::math::{Mat4, Transform, Vec3};
 use serde::Serialize;
 
@@ -37,6 +37,8 @@ pub struct IkRequest {
     pub pole: Option<[f32; 3]>,
     /// Stiffness per rotating joint, root first (empty: 1 for all).
     pub stiffness: Vec<f32>,
+    /// Respect limits inferred from humanoid joint names.
+    pub humanoid_limits: bool,
     /// Solver and its settings.
     pub settings: IkSettings,
 }
@@ -117,11 +119,17 @@ pub fn ik_asset(asset_name: &str, asset: &Asset, request: &IkRequest) -> Result<
     instance.evaluate(asset, clip, request.time).map_err(|e| err(e.to_string()))?;
     let rest: Vec<Transform> = asset.nodes.iter().map(|n| n.rest).collect();
     let mut locals = instance.pose().locals.clone();
+    let limits: Vec<JointLimit> = if request.humanoid_limits {
+        let all = humanoid_limits(asset);
+        chain.joints()[..chain.depth()].iter().map(|&j| all[j as usize]).collect()
+    } else {
+        Vec::new()
+    };
     let goal = IkGoal {
         chain: &chain,
         target: Vec3::from(request.target),
         stiffness: &request.stiffness,
-        limits: &[],
+        limits: &limits,
         pole: request.pole.map(Vec3::from),
     };
     let mut reports = [IkReport::default()];

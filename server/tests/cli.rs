@@ -401,6 +401,21 @@ fn ik_reaches_a_target_with_every_solver() {
         assert_eq!(reached, last, "{solver}: reached is the effector's world position");
         assert!(doc["iterations"].as_u64().expect("iterations") >= 1);
     }
+    let limited = [
+        "ik",
+        path,
+        "--effector",
+        "arm_joint_L_3",
+        "--depth",
+        "2",
+        "--target",
+        &target,
+        "--humanoid-limits",
+        "--solver",
+        "dls",
+    ];
+    let doc: serde_json::Value = serde_json::from_slice(&kloub_ok(&limited)).expect("JSON on stdout");
+    assert!(doc["error"].as_f64().expect("error").is_finite());
     for bad in [
         vec!["--effector", "nope", "--depth", "2", "--target", "0,0,0"],
         vec!["--effector", "arm_joint_L_3", "--depth", "40", "--target", "0,0,0"],

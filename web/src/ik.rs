@@ -4,7 +4,7 @@
 use glam::{Mat4, Vec3};
 use kloub_core::Instance;
 use kloub_core::asset::{Asset, NodeIndex};
-use kloub_core::job::ik::{IkChain, IkGoal, IkJob, IkReport, IkSettings, IkSolver};
+use kloub_core::job::ik::{IkChain, IkGoal, IkJob, IkReport, IkSettings, IkSolver, JointLimit, humanoid_limits};
 use kloub_core::math::Transform;
 
 /// The IK goal of the shown model.
@@ -24,6 +24,10 @@ pub struct IkState {
     rest: Vec<Transform>,
     /// World positions of the chain joints after the last solve (for the overlay).
     pub joints: Vec<Vec3>,
+    /// Limits of the rotating joints, root first (inferred from humanoid joint names).
+    pub limits: Vec<JointLimit>,
+    /// Whether the solve respects [`IkState::limits`].
+    pub use_limits: bool,
 }
 
 impl IkState {
@@ -43,7 +47,12 @@ impl IkState {
         let chain = IkChain::new(&parents, effector, depth).map_err(|e| e.to_string())?;
         let here = instance.worlds().get(effector as usize).map_or(Vec3::ZERO, |w| w.w_axis.truncate());
         let solver = IkSolver::Ccd;
+        let all = humanoid_limits(asset);
+        let limits =
+            chain.joints()[..chain.depth()].iter().map(|&j| all.get(j as usize).copied().unwrap_or_default()).collect();
         Ok(Self {
+            limits,
+            use_limits: true,
             joints: chain.joints().iter().map(|&j| position(instance.worlds(), j)).collect(),
             chain,
             solver,
@@ -71,7 +80,8 @@ impl IkState {
     /// # Errors
     /// A job error (a goal the job rejects, e.g. two-bone on a chain that is not depth 2).
     pub fn apply(&mut self, asset: &Asset, instance: &mut Instance) -> Result<(), String> {
-        let goal = IkGoal { chain: &self.chain, target: self.target, stiffness: &[], limits: &[], pole: None };
+        let limits: &[JointLimit] = if self.use_limits { &self.limits } else { &[] };
+        let goal = IkGoal { chain: &self.chain, target: self.target, stiffness: &[], limits, pole: None };
         let settings = IkSettings { solver: self.solver, iterations: self.iterations, tolerance: 1e-5, weight: 1.0 };
         let mut reports = [IkReport::default()];
         IkJob {

@@ -9,7 +9,7 @@ use egui::{Color32, Sense, Stroke, pos2, vec2};
 use kloub_core::animator::{Crossfade, Easing, Outgoing};
 use kloub_core::asset::NodeIndex;
 use kloub_core::job::dqs::SkinningMethod;
-use kloub_core::job::ik::IkSolver;
+use kloub_core::job::ik::{IkSolver, JointLimit};
 use kloub_core::job::sample::RotationLerp;
 use kloub_core::player::LoopMode;
 
@@ -353,6 +353,19 @@ fn ik_panel(ui: &mut egui::Ui, model: &mut Model, actions: &mut PanelActions) {
         }
     });
     ui.add(egui::Slider::new(&mut ik.iterations, 1..=128).text("iterations"));
+    let kinds: Vec<&str> = ik
+        .limits
+        .iter()
+        .map(|l| match l {
+            JointLimit::Free => "free",
+            JointLimit::Hinge { .. } => "hinge",
+            JointLimit::Ball { .. } => "ball",
+        })
+        .collect();
+    ui.checkbox(&mut ik.use_limits, "Joint limits").on_hover_text(format!(
+        "Inferred from the joint names: elbows and knees are hinges, shoulders and hips ball joints.\nThis chain, root first: {}",
+        kinds.join(", ")
+    ));
     let reached = ik.report.error <= 1e-3;
     ui.label(format!(
         "error {:.5} after {} iteration{}{}",

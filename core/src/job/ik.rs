@@ -138,6 +138,61 @@ impl JointLimit {
     }
 }
 
+/// Elbows and knees: one degree of freedom about the joint's local X (the usual bend axis of
+/// rigs exported from Blender and Maya, bones along local Y), up to 150° either way (the
+/// sign of a bend differs between rigs).
+const HINGE_RANGE: f32 = 150.0 * std::f32::consts::PI / 180.0;
+/// Shoulders and hips: the bone may swing this far from its rest direction.
+const BALL_SWING: f32 = 100.0 * std::f32::consts::PI / 180.0;
+/// Shoulders and hips: twist about the bone, either way.
+const BALL_TWIST: f32 = 80.0 * std::f32::consts::PI / 180.0;
+
+/// Default limits for every node of `asset`, inferred from common humanoid joint names:
+/// elbows and knees (`elbow`, `knee`, `forearm`, `lowerarm`, `shin`, `calf`, `lowerleg`, and
+/// RiggedFigure's `arm_joint_*_2`/`leg_joint_*_2`) are hinges about local X; shoulders and hips
+/// (`shoulder`, `upperarm`, `thigh`, `upleg`, a `hip` that is not the `hips` root,
+/// `arm_joint_*_1`, `leg_joint_*_1`) are ball joints around the direction of their first child;
+/// everything else is free.
+pub fn humanoid_limits(asset: &crate::asset::Asset) -> Vec<JointLimit> {
+    asset
+        .nodes
+        .iter()
+        .map(|node| {
+            let name: String = node
+                .name
+                .as_deref()
+                .unwrap_or("")
+                .to_ascii_lowercase()
+                .chars()
+                .filter(|c| *c != '_' && *c != '.')
+                .collect();
+            let has = |keys: &[&str]| keys.iter().any(|k| name.contains(k));
+            let numbered =
+                |prefix: &str, n: char| name.starts_with(prefix) && name.ends_with(n) && name.len() <= prefix.len() + 2;
+            if has(&["elbow", "knee", "forearm", "lowerarm", "shin", "calf", "lowerleg"])
+                || numbered("armjoint", '2')
+                || numbered("legjoint", '2')
+            {
+                JointLimit::Hinge { axis: Vec3::X, min: -HINGE_RANGE, max: HINGE_RANGE }
+            } else if has(&["shoulder", "upperarm", "thigh", "upleg"])
+                || (name.contains("hip") && !name.contains("hips"))
+                || numbered("armjoint", '1')
+                || numbered("legjoint", '1')
+            {
+                let axis = node
+                    .children
+                    .first()
+                    .and_then(|&c| asset.nodes.get(c as usize))
+                    .and_then(|c| c.rest.translation.try_normalize())
+                    .unwrap_or(Vec3::Y);
+                JointLimit::Ball { axis, swing: BALL_SWING, twist_min: -BALL_TWIST, twist_max: BALL_TWIST }
+            } else {
+                JointLimit::Free
+            }
+        })
+        .collect()
+}
+
 /// The signed rotation angle of `q` about `axis` (its twist), in (−π, π].
 fn twist_angle(q: Quat, axis: Vec3) -> f32 {
     let q = if q.w < 0.0 { -q } else { q };
@@ -841,6 +896,44 @@ mod tests {
                 "{name} {} ≤ {iterations}: {reached} of 1000 reached (floor {floor})",
                 solver.name()
             );
+        }
+    }
+
+    /// RiggedFigure's names give hinge elbows and knees and ball shoulders and hips; solving
+    /// random targets with them never leaves a limit.
+    #[test]
+    fn humanoid_limits_from_names_hold_on_rigged_figure() {
+        let asset = crate::testutil::load("khronos/RiggedFigure/glTF-Binary/RiggedFigure.glb");
+        let limits = humanoid_limits(&asset);
+        let find = |name: &str| {
+            asset.nodes.iter().position(|n| n.name.as_deref() == Some(name)).expect("a RiggedFigure joint")
+        };
+        assert!(matches!(limits[find("arm_joint_L_2")], JointLimit::Hinge { .. }));
+        assert!(matches!(limits[find("leg_joint_R_2")], JointLimit::Hinge { .. }));
+        assert!(matches!(limits[find("arm_joint_R_1")], JointLimit::Ball { .. }));
+        assert!(matches!(limits[find("leg_joint_L_1")], JointLimit::Ball { .. }));
+        assert_eq!(limits[find("torso_joint_2")], JointLimit::Free);
+        assert_eq!(limits[find("arm_joint_L_3")], JointLimit::Free);
+        let parents: Vec<Option<NodeIndex>> = asset.nodes.iter().map(|n| n.parent).collect();
+        let rest: Vec<Transform> = asset.nodes.iter().map(|n| n.rest).collect();
+        let chain = IkChain::new(&parents, find("arm_joint_L_3") as u32, 2).expect("arm");
+        let chain_limits: Vec<JointLimit> = chain.joints()[..2].iter().map(|&j| limits[j as usize]).collect();
+        let shoulder = tip(&parents, &rest, chain.joints()[0]);
+        for solver in [IkSolver::Ccd, IkSolver::Fabrik, IkSolver::Dls] {
+            for i in 0..50 {
+                let a = i as f32 * 0.7;
+                let target = shoulder + Vec3::new(a.sin(), (a * 1.3).cos(), (a * 0.4).sin()) * 0.3;
+                let mut locals = rest.clone();
+                let goal = IkGoal { chain: &chain, target, stiffness: &[], limits: &chain_limits, pole: None };
+                let report = solve(&parents, &rest, &mut locals, goal, IkSettings { solver, ..IkSettings::default() });
+                assert!(report.error.is_finite());
+                for (k, &j) in chain.joints()[..2].iter().enumerate() {
+                    assert!(
+                        chain_limits[k].allows(rest[j as usize].rotation, locals[j as usize].rotation, 1e-3),
+                        "{solver:?}: joint {j} left its limit"
+                    );
+                }
+            }
         }
     }
 
