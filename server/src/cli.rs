@@ -88,6 +88,10 @@ pub struct IkArgs {
     /// shoulders and hips).
     #[arg(long)]
     pub humanoid_limits: bool,
+    /// A `<model>.kloub.json` sidecar: joint limits and stiffness over the humanoid defaults
+    /// (implies --humanoid-limits).
+    #[arg(long, value_name = "FILE")]
+    pub limits: Option<std::path::PathBuf>,
 }
 
 /// `--solver` values.
@@ -277,6 +281,16 @@ where
 
 fn run_ik(args: &IkArgs) -> ExitCode {
     let file = args.file.display().to_string();
+    let sidecar = match &args.limits {
+        Some(path) => match std::fs::read_to_string(path) {
+            Ok(text) => Some(text),
+            Err(e) => {
+                eprintln!("kloub: {}: cannot read: {e}", path.display());
+                return ExitCode::FAILURE;
+            }
+        },
+        None => None,
+    };
     let request = crate::ik::IkRequest {
         clip: args.clip.clone(),
         time: args.time,
@@ -285,7 +299,8 @@ fn run_ik(args: &IkArgs) -> ExitCode {
         target: args.target,
         pole: args.pole,
         stiffness: args.stiffness.clone(),
-        humanoid_limits: args.humanoid_limits,
+        humanoid_limits: args.humanoid_limits || sidecar.is_some(),
+        sidecar,
         settings: kloub_core::job::ik::IkSettings {
             solver: match args.solver {
                 IkSolverArg::Ccd => kloub_core::job::ik::IkSolver::Ccd,

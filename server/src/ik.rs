@@ -14,8 +14,9 @@ use std::path::Path;
 
 use kloub_core::Instance;
 use kloub_core::asset::Asset;
-use kloub_core::job::ik::{IkChain, IkGoal, IkJob, IkReport, IkSettings, IkSolver, JointLimit, humanoid_limits};
+use kloub_core::job::ik::{IkChain, IkGoal, IkJob, IkReport, IkSettings, IkSolver, JointLimit};
 use kloub_core::math::{Mat4, Transform, Vec3};
+use kloub_core::rig::JointSettings;
 use serde::Serialize;
 
 use crate::pose::{PoseError, import_file};
@@ -39,6 +40,8 @@ pub struct IkRequest {
     pub stiffness: Vec<f32>,
     /// Respect limits inferred from humanoid joint names.
     pub humanoid_limits: bool,
+    /// A `<model>.kloub.json` sidecar's text: limits and stiffness over those defaults.
+    pub sidecar: Option<String>,
     /// Solver and its settings.
     pub settings: IkSettings,
 }
@@ -119,16 +122,24 @@ pub fn ik_asset(asset_name: &str, asset: &Asset, request: &IkRequest) -> Result<
     instance.evaluate(asset, clip, request.time).map_err(|e| err(e.to_string()))?;
     let rest: Vec<Transform> = asset.nodes.iter().map(|n| n.rest).collect();
     let mut locals = instance.pose().locals.clone();
+    let mut joints = JointSettings::humanoid(asset);
+    if let Some(text) = &request.sidecar {
+        joints.apply_json(asset, text).map_err(|e| err(format!("limits: {e}")))?;
+    }
+    let rotating = &chain.joints()[..chain.depth()];
     let limits: Vec<JointLimit> = if request.humanoid_limits {
-        let all = humanoid_limits(asset);
-        chain.joints()[..chain.depth()].iter().map(|&j| all[j as usize]).collect()
+        rotating.iter().map(|&j| joints.limits[j as usize]).collect()
     } else {
         Vec::new()
+    };
+    let stiffness: Vec<f32> = match (&request.sidecar, request.stiffness.is_empty()) {
+        (Some(_), true) => rotating.iter().map(|&j| joints.stiffness[j as usize]).collect(),
+        _ => request.stiffness.clone(),
     };
     let goal = IkGoal {
         chain: &chain,
         target: Vec3::from(request.target),
-        stiffness: &request.stiffness,
+        stiffness: &stiffness,
         limits: &limits,
         pole: request.pole.map(Vec3::from),
     };

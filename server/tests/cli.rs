@@ -416,6 +416,48 @@ fn ik_reaches_a_target_with_every_solver() {
     ];
     let doc: serde_json::Value = serde_json::from_slice(&kloub_ok(&limited)).expect("JSON on stdout");
     assert!(doc["error"].as_f64().expect("error").is_finite());
+    // A sidecar that freezes the shoulder (stiffness 0): only the elbow turns.
+    let dir = std::env::temp_dir().join(format!("kloub-ik-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let sidecar = dir.join("RiggedFigure.kloub.json");
+    std::fs::write(&sidecar, r#"{"ik": {"stiffness": {"arm_joint_L_1": 0}}}"#).expect("write");
+    let frozen = [
+        "ik",
+        path,
+        "--effector",
+        "arm_joint_L_3",
+        "--depth",
+        "2",
+        "--target",
+        &target,
+        "--limits",
+        sidecar.to_str().expect("UTF-8"),
+    ];
+    let doc: serde_json::Value = serde_json::from_slice(&kloub_ok(&frozen)).expect("JSON on stdout");
+    let rest: serde_json::Value = serde_json::from_slice(&kloub_ok(&[
+        "ik",
+        path,
+        "--effector",
+        "arm_joint_L_3",
+        "--depth",
+        "2",
+        "--target",
+        &target,
+        "--iterations",
+        "0",
+    ]))
+    .expect("JSON on stdout");
+    assert_eq!(doc["chain"][0]["rotation"], rest["chain"][0]["rotation"], "the shoulder with stiffness 0 moved");
+    assert_ne!(doc["chain"][1]["rotation"], rest["chain"][1]["rotation"], "the elbow did not move");
+    std::fs::write(&sidecar, r#"{"ik": {"limits": {"nope": "free"}}}"#).expect("write");
+    let out = kloub().args(frozen).output().expect("runs");
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("/ik/limits/nope"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let _ = std::fs::remove_dir_all(&dir);
     for bad in [
         vec!["--effector", "nope", "--depth", "2", "--target", "0,0,0"],
         vec!["--effector", "arm_joint_L_3", "--depth", "40", "--target", "0,0,0"],

@@ -20,6 +20,7 @@ use crate::ik::IkState;
 use crate::load::{self, Inbox, LoadedModel};
 use crate::render::{Camera, SceneRenderer, msaa_samples};
 use crate::ui;
+use kloub_core::rig::JointSettings;
 
 /// What to do at start-up.
 #[derive(Clone, Debug, Default)]
@@ -95,6 +96,8 @@ pub struct Model {
     pub blend_weights: Vec<f32>,
     /// The layer panel's settings.
     pub layer: LayerDraft,
+    /// Joint limits and stiffness for IK: humanoid defaults, edited by a dropped sidecar.
+    pub joint_settings: JointSettings,
     /// The candy-wrapper sample's sliders and readout, when this model is that sample.
     pub candy: Option<CandyPanel>,
     /// Extra copies of the character in a grid (seed 000 demo 05): each plays what the main
@@ -126,7 +129,11 @@ impl Model {
     /// # Errors
     /// The evaluation error (an asset the jobs reject).
     pub fn new(loaded: LoadedModel, clip: Option<usize>) -> Result<Self, String> {
-        let LoadedModel { name, asset, warnings } = loaded;
+        let LoadedModel { name, asset, warnings, sidecar } = loaded;
+        let mut joint_settings = JointSettings::humanoid(&asset);
+        if let Some(text) = &sidecar {
+            joint_settings.apply_json(&asset, text).map_err(|e| format!("{name}: sidecar: {e}"))?;
+        }
         let mut instance = Instance::new(&asset);
         let mut animator = Animator::new(&asset);
         animator.play(&asset, clip).map_err(|e| format!("{name}: {e}"))?;
@@ -161,6 +168,7 @@ impl Model {
             in_joint_tree,
             blend_weights,
             layer,
+            joint_settings,
             candy: None,
             copies: Vec::new(),
             copy_spacing: 1.0,
@@ -221,6 +229,12 @@ impl Model {
             ik.apply(&self.asset, &mut self.instance)?;
         }
         Ok(())
+    }
+
+    /// The `<model>.kloub.json` sidecar of the current joint settings (what differs from the
+    /// humanoid defaults).
+    pub fn sidecar_json(&self) -> String {
+        self.joint_settings.to_json(&self.asset, &JointSettings::humanoid(&self.asset))
     }
 
     /// `dataset.ik`: `"EFFECTOR:ERROR"` (error with five decimals), `""` without IK.
@@ -734,7 +748,13 @@ impl App {
     fn receive(&mut self) {
         for delivery in self.inbox.take() {
             self.pending = self.pending.saturating_sub(1);
-            let result = delivery.files.and_then(load::import_files).and_then(|m| self.install(m, None));
+            let result = match delivery.files {
+                // A sidecar alone edits the shown model's joint settings.
+                Ok(files) if !files.is_empty() && files.iter().all(|f| load::is_sidecar_name(&f.name)) => {
+                    self.apply_sidecar(&files)
+                }
+                files => files.and_then(load::import_files).and_then(|m| self.install(m, None)),
+            };
             match result {
                 Ok(()) => {
                     self.status = Status::Ready;
@@ -780,6 +800,21 @@ impl App {
         let nodes = model.asset.nodes.iter().map(|n| n.name.clone()).collect();
         self.controls.publish(model.clip_names.clone(), nodes);
         self.model = Some(model);
+        Ok(())
+    }
+
+    /// Applies dropped `<model>.kloub.json` sidecars to the shown model (and its IK goal).
+    fn apply_sidecar(&mut self, files: &[load::SourceFile]) -> Result<(), String> {
+        let Some(model) = &mut self.model else {
+            return Err("drop the model first, then its .kloub.json (or both together)".into());
+        };
+        for file in files {
+            let text = std::str::from_utf8(&file.bytes).map_err(|_| format!("{}: not UTF-8 text", file.name))?;
+            model.joint_settings.apply_json(&model.asset, text).map_err(|e| format!("{}: {e}", file.name))?;
+        }
+        if let Some(ik) = &mut model.ik {
+            ik.use_settings(&model.joint_settings);
+        }
         Ok(())
     }
 
@@ -844,7 +879,9 @@ impl App {
             }
             Command::SetIk { effector, depth, target } => match effector {
                 Some(effector) => {
-                    let state = IkState::new(&model.asset, &model.instance, effector, depth, target.map(Vec3::from))?;
+                    let mut state =
+                        IkState::new(&model.asset, &model.instance, effector, depth, target.map(Vec3::from))?;
+                    state.use_settings(&model.joint_settings);
                     let solver = model.ik.as_ref().map(|ik| (ik.solver, ik.iterations));
                     model.ik = Some(state);
                     if let (Some(ik), Some((solver, iterations))) = (&mut model.ik, solver) {
@@ -1190,6 +1227,15 @@ impl eframe::App for App {
             .inner;
         if actions.frame {
             self.frame_model();
+        }
+        if actions.save_sidecar
+            && let Some(model) = &self.model
+        {
+            let stem = model.name.rsplit_once('.').map_or(model.name.as_str(), |(stem, _)| stem);
+            let text = model.sidecar_json();
+            if let Err(message) = crate::dom::download(&format!("{stem}.kloub.json"), &text) {
+                self.fail(message);
+            }
         }
         for command in actions.commands {
             if let Err(message) = self.apply(command) {

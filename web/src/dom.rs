@@ -119,6 +119,37 @@ impl Dataset {
     }
 }
 
+/// Offers `text` to the user as a file named `name` (a browser download). Natively it does
+/// nothing and returns an error.
+///
+/// # Errors
+/// When the page refuses (or natively).
+pub fn download(name: &str, text: &str) -> Result<(), String> {
+    #[cfg(target_arch = "wasm32")]
+    {
+        use wasm_bindgen::JsCast;
+        let fail = |e: wasm_bindgen::JsValue| format!("download {name}: {e:?}");
+        let document = web_sys::window().and_then(|w| w.document()).ok_or("no document")?;
+        let parts = js_sys::Array::of1(&wasm_bindgen::JsValue::from_str(text));
+        let options = web_sys::BlobPropertyBag::new();
+        options.set_type("application/json");
+        let blob = web_sys::Blob::new_with_str_sequence_and_options(&parts, &options).map_err(fail)?;
+        let url = web_sys::Url::create_object_url_with_blob(&blob).map_err(fail)?;
+        let anchor: web_sys::HtmlAnchorElement =
+            document.create_element("a").map_err(fail)?.dyn_into().map_err(|_| "not an anchor".to_owned())?;
+        anchor.set_href(&url);
+        anchor.set_download(name);
+        anchor.click();
+        web_sys::Url::revoke_object_url(&url).map_err(fail)?;
+        Ok(())
+    }
+    #[cfg(not(target_arch = "wasm32"))]
+    {
+        let _ = text;
+        Err(format!("saving {name} needs the browser"))
+    }
+}
+
 /// Sets `document.body.dataset[name] = value` (no-op natively or without a body).
 pub fn write_dataset(name: &str, value: &str) {
     #[cfg(target_arch = "wasm32")]

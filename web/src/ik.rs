@@ -6,6 +6,7 @@ use kloub_core::Instance;
 use kloub_core::asset::{Asset, NodeIndex};
 use kloub_core::job::ik::{IkChain, IkGoal, IkJob, IkReport, IkSettings, IkSolver, JointLimit, humanoid_limits};
 use kloub_core::math::Transform;
+use kloub_core::rig::JointSettings;
 
 /// The IK goal of the shown model.
 #[derive(Clone, Debug)]
@@ -28,6 +29,8 @@ pub struct IkState {
     pub limits: Vec<JointLimit>,
     /// Whether the solve respects [`IkState::limits`].
     pub use_limits: bool,
+    /// Stiffness of the rotating joints, root first.
+    pub stiffness: Vec<f32>,
 }
 
 impl IkState {
@@ -51,6 +54,7 @@ impl IkState {
         let limits =
             chain.joints()[..chain.depth()].iter().map(|&j| all.get(j as usize).copied().unwrap_or_default()).collect();
         Ok(Self {
+            stiffness: vec![1.0; chain.depth()],
             limits,
             use_limits: true,
             joints: chain.joints().iter().map(|&j| position(instance.worlds(), j)).collect(),
@@ -62,6 +66,13 @@ impl IkState {
             parents,
             rest: asset.nodes.iter().map(|n| n.rest).collect(),
         })
+    }
+
+    /// Takes the chain's limits and stiffness from the model's joint settings.
+    pub fn use_settings(&mut self, settings: &JointSettings) {
+        let rotating = &self.chain.joints()[..self.chain.depth()];
+        self.limits = rotating.iter().map(|&j| settings.limits.get(j as usize).copied().unwrap_or_default()).collect();
+        self.stiffness = rotating.iter().map(|&j| settings.stiffness.get(j as usize).copied().unwrap_or(1.0)).collect();
     }
 
     /// The end effector.
@@ -81,7 +92,7 @@ impl IkState {
     /// A job error (a goal the job rejects, e.g. two-bone on a chain that is not depth 2).
     pub fn apply(&mut self, asset: &Asset, instance: &mut Instance) -> Result<(), String> {
         let limits: &[JointLimit] = if self.use_limits { &self.limits } else { &[] };
-        let goal = IkGoal { chain: &self.chain, target: self.target, stiffness: &[], limits, pole: None };
+        let goal = IkGoal { chain: &self.chain, target: self.target, stiffness: &self.stiffness, limits, pole: None };
         let settings = IkSettings { solver: self.solver, iterations: self.iterations, tolerance: 1e-5, weight: 1.0 };
         let mut reports = [IkReport::default()];
         IkJob {

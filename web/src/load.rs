@@ -37,6 +37,8 @@ pub struct LoadedModel {
     pub asset: Asset,
     /// Defects the importer repaired.
     pub warnings: Vec<Warning>,
+    /// A `<model>.kloub.json` sidecar dropped with the model (joint limits, stiffness).
+    pub sidecar: Option<String>,
 }
 
 /// Deliveries waiting for the app, shared between the app and the async readers.
@@ -61,6 +63,11 @@ pub fn is_model_name(name: &str) -> bool {
     lower.ends_with(".glb") || lower.ends_with(".gltf")
 }
 
+/// Whether a file name is a Kloub sidecar (`<model>.kloub.json`, any case).
+pub fn is_sidecar_name(name: &str) -> bool {
+    name.to_ascii_lowercase().ends_with(".kloub.json")
+}
+
 /// The last path segment of a URL without query or fragment, e.g. `default.glb`.
 pub fn file_name_of_url(url: &str) -> &str {
     let path = url.split(['?', '#']).next().unwrap_or(url);
@@ -73,6 +80,12 @@ pub fn file_name_of_url(url: &str) -> &str {
 /// # Errors
 /// A message naming the file: nothing to import, or the importer's error with its JSON pointer.
 pub fn import_files(files: Vec<SourceFile>) -> Result<LoadedModel, String> {
+    let (sidecars, files): (Vec<SourceFile>, Vec<SourceFile>) =
+        files.into_iter().partition(|f| is_sidecar_name(&f.name));
+    let sidecar = match sidecars.into_iter().next() {
+        Some(f) => Some(String::from_utf8(f.bytes).map_err(|_| format!("{}: not UTF-8 text", f.name))?),
+        None => None,
+    };
     let main = match files.iter().position(|f| is_model_name(&f.name)) {
         Some(i) => i,
         None if files.len() == 1 => 0,
@@ -97,7 +110,7 @@ pub fn import_files(files: Vec<SourceFile>) -> Result<LoadedModel, String> {
             format!("{}: {}: {}", model.name, e.pointer, e.message)
         }
     })?;
-    Ok(LoadedModel { name: model.name, asset: imported.asset, warnings: imported.warnings })
+    Ok(LoadedModel { name: model.name, asset: imported.asset, warnings: imported.warnings, sidecar })
 }
 
 /// Fetches `url` and delivers its bytes to `inbox`, then asks `ctx` for a repaint.

@@ -74,6 +74,8 @@ pub struct PanelActions {
     pub layer_changed: bool,
     /// [`Model::blend_weights`] changed: apply them.
     pub blend_changed: bool,
+    /// Download the model's `.kloub.json` sidecar.
+    pub save_sidecar: bool,
 }
 
 /// Clip lists longer than this get a filter box.
@@ -374,11 +376,20 @@ fn ik_panel(ui: &mut egui::Ui, model: &mut Model, actions: &mut PanelActions) {
         if ik.report.iterations == 1 { "" } else { "s" },
         if reached { " (reached)" } else { "" }
     ));
-    if ui.button("Target to effector").clicked()
-        && let Some(p) = ik.joints.last()
-    {
-        ik.target = *p;
-    }
+    ui.horizontal(|ui| {
+        if ui.button("Target to effector").clicked()
+            && let Some(p) = ik.joints.last()
+        {
+            ik.target = *p;
+        }
+        let save = ui.button("Save limits").on_hover_text(
+            "Download <model>.kloub.json with the joint limits and stiffness that differ from the defaults; \
+             drop it with the model (or onto it) to load it",
+        );
+        if save.clicked() {
+            actions.save_sidecar = true;
+        }
+    });
 }
 
 fn solver_label(solver: IkSolver) -> &'static str {

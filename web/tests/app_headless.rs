@@ -546,3 +546,47 @@ fn dragging_the_ik_target_moves_the_hand_onto_it() {
     h.step(0.016, Vec::new());
     assert_eq!(h.get(Key::Ik), "");
 }
+
+/// A `.kloub.json` sidecar dropped with the model (or onto it) sets IK joint settings: with
+/// the shoulder's stiffness at 0 only the elbow turns; a bad sidecar is refused with its JSON
+/// pointer and the settings stay.
+#[test]
+fn a_dropped_sidecar_sets_ik_stiffness_and_limits() {
+    let mut h = Harness::new();
+    let sidecar = br#"{"ik": {"stiffness": {"arm_joint_L_1": 0}, "limits": {"arm_joint_L_2": "free"}}}"#.to_vec();
+    let model = shared_asset("khronos/RiggedFigure/glTF-Binary/RiggedFigure.glb");
+    h.step(0.016, vec![dropped("RiggedFigure.glb", model), dropped("RiggedFigure.kloub.json", sidecar)]);
+    h.step(0.016, Vec::new());
+    assert_eq!(h.get(Key::Model), "RiggedFigure.glb");
+    let controls = h.app.controls().clone();
+    controls.send(Command::Pause);
+    h.step(0.016, Vec::new());
+    let shoulder = controls.node_index("arm_joint_L_1").expect("shoulder") as usize;
+    let elbow = controls.node_index("arm_joint_L_2").expect("elbow") as usize;
+    let hand = controls.node_index("arm_joint_L_3").expect("hand");
+    let rotation = |h: &Harness, n: usize| h.app.model().expect("a model").instance.pose().locals[n].rotation;
+    let (shoulder_before, elbow_before) = (rotation(&h, shoulder), rotation(&h, elbow));
+    let model = h.app.model().expect("a model");
+    assert_eq!(model.joint_settings.stiffness[shoulder], 0.0);
+    assert!(model.sidecar_json().contains("arm_joint_L_1"), "{}", model.sidecar_json());
+    let at = model.instance.worlds()[hand as usize].w_axis.truncate();
+    controls.send(Command::SetIk {
+        effector: Some(hand),
+        depth: 2,
+        target: Some((at + glam::Vec3::new(0.0, 0.05, 0.05)).to_array()),
+    });
+    h.step(0.016, Vec::new());
+    h.step(0.016, Vec::new());
+    assert!(rotation(&h, shoulder).abs_diff_eq(shoulder_before, 1e-6), "the frozen shoulder turned");
+    assert!(!rotation(&h, elbow).abs_diff_eq(elbow_before, 1e-4), "the elbow did not turn");
+
+    // A sidecar alone applies to the shown model; a bad one names its pointer and changes nothing.
+    h.step(0.016, vec![dropped("RiggedFigure.kloub.json", br#"{"ik": {"stiffness": {"arm_joint_L_1": 1}}}"#.to_vec())]);
+    h.step(0.016, Vec::new());
+    assert_eq!(h.app.model().expect("a model").joint_settings.stiffness[shoulder], 1.0);
+    h.step(0.016, vec![dropped("bad.kloub.json", br#"{"ik": {"limits": {"nope": "free"}}}"#.to_vec())]);
+    h.step(0.016, Vec::new());
+    assert!(h.get(Key::Error).contains("/ik/limits/nope"), "error: {}", h.get(Key::Error));
+    assert_eq!(h.get(Key::Model), "RiggedFigure.glb");
+    assert_eq!(h.app.model().expect("a model").joint_settings.stiffness[shoulder], 1.0);
+}
