@@ -107,8 +107,10 @@ pub struct Model {
     pub copy_spacing: f32,
     /// World bounds the camera frames (animated, one copy).
     pub bounds: Option<(Vec3, Vec3)>,
-    /// The inverse-kinematics goal, solved on the main character after animation.
-    pub ik: Option<IkState>,
+    /// The inverse-kinematics goals, solved on the main character after animation, in order.
+    pub ik: Vec<IkState>,
+    /// The goal the panel edits and a joint click retargets.
+    pub ik_selected: usize,
 }
 
 /// Most copies of the character the grid shows.
@@ -173,7 +175,8 @@ impl Model {
             copies: Vec::new(),
             copy_spacing: 1.0,
             bounds: None,
-            ik: None,
+            ik: Vec::new(),
+            ik_selected: 0,
         })
     }
 
@@ -225,7 +228,7 @@ impl Model {
             }
             candy.update_quality(self.instance.pose());
         }
-        if let Some(ik) = &mut self.ik {
+        for ik in &mut self.ik {
             ik.apply(&self.asset, &mut self.instance)?;
         }
         Ok(())
@@ -237,12 +240,32 @@ impl Model {
         self.joint_settings.to_json(&self.asset, &JointSettings::humanoid(&self.asset))
     }
 
-    /// `dataset.ik`: `"EFFECTOR:ERROR"` (error with five decimals), `""` without IK.
+    /// `dataset.ik`: `"EFFECTOR:ERROR"` per goal (error with five decimals), `;`-separated;
+    /// `""` without IK.
     pub fn ik_summary(&self) -> String {
-        match &self.ik {
-            Some(ik) => format!("{}:{:.5}", self.node_name(ik.effector()), ik.report.error),
-            None => String::new(),
+        let goals: Vec<String> =
+            self.ik.iter().map(|ik| format!("{}:{:.5}", self.node_name(ik.effector()), ik.report.error)).collect();
+        goals.join(";")
+    }
+
+    /// A new goal for `effector` keeping `like`'s solver and iterations where they apply.
+    fn ik_goal(
+        &self,
+        effector: NodeIndex,
+        depth: usize,
+        target: Option<Vec3>,
+        like: Option<&IkState>,
+    ) -> Result<IkState, String> {
+        let mut state = IkState::new(&self.asset, &self.instance, effector, depth, target)?;
+        state.use_settings(&self.joint_settings);
+        if let Some(like) = like {
+            state.iterations = like.iterations;
+            state.use_limits = like.use_limits;
+            if like.solver != kloub_core::job::ik::IkSolver::TwoBone || state.depth() == 2 {
+                state.solver = like.solver;
+            }
         }
+        Ok(state)
     }
 
     /// Number of characters shown (the main one plus its copies).
@@ -568,10 +591,10 @@ pub struct App {
     skinning: SkinningMethod,
     /// Smoothed CPU time per stage.
     stages: ui::StageTimes,
-    /// The IK target is being dragged in the viewport.
-    ik_drag: bool,
-    /// Where the IK target was drawn last frame, in points (for `dataset.ikTarget`).
-    ik_marker: Option<Pos2>,
+    /// The IK goal whose target is being dragged in the viewport.
+    ik_drag: Option<usize>,
+    /// Where each IK target was drawn last frame, in points (for `dataset.ikTarget`).
+    ik_markers: Vec<Pos2>,
 }
 
 /// Exponential smoothing of a per-frame figure (a first value is taken as is).
@@ -704,8 +727,8 @@ impl App {
             fps: Fps::default(),
             skinning: SkinningMethod::default(),
             stages: ui::StageTimes::default(),
-            ik_drag: false,
-            ik_marker: None,
+            ik_drag: None,
+            ik_markers: Vec::new(),
         };
         app.controls.set_repaint(cc.egui_ctx.clone());
         app.controls.set_supports_compute(app.scene.supports_compute());
@@ -812,7 +835,7 @@ impl App {
             let text = std::str::from_utf8(&file.bytes).map_err(|_| format!("{}: not UTF-8 text", file.name))?;
             model.joint_settings.apply_json(&model.asset, text).map_err(|e| format!("{}: {e}", file.name))?;
         }
-        if let Some(ik) = &mut model.ik {
+        for ik in &mut model.ik {
             ik.use_settings(&model.joint_settings);
         }
         Ok(())
@@ -879,20 +902,38 @@ impl App {
             }
             Command::SetIk { effector, depth, target } => match effector {
                 Some(effector) => {
-                    let mut state =
-                        IkState::new(&model.asset, &model.instance, effector, depth, target.map(Vec3::from))?;
-                    state.use_settings(&model.joint_settings);
-                    let solver = model.ik.as_ref().map(|ik| (ik.solver, ik.iterations));
-                    model.ik = Some(state);
-                    if let (Some(ik), Some((solver, iterations))) = (&mut model.ik, solver) {
-                        ik.iterations = iterations;
-                        if solver != kloub_core::job::ik::IkSolver::TwoBone || ik.depth() == 2 {
-                            ik.solver = solver;
+                    let existing = model.ik.iter().position(|g| g.effector() == effector);
+                    let like = existing.or(model.ik.len().checked_sub(1)).and_then(|i| model.ik.get(i));
+                    let state = model.ik_goal(effector, depth, target.map(Vec3::from), like)?;
+                    match existing {
+                        Some(i) => {
+                            model.ik[i] = state;
+                            model.ik_selected = i;
+                        }
+                        None => {
+                            model.ik.push(state);
+                            model.ik_selected = model.ik.len() - 1;
                         }
                     }
                 }
-                None => model.ik = None,
+                None => {
+                    model.ik.clear();
+                    model.ik_selected = 0;
+                }
             },
+            Command::ReplaceIk { goal, effector, depth } => {
+                if let Some(old) = model.ik.get(goal) {
+                    let state = model.ik_goal(effector, depth, Some(old.target), Some(old))?;
+                    model.ik[goal] = state;
+                    model.ik_selected = goal;
+                }
+            }
+            Command::RemoveIk(goal) => {
+                if goal < model.ik.len() {
+                    model.ik.remove(goal);
+                    model.ik_selected = model.ik_selected.min(model.ik.len().saturating_sub(1));
+                }
+            }
             Command::SetCopies(n) => {
                 model.set_copies(n);
                 if let Some((min, max)) = model.grid_bounds() {
@@ -969,26 +1010,41 @@ impl App {
         let shift = ui.input(|i| i.modifiers.shift);
         let projection = Projection::new(&self.camera, rect);
         let origin = self.model.as_ref().map_or(Vec3::ZERO, |m| m.copy_offset(0));
-        let marker =
-            self.model.as_ref().and_then(|m| m.ik.as_ref()).and_then(|ik| projection.to_screen(ik.target + origin));
+        let markers: Vec<Option<(Pos2, f32)>> = self
+            .model
+            .as_ref()
+            .map(|m| m.ik.iter().map(|ik| projection.to_screen(ik.target + origin)).collect())
+            .unwrap_or_default();
         if response.drag_started_by(egui::PointerButton::Primary) && !shift {
-            let pointer = response.interact_pointer_pos();
-            self.ik_drag = matches!((marker, pointer), (Some((at, _)), Some(p)) if at.distance(p) <= IK_GRAB_RADIUS);
+            self.ik_drag = response.interact_pointer_pos().and_then(|p| {
+                markers
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(i, m)| m.map(|(at, _)| (at.distance(p), i)))
+                    .filter(|(d, _)| *d <= IK_GRAB_RADIUS)
+                    .min_by(|a, b| a.0.total_cmp(&b.0))
+                    .map(|(_, i)| i)
+            });
+            if let (Some(goal), Some(model)) = (self.ik_drag, self.model.as_mut()) {
+                model.ik_selected = goal;
+            }
         }
         let mut pending = None;
-        if self.ik_drag {
-            if let (Some((_, depth)), Some(pointer), Some(ik)) =
-                (marker, response.interact_pointer_pos(), self.model.as_mut().and_then(|m| m.ik.as_mut()))
-                && let Some(world) = projection.unproject(pointer, depth)
+        if let Some(goal) = self.ik_drag {
+            if let (Some(Some((_, depth))), Some(pointer), Some(ik)) = (
+                markers.get(goal),
+                response.interact_pointer_pos(),
+                self.model.as_mut().and_then(|m| m.ik.get_mut(goal)),
+            ) && let Some(world) = projection.unproject(pointer, *depth)
             {
                 ik.target = world - origin;
             }
             if !response.dragged() || response.drag_stopped() {
-                self.ik_drag = false;
+                self.ik_drag = None;
             }
         } else if response.clicked()
             && let (Some(model), Some(pointer)) = (self.model.as_ref(), response.interact_pointer_pos())
-            && let Some(ik) = &model.ik
+            && let Some(ik) = model.ik.get(model.ik_selected)
         {
             // A click on a joint makes it the effector (keeping the depth where possible).
             let nearest = model
@@ -1004,10 +1060,10 @@ impl App {
                 .min_by(|a, b| a.0.total_cmp(&b.0));
             if let Some((_, joint)) = nearest {
                 let available = ancestors(&model.asset, joint);
-                pending = Some(Command::SetIk {
-                    effector: Some(joint),
+                pending = Some(Command::ReplaceIk {
+                    goal: model.ik_selected,
+                    effector: joint,
                     depth: ik.depth().min(available).max(1),
-                    target: None,
                 });
             }
         } else if response.dragged_by(egui::PointerButton::Primary) && !shift {
@@ -1097,9 +1153,14 @@ impl App {
         let uv = Rect::from_min_max(Pos2::ZERO, Pos2::new(1.0, 1.0));
         ui.painter().image(id, rect, uv, Color32::WHITE);
         drop(renderer);
-        self.ik_marker = None;
-        if let Some(ik) = self.model.as_ref().and_then(|m| m.ik.as_ref()) {
-            self.ik_marker = paint_ik(ui.painter(), &projection, ik, origin, self.ik_drag);
+        self.ik_markers.clear();
+        if let Some(model) = self.model.as_ref() {
+            for (i, ik) in model.ik.iter().enumerate() {
+                let selected = i == model.ik_selected && model.ik.len() > 1;
+                if let Some(at) = paint_ik(ui.painter(), &projection, ik, origin, self.ik_drag == Some(i) || selected) {
+                    self.ik_markers.push(at);
+                }
+            }
         }
         if let Some(command) = pending
             && let Err(message) = self.apply(command)
@@ -1184,8 +1245,12 @@ impl App {
         d.set(Key::Quality, quality.as_deref().unwrap_or(""));
         d.set(Key::Copies, &model.map_or(String::new(), |m| m.copy_count().to_string()));
         d.set(Key::Ik, &model.map_or(String::new(), Model::ik_summary));
-        let marker = self.ik_marker.filter(|_| model.is_some_and(|m| m.ik.is_some()));
-        d.set(Key::IkTarget, &marker.map_or(String::new(), |p| format!("{:.1},{:.1}", p.x, p.y)));
+        let markers: Vec<String> = if model.is_some_and(|m| !m.ik.is_empty()) {
+            self.ik_markers.iter().map(|p| format!("{:.1},{:.1}", p.x, p.y)).collect()
+        } else {
+            Vec::new()
+        };
+        d.set(Key::IkTarget, &markers.join(";"));
         d.set(Key::Frames, &self.frames.to_string());
     }
 }

@@ -63,7 +63,8 @@ pub enum Command {
     /// Shows a built-in sample.
     LoadSample(Sample),
     /// Drags `effector` (with `depth` rotating joints above it) towards `target` by inverse
-    /// kinematics; `None` effector turns IK off. No target: where the effector is now.
+    /// kinematics: replaces that effector's goal or adds one; `None` effector removes every
+    /// goal. No target: where the effector is now.
     SetIk {
         /// The end effector node.
         effector: Option<u32>,
@@ -72,6 +73,17 @@ pub enum Command {
         /// World-space target.
         target: Option<[f32; 3]>,
     },
+    /// Makes goal `goal` drive `effector` with `depth` joints instead (its target stays).
+    ReplaceIk {
+        /// Index of the goal.
+        goal: usize,
+        /// The new end effector.
+        effector: u32,
+        /// Rotating joints above it.
+        depth: usize,
+    },
+    /// Removes goal `goal`.
+    RemoveIk(usize),
     /// Shows this many characters in a grid (1 ..= [`crate::app::MAX_COPIES`]), each
     /// [`crate::app::COPY_TIME_STEP`] seconds later than the previous.
     SetCopies(usize),

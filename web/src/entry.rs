@@ -178,7 +178,8 @@ impl Viewer {
 
     /// Inverse kinematics: drags the joint named `effector` (with `depth` joints above it
     /// rotating, default 2) towards the world point `x, y, z` (all three omitted: where the
-    /// joint is now, to drag it from there in the viewport); `null` turns IK off.
+    /// joint is now, to drag it from there in the viewport). Sets that joint's goal, or adds
+    /// one: several effectors are solved together. `null` removes every goal.
     #[wasm_bindgen(js_name = setIkTarget)]
     pub fn set_ik_target(
         &self,

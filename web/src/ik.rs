@@ -118,6 +118,44 @@ fn position(worlds: &[Mat4], node: NodeIndex) -> Vec3 {
     worlds.get(node as usize).map_or(Vec3::ZERO, |w| w.w_axis.truncate())
 }
 
+/// Effectors worth offering, best first: joints named like hands, then feet, then the
+/// deepest joint of the skins; each with the depth its hierarchy allows (up to 2).
+pub fn default_effectors(asset: &Asset) -> Vec<(NodeIndex, usize)> {
+    let joints: Vec<NodeIndex> = asset.skins.iter().flat_map(|s| s.joints.iter().copied()).collect();
+    let name =
+        |j: NodeIndex| asset.nodes.get(j as usize).and_then(|n| n.name.as_deref()).unwrap_or("").to_ascii_lowercase();
+    let mut out: Vec<NodeIndex> = Vec::new();
+    for keys in [
+        &["hand", "wrist", "arm_joint_l_3", "arm_joint_r_3"][..],
+        &["foot", "ankle", "leg_joint_l_5", "leg_joint_r_5"][..],
+    ] {
+        for &j in &joints {
+            if keys.iter().any(|k| name(j).contains(k)) && !out.contains(&j) {
+                out.push(j);
+            }
+        }
+    }
+    if let Some((first, _)) = default_effector(asset)
+        && !out.contains(&first)
+    {
+        out.push(first);
+    }
+    out.into_iter()
+        .filter_map(|j| {
+            let mut depth = 0;
+            let mut p = asset.nodes.get(j as usize).and_then(|n| n.parent);
+            while let Some(n) = p {
+                depth += 1;
+                p = asset.nodes.get(n as usize).and_then(|n| n.parent);
+                if depth >= 2 {
+                    break;
+                }
+            }
+            (depth >= 1).then_some((j, depth))
+        })
+        .collect()
+}
+
 /// A sensible first effector: a joint named like a hand or wrist, else the deepest joint of
 /// the first skin; with the depth its hierarchy allows (up to 2).
 pub fn default_effector(asset: &Asset) -> Option<(NodeIndex, usize)> {

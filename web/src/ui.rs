@@ -315,22 +315,52 @@ fn skinning_panel(ui: &mut egui::Ui, state: &PanelState<'_>, actions: &mut Panel
     }
 }
 
-/// Inverse kinematics: effector, depth, solver, iterations and the solve's error.
+/// Inverse kinematics: the goals (one target each), and for the selected one its effector,
+/// depth, solver, iterations, limits and error.
 fn ik_panel(ui: &mut egui::Ui, model: &mut Model, actions: &mut PanelActions) {
-    let mut on = model.ik.is_some();
+    let mut on = !model.ik.is_empty();
     let toggled = ui
         .checkbox(&mut on, "Inverse kinematics")
-        .on_hover_text("Drag the ring in the viewport to move the target; click a joint to make it the end effector")
+        .on_hover_text(
+            "Drag a ring in the viewport to move its target; click a joint to make it the selected goal's end effector",
+        )
         .changed();
+    let offers = crate::ik::default_effectors(&model.asset);
     if toggled {
-        let command = match (on, crate::ik::default_effector(&model.asset)) {
-            (true, Some((effector, depth))) => Command::SetIk { effector: Some(effector), depth, target: None },
+        let command = match (on, offers.first()) {
+            (true, Some(&(effector, depth))) => Command::SetIk { effector: Some(effector), depth, target: None },
             _ => Command::SetIk { effector: None, depth: 0, target: None },
         };
         actions.commands.push(command);
     }
-    let Some(ik) = &model.ik else { return };
-    let (effector, depth, target) = (ik.effector(), ik.depth(), ik.target.to_array());
+    if model.ik.is_empty() {
+        return;
+    }
+    ui.horizontal_wrapped(|ui| {
+        for (i, goal) in model.ik.iter().enumerate() {
+            let text = format!("{} ({:.4})", model.node_name(goal.effector()), goal.report.error);
+            if ui.selectable_label(i == model.ik_selected, text).clicked() {
+                model.ik_selected = i;
+            }
+        }
+    });
+    ui.horizontal(|ui| {
+        let unused = offers.iter().find(|(j, _)| model.ik.iter().all(|g| g.effector() != *j));
+        if ui
+            .add_enabled(unused.is_some(), egui::Button::new("Add target"))
+            .on_hover_text("Another end effector (the next hand or foot)")
+            .clicked()
+            && let Some(&(effector, depth)) = unused
+        {
+            actions.commands.push(Command::SetIk { effector: Some(effector), depth, target: None });
+        }
+        if model.ik.len() > 1 && ui.button("Remove").clicked() {
+            actions.commands.push(Command::RemoveIk(model.ik_selected));
+        }
+    });
+    let selected = model.ik_selected.min(model.ik.len() - 1);
+    let ik = &model.ik[selected];
+    let (effector, depth) = (ik.effector(), ik.depth());
     let mut chosen = effector;
     egui::ComboBox::from_label("effector").selected_text(model.node_name(effector)).show_ui(ui, |ui| {
         let joints = model.asset.skins.iter().flat_map(|s| s.joints.iter().copied());
@@ -342,9 +372,9 @@ fn ik_panel(ui: &mut egui::Ui, model: &mut Model, actions: &mut PanelActions) {
     ui.add(egui::Slider::new(&mut new_depth, 1..=31).text("joints above"));
     if chosen != effector || new_depth != depth {
         let depth = if chosen != effector { depth.min(2) } else { new_depth };
-        actions.commands.push(Command::SetIk { effector: Some(chosen), depth, target: Some(target) });
+        actions.commands.push(Command::ReplaceIk { goal: selected, effector: chosen, depth });
     }
-    let Some(ik) = &mut model.ik else { return };
+    let ik = &mut model.ik[selected];
     let two_bone_ok = ik.depth() == 2;
     egui::ComboBox::from_label("solver").selected_text(solver_label(ik.solver)).show_ui(ui, |ui| {
         for solver in IkSolver::ALL {

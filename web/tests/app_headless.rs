@@ -530,7 +530,7 @@ fn dragging_the_ik_target_moves_the_hand_onto_it() {
     let after = h.step(0.016, Vec::new());
     save(&before, "ik-before.png");
     save(&after, "ik-after.png");
-    let moved = h.app.model().and_then(|m| m.ik.as_ref()).expect("ik").target;
+    let moved = h.app.model().and_then(|m| m.ik.first()).expect("ik").target;
     assert!(moved.distance(target) > 0.02, "the drag did not move the target ({moved} vs {target})");
     assert!(world(&h).distance(moved) < 1e-3, "the hand {} did not follow the target {moved}", world(&h));
     let marker = h.get(Key::IkTarget).to_owned();
@@ -589,4 +589,35 @@ fn a_dropped_sidecar_sets_ik_stiffness_and_limits() {
     assert!(h.get(Key::Error).contains("/ik/limits/nope"), "error: {}", h.get(Key::Error));
     assert_eq!(h.get(Key::Model), "RiggedFigure.glb");
     assert_eq!(h.app.model().expect("a model").joint_settings.stiffness[shoulder], 1.0);
+}
+
+/// Two goals at once (both hands): each reaches its own target; the dataset lists both; a
+/// goal can be removed.
+#[test]
+fn two_ik_goals_are_solved_together() {
+    let mut h = Harness::new();
+    load_paused(&mut h, "RiggedFigure.glb", shared_asset("khronos/RiggedFigure/glTF-Binary/RiggedFigure.glb"));
+    let controls = h.app.controls().clone();
+    let hands =
+        [controls.node_index("arm_joint_L_3").expect("left"), controls.node_index("arm_joint_R_3").expect("right")];
+    let world = |h: &Harness, n: u32| h.app.model().expect("a model").instance.worlds()[n as usize].w_axis.truncate();
+    let targets = hands.map(|n| world(&h, n) + glam::Vec3::new(0.0, 0.06, 0.04));
+    for (hand, target) in hands.iter().zip(&targets) {
+        controls.send(Command::SetIk { effector: Some(*hand), depth: 2, target: Some(target.to_array()) });
+    }
+    h.step(0.016, Vec::new());
+    h.step(0.016, Vec::new());
+    for (hand, target) in hands.iter().zip(&targets) {
+        assert!(world(&h, *hand).distance(*target) < 1e-3, "hand {hand} missed its target");
+    }
+    let summary = h.get(Key::Ik).to_owned();
+    assert!(summary.starts_with("arm_joint_L_3:") && summary.contains(";arm_joint_R_3:"), "dataset.ik = {summary:?}");
+    assert_eq!(h.get(Key::IkTarget).split(';').count(), 2);
+    // Setting the same effector again replaces its goal instead of adding one.
+    controls.send(Command::SetIk { effector: Some(hands[1]), depth: 2, target: None });
+    h.step(0.016, Vec::new());
+    assert_eq!(h.app.model().expect("a model").ik.len(), 2);
+    controls.send(Command::RemoveIk(0));
+    h.step(0.016, Vec::new());
+    assert!(h.get(Key::Ik).starts_with("arm_joint_R_3:"), "dataset.ik = {}", h.get(Key::Ik));
 }
