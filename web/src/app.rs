@@ -608,6 +608,10 @@ fn smooth(mean: f32, value: f32) -> f32 {
     }
 }
 
+/// How far the wheel moves an IK target along the view direction, per scrolled point, as a
+/// fraction of the camera's distance (scrolling up, positive, pulls it closer).
+const IK_DEPTH_PER_POINT: f32 = 0.0002;
+
 /// Pointer distance (points) within which the IK target or a joint is grabbed.
 const IK_GRAB_RADIUS: f32 = 14.0;
 
@@ -1074,7 +1078,41 @@ impl App {
         {
             self.camera.pan_pixels(delta.x, delta.y, height);
         }
-        if response.hovered() {
+        // The wheel over an IK ring (or while dragging one) moves its target along the view
+        // direction instead of zooming.
+        let ring = self.ik_drag.or_else(|| {
+            let p = response.hover_pos()?;
+            markers
+                .iter()
+                .enumerate()
+                .filter_map(|(i, m)| m.map(|(at, _)| (at.distance(p), i)))
+                .filter(|(d, _)| *d <= IK_GRAB_RADIUS)
+                .min_by(|a, b| a.0.total_cmp(&b.0))
+                .map(|(_, i)| i)
+        });
+        if let Some(goal) = ring
+            && let Some(ik) = self.model.as_mut().and_then(|m| m.ik.get_mut(goal))
+        {
+            let scroll = ui.input(|i| {
+                i.raw
+                    .events
+                    .iter()
+                    .filter_map(|e| match e {
+                        egui::Event::MouseWheel { unit, delta, .. } => Some(match unit {
+                            egui::MouseWheelUnit::Point => delta.y,
+                            egui::MouseWheelUnit::Line => delta.y * 40.0,
+                            egui::MouseWheelUnit::Page => delta.y * 400.0,
+                        }),
+                        _ => None,
+                    })
+                    .sum::<f32>()
+            });
+            if scroll != 0.0
+                && let Some(direction) = (ik.target + origin - self.camera.eye()).try_normalize()
+            {
+                ik.target -= direction * scroll * IK_DEPTH_PER_POINT * self.camera.distance;
+            }
+        } else if response.hovered() {
             let (scroll, zoom) = ui.input(|i| (i.smooth_scroll_delta.y, i.zoom_delta()));
             if scroll != 0.0 {
                 self.camera.zoom_scroll(scroll);

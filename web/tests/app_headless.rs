@@ -542,6 +542,27 @@ fn dragging_the_ik_target_moves_the_hand_onto_it() {
     );
     assert!(changed_pixels(&before, &after, (280, 40, SIZE[0], SIZE[1] - 40)) > 30, "the arm did not move on screen");
 
+    // The wheel over the ring moves the target along the view direction (towards the camera
+    // for a positive scroll), not the camera.
+    let eye = h.app.model().and_then(|m| m.ik.first()).map(|ik| ik.target).expect("ik");
+    let distance_before = h.app.dataset().get(Key::Viewport).map(str::to_owned);
+    h.step_events(0.016, vec![egui::Event::PointerMoved(to)]);
+    h.step_events(
+        0.016,
+        vec![egui::Event::MouseWheel {
+            unit: egui::MouseWheelUnit::Point,
+            delta: egui::vec2(0.0, 60.0),
+            phase: egui::TouchPhase::Move,
+            source: egui::MouseWheelSource::Wheel,
+            modifiers: egui::Modifiers::NONE,
+        }],
+    );
+    h.step(0.016, Vec::new());
+    let pushed = h.app.model().and_then(|m| m.ik.first()).map(|ik| ik.target).expect("ik");
+    assert!(pushed.distance(eye) > 0.01, "the wheel did not move the target ({pushed} vs {eye})");
+    assert_eq!(h.app.dataset().get(Key::Viewport).map(str::to_owned), distance_before);
+    assert!(world(&h).distance(pushed) < 1e-3, "the hand did not follow the target in depth");
+
     controls.send(Command::SetIk { effector: None, depth: 0, target: None });
     h.step(0.016, Vec::new());
     assert_eq!(h.get(Key::Ik), "");
