@@ -6,9 +6,9 @@
 
 use kloub_core::Instance;
 use kloub_core::asset::Asset;
-use kloub_core::job::dqs::{DqPrepareJob, DqsJob, JointDq, RigidJob, SkinningMethod};
-use kloub_core::job::sjb::{SjbJob, SjbPlan};
-use kloub_core::job::skin::LbsJob;
+use kloub_core::job::dqs::{DqPrepareJob, JointDq, SkinningMethod};
+use kloub_core::job::sjb::SjbPlan;
+use kloub_core::job::skin::SkinJob;
 use kloub_core::math::Mat4;
 
 /// Vertices skinned per run (CesiumMan's 3,273 repeated): ~100 MB of streams.
@@ -64,51 +64,20 @@ impl Workload {
 
     /// Skins every vertex with `method`.
     pub fn skin(&mut self, method: SkinningMethod) {
-        let result = match method {
-            SkinningMethod::Linear => LbsJob {
-                positions: &self.positions,
-                normals: &self.normals,
-                joints: &self.joints,
-                weights: &self.weights,
-                palette: &self.palette,
-                out_positions: &mut self.out_positions,
-                out_normals: &mut self.out_normals,
-            }
-            .run(),
-            SkinningMethod::Rigid => RigidJob {
-                positions: &self.positions,
-                normals: &self.normals,
-                joints: &self.joints,
-                weights: &self.weights,
-                palette: &self.palette,
-                out_positions: &mut self.out_positions,
-                out_normals: &mut self.out_normals,
-            }
-            .run(),
-            SkinningMethod::DualQuaternion => DqsJob {
-                positions: &self.positions,
-                normals: &self.normals,
-                joints: &self.joints,
-                weights: &self.weights,
-                joints_dq: &self.dqs,
-                out_positions: &mut self.out_positions,
-                out_normals: &mut self.out_normals,
-            }
-            .run(),
-            SkinningMethod::SphericalJointBlend => SjbJob {
-                positions: &self.positions,
-                normals: &self.normals,
-                joints: &self.joints,
-                weights: &self.weights,
-                palette: &self.palette,
-                joints_dq: &self.dqs,
-                plan: &self.plan,
-                out_positions: &mut self.out_positions,
-                out_normals: &mut self.out_normals,
-            }
-            .run(),
-        };
-        result.expect("valid workload");
+        SkinJob {
+            method,
+            positions: &self.positions,
+            normals: &self.normals,
+            joints: &self.joints,
+            weights: &self.weights,
+            palette: &self.palette,
+            joints_dq: &self.dqs,
+            plan: Some(&self.plan),
+            out_positions: &mut self.out_positions,
+            out_normals: &mut self.out_normals,
+        }
+        .run()
+        .expect("valid workload");
     }
 
     /// Touches the same bytes as skinning with next to no arithmetic: the bandwidth bound.

@@ -4,11 +4,11 @@ use crate::asset::{Asset, MorphTarget};
 use crate::error::JobError;
 use std::collections::HashMap;
 
-use crate::job::dqs::{DqPrepareJob, DqsJob, JointDq, RigidJob, SkinningMethod};
+use crate::job::dqs::{DqPrepareJob, JointDq, SkinningMethod};
 use crate::job::morph::MorphJob;
 use crate::job::sample::{SampleContext, SampleJob};
-use crate::job::sjb::{SjbJob, SjbPlan};
-use crate::job::skin::{LbsJob, PaletteJob, transform_normal};
+use crate::job::sjb::SjbPlan;
+use crate::job::skin::{PaletteJob, SkinJob, transform_normal};
 use crate::job::world::WorldJob;
 use crate::job::{check_eq, check_index};
 use crate::math::{Mat4, Vec3};
@@ -268,56 +268,28 @@ impl Instance {
                 }
                 let range = self.palette_starts[s]..self.palette_starts[s + 1];
                 let palette = &self.palettes[range.clone()];
-                match self.skinning {
-                    SkinningMethod::Linear => LbsJob {
-                        positions: &self.morph_positions,
-                        normals: &self.morph_normals,
-                        joints: &prim.joints,
-                        weights: &prim.weights,
-                        palette,
-                        out_positions,
-                        out_normals,
-                    }
-                    .run(),
-                    SkinningMethod::Rigid => RigidJob {
-                        positions: &self.morph_positions,
-                        normals: &self.morph_normals,
-                        joints: &prim.joints,
-                        weights: &prim.weights,
-                        palette,
-                        out_positions,
-                        out_normals,
-                    }
-                    .run(),
-                    SkinningMethod::SphericalJointBlend => {
-                        let plan = self
-                            .sjb_plans
+                let plan = if self.skinning == SkinningMethod::SphericalJointBlend {
+                    Some(
+                        self.sjb_plans
                             .get(&(node, primitive))
-                            .ok_or_else(|| JobError::InvalidInput(format!("node {node} has no skin plan")))?;
-                        SjbJob {
-                            positions: &self.morph_positions,
-                            normals: &self.morph_normals,
-                            joints: &prim.joints,
-                            weights: &prim.weights,
-                            palette,
-                            joints_dq: &self.joint_dqs[range],
-                            plan,
-                            out_positions,
-                            out_normals,
-                        }
-                        .run()
-                    }
-                    SkinningMethod::DualQuaternion => DqsJob {
-                        positions: &self.morph_positions,
-                        normals: &self.morph_normals,
-                        joints: &prim.joints,
-                        weights: &prim.weights,
-                        joints_dq: &self.joint_dqs[range],
-                        out_positions,
-                        out_normals,
-                    }
-                    .run(),
+                            .ok_or_else(|| JobError::InvalidInput(format!("node {node} has no skin plan")))?,
+                    )
+                } else {
+                    None
+                };
+                SkinJob {
+                    method: self.skinning,
+                    positions: &self.morph_positions,
+                    normals: &self.morph_normals,
+                    joints: &prim.joints,
+                    weights: &prim.weights,
+                    palette,
+                    joints_dq: &self.joint_dqs[range],
+                    plan,
+                    out_positions,
+                    out_normals,
                 }
+                .run()
             }
             None => {
                 let world = self.worlds[node as usize];

@@ -15,7 +15,7 @@
 use serde_json::{Map, Value, json};
 
 use crate::asset::Asset;
-use crate::job::ik::{JointLimit, humanoid_limits};
+use crate::job::ik::{IkChain, JointLimit, humanoid_limits};
 use crate::math::Vec3;
 
 /// Limits and stiffness of every node of one asset.
@@ -31,6 +31,15 @@ impl JointSettings {
     /// Humanoid defaults inferred from the joint names, stiffness 1.
     pub fn humanoid(asset: &Asset) -> Self {
         Self { limits: humanoid_limits(asset), stiffness: vec![1.0; asset.nodes.len()] }
+    }
+
+    /// Limits and stiffness of `chain`'s rotating joints, root first (nodes outside these
+    /// settings are free with stiffness 1).
+    pub fn chain(&self, chain: &IkChain) -> (Vec<JointLimit>, Vec<f32>) {
+        let rotating = &chain.joints()[..chain.depth()];
+        let limits = rotating.iter().map(|&j| self.limits.get(j as usize).copied().unwrap_or_default()).collect();
+        let stiffness = rotating.iter().map(|&j| self.stiffness.get(j as usize).copied().unwrap_or(1.0)).collect();
+        (limits, stiffness)
     }
 
     /// Applies a sidecar (see the module docs) on top of these settings. Nothing changes on

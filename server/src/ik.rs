@@ -126,14 +126,10 @@ pub fn ik_asset(asset_name: &str, asset: &Asset, request: &IkRequest) -> Result<
     if let Some(text) = &request.sidecar {
         joints.apply_json(asset, text).map_err(|e| err(format!("limits: {e}")))?;
     }
-    let rotating = &chain.joints()[..chain.depth()];
-    let limits: Vec<JointLimit> = if request.humanoid_limits {
-        rotating.iter().map(|&j| joints.limits[j as usize]).collect()
-    } else {
-        Vec::new()
-    };
+    let (chain_limits, chain_stiffness) = joints.chain(&chain);
+    let limits: Vec<JointLimit> = if request.humanoid_limits { chain_limits } else { Vec::new() };
     let stiffness: Vec<f32> = match (&request.sidecar, request.stiffness.is_empty()) {
-        (Some(_), true) => rotating.iter().map(|&j| joints.stiffness[j as usize]).collect(),
+        (Some(_), true) => chain_stiffness,
         _ => request.stiffness.clone(),
     };
     let goal = IkGoal {

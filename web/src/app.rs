@@ -256,8 +256,7 @@ impl Model {
         target: Option<Vec3>,
         like: Option<&IkState>,
     ) -> Result<IkState, String> {
-        let mut state = IkState::new(&self.asset, &self.instance, effector, depth, target)?;
-        state.use_settings(&self.joint_settings);
+        let mut state = IkState::new(&self.asset, &self.instance, &self.joint_settings, effector, depth, target)?;
         if let Some(like) = like {
             state.iterations = like.iterations;
             state.use_limits = like.use_limits;
@@ -649,18 +648,13 @@ impl Projection {
     }
 }
 
-/// Number of ancestors of `node`.
-fn ancestors(asset: &Asset, node: NodeIndex) -> usize {
-    let mut count = 0;
-    let mut p = asset.nodes.get(node as usize).and_then(|n| n.parent);
-    while let Some(n) = p {
-        count += 1;
-        p = asset.nodes.get(n as usize).and_then(|n| n.parent);
-        if count > 1024 {
-            break;
-        }
-    }
-    count
+/// The item drawn nearest to `pointer`, within [`IK_GRAB_RADIUS`].
+fn nearest_within<T>(pointer: Pos2, items: impl Iterator<Item = (Pos2, T)>) -> Option<T> {
+    items
+        .map(|(at, item)| (at.distance(pointer), item))
+        .filter(|(d, _)| *d <= IK_GRAB_RADIUS)
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(_, item)| item)
 }
 
 /// Draws the IK chain, the target (green when reached) and the error; returns the target's
@@ -1021,13 +1015,7 @@ impl App {
             .unwrap_or_default();
         if response.drag_started_by(egui::PointerButton::Primary) && !shift {
             self.ik_drag = response.interact_pointer_pos().and_then(|p| {
-                markers
-                    .iter()
-                    .enumerate()
-                    .filter_map(|(i, m)| m.map(|(at, _)| (at.distance(p), i)))
-                    .filter(|(d, _)| *d <= IK_GRAB_RADIUS)
-                    .min_by(|a, b| a.0.total_cmp(&b.0))
-                    .map(|(_, i)| i)
+                nearest_within(p, markers.iter().enumerate().filter_map(|(i, m)| m.map(|(at, _)| (at, i))))
             });
             if let (Some(goal), Some(model)) = (self.ik_drag, self.model.as_mut()) {
                 model.ik_selected = goal;
@@ -1051,19 +1039,12 @@ impl App {
             && let Some(ik) = model.ik.get(model.ik_selected)
         {
             // A click on a joint makes it the effector (keeping the depth where possible).
-            let nearest = model
-                .asset
-                .skins
-                .iter()
-                .flat_map(|s| s.joints.iter().copied())
-                .filter_map(|j| {
-                    let p = model.instance.worlds().get(j as usize)?.w_axis.truncate();
-                    projection.to_screen(p + origin).map(|(at, _)| (at.distance(pointer), j))
-                })
-                .filter(|(d, _)| *d <= IK_GRAB_RADIUS)
-                .min_by(|a, b| a.0.total_cmp(&b.0));
-            if let Some((_, joint)) = nearest {
-                let available = ancestors(&model.asset, joint);
+            let joints = model.asset.skins.iter().flat_map(|s| s.joints.iter().copied()).filter_map(|j| {
+                let p = model.instance.worlds().get(j as usize)?.w_axis.truncate();
+                projection.to_screen(p + origin).map(|(at, _)| (at, j))
+            });
+            if let Some(joint) = nearest_within(pointer, joints) {
+                let available = crate::ik::ancestors(&model.asset, joint);
                 pending = Some(Command::ReplaceIk {
                     goal: model.ik_selected,
                     effector: joint,
@@ -1082,13 +1063,7 @@ impl App {
         // direction instead of zooming.
         let ring = self.ik_drag.or_else(|| {
             let p = response.hover_pos()?;
-            markers
-                .iter()
-                .enumerate()
-                .filter_map(|(i, m)| m.map(|(at, _)| (at.distance(p), i)))
-                .filter(|(d, _)| *d <= IK_GRAB_RADIUS)
-                .min_by(|a, b| a.0.total_cmp(&b.0))
-                .map(|(_, i)| i)
+            nearest_within(p, markers.iter().enumerate().filter_map(|(i, m)| m.map(|(at, _)| (at, i))))
         });
         if let Some(goal) = ring
             && let Some(ik) = self.model.as_mut().and_then(|m| m.ik.get_mut(goal))

@@ -4,7 +4,7 @@
 use glam::{Mat4, Vec3};
 use kloub_core::Instance;
 use kloub_core::asset::{Asset, NodeIndex};
-use kloub_core::job::ik::{IkChain, IkGoal, IkJob, IkReport, IkSettings, IkSolver, JointLimit, humanoid_limits};
+use kloub_core::job::ik::{IkChain, IkGoal, IkJob, IkReport, IkSettings, IkSolver, JointLimit};
 use kloub_core::math::Transform;
 use kloub_core::rig::JointSettings;
 
@@ -42,6 +42,7 @@ impl IkState {
     pub fn new(
         asset: &Asset,
         instance: &Instance,
+        settings: &JointSettings,
         effector: NodeIndex,
         depth: usize,
         target: Option<Vec3>,
@@ -50,11 +51,9 @@ impl IkState {
         let chain = IkChain::new(&parents, effector, depth).map_err(|e| e.to_string())?;
         let here = instance.worlds().get(effector as usize).map_or(Vec3::ZERO, |w| w.w_axis.truncate());
         let solver = IkSolver::Ccd;
-        let all = humanoid_limits(asset);
-        let limits =
-            chain.joints()[..chain.depth()].iter().map(|&j| all.get(j as usize).copied().unwrap_or_default()).collect();
+        let (limits, stiffness) = settings.chain(&chain);
         Ok(Self {
-            stiffness: vec![1.0; chain.depth()],
+            stiffness,
             limits,
             use_limits: true,
             joints: chain.joints().iter().map(|&j| position(instance.worlds(), j)).collect(),
@@ -70,9 +69,7 @@ impl IkState {
 
     /// Takes the chain's limits and stiffness from the model's joint settings.
     pub fn use_settings(&mut self, settings: &JointSettings) {
-        let rotating = &self.chain.joints()[..self.chain.depth()];
-        self.limits = rotating.iter().map(|&j| settings.limits.get(j as usize).copied().unwrap_or_default()).collect();
-        self.stiffness = rotating.iter().map(|&j| settings.stiffness.get(j as usize).copied().unwrap_or(1.0)).collect();
+        (self.limits, self.stiffness) = settings.chain(&self.chain);
     }
 
     /// The end effector.
@@ -118,7 +115,7 @@ fn position(worlds: &[Mat4], node: NodeIndex) -> Vec3 {
     worlds.get(node as usize).map_or(Vec3::ZERO, |w| w.w_axis.truncate())
 }
 
-/// Effectors worth offering, best first: joints named like hands, then feet, then the
+/// Effectors worth offering, best first: joints named like hands, then feet, else the
 /// deepest joint of the skins; each with the depth its hierarchy allows (up to 2).
 pub fn default_effectors(asset: &Asset) -> Vec<(NodeIndex, usize)> {
     let joints: Vec<NodeIndex> = asset.skins.iter().flat_map(|s| s.joints.iter().copied()).collect();
@@ -126,7 +123,7 @@ pub fn default_effectors(asset: &Asset) -> Vec<(NodeIndex, usize)> {
         |j: NodeIndex| asset.nodes.get(j as usize).and_then(|n| n.name.as_deref()).unwrap_or("").to_ascii_lowercase();
     let mut out: Vec<NodeIndex> = Vec::new();
     for keys in [
-        &["hand", "wrist", "arm_joint_l_3", "arm_joint_r_3"][..],
+        &["hand", "wrist", "lowerarm", "arm_joint_l_3", "arm_joint_r_3"][..],
         &["foot", "ankle", "leg_joint_l_5", "leg_joint_r_5"][..],
     ] {
         for &j in &joints {
@@ -135,50 +132,24 @@ pub fn default_effectors(asset: &Asset) -> Vec<(NodeIndex, usize)> {
             }
         }
     }
-    if let Some((first, _)) = default_effector(asset)
-        && !out.contains(&first)
+    if out.is_empty()
+        && let Some(deepest) = joints.iter().copied().max_by_key(|&j| ancestors(asset, j))
     {
-        out.push(first);
+        out.push(deepest);
     }
-    out.into_iter()
-        .filter_map(|j| {
-            let mut depth = 0;
-            let mut p = asset.nodes.get(j as usize).and_then(|n| n.parent);
-            while let Some(n) = p {
-                depth += 1;
-                p = asset.nodes.get(n as usize).and_then(|n| n.parent);
-                if depth >= 2 {
-                    break;
-                }
-            }
-            (depth >= 1).then_some((j, depth))
-        })
-        .collect()
+    out.into_iter().map(|j| (j, ancestors(asset, j).min(2))).filter(|&(_, depth)| depth >= 1).collect()
 }
 
-/// A sensible first effector: a joint named like a hand or wrist, else the deepest joint of
-/// the first skin; with the depth its hierarchy allows (up to 2).
-pub fn default_effector(asset: &Asset) -> Option<(NodeIndex, usize)> {
-    let joints: Vec<NodeIndex> = asset.skins.iter().flat_map(|s| s.joints.iter().copied()).collect();
-    let name =
-        |j: NodeIndex| asset.nodes.get(j as usize).and_then(|n| n.name.as_deref()).unwrap_or("").to_ascii_lowercase();
-    let depth_of = |j: NodeIndex| {
-        let mut d = 0;
-        let mut p = asset.nodes.get(j as usize).and_then(|n| n.parent);
-        while let Some(n) = p {
-            d += 1;
-            p = asset.nodes.get(n as usize).and_then(|n| n.parent);
-            if d > 1024 {
-                break;
-            }
-        }
-        d
-    };
-    let effector = joints
-        .iter()
-        .copied()
-        .find(|&j| ["hand", "wrist", "arm_joint_l_3", "lowerarm"].iter().any(|k| name(j).contains(k)))
-        .or_else(|| joints.iter().copied().max_by_key(|&j| depth_of(j)))?;
-    let depth = depth_of(effector).min(2);
-    (depth >= 1).then_some((effector, depth))
+/// Number of ancestors of `node` (its depth in the node forest).
+pub fn ancestors(asset: &Asset, node: NodeIndex) -> usize {
+    let mut count = 0;
+    let mut parent = asset.nodes.get(node as usize).and_then(|n| n.parent);
+    // The importer guarantees a forest; the bound only guards a hand-made asset.
+    while let Some(n) = parent
+        && count < asset.nodes.len()
+    {
+        count += 1;
+        parent = asset.nodes.get(n as usize).and_then(|n| n.parent);
+    }
+    count
 }

@@ -146,7 +146,7 @@ fn prepare(m: &Mat4) -> JointDq {
 
 /// The rotation of `m3` (Gram–Schmidt on its columns, keeping a right-handed frame); identity
 /// when degenerate.
-fn rotation_of(m3: &Mat3) -> Quat {
+pub(crate) fn rotation_of(m3: &Mat3) -> Quat {
     let x = m3.x_axis.try_normalize();
     let y = m3.y_axis;
     let Some(x) = x else { return Quat::IDENTITY };
@@ -304,7 +304,7 @@ impl RigidJob<'_> {
 
 #[cfg(test)]
 mod tests {
-    use super::super::skin::LbsJob;
+    use super::super::skin::SkinJob;
     use super::*;
     use std::f32::consts::PI;
 
@@ -338,67 +338,29 @@ mod tests {
     fn skin(method: SkinningMethod, palette: &[Mat4]) -> Vec<[f32; 3]> {
         let (p, n, j, w) = candy_wrapper();
         let (mut out, mut out_n) = (vec![[0.0; 3]; p.len()], vec![[0.0; 3]; n.len()]);
-        match method {
-            SkinningMethod::Linear => LbsJob {
-                positions: &p,
-                normals: &n,
-                joints: &j,
-                weights: &w,
-                palette,
-                out_positions: &mut out,
-                out_normals: &mut out_n,
-            }
-            .run(),
-            SkinningMethod::Rigid => RigidJob {
-                positions: &p,
-                normals: &n,
-                joints: &j,
-                weights: &w,
-                palette,
-                out_positions: &mut out,
-                out_normals: &mut out_n,
-            }
-            .run(),
-            SkinningMethod::DualQuaternion => {
-                let mut table = vec![JointDq::default(); palette.len()];
-                DqPrepareJob { palette, out: &mut table }.run().expect("sized");
-                DqsJob {
-                    positions: &p,
-                    normals: &n,
-                    joints: &j,
-                    weights: &w,
-                    joints_dq: &table,
-                    out_positions: &mut out,
-                    out_normals: &mut out_n,
-                }
-                .run()
-            }
-            SkinningMethod::SphericalJointBlend => {
-                use super::super::sjb::{SjbJob, SjbPlan};
-                // Joint 1 is a child of joint 0; both bind at the origin (the twist centre).
-                let skin = crate::asset::Skin {
-                    name: None,
-                    joints: vec![0, 1],
-                    inverse_bind: vec![Mat4::IDENTITY; 2],
-                    skeleton: None,
-                };
-                let plan = SjbPlan::build(&skin, &[None, Some(0)], &j, &w);
-                let mut table = vec![JointDq::default(); palette.len()];
-                DqPrepareJob { palette, out: &mut table }.run().expect("sized");
-                SjbJob {
-                    positions: &p,
-                    normals: &n,
-                    joints: &j,
-                    weights: &w,
-                    palette,
-                    joints_dq: &table,
-                    plan: &plan,
-                    out_positions: &mut out,
-                    out_normals: &mut out_n,
-                }
-                .run()
-            }
+        let mut table = vec![JointDq::default(); palette.len()];
+        DqPrepareJob { palette, out: &mut table }.run().expect("sized");
+        // Joint 1 is a child of joint 0; both bind at the origin (the twist centre).
+        let skin = crate::asset::Skin {
+            name: None,
+            joints: vec![0, 1],
+            inverse_bind: vec![Mat4::IDENTITY; 2],
+            skeleton: None,
+        };
+        let plan = super::super::sjb::SjbPlan::build(&skin, &[None, Some(0)], &j, &w);
+        SkinJob {
+            method,
+            positions: &p,
+            normals: &n,
+            joints: &j,
+            weights: &w,
+            palette,
+            joints_dq: &table,
+            plan: Some(&plan),
+            out_positions: &mut out,
+            out_normals: &mut out_n,
         }
+        .run()
         .expect("valid input");
         assert!(out_n.iter().all(|v| Vec3::from(*v).is_finite()));
         out

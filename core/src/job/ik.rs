@@ -366,7 +366,7 @@ impl IkJob<'_> {
             IkSolver::Ccd => self.ccd(),
             IkSolver::TwoBone => {
                 for (g, goal) in self.goals.iter().enumerate() {
-                    self.reports[g] = two_bone(self.parents, self.rest, self.locals, goal, self.settings.tolerance);
+                    self.reports[g] = two_bone(self.parents, self.rest, self.locals, goal);
                 }
             }
             IkSolver::Fabrik => {
@@ -462,7 +462,6 @@ fn two_bone(
     rest: &[Transform],
     locals: &mut [Transform],
     goal: &IkGoal<'_>,
-    _tolerance: f32,
 ) -> IkReport {
     let joints = goal.chain.joints();
     let mut worlds = [Mat4::IDENTITY; MAX_CHAIN];
@@ -653,11 +652,7 @@ fn rotate_joint(
 
 /// The rotation of an affine matrix (Gram–Schmidt on its columns; identity when degenerate).
 fn rotation_of(m: &Mat4) -> Quat {
-    let m3 = Mat3::from_mat4(*m);
-    let Some(x) = m3.x_axis.try_normalize() else { return Quat::IDENTITY };
-    let Some(y) = (m3.y_axis - x * x.dot(m3.y_axis)).try_normalize() else { return Quat::IDENTITY };
-    let q = Quat::from_mat3(&Mat3::from_cols(x, y, x.cross(y)));
-    if q.is_finite() { q.normalize() } else { Quat::IDENTITY }
+    super::dqs::rotation_of(&Mat3::from_mat4(*m))
 }
 
 /// World matrix of `node`'s parent, from the locals (identity for a root).

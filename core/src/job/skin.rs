@@ -1,5 +1,7 @@
 //! Skinning: the joint palette and linear blend skinning (the CPU reference of the GPU path).
 
+use super::dqs::{DqsJob, JointDq, RigidJob, SkinningMethod};
+use super::sjb::{SjbJob, SjbPlan};
 use super::world::affine_mul;
 use super::{check_eq, check_index, check_len};
 use crate::error::JobError;
@@ -226,6 +228,73 @@ impl Block {
             ox[i] = x * inv;
             oy[i] = y * inv;
             oz[i] = z * inv;
+        }
+    }
+}
+
+/// Skins with any [`SkinningMethod`]: the one entry point the instance, the tests and the
+/// benchmarks use, dispatching to [`LbsJob`], [`RigidJob`], [`DqsJob`] or [`SjbJob`].
+#[derive(Debug)]
+pub struct SkinJob<'a> {
+    /// The method.
+    pub method: SkinningMethod,
+    /// Bind-pose (morphed) positions.
+    pub positions: &'a [[f32; 3]],
+    /// Bind-pose normals; empty to skip normals.
+    pub normals: &'a [[f32; 3]],
+    /// Joint indices per vertex.
+    pub joints: &'a [[u16; 8]],
+    /// Weights per vertex.
+    pub weights: &'a [[f32; 8]],
+    /// Skinning matrices ([`PaletteJob`]).
+    pub palette: &'a [Mat4],
+    /// The palette split for dual quaternions ([`DqPrepareJob`](super::dqs::DqPrepareJob)); read
+    /// by DQS and SJB only.
+    pub joints_dq: &'a [JointDq],
+    /// Joint centres of this primitive; required by SJB only.
+    pub plan: Option<&'a SjbPlan>,
+    /// Output positions, at least `positions.len()`.
+    pub out_positions: &'a mut [[f32; 3]],
+    /// Output normals, at least `normals.len()`.
+    pub out_normals: &'a mut [[f32; 3]],
+}
+
+impl SkinJob<'_> {
+    /// Runs the method's job (which validates its inputs first).
+    ///
+    /// # Errors
+    /// The job's error; `InvalidInput` for SJB without a plan.
+    pub fn run(&mut self) -> Result<(), JobError> {
+        let (positions, normals, joints, weights) = (self.positions, self.normals, self.joints, self.weights);
+        let (out_positions, out_normals) = (&mut *self.out_positions, &mut *self.out_normals);
+        match self.method {
+            SkinningMethod::Linear => {
+                LbsJob { positions, normals, joints, weights, palette: self.palette, out_positions, out_normals }.run()
+            }
+            SkinningMethod::Rigid => {
+                RigidJob { positions, normals, joints, weights, palette: self.palette, out_positions, out_normals }
+                    .run()
+            }
+            SkinningMethod::DualQuaternion => {
+                DqsJob { positions, normals, joints, weights, joints_dq: self.joints_dq, out_positions, out_normals }
+                    .run()
+            }
+            SkinningMethod::SphericalJointBlend => {
+                let plan =
+                    self.plan.ok_or_else(|| JobError::InvalidInput("spherical joint blending needs a plan".into()))?;
+                SjbJob {
+                    positions,
+                    normals,
+                    joints,
+                    weights,
+                    palette: self.palette,
+                    joints_dq: self.joints_dq,
+                    plan,
+                    out_positions,
+                    out_normals,
+                }
+                .run()
+            }
         }
     }
 }

@@ -85,47 +85,76 @@ impl Offscreen {
 
     /// Copies an `Rgba8Unorm(Srgb)` texture into an image (bytes as stored: sRGB-encoded).
     pub fn read_texture(&self, texture: &wgpu::Texture) -> Result<RgbaImage, String> {
-        let (width, height) = (texture.width(), texture.height());
-        let row = width * 4;
-        let padded = row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
-        let buffer = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("kloub readback"),
-            size: u64::from(padded) * u64::from(height),
-            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-            mapped_at_creation: false,
-        });
-        let mut encoder =
-            self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("kloub readback") });
-        encoder.copy_texture_to_buffer(
-            texture.as_image_copy(),
-            wgpu::TexelCopyBufferInfo {
-                buffer: &buffer,
-                layout: wgpu::TexelCopyBufferLayout {
-                    offset: 0,
-                    bytes_per_row: Some(padded),
-                    rows_per_image: Some(height),
-                },
-            },
-            texture.size(),
-        );
-        self.queue.submit([encoder.finish()]);
-        let (sender, receiver) = std::sync::mpsc::channel();
-        buffer.map_async(wgpu::MapMode::Read, .., move |result| {
-            // The receiver waits below; a send error only means it is gone.
-            let _ = sender.send(result);
-        });
-        self.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| format!("device poll: {e}"))?;
-        receiver.recv().map_err(|e| format!("readback: {e}"))?.map_err(|e| format!("readback map: {e}"))?;
-        let mut pixels = Vec::with_capacity((row * height) as usize);
-        {
-            let mapped = buffer.get_mapped_range(..).map_err(|e| format!("readback range: {e}"))?;
-            for chunk in mapped.chunks_exact(padded as usize).take(height as usize) {
-                pixels.extend_from_slice(&chunk[..row as usize]);
-            }
-        }
-        buffer.unmap();
-        RgbaImage::from_raw(width, height, pixels).ok_or_else(|| "readback size mismatch".to_string())
+        let pixels = read_texture_bytes(&self.device, &self.queue, texture, 4)?;
+        RgbaImage::from_raw(texture.width(), texture.height(), pixels)
+            .ok_or_else(|| "readback size mismatch".to_string())
     }
+}
+
+/// The texels of `texture` (`bytes_per_texel` each, `COPY_SRC`), rows packed tightly. Blocks
+/// until the GPU is done.
+pub fn read_texture_bytes(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    texture: &wgpu::Texture,
+    bytes_per_texel: u32,
+) -> Result<Vec<u8>, String> {
+    let (width, height) = (texture.width(), texture.height());
+    let row = width * bytes_per_texel;
+    let padded = row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+    let readback = readback_buffer(device, u64::from(padded) * u64::from(height));
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("kloub readback") });
+    encoder.copy_texture_to_buffer(
+        texture.as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer: &readback,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(padded),
+                rows_per_image: Some(height),
+            },
+        },
+        texture.size(),
+    );
+    queue.submit([encoder.finish()]);
+    let bytes = map_read(device, &readback)?;
+    let mut out = Vec::with_capacity((row * height) as usize);
+    for chunk in bytes.chunks_exact(padded as usize).take(height as usize) {
+        out.extend_from_slice(&chunk[..row as usize]);
+    }
+    Ok(out)
+}
+
+/// The contents of `buffer` (`COPY_SRC`). Blocks until the GPU is done.
+pub fn read_buffer_bytes(device: &wgpu::Device, queue: &wgpu::Queue, buffer: &wgpu::Buffer) -> Result<Vec<u8>, String> {
+    let readback = readback_buffer(device, buffer.size());
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("kloub readback") });
+    encoder.copy_buffer_to_buffer(buffer, 0, &readback, 0, buffer.size());
+    queue.submit([encoder.finish()]);
+    map_read(device, &readback)
+}
+
+fn readback_buffer(device: &wgpu::Device, size: u64) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("kloub readback"),
+        size,
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    })
+}
+
+/// Maps `buffer` for reading, waits, and copies it out.
+fn map_read(device: &wgpu::Device, buffer: &wgpu::Buffer) -> Result<Vec<u8>, String> {
+    let (sender, receiver) = std::sync::mpsc::channel();
+    buffer.map_async(wgpu::MapMode::Read, .., move |result| {
+        // The receiver waits below; a send error only means it is gone.
+        let _ = sender.send(result);
+    });
+    device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| format!("device poll: {e}"))?;
+    receiver.recv().map_err(|e| format!("readback: {e}"))?.map_err(|e| format!("readback map: {e}"))?;
+    let bytes = buffer.get_mapped_range(..).map_err(|e| format!("readback range: {e}"))?.to_vec();
+    buffer.unmap();
+    Ok(bytes)
 }
 
 /// One-shot: opens a device, uploads `asset`, renders `instance` (already evaluated) from

@@ -293,6 +293,7 @@ impl SceneRenderer {
         }
         let palette = PaletteTexture::new(device, joints)?;
 
+        let parents: Vec<Option<u32>> = asset.nodes.iter().map(|n| n.parent).collect();
         let mut draws = Vec::new();
         for node_index in asset.scene_nodes() {
             let Some(node) = asset.nodes.get(node_index as usize) else {
@@ -311,10 +312,9 @@ impl SceneRenderer {
                 let material_index = primitive.material.map(|m| m as usize).filter(|&m| m < default_material);
                 let material = material_index.and_then(|m| asset.materials.get(m));
                 let skin = node.skin.map(|s| s as usize).filter(|&s| s < asset.skins.len() && primitive.is_skinned());
-                let plan = skin.and_then(|s| asset.skins.get(s)).map(|s| {
-                    let parents: Vec<Option<u32>> = asset.nodes.iter().map(|n| n.parent).collect();
-                    SjbPlan::build(s, &parents, &primitive.joints, &primitive.weights)
-                });
+                let plan = skin
+                    .and_then(|s| asset.skins.get(s))
+                    .map(|s| SjbPlan::build(s, &parents, &primitive.joints, &primitive.weights));
                 draws.push(DrawItem {
                     node: node_index,
                     mesh: mesh_index,

@@ -7,6 +7,7 @@
 use kloub_core::{Asset, Instance};
 
 use super::super::camera::Camera;
+use super::super::offscreen::{read_buffer_bytes, read_texture_bytes};
 use super::super::pipelines::CAPTURE_FORMAT;
 use super::super::uniforms::DrawUniform;
 use super::{SceneRenderer, SkinningPath};
@@ -90,8 +91,9 @@ impl SceneRenderer {
         let mut captures = Vec::new();
         for draw in scene.draws.iter().filter(|d| d.on_compute) {
             let Some(output) = draw.deformed.first().and_then(Option::as_ref) else { continue };
-            let words = read_buffer(device, queue, output)?;
-            let floats: Vec<f32> = words.into_iter().map(f32::from_bits).collect();
+            let bytes = read_buffer_bytes(device, queue, output)?;
+            let floats: Vec<f32> =
+                bytes.chunks_exact(4).map(|w| f32::from_ne_bytes([w[0], w[1], w[2], w[3]])).collect();
             let vertices: Vec<([f32; 3], [f32; 3])> =
                 floats.chunks_exact(6).map(|v| ([v[0], v[1], v[2]], [v[3], v[4], v[5]])).collect();
             captures.push(CapturedDraw {
@@ -220,74 +222,9 @@ fn normalized(v: [f32; 3]) -> [f32; 3] {
     glam::Vec3::from(v).normalize_or_zero().to_array()
 }
 
-/// Every 32-bit word of `buffer` (which must allow `COPY_SRC`).
-fn read_buffer(device: &wgpu::Device, queue: &wgpu::Queue, buffer: &wgpu::Buffer) -> Result<Vec<u32>, String> {
-    let size = buffer.size();
-    let readback = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("kloub compute readback"),
-        size,
-        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-        mapped_at_creation: false,
-    });
-    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("kloub readback") });
-    encoder.copy_buffer_to_buffer(buffer, 0, &readback, 0, size);
-    queue.submit([encoder.finish()]);
-    let (sender, receiver) = std::sync::mpsc::channel();
-    readback.map_async(wgpu::MapMode::Read, .., move |result| {
-        // The receiver waits below; a send error only means it is gone.
-        let _ = sender.send(result);
-    });
-    device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| format!("device poll: {e}"))?;
-    receiver.recv().map_err(|e| format!("readback: {e}"))?.map_err(|e| format!("readback map: {e}"))?;
-    let words = {
-        let mapped = readback.get_mapped_range(..).map_err(|e| format!("readback range: {e}"))?;
-        bytemuck::cast_slice::<u8, u32>(&mapped).to_vec()
-    };
-    readback.unmap();
-    Ok(words)
-}
-
 /// The xyz of every texel of a capture texture (float bits in `rgba32uint`), row-major.
 fn read_texels(device: &wgpu::Device, queue: &wgpu::Queue, texture: &wgpu::Texture) -> Result<Vec<[f32; 3]>, String> {
-    let (width, height) = (texture.width(), texture.height());
-    let row = width * 16;
-    let padded = row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
-    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("kloub capture readback"),
-        size: u64::from(padded) * u64::from(height),
-        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-        mapped_at_creation: false,
-    });
-    let mut encoder =
-        device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("kloub capture readback") });
-    encoder.copy_texture_to_buffer(
-        texture.as_image_copy(),
-        wgpu::TexelCopyBufferInfo {
-            buffer: &buffer,
-            layout: wgpu::TexelCopyBufferLayout {
-                offset: 0,
-                bytes_per_row: Some(padded),
-                rows_per_image: Some(height),
-            },
-        },
-        texture.size(),
-    );
-    queue.submit([encoder.finish()]);
-    let (sender, receiver) = std::sync::mpsc::channel();
-    buffer.map_async(wgpu::MapMode::Read, .., move |result| {
-        // The receiver waits below; a send error only means it is gone.
-        let _ = sender.send(result);
-    });
-    device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| format!("device poll: {e}"))?;
-    receiver.recv().map_err(|e| format!("capture readback: {e}"))?.map_err(|e| format!("capture readback map: {e}"))?;
-    let mut out = Vec::with_capacity((width * height) as usize);
-    {
-        let mapped = buffer.get_mapped_range(..).map_err(|e| format!("capture readback range: {e}"))?;
-        for chunk in mapped.chunks_exact(padded as usize).take(height as usize) {
-            let texels: &[[u32; 4]] = bytemuck::cast_slice(&chunk[..row as usize]);
-            out.extend(texels.iter().map(|t| t.map(f32::from_bits)).map(|t| [t[0], t[1], t[2]]));
-        }
-    }
-    buffer.unmap();
-    Ok(out)
+    let bytes = read_texture_bytes(device, queue, texture, 16)?;
+    let f = |b: &[u8]| f32::from_ne_bytes([b[0], b[1], b[2], b[3]]);
+    Ok(bytes.chunks_exact(16).map(|t| [f(&t[0..4]), f(&t[4..8]), f(&t[8..12])]).collect())
 }
