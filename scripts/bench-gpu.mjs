@@ -25,9 +25,9 @@ try {
     try {
       const { page } = ctx;
       await page.goto(pageUrl(server.url, backend));
-      await waitForDataset(page, () => document.body.dataset.status === 'ready', 'the default model');
+      await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.status === 'ready', 'the default model');
       await dropFiles(page, [{ path: FOX }]);
-      await waitForDataset(page, () => document.body.dataset.model === 'Fox.glb' && document.body.dataset.status === 'ready', 'Fox.glb');
+      await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.model === 'Fox.glb' && document.querySelector('kloub-viewer').dataset.status === 'ready', 'Fox.glb');
       await sleep(300);
       await control(page, 'crossfadeTo', 'Run', 0);
       for (const [method, path] of CONFIGS.filter(([, p]) => p !== 'compute' || backend === 'webgpu')) {
@@ -36,11 +36,11 @@ try {
         const cells = [];
         for (const n of COUNTS) {
           await control(page, 'setCopies', n);
-          await page.waitForFunction((n) => document.body.dataset.copies === String(n), n, { timeout: 30000, polling: 50 });
+          await page.waitForFunction((n) => document.querySelector('kloub-viewer').dataset.copies === String(n), n, { timeout: 30000, polling: 50 });
           await sleep(1500);
-          const before = await page.evaluate(() => [performance.now(), Number(document.body.dataset.frames)]);
+          const before = await page.evaluate(() => [performance.now(), Number(document.querySelector('kloub-viewer').dataset.frames)]);
           await sleep(SECONDS * 1000);
-          const after = await page.evaluate(() => [performance.now(), Number(document.body.dataset.frames)]);
+          const after = await page.evaluate(() => [performance.now(), Number(document.querySelector('kloub-viewer').dataset.frames)]);
           const frames = after[1] - before[1];
           cells.push(frames > 0 ? ((after[0] - before[0]) / frames).toFixed(1) : 'n/a');
         }

@@ -34,9 +34,29 @@ fi
 # server's embedding (server/build.rs) redo their work.
 install_if_changed() { cmp -s "$1" "$2/$(basename "$1")" || cp "$1" "$2/"; }
 install_if_changed target/wasm-bindgen/kloub_web.js "$DIST"
-install_if_changed web/index.html "$DIST"
-install_if_changed web/boot.js "$DIST"
-if [ -f web/style.css ]; then install_if_changed web/style.css "$DIST"; fi
+# The element (the npm package's entry), its types, the app page built on it, and the embedding example.
+for f in kloub-viewer.js kloub-viewer.d.ts hash-state.js index.html app.js style.css embed.html embed.js; do
+  install_if_changed "web/$f" "$DIST"
+done
+rm -f "$DIST/boot.js" "$DIST"/boot.js.*
+# web/dist is an npm-ready package: `npm pack web/dist` (or `npm run pack`) gives kloub-viewer-<version>.tgz.
+version=$(node -p "require('./package.json').version")
+cat > "$DIST/package.json.new" <<JSON
+{
+  "name": "kloub-viewer",
+  "version": "$version",
+  "description": "<kloub-viewer>: a glTF character animation viewer element (Rust + WebAssembly, WebGPU or WebGL2).",
+  "license": "MIT OR Apache-2.0",
+  "type": "module",
+  "main": "./kloub-viewer.js",
+  "module": "./kloub-viewer.js",
+  "types": "./kloub-viewer.d.ts",
+  "exports": { ".": { "types": "./kloub-viewer.d.ts", "default": "./kloub-viewer.js" }, "./kloub_web_bg.wasm": "./kloub_web_bg.wasm" },
+  "files": ["kloub-viewer.js", "kloub-viewer.d.ts", "kloub_web.js", "kloub_web_bg.wasm"],
+  "sideEffects": ["./kloub-viewer.js"]
+}
+JSON
+cmp -s "$DIST/package.json.new" "$DIST/package.json" && rm "$DIST/package.json.new" || mv "$DIST/package.json.new" "$DIST/package.json"
 
 # Precompress with node's zlib (no extra tool). Brotli quality 10 takes ~11 s for the ~7 MB wasm on 2 cores.
 node --input-type=module - "$DIST" "${KLOUB_BROTLI_QUALITY:-10}" <<'EOF'
@@ -45,7 +65,7 @@ import { join } from 'node:path';
 import zlib from 'node:zlib';
 const [dist, quality] = process.argv.slice(2);
 const C = zlib.constants;
-for (const name of ['index.html', 'boot.js', 'style.css', 'kloub_web.js', 'kloub_web_bg.wasm']) {
+for (const name of ['index.html', 'app.js', 'hash-state.js', 'kloub-viewer.js', 'embed.html', 'embed.js', 'style.css', 'kloub_web.js', 'kloub_web_bg.wasm']) {
   const file = join(dist, name);
   if (!existsSync(file)) continue;
   const mtime = statSync(file).mtimeMs;

@@ -9,7 +9,7 @@ const ctx = await openBrowser();
 try {
   await ctx.page.setViewportSize({ width: 1280, height: 720 });
   await ctx.page.goto(pageUrl(server.url, 'webgpu'));
-  await waitForDataset(ctx.page, () => document.body.dataset.status === 'ready', 'the default model');
+  await waitForDataset(ctx.page, () => document.querySelector('kloub-viewer').dataset.status === 'ready', 'the default model');
   await ctx.page.waitForTimeout(1200);
   writeFileSync(join(ROOT, 'web/screenshot.png'), await ctx.page.screenshot());
   console.log('wrote web/screenshot.png');

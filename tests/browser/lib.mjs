@@ -64,13 +64,13 @@ export async function waitForDataset(page, predicate, what, timeout = 60000, arg
   try {
     await page.waitForFunction(predicate, arg, { timeout, polling: 100 });
   } catch (e) {
-    const ds = await page.evaluate(() => ({ ...document.body.dataset }));
+    const ds = await page.evaluate(() => ({ ...document.querySelector('kloub-viewer').dataset }));
     throw new Error(`timed out waiting for ${what}; dataset = ${JSON.stringify(ds)}`);
   }
 }
 
 export async function dataset(page) {
-  return page.evaluate(() => ({ ...document.body.dataset }));
+  return page.evaluate(() => ({ ...document.querySelector('kloub-viewer').dataset }));
 }
 
 /** Drops files on the canvas the way a user's drag and drop does (dragenter, dragover, drop). */
@@ -85,18 +85,25 @@ export async function dropFiles(page, files) {
       const bin = Uint8Array.from(atob(f.b64), (c) => c.charCodeAt(0));
       dt.items.add(new File([bin], f.name, { type: 'application/octet-stream' }));
     }
-    const target = document.querySelector('canvas');
+    const target = document.querySelector('kloub-viewer').shadowRoot.querySelector('canvas');
     for (const type of ['dragenter', 'dragover', 'drop']) {
       target.dispatchEvent(new DragEvent(type, { dataTransfer: dt, bubbles: true, cancelable: true }));
     }
   }, payload);
 }
 
-/** Screenshot of the 3D viewport (its rect is published by the app in dataset.viewport as "x,y,w,h" CSS px). */
-export async function viewportShot(page) {
-  const ds = await dataset(page);
-  const [x, y, width, height] = (ds.viewport ?? '').split(',').map(Number);
-  const clip = width > 0 && height > 0 ? { x, y, width, height } : undefined;
+/**
+ * Screenshot of the 3D viewport of the viewer matched by `selector` (its rect is published in data-viewport as
+ * "x,y,w,h" CSS px of the canvas).
+ */
+export async function viewportShot(page, selector = 'kloub-viewer') {
+  const { viewport, left, top } = await page.evaluate((s) => {
+    const el = document.querySelector(s);
+    const r = el.getBoundingClientRect();
+    return { viewport: el.dataset.viewport, left: r.left, top: r.top };
+  }, selector);
+  const [x, y, width, height] = (viewport ?? '').split(',').map(Number);
+  const clip = width > 0 && height > 0 ? { x: x + left, y: y + top, width, height } : undefined;
   return PNG.sync.read(await page.screenshot({ clip }));
 }
 
@@ -118,13 +125,13 @@ export function diffFraction(a, b, threshold = 16, top = 0, bottom = 1) {
 
 /** Waits until the app has painted `n` more frames. */
 export async function waitFrames(page, n = 2) {
-  const start = Number(await page.evaluate(() => document.body.dataset.frames));
-  await page.waitForFunction((f) => Number(document.body.dataset.frames) >= f, start + n, { timeout: 30000, polling: 50 });
+  const start = Number(await page.evaluate(() => document.querySelector('kloub-viewer').dataset.frames));
+  await page.waitForFunction((f) => Number(document.querySelector('kloub-viewer').dataset.frames) >= f, start + n, { timeout: 30000, polling: 50 });
 }
 
-/** Calls `method(...args)` on the viewer's control handle (`canvas.kloub`, set by boot.js). */
+/** Calls `method(...args)` on the page's (first) <kloub-viewer>. */
 export async function control(page, method, ...args) {
-  return page.evaluate(([m, a]) => document.querySelector('canvas').kloub[m](...a), [method, args]);
+  return page.evaluate(([m, a]) => document.querySelector('kloub-viewer')[m](...a), [method, args]);
 }
 
 /** Fraction of pixels that differ from the most common colour (how much of the view is not background). */
@@ -143,4 +150,25 @@ export function savePng(img, name) {
   const dir = join(ROOT, 'tests/out/browser');
   mkdirSync(dir, { recursive: true });
   writeFileSync(join(dir, name), PNG.sync.write(img));
+}
+
+/**
+ * Records every event a <kloub-viewer> dispatches (capture listeners on the document, installed before the page
+ * loads): `window.__kloubEvents` holds [viewerId, type, detail] in order. Call before `page.goto`.
+ */
+export async function recordEvents(page) {
+  await page.addInitScript(() => {
+    window.__kloubEvents = [];
+    for (const type of ['load', 'error', 'play', 'pause', 'timeupdate', 'loop', 'finished']) {
+      document.addEventListener(type, (e) => {
+        if (e.target?.localName === 'kloub-viewer') window.__kloubEvents.push([e.target.id, type, e.detail]);
+      }, true);
+    }
+  });
+}
+
+/** The recorded events (see `recordEvents`), optionally only those of one viewer id. */
+export async function viewerEvents(page, id = null) {
+  const all = await page.evaluate(() => window.__kloubEvents ?? []);
+  return id === null ? all : all.filter(([v]) => v === id);
 }

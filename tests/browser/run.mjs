@@ -2,8 +2,8 @@
 // Prints one line per test and closes with "browser: N passed, M failed"; exits 1 on any failure.
 import { join } from 'node:path';
 import {
-  SHARED, control, dataset, diffFraction, dropFiles, nonBackgroundFraction, openBrowser, pageUrl, savePng, startServer,
-  viewportShot, waitForDataset, waitFrames,
+  SHARED, control, dataset, diffFraction, dropFiles, nonBackgroundFraction, openBrowser, pageUrl, recordEvents, savePng,
+  startServer, viewerEvents, viewportShot, waitForDataset, waitFrames,
 } from './lib.mjs';
 
 const BACKENDS = (process.env.KLOUB_BACKENDS ?? 'webgpu,webgl2').split(',');
@@ -11,16 +11,52 @@ const FOX = join(SHARED, 'khronos/Fox/glTF-Binary/Fox.glb');
 const RIGGED_SIMPLE = join(SHARED, 'khronos/RiggedSimple/glTF-Binary/RiggedSimple.glb');
 const ROBOT = join(SHARED, 'threejs/RobotExpressive/RobotExpressive.glb');
 const RIGGED_FIGURE = join(SHARED, 'khronos/RiggedFigure/glTF-Binary/RiggedFigure.glb');
+const CESIUM_MAN = ['CesiumMan.gltf', 'CesiumMan_data.bin', 'CesiumMan_img0.jpg'].map((f) => join(SHARED, 'khronos/CesiumMan/glTF', f));
+const RECURSIVE = join(SHARED, 'khronos/RecursiveSkeletons/glTF-Binary/RecursiveSkeletons.glb');
+const KNIGHT = join(SHARED, 'kaykit/Knight/Knight.glb');
+
+/** Fraction of pixels with a clearly coloured (saturated) look: a texture, not flat grey shading. */
+function saturatedFraction(img) {
+  let n = 0;
+  for (let i = 0; i < img.data.length; i += 4) {
+    const [r, g, b] = [img.data[i], img.data[i + 1], img.data[i + 2]];
+    if (Math.max(r, g, b) - Math.min(r, g, b) > 40) n++;
+  }
+  return n / (img.width * img.height);
+}
+
+/** The box of pixels that differ from the most common colour, as fractions of the image: [x0, y0, x1, y1]. */
+function contentBox(img) {
+  const counts = new Map();
+  const key = (i) => (img.data[i] >> 3) << 10 | (img.data[i + 1] >> 3) << 5 | (img.data[i + 2] >> 3);
+  for (let i = 0; i < img.data.length; i += 4) counts.set(key(i), (counts.get(key(i)) ?? 0) + 1);
+  const background = [...counts.entries()].sort((a, b) => b[1] - a[1])[0][0];
+  let [x0, y0, x1, y1] = [img.width, img.height, -1, -1];
+  for (let y = 0; y < img.height; y++) {
+    for (let x = 0; x < img.width; x++) {
+      const i = (y * img.width + x) * 4;
+      const k = key(i);
+      // The background and the ground grid's faint lines are not content.
+      const [r, g, b] = [img.data[i], img.data[i + 1], img.data[i + 2]];
+      const bg = [(background >> 10) << 3, ((background >> 5) & 31) << 3, (background & 31) << 3];
+      if (k === background || Math.max(Math.abs(r - bg[0]), Math.abs(g - bg[1]), Math.abs(b - bg[2])) < 24) continue;
+      x0 = Math.min(x0, x); y0 = Math.min(y0, y); x1 = Math.max(x1, x); y1 = Math.max(y1, y);
+    }
+  }
+  return [x0 / img.width, y0 / img.height, (x1 + 1) / img.width, (y1 + 1) / img.height];
+}
 
 const tests = [];
-const test = (name, fn) => tests.push({ name, fn });
+// KLOUB_ONLY=regex runs only the tests whose names match (while working on one).
+const only = process.env.KLOUB_ONLY ? new RegExp(process.env.KLOUB_ONLY) : null;
+const test = (name, fn) => { if (!only || only.test(name)) tests.push({ name, fn }); };
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 function assert(cond, msg) { if (!cond) throw new Error(msg); }
 
 /** Opens the app for `backend` and waits for the default model. */
 async function openApp(ctx, backend) {
   await ctx.page.goto(pageUrl(ctx.url, backend));
-  await waitForDataset(ctx.page, () => document.body.dataset.status === 'ready', 'the default model to be ready');
+  await waitForDataset(ctx.page, () => document.querySelector('kloub-viewer').dataset.status === 'ready', 'the default model to be ready');
   const ds = await dataset(ctx.page);
   assert(ds.backend === backend, `expected backend ${backend}, page reports ${ds.backend}`);
   return ds;
@@ -30,7 +66,7 @@ async function openApp(ctx, backend) {
 async function dropModel(page, path) {
   const name = path.split('/').pop();
   await dropFiles(page, [{ path }]);
-  await page.waitForFunction((n) => document.body.dataset.model === n && document.body.dataset.status === 'ready', name, { timeout: 60000, polling: 100 });
+  await page.waitForFunction((n) => document.querySelector('kloub-viewer').dataset.model === n && document.querySelector('kloub-viewer').dataset.status === 'ready', name, { timeout: 60000, polling: 100 });
   // Names resolve against the shown model once its first frame ran.
   await waitFrames(page, 2);
 }
@@ -42,7 +78,7 @@ async function still(page, clip, time) {
   await control(page, 'seek', time);
   const t = time.toFixed(3);
   await page.waitForFunction(
-    ([c, t]) => (c === null || document.body.dataset.clip === c) && document.body.dataset.playing === 'false' && document.body.dataset.time === t,
+    ([c, t]) => (c === null || document.querySelector('kloub-viewer').dataset.clip === c) && document.querySelector('kloub-viewer').dataset.playing === 'false' && document.querySelector('kloub-viewer').dataset.time === t,
     [clip, t], { timeout: 30000, polling: 50 });
   // A paused viewer paints only on change: the frame that published this state is the last one.
   // Two animation frames later it is on screen.
@@ -56,7 +92,7 @@ for (const backend of BACKENDS) {
     assert(JSON.parse(ds.clips).length > 0, `no clips listed: ${ds.clips}`);
     const frames = Number(ds.frames);
     // It keeps painting while the clip plays (the first frames compile pipelines: allow a few seconds).
-    await ctx.page.waitForFunction((f) => Number(document.body.dataset.frames) >= f + 5, frames, { timeout: 10000, polling: 50 })
+    await ctx.page.waitForFunction((f) => Number(document.querySelector('kloub-viewer').dataset.frames) >= f + 5, frames, { timeout: 10000, polling: 50 })
       .catch(() => {});
     const later = Number((await dataset(ctx.page)).frames);
     assert(later >= frames + 5, `fewer than 5 frames painted in 10 s while playing (${frames} → ${later})`);
@@ -68,9 +104,9 @@ for (const backend of BACKENDS) {
   test(`${backend}: dropping Fox.glb lists Survey/Walk/Run and animates`, async (ctx) => {
     await openApp(ctx, backend);
     await dropFiles(ctx.page, [{ path: RIGGED_SIMPLE }]);
-    await waitForDataset(ctx.page, () => document.body.dataset.model === 'RiggedSimple.glb', 'RiggedSimple.glb to load');
+    await waitForDataset(ctx.page, () => document.querySelector('kloub-viewer').dataset.model === 'RiggedSimple.glb', 'RiggedSimple.glb to load');
     await dropFiles(ctx.page, [{ path: FOX }]);
-    await waitForDataset(ctx.page, () => document.body.dataset.model === 'Fox.glb' && document.body.dataset.status === 'ready', 'Fox.glb to load');
+    await waitForDataset(ctx.page, () => document.querySelector('kloub-viewer').dataset.model === 'Fox.glb' && document.querySelector('kloub-viewer').dataset.status === 'ready', 'Fox.glb to load');
     const clips = JSON.parse((await dataset(ctx.page)).clips);
     for (const name of ['Survey', 'Walk', 'Run']) assert(clips.includes(name), `clip ${name} not listed: ${clips}`);
     await sleep(300);
@@ -92,10 +128,10 @@ for (const backend of BACKENDS) {
     // playClip is what a click in the clip list does: a crossfade with the panel's duration (0.3 s).
     await control(page, 'play');
     await control(page, 'playClip', 'Run');
-    await waitForDataset(page, () => document.body.dataset.clip === 'Run' && document.body.dataset.crossfade !== '', 'the crossfade to start');
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.clip === 'Run' && document.querySelector('kloub-viewer').dataset.crossfade !== '', 'the crossfade to start');
     const mid = Number((await dataset(page)).crossfade);
     assert(mid >= 0 && mid < 1, `crossfade weight ${mid}`);
-    await waitForDataset(page, () => document.body.dataset.crossfade === '', 'the crossfade to finish');
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.crossfade === '', 'the crossfade to finish');
     const faded = await still(page, null, 0);
     const cut = await still(page, 'Run', 0);
     savePng(walk, `${backend}-crossfade-walk.png`);
@@ -116,7 +152,7 @@ for (const backend of BACKENDS) {
     const plain = await still(page, 'Walking', 0.3);
     await control(page, 'setLayer', 'Wave', 'Abdomen', 1);
     await control(page, 'play');
-    await waitForDataset(page, () => document.body.dataset.layer === 'Wave@Abdomen:1.00' && document.body.dataset.playing === 'true', 'the layer');
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.layer === 'Wave@Abdomen:1.00' && document.querySelector('kloub-viewer').dataset.playing === 'true', 'the layer');
     await new Promise((r) => setTimeout(r, 700));
     const layered = await still(page, 'Walking', 0.3);
     savePng(plain, `${backend}-layer-off.png`);
@@ -127,7 +163,7 @@ for (const backend of BACKENDS) {
     const legs = diffFraction(plain, layered, 16, 0.75, 1);
     assert(legs < 0.0005, `the legs changed: ${(legs * 100).toFixed(3)}% of the lower viewport`);
     await control(page, 'setLayer', null, null, 0);
-    await waitForDataset(page, () => document.body.dataset.layer === '', 'the layer to be removed');
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.layer === '', 'the layer to be removed');
   });
 
   test(`${backend}: the candy wrapper shows LBS collapse and DQS/SJB keeping volume, on every path`, async (ctx) => {
@@ -135,13 +171,13 @@ for (const backend of BACKENDS) {
     await openApp(ctx, backend);
     await control(page, 'loadSample', 'candy-wrapper');
     // The sample starts still (posed by its sliders): it paints only on change, so no frame wait here.
-    await waitForDataset(page, () => document.body.dataset.model === 'Candy wrapper', 'the candy-wrapper sample');
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.model === 'Candy wrapper', 'the candy-wrapper sample');
     await control(page, 'setCandyPose', 150, 0);
     const shots = {};
     for (const method of ['lbs', 'dqs', 'sjb']) {
       await control(page, 'setSkinning', method);
-      await waitForDataset(page, () => document.body.dataset.quality !== '', 'the quality readout');
-      await waitForDataset(page, (m) => document.body.dataset.skinning === m, `skinning ${method}`, 30000, method);
+      await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.quality !== '', 'the quality readout');
+      await waitForDataset(page, (m) => document.querySelector('kloub-viewer').dataset.skinning === m, `skinning ${method}`, 30000, method);
       await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
       const radius = Number((await dataset(page)).quality.split(',')[0]);
       if (method === 'lbs') assert(Math.abs(radius - 0.259) < 0.01, `LBS keeps ${radius} of the radius at 150°`);
@@ -153,7 +189,7 @@ for (const backend of BACKENDS) {
     assert(changed > 0.004, `switching LBS to DQS changed only ${(changed * 100).toFixed(3)}% of the viewport`);
     if (backend === 'webgpu') {
       await control(page, 'setSkinningPath', 'compute');
-      await waitForDataset(page, () => document.body.dataset.skinningPath === 'compute', 'the compute path', 30000);
+      await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.skinningPath === 'compute', 'the compute path', 30000);
       await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
       const compute = await viewportShot(page);
       savePng(compute, `${backend}-candy-sjb-compute.png`);
@@ -165,7 +201,7 @@ for (const backend of BACKENDS) {
       assert(refused, 'WebGL2 accepted the compute skinning path');
     }
     await control(page, 'setSkinningPath', 'cpu');
-    await waitForDataset(page, () => document.body.dataset.skinningPath === 'cpu', 'the CPU path', 30000);
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.skinningPath === 'cpu', 'the CPU path', 30000);
     await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
     const cpu = await viewportShot(page);
     const gpuVsCpu = diffFraction(shots.sjb, cpu);
@@ -181,7 +217,7 @@ for (const backend of BACKENDS) {
     await dropModel(page, RIGGED_FIGURE);
     await control(page, 'pause');
     await control(page, 'setIkTarget', 'arm_joint_L_3');
-    await waitForDataset(page, () => (document.body.dataset.ik ?? '').startsWith('arm_joint_L_3:') && document.body.dataset.ikTarget !== '', 'IK on the hand');
+    await waitForDataset(page, () => (document.querySelector('kloub-viewer').dataset.ik ?? '').startsWith('arm_joint_L_3:') && document.querySelector('kloub-viewer').dataset.ikTarget !== '', 'IK on the hand');
     await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
     const before = await viewportShot(page);
     const [x, y] = (await dataset(page)).ikTarget.split(',').map(Number);
@@ -190,10 +226,10 @@ for (const backend of BACKENDS) {
     for (let i = 1; i <= 10; i++) await page.mouse.move(x - 4 * i, y - 3 * i);
     await page.mouse.up();
     await waitForDataset(page, ([tx, ty]) => {
-      const [mx, my] = (document.body.dataset.ikTarget ?? '').split(',').map(Number);
+      const [mx, my] = (document.querySelector('kloub-viewer').dataset.ikTarget ?? '').split(',').map(Number);
       return Math.abs(mx - tx) < 2 && Math.abs(my - ty) < 2;
     }, 'the target ring to follow the pointer', 20000, [x - 40, y - 30]);
-    await waitForDataset(page, () => Number(document.body.dataset.ik.split(':')[1]) < 1e-3, 'the hand to reach the target', 20000);
+    await waitForDataset(page, () => Number(document.querySelector('kloub-viewer').dataset.ik.split(':')[1]) < 1e-3, 'the hand to reach the target', 20000);
     await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
     const after = await viewportShot(page);
     savePng(before, `${backend}-ik-before.png`);
@@ -202,24 +238,146 @@ for (const backend of BACKENDS) {
     assert(changed > 0.002, `dragging the target changed only ${(changed * 100).toFixed(3)}% of the viewport`);
   });
 
+  test(`${backend}: dropping CesiumMan's three glTF files shows the textured model`, async (ctx) => {
+    await openApp(ctx, backend);
+    await dropFiles(ctx.page, CESIUM_MAN.map((path) => ({ path })));
+    await waitForDataset(ctx.page, () => document.querySelector('kloub-viewer').dataset.model === 'CesiumMan.gltf' && document.querySelector('kloub-viewer').dataset.status === 'ready', 'CesiumMan.gltf to load');
+    await waitFrames(ctx.page, 2);
+    const shot = await viewportShot(ctx.page);
+    savePng(shot, `${backend}-cesium-man.png`);
+    assert((await dataset(ctx.page)).error === '', 'an error was reported');
+    assert(nonBackgroundFraction(shot) > 0.02, 'the viewport shows nothing but background');
+    // Lit grey would have no saturated pixels; CesiumMan's texture is blue and orange.
+    const coloured = saturatedFraction(shot);
+    assert(coloured > 0.01, `only ${(coloured * 100).toFixed(2)}% of the viewport is coloured: the texture is missing`);
+  });
+
+  for (const [name, path] of [['RecursiveSkeletons.glb', RECURSIVE], ['Knight.glb', KNIGHT]]) {
+    test(`${backend}: frame-to-fit shows all of ${name}`, async (ctx) => {
+      await openApp(ctx, backend);
+      await dropModel(ctx.page, path);
+      await control(ctx.page, 'pause');
+      await control(ctx.page, 'setGrid', false);
+      await waitForDataset(ctx.page, () => document.querySelector('kloub-viewer').dataset.grid === 'false' && document.querySelector('kloub-viewer').dataset.playing === 'false', 'the grid to hide');
+      // Paused: the frame that published this is the last; two animation frames later it is on screen.
+      await ctx.page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
+      const shot = await viewportShot(ctx.page);
+      savePng(shot, `${backend}-fit-${name}.png`);
+      const [x0, y0, x1, y1] = contentBox(shot);
+      const box = [x0, y0, x1, y1].map((v) => v.toFixed(3)).join(', ');
+      // Wholly inside (not cut by an edge) and large (not a speck in a corner).
+      assert(x0 > 0.005 && y0 > 0.005 && x1 < 0.995 && y1 < 0.995, `${name} touches the viewport's edge: box ${box}`);
+      assert(Math.max(x1 - x0, y1 - y0) > 0.3, `${name} is framed too small: box ${box}`);
+    });
+  }
+
+  test(`${backend}: two <kloub-viewer> elements on one page play different clips independently, with their events`, async (ctx) => {
+    const { page } = ctx;
+    await recordEvents(page);
+    await page.goto(`${ctx.url}/embed.html${backend === 'webgl2' ? '?backend=webgl2' : ''}`);
+    await waitForDataset(page, () => ['left', 'right'].every((id) => document.getElementById(id).dataset.status === 'ready' && Number(document.getElementById(id).dataset.frames) > 0), 'both viewers');
+    await page.waitForFunction(() => window.__kloubEvents.filter(([, t]) => t === 'load').length === 2, null, { timeout: 30000 });
+    const state = await page.evaluate(() => ['left', 'right'].map((id) => ({ ...document.getElementById(id).dataset })));
+    assert(state[0].backend === backend && state[1].backend === backend, `backends ${state[0].backend}, ${state[1].backend}`);
+    assert(state[0].clip === 'Walk' && state[1].clip === 'Run', `clips ${state[0].clip}, ${state[1].clip}`);
+    assert(state[1].loop === 'once' && state[1].speed === '0.500', `right: loop ${state[1].loop}, speed ${state[1].speed}`);
+    // Fox's Run takes 0.54 s at speed 1: at 0.5 it finishes once, fires finished and stops; Walk loops on.
+    await page.waitForFunction(() => window.__kloubEvents.some(([id, t]) => id === 'right' && t === 'finished'), null, { timeout: 30000 });
+    await page.waitForFunction(() => window.__kloubEvents.some(([id, t]) => id === 'left' && t === 'loop'), null, { timeout: 30000 });
+    const right = await page.evaluate(() => {
+      const v = document.getElementById('right');
+      return { paused: v.paused, time: v.currentTime, duration: v.duration };
+    });
+    assert(right.paused && Math.abs(right.time - right.duration) < 1e-3, `right after finishing: ${JSON.stringify(right)}`);
+    // Pausing the left one leaves the right one alone; its clock stops, and currentTime seeks.
+    await page.evaluate(() => document.getElementById('right').play());
+    await page.evaluate(() => document.getElementById('left').pause());
+    await waitForDataset(page, () => document.getElementById('left').dataset.playing === 'false', 'left to pause');
+    await page.evaluate(() => { document.getElementById('left').currentTime = 0.25; });
+    const immediate = await page.evaluate(() => document.getElementById('left').currentTime);
+    assert(Math.abs(immediate - 0.25) < 1e-6, `currentTime right after setting it reads ${immediate}`);
+    await waitForDataset(page, () => document.getElementById('left').dataset.time === '0.250', 'the seek');
+    const t0 = await page.evaluate(() => [document.getElementById('left').currentTime, Number(document.getElementById('right').dataset.frames)]);
+    await page.waitForFunction((f) => Number(document.getElementById('right').dataset.frames) >= f + 3, t0[1], { timeout: 30000 });
+    const t1 = await page.evaluate(() => document.getElementById('left').currentTime);
+    assert(t0[0] === 0.25 && t1 === 0.25, `the paused left clock moved: ${t0[0]} → ${t1}`);
+    const events = await viewerEvents(page);
+    const of = (id, type) => events.filter(([v, t]) => v === id && t === type);
+    assert(of('left', 'pause').length === 1 && of('right', 'pause').length === 1, `pause events: ${JSON.stringify(events.filter(([, t]) => t === 'pause'))}`);
+    assert(of('right', 'play').length >= 1, 'right fired no play event after play()');
+    assert(of('left', 'finished').length === 0, 'left fired finished though it loops');
+    assert(of('right', 'loop').length === 0, 'right fired loop though it plays once');
+    assert(of('left', 'timeupdate').some(([, , d]) => d.currentTime === 0.25), 'no timeupdate at the seek');
+    assert(of('left', 'load')[0][2].name === 'default.glb', `load detail ${JSON.stringify(of('left', 'load')[0][2])}`);
+    // The two canvases show different poses.
+    const [a, b] = [await viewportShot(page, '#left'), await viewportShot(page, '#right')];
+    savePng(a, `${backend}-embed-left.png`);
+    savePng(b, `${backend}-embed-right.png`);
+    assert(nonBackgroundFraction(a) > 0.02 && nonBackgroundFraction(b) > 0.02, 'a viewer shows nothing');
+  });
+
+  test(`${backend}: the URL hash reproduces the exact view`, async (ctx) => {
+    const { page } = ctx;
+    // A model from a URL (a dropped file has none): the bundled Fox by ?src=.
+    await page.goto(`${pageUrl(ctx.url, backend)}${backend === 'webgl2' ? '&' : '?'}src=/assets/Fox.glb`);
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.model === 'Fox.glb' && document.querySelector('kloub-viewer').dataset.status === 'ready', 'Fox.glb from ?src=');
+    await waitFrames(page, 2);
+    await control(page, 'crossfadeTo', 'Run', 0);
+    await control(page, 'pause');
+    await control(page, 'setSpeed', 1.5);
+    await control(page, 'setSkinning', 'dqs');
+    await control(page, 'setLayer', 'Survey', 'b_Neck_04', 0.6);
+    await page.evaluate(() => { document.querySelector('kloub-viewer').camera = [0.9, 0.35, 260, 5, 40, -10]; });
+    await control(page, 'seek', 0.3);
+    await waitForDataset(page, () => {
+      const d = document.querySelector('kloub-viewer').dataset;
+      return d.clip === 'Run' && d.time === '0.300' && d.playing === 'false' && d.speed === '1.500' && d.skinning === 'dqs' && d.layer.startsWith('Survey@') && d.camera.startsWith('0.90000,');
+    }, 'the view to be set');
+    await page.waitForFunction(() => location.hash.includes('camera=0.90000') && location.hash.includes('t=0.300'), null, { timeout: 10000 });
+    const hash = await page.evaluate(() => location.hash);
+    const before = await dataset(page);
+    const shotBefore = await viewportShot(page);
+    // A fresh page from the link alone.
+    await page.goto('about:blank');
+    await page.goto(`${pageUrl(ctx.url, backend)}${hash}`);
+    await waitForDataset(page, (t) => {
+      const d = document.querySelector('kloub-viewer').dataset;
+      return d.model === 'Fox.glb' && d.status === 'ready' && d.time === t && d.camera.startsWith('0.90000,');
+    }, 'the view from the hash', 60000, before.time);
+    // Paused: the frame that published this state is the last one; two animation frames later it is on screen.
+    await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
+    const after = await dataset(page);
+    for (const key of ['model', 'clip', 'time', 'playing', 'speed', 'layer', 'skinning', 'camera']) {
+      assert(after[key] === before[key], `${key}: ${before[key]} before, ${after[key]} from the hash (${hash})`);
+    }
+    const shotAfter = await viewportShot(page);
+    savePng(shotBefore, `${backend}-hash-before.png`);
+    savePng(shotAfter, `${backend}-hash-after.png`);
+    const changed = diffFraction(shotBefore, shotAfter);
+    assert(changed < 0.001, `the view from the hash differs in ${(changed * 100).toFixed(3)}% of the viewport`);
+  });
+
   test(`${backend}: a broken file shows an error and keeps the previous model`, async (ctx) => {
+    await recordEvents(ctx.page);
     await openApp(ctx, backend);
     await dropFiles(ctx.page, [{ path: FOX }]);
-    await waitForDataset(ctx.page, () => document.body.dataset.model === 'Fox.glb' && document.body.dataset.status === 'ready', 'Fox.glb to load');
+    await waitForDataset(ctx.page, () => document.querySelector('kloub-viewer').dataset.model === 'Fox.glb' && document.querySelector('kloub-viewer').dataset.status === 'ready', 'Fox.glb to load');
     const bytes = Buffer.from('glTF\x02\x00\x00\x00\xff\xff\x00\x00truncated', 'latin1');
     await dropFiles(ctx.page, [{ name: 'broken.glb', bytes }]);
-    await waitForDataset(ctx.page, () => (document.body.dataset.error ?? '') !== '', 'an error message');
+    await waitForDataset(ctx.page, () => (document.querySelector('kloub-viewer').dataset.error ?? '') !== '', 'an error message');
     const ds = await dataset(ctx.page);
     assert(ds.model === 'Fox.glb', `the previous model was replaced: ${ds.model}`);
     assert(ds.error.includes('broken.glb'), `the error does not name the file: ${ds.error}`);
     // Fox keeps playing behind the error: frames keep coming (SwiftShader paints a few per second here).
     const frames = Number(ds.frames);
     const painting = await ctx.page
-      .waitForFunction((f) => Number(document.body.dataset.frames) >= f + 2, frames, { timeout: 10000, polling: 50 })
+      .waitForFunction((f) => Number(document.querySelector('kloub-viewer').dataset.frames) >= f + 2, frames, { timeout: 10000, polling: 50 })
       .then(() => true, () => false);
     assert(painting, 'the viewer stopped painting after the error');
     const shot = await viewportShot(ctx.page);
     assert(nonBackgroundFraction(shot) > 0.02, 'the previous model is no longer drawn');
+    const errors = await viewerEvents(ctx.page).then((e) => e.filter(([, t]) => t === 'error'));
+    assert(errors.length === 1 && errors[0][2].message.includes('broken.glb'), `error events: ${JSON.stringify(errors)}`);
   });
 }
 

@@ -23,12 +23,30 @@ use crate::ui;
 use kloub_core::rig::JointSettings;
 
 /// What to do at start-up.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct AppConfig {
-    /// Model fetched and shown on start (the page contract: `/models/default.glb`).
+    /// Model fetched and shown on start (the element's `src`).
     pub model_url: Option<String>,
     /// The command channel the page's handle sends through.
     pub controls: Controls,
+    /// Where files read by the page arrive.
+    pub inbox: Inbox,
+    /// Where the state mirror, events and fatal errors go.
+    pub host: crate::dom::Host,
+    /// Show the side panel and menus (the element's `controls` attribute).
+    pub panels: bool,
+}
+
+impl Default for AppConfig {
+    fn default() -> Self {
+        Self {
+            model_url: None,
+            controls: Controls::default(),
+            inbox: Inbox::default(),
+            host: crate::dom::Host::default(),
+            panels: true,
+        }
+    }
 }
 
 /// State of the most recent load, as mirrored into `dataset.status`.
@@ -435,9 +453,17 @@ impl Model {
         }
     }
 
-    /// Moves the main clock to `seconds` (clamped to the clip).
+    /// Moves the main clock to `seconds` (clamped to the clip), and each layer's clock to the
+    /// same time within its clip (wrapped), so the pose at a time does not depend on when the
+    /// layer was added: a scrubbed or linked view is reproducible.
     pub fn seek(&mut self, seconds: f32) {
         self.animator.main_mut().seek(&self.asset, seconds);
+        let asset = &self.asset;
+        for layer in self.animator.layers_mut() {
+            let duration = layer.player.duration(asset);
+            let t = if duration > 0.0 && seconds.is_finite() { seconds.rem_euclid(duration) } else { 0.0 };
+            layer.player.seek(asset, t);
+        }
     }
 
     /// Sets the speed of every base track (negative plays backwards).
@@ -460,13 +486,20 @@ impl Model {
     }
 
     /// Advances the animation by `dt` seconds of wall time. While everything is paused the
-    /// crossfade holds too, so a paused character does not move.
-    pub fn advance(&mut self, dt: f32) {
+    /// crossfade holds too, so a paused character does not move. Returns what the main clock
+    /// did (looped, finished).
+    pub fn advance(&mut self, dt: f32) -> kloub_core::player::PlayerEvents {
         let dt = if self.is_animating() { dt } else { 0.0 };
-        self.animator.advance(&self.asset, dt);
+        let events = self.animator.advance(&self.asset, dt).main;
         for (animator, _) in &mut self.copies {
             animator.advance(&self.asset, dt);
         }
+        events
+    }
+
+    /// The main clip's duration in seconds (0 for the rest pose).
+    pub fn duration(&self) -> f32 {
+        self.animator.main().duration(&self.asset)
     }
 
     /// `dataset.layer`: `"CLIP@ROOT:WEIGHT"` (weight with two decimals), `""` without a layer.
@@ -565,6 +598,13 @@ impl Fps {
     }
 }
 
+/// Files dropped together that hold several models: the side panel lists them.
+struct Library {
+    files: Vec<load::SourceFile>,
+    models: Vec<String>,
+    shown: Option<usize>,
+}
+
 /// The eframe app.
 pub struct App {
     gpu: egui_wgpu::RenderState,
@@ -592,8 +632,35 @@ pub struct App {
     stages: ui::StageTimes,
     /// The IK goal whose target is being dragged in the viewport.
     ik_drag: Option<usize>,
+    /// Whether the side panel and menus show.
+    panels: bool,
+    /// Files dropped together holding several models, and which one is shown.
+    library: Option<Library>,
+    /// The page says files are dragged over the viewer.
+    drop_hint: bool,
+    /// A model was installed and its first frame has not been reported (`load` event).
+    announce_load: bool,
+    /// Whether the main clock ran at the last report (`play`/`pause` events).
+    reported_playing: bool,
+    /// The time last reported (`timeupdate` events).
+    reported_time: String,
     /// Where each IK target was drawn last frame, in points (for `dataset.ikTarget`).
     ik_markers: Vec<Pos2>,
+}
+
+/// Gives egui its fonts: Ubuntu-Light for all text (monospace included: the panel has no
+/// code) and egui's icon font as the fallback, as egui's defaults do minus the monospace font.
+pub fn install_fonts(ctx: &egui::Context) {
+    use egui::{FontData, FontDefinitions, FontFamily, FontTweak};
+    use std::sync::Arc;
+    let mut fonts = FontDefinitions::empty();
+    fonts.font_data.insert("Ubuntu-Light".to_owned(), Arc::new(FontData::from_static(epaint_default_fonts::UBUNTU_LIGHT)));
+    let icons = FontData::from_static(epaint_default_fonts::EGUI_ICONS).tweak(FontTweak { scale: 0.9, ..Default::default() });
+    fonts.font_data.insert("egui-icons".to_owned(), Arc::new(icons));
+    for family in [FontFamily::Proportional, FontFamily::Monospace] {
+        fonts.families.insert(family, vec!["Ubuntu-Light".to_owned(), "egui-icons".to_owned()]);
+    }
+    ctx.set_fonts(fonts);
 }
 
 /// Exponential smoothing of a per-frame figure (a first value is taken as is).
@@ -704,6 +771,7 @@ impl App {
         let gpu = cc.wgpu_render_state.clone().ok_or("eframe was started without the wgpu renderer")?;
         let backend = backend_name(gpu.adapter.get_info().backend);
         log::info!("kloub: rendering with {backend} ({:?})", gpu.adapter.get_info().name);
+        install_fonts(&cc.egui_ctx);
         let scene = SceneRenderer::new(&gpu.device, &gpu.queue, msaa_samples(&gpu.adapter));
         let mut app = Self {
             gpu,
@@ -714,19 +782,25 @@ impl App {
             transition: Crossfade { duration: DEFAULT_CROSSFADE, ..Crossfade::default() },
             panel: ui::PanelMemory::default(),
             controls: config.controls.clone(),
-            inbox: Inbox::default(),
+            inbox: config.inbox.clone(),
             pending: 0,
             status: Status::Ready,
             last_error: String::new(),
             error_window: None,
             viewport: None,
-            dataset: Dataset::default(),
+            dataset: Dataset::new(config.host.clone()),
             frames: 0,
             fps: Fps::default(),
             skinning: SkinningMethod::default(),
             stages: ui::StageTimes::default(),
             ik_drag: None,
             ik_markers: Vec::new(),
+            panels: config.panels,
+            library: None,
+            drop_hint: false,
+            announce_load: false,
+            reported_playing: false,
+            reported_time: String::new(),
         };
         app.controls.set_repaint(cc.egui_ctx.clone());
         app.controls.set_supports_compute(app.scene.supports_compute());
@@ -740,7 +814,7 @@ impl App {
         Ok(app)
     }
 
-    /// The values last mirrored into `document.body.dataset` (kept natively too, for tests).
+    /// The values last mirrored into the element's `data-*` attributes (kept natively too, for tests).
     pub fn dataset(&self) -> &Dataset {
         &self.dataset
     }
@@ -774,7 +848,15 @@ impl App {
                 Ok(files) if !files.is_empty() && files.iter().all(|f| load::is_sidecar_name(&f.name)) => {
                     self.apply_sidecar(&files)
                 }
-                files => files.and_then(load::import_files).and_then(|m| self.install(m, None)),
+                Ok(files) => {
+                    let models = load::model_names(&files);
+                    let result = load::import_model(&files, None).and_then(|m| self.install(m, None));
+                    if result.is_ok() {
+                        self.library = (models.len() > 1).then_some(Library { files, models, shown: Some(0) });
+                    }
+                    result
+                }
+                Err(message) => Err(message),
             };
             match result {
                 Ok(()) => {
@@ -793,9 +875,35 @@ impl App {
     /// Makes `loaded` the shown model, playing its first clip (a sample starts posed by its
     /// sliders instead); on error nothing changes.
     fn install(&mut self, loaded: LoadedModel, candy: Option<CandyPanel>) -> Result<(), String> {
-        let clip = if loaded.asset.clips.is_empty() || candy.is_some() { None } else { Some(0) };
+        let prefs = self.controls.prefs();
+        let named = prefs.clip.as_deref().and_then(|name| {
+            let found = loaded.asset.clips.iter().position(|c| c.name.as_deref() == Some(name));
+            if found.is_none() {
+                log::warn!("kloub: {}: no clip named {name:?}; playing the first", loaded.name);
+            }
+            found
+        });
+        let clip = if loaded.asset.clips.is_empty() || candy.is_some() { None } else { Some(named.unwrap_or(0)) };
         let mut model = Model::new(loaded, clip)?;
         model.instance.set_skinning(&model.asset, self.skinning);
+        if candy.is_none() {
+            model.set_speed(prefs.speed);
+            model.set_loop_mode(prefs.loop_mode);
+            if let Some((layer_clip, root, weight)) = &prefs.layer {
+                let clip = model.clip_names.iter().position(|c| c == layer_clip);
+                let node = model.asset.nodes.iter().position(|n| n.name.as_deref() == Some(root.as_str()));
+                match (clip, node.and_then(|n| NodeIndex::try_from(n).ok())) {
+                    (Some(clip), Some(root)) => {
+                        model.layer = LayerDraft { enabled: true, clip, root, weight: *weight, ..model.layer };
+                        model.sync_layer()?;
+                    }
+                    _ => log::warn!("kloub: {}: no layer clip {layer_clip:?} or root {root:?}", model.name),
+                }
+            }
+            if !prefs.autoplay {
+                model.set_playing(false);
+            }
+        }
         model.candy = candy;
         let copies = self.model.as_ref().map_or(1, Model::copy_count);
         let bounds = model.animated_bounds(clip);
@@ -820,7 +928,9 @@ impl App {
         );
         let nodes = model.asset.nodes.iter().map(|n| n.name.clone()).collect();
         self.controls.publish(model.clip_names.clone(), nodes);
+        self.reported_playing = model.is_playing();
         self.model = Some(model);
+        self.announce_load = true;
         Ok(())
     }
 
@@ -841,6 +951,7 @@ impl App {
 
     fn fail(&mut self, message: String) {
         log::warn!("kloub: {message}");
+        self.dataset.host().emit("error", &message);
         self.status = Status::Error;
         self.last_error.clone_from(&message);
         self.error_window = Some(message);
@@ -883,6 +994,40 @@ impl App {
                 self.scene.set_heatmap(on);
                 return Ok(());
             }
+            Command::SetPanels(on) => {
+                self.panels = on;
+                return Ok(());
+            }
+            Command::SetTransitionDuration(seconds) => {
+                self.transition.duration = seconds.max(0.0);
+                return Ok(());
+            }
+            Command::SetDropHint(on) => {
+                self.drop_hint = on;
+                return Ok(());
+            }
+            Command::SetGrid(on) => {
+                self.scene.set_grid(on);
+                return Ok(());
+            }
+            Command::LoadUrl(url) => {
+                self.pending += 1;
+                self.status = Status::Loading;
+                if let Some(ctx) = self.controls.repaint_context() {
+                    load::fetch_into(url, self.inbox.clone(), ctx);
+                }
+                return Ok(());
+            }
+            Command::ShowModel(i) => {
+                let Some(library) = &self.library else { return Ok(()) };
+                let Some(name) = library.models.get(i) else { return Ok(()) };
+                let loaded = load::import_model(&library.files, Some(name))?;
+                self.install(loaded, None)?;
+                if let Some(library) = &mut self.library {
+                    library.shown = Some(i);
+                }
+                return Ok(());
+            }
             Command::LoadSample(Sample::CandyWrapper) => {
                 let panel = CandyPanel::new();
                 let loaded = panel.model();
@@ -896,7 +1041,22 @@ impl App {
         }
         let Some(model) = &mut self.model else { return Ok(()) };
         match command {
-            Command::SetSkinning(_) | Command::SetSkinningPath(_) | Command::SetHeatmap(_) | Command::LoadSample(_) => {
+            Command::SetSkinning(_)
+            | Command::SetSkinningPath(_)
+            | Command::SetHeatmap(_)
+            | Command::LoadSample(_)
+            | Command::SetPanels(_)
+            | Command::SetTransitionDuration(_)
+            | Command::SetDropHint(_)
+            | Command::LoadUrl(_)
+            | Command::SetGrid(_)
+            | Command::ShowModel(_) => {}
+            Command::SetCamera([yaw, pitch, distance, x, y, z]) => {
+                self.camera.yaw = yaw;
+                self.camera.pitch = pitch;
+                self.camera.distance = distance;
+                self.camera.target = Vec3::new(x, y, z);
+                self.camera.orbit(0.0, 0.0);
             }
             Command::SetIk { effector, depth, target } => match effector {
                 Some(effector) => {
@@ -1194,8 +1354,8 @@ impl App {
     }
 
     /// A full-window hint while files are dragged over the page.
-    fn drop_hint(ctx: &egui::Context) {
-        if ctx.input(|i| i.raw.hovered_files.is_empty()) {
+    fn drop_hint(ctx: &egui::Context, page_says: bool) {
+        if !page_says && ctx.input(|i| i.raw.hovered_files.is_empty()) {
             return;
         }
         let painter =
@@ -1233,7 +1393,8 @@ impl App {
         }
     }
 
-    /// Writes changed state into `document.body.dataset`.
+    /// Writes changed state into the element's `data-*` attributes and reports the events
+    /// that state implies (`play`, `pause`, `timeupdate`, `load`).
     fn sync_dataset(&mut self) {
         let d = &mut self.dataset;
         d.set(Key::Status, self.status.as_str());
@@ -1250,6 +1411,7 @@ impl App {
         d.set(Key::Skinning, self.skinning.name());
         d.set(Key::SkinningPath, self.scene.skinning_path().name());
         d.set(Key::Heatmap, if self.scene.heatmap() { "true" } else { "false" });
+        d.set(Key::Grid, if self.scene.grid() { "true" } else { "false" });
         let quality = model.and_then(|m| m.candy.as_ref()).and_then(|c| {
             let i = SkinningMethod::ALL.iter().position(|&m| m == self.skinning)?;
             let q = c.quality[i];
@@ -1264,7 +1426,31 @@ impl App {
             Vec::new()
         };
         d.set(Key::IkTarget, &markers.join(";"));
+        d.set(Key::Speed, &model.map_or(String::new(), |m| format!("{:.3}", m.animator.main().speed)));
+        d.set(Key::Duration, &model.map_or(String::new(), |m| format!("{:.3}", m.duration())));
+        d.set(Key::Loop, model.map_or("", |m| crate::control::loop_mode_name(m.animator.main().loop_mode)));
+        let c = &self.camera;
+        let camera = format!(
+            "{:.5},{:.5},{:.5},{:.5},{:.5},{:.5}",
+            c.yaw, c.pitch, c.distance, c.target.x, c.target.y, c.target.z
+        );
+        d.set(Key::Camera, &camera);
         d.set(Key::Frames, &self.frames.to_string());
+
+        let playing = model.is_some_and(Model::is_playing);
+        if model.is_some() && playing != self.reported_playing {
+            self.reported_playing = playing;
+            d.host().emit(if playing { "play" } else { "pause" }, "");
+        }
+        let time = d.get(Key::Time).unwrap_or("");
+        if model.is_some() && time != self.reported_time {
+            self.reported_time = time.to_owned();
+            d.host().emit("timeupdate", time);
+        }
+        if self.announce_load && self.frames > 0 {
+            self.announce_load = false;
+            d.host().emit("load", model.map_or("", |m| m.name.as_str()));
+        }
     }
 }
 
@@ -1279,7 +1465,13 @@ impl eframe::App for App {
             self.fps.update(unstable_dt);
             self.apply_commands();
             if let Some(model) = &mut self.model {
-                model.advance(stable_dt.clamp(0.0, MAX_DT));
+                let events = model.advance(stable_dt.clamp(0.0, MAX_DT));
+                if events.looped > 0 {
+                    self.dataset.host().emit("loop", &events.looped.to_string());
+                }
+                if events.finished {
+                    self.dataset.host().emit("finished", "");
+                }
             }
         }
 
@@ -1297,12 +1489,19 @@ impl eframe::App for App {
             compute: self.scene.supports_compute(),
             heatmap: self.scene.heatmap(),
             sjb_fallbacks: &sjb_fallbacks,
+            library: self.library.as_ref().map_or(&[], |l| l.models.as_slice()),
+            grid: self.scene.grid(),
+            library_shown: self.library.as_ref().and_then(|l| l.shown),
         };
-        let actions = egui::Panel::left("controls")
-            .resizable(true)
-            .default_size(270.0)
-            .show(ui, |ui| ui::side_panel(ui, &state, self.model.as_mut(), &mut self.transition, &mut self.panel))
-            .inner;
+        let actions = if self.panels {
+            egui::Panel::left("controls")
+                .resizable(true)
+                .default_size(270.0)
+                .show(ui, |ui| ui::side_panel(ui, &state, self.model.as_mut(), &mut self.transition, &mut self.panel))
+                .inner
+        } else {
+            ui::PanelActions::default()
+        };
         if actions.frame {
             self.frame_model();
         }
@@ -1333,7 +1532,7 @@ impl eframe::App for App {
 
         self.evaluate();
         egui::CentralPanel::no_frame().show(ui, |ui| self.viewport(ui));
-        Self::drop_hint(&ctx);
+        Self::drop_hint(&ctx, self.drop_hint);
         self.error_window(&ctx);
 
         if !ctx.will_discard() {

@@ -87,6 +87,20 @@ pub enum Command {
     /// Shows this many characters in a grid (1 ..= [`crate::app::MAX_COPIES`]), each
     /// [`crate::app::COPY_TIME_STEP`] seconds later than the previous.
     SetCopies(usize),
+    /// Shows or hides the side panel and the menus (the element's `controls` attribute).
+    SetPanels(bool),
+    /// The crossfade duration a clip change uses, in seconds (0: cut).
+    SetTransitionDuration(f32),
+    /// Fetches and shows the model at a URL.
+    LoadUrl(String),
+    /// Places the camera: yaw and pitch (radians), distance, then the target point.
+    SetCamera([f32; 6]),
+    /// Shows or hides the ground grid (kept across models).
+    SetGrid(bool),
+    /// Shows model `i` of the files dropped together (the side panel's model list).
+    ShowModel(usize),
+    /// Shows the "drop to open" hint (the page handles drag-and-drop itself).
+    SetDropHint(bool),
     /// Poses the candy-wrapper sample by its sliders: twist and bend in degrees.
     SetCandyPose {
         /// Twist about the bone axis.
@@ -94,6 +108,29 @@ pub enum Command {
         /// Bend about Z.
         bend: f32,
     },
+}
+
+/// How every newly shown model starts: the element's `autoplay`, `animation-name`, `speed`,
+/// `loop`, `layer-clip` and `layer-root` attributes. Names that the model lacks are ignored
+/// (the first clip plays; no layer) with a warning in the log.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Prefs {
+    /// Start playing (else paused at the clip's start).
+    pub autoplay: bool,
+    /// Clip to show first (default: the model's first clip).
+    pub clip: Option<String>,
+    /// Speed of the base clips.
+    pub speed: f32,
+    /// Loop mode of the base clips.
+    pub loop_mode: LoopMode,
+    /// Layer: clip name, root joint name, weight.
+    pub layer: Option<(String, String, f32)>,
+}
+
+impl Default for Prefs {
+    fn default() -> Self {
+        Self { autoplay: true, clip: None, speed: 1.0, loop_mode: LoopMode::Repeat, layer: None }
+    }
 }
 
 /// What the app published about the shown model, and the queue.
@@ -106,6 +143,7 @@ struct Shared {
     nodes: Vec<Option<String>>,
     repaint: Option<egui::Context>,
     compute: bool,
+    prefs: Prefs,
 }
 
 /// A cheap, clonable handle on the command channel (single-threaded, like the page).
@@ -132,6 +170,19 @@ impl Controls {
             shared.queue.push((generation, command));
             shared.repaint.clone()
         };
+        if let Some(ctx) = repaint {
+            ctx.request_repaint();
+        }
+    }
+
+    /// The app's egui context (to wake it, or to hand to an async reader).
+    pub(crate) fn repaint_context(&self) -> Option<egui::Context> {
+        self.0.borrow().repaint.clone()
+    }
+
+    /// Wakes the app (something arrived outside the queue, e.g. files).
+    pub fn wake(&self) {
+        let repaint = self.0.borrow().repaint.clone();
         if let Some(ctx) = repaint {
             ctx.request_repaint();
         }
@@ -187,6 +238,16 @@ impl Controls {
     /// The app's side: announces whether the compute skinning path exists.
     pub(crate) fn set_supports_compute(&self, supported: bool) {
         self.0.borrow_mut().compute = supported;
+    }
+
+    /// Sets how the next models start (see [`Prefs`]); the shown model is not changed.
+    pub fn set_prefs(&self, prefs: Prefs) {
+        self.0.borrow_mut().prefs = prefs;
+    }
+
+    /// How the next models start.
+    pub fn prefs(&self) -> Prefs {
+        self.0.borrow().prefs.clone()
     }
 
     /// Names of the shown model's clips.

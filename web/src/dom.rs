@@ -1,5 +1,7 @@
-//! Every write the app makes to the page: the `document.body.dataset` mirror that tests and
-//! embedding pages read, and the fatal-error overlay. Natively these are no-ops.
+//! Every write a viewer makes to the page: its state mirror (the `data-*` attributes of its
+//! `<kloub-viewer>` element, which tests and embedding pages read), its events, and the
+//! fatal-error overlay. Each viewer writes only through its own [`Host`]; natively these are
+//! no-ops.
 
 /// The page keys the app mirrors into `document.body.dataset` (see the page contract).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -18,7 +20,8 @@ pub enum Key {
     Error,
     /// Painted frames, a decimal integer.
     Frames,
-    /// The 3D viewport's rectangle in CSS pixels, `"x,y,width,height"` (for screenshots of the view alone).
+    /// The 3D viewport's rectangle in CSS pixels of the canvas, `"x,y,width,height"` (for
+    /// screenshots of the view alone).
     Viewport,
     /// The main clock's time in seconds, three decimals (`""` without a model).
     Time,
@@ -30,7 +33,7 @@ pub enum Key {
     Layer,
     /// The skinning method: `"rigid"` | `"lbs"` | `"dqs"` | `"sjb"`.
     Skinning,
-    /// Where vertices are deformed: `"gpu"` | `"cpu"`.
+    /// Where vertices are deformed: `"gpu"` | `"compute"` | `"cpu"`.
     SkinningPath,
     /// The candy-wrapper sample's quality under the current method, `"RADIUS,VOLUME"` (radius
     /// kept at the joint and volume ratio to rest, three decimals); `""` for other models.
@@ -39,15 +42,25 @@ pub enum Key {
     Heatmap,
     /// The IK goal as `"EFFECTOR:ERROR"` (five decimals); `""` without IK.
     Ik,
-    /// Where the IK target is drawn, `"x,y"` in CSS pixels of the page; `""` without IK.
+    /// Where each IK target is drawn, `"x,y;x,y"` in CSS pixels of the canvas; `""` without IK.
     IkTarget,
     /// Characters shown (the model and its copies), a decimal integer; `""` without a model.
     Copies,
+    /// The main clock's speed (three decimals; `""` without a model).
+    Speed,
+    /// The main clip's duration in seconds, three decimals (`"0.000"` for the rest pose).
+    Duration,
+    /// The main clock's loop mode: `"once"` | `"repeat"` | `"pingpong"`.
+    Loop,
+    /// The camera: `"yaw,pitch,distance,x,y,z"` (radians, then the target point; five decimals).
+    Camera,
+    /// `"true"` while the ground grid is drawn, else `"false"`.
+    Grid,
 }
 
 impl Key {
     /// Every key, in a fixed order.
-    pub const ALL: [Key; 19] = [
+    pub const ALL: [Key; 24] = [
         Key::Backend,
         Key::Status,
         Key::Model,
@@ -67,6 +80,11 @@ impl Key {
         Key::Ik,
         Key::IkTarget,
         Key::Copies,
+        Key::Speed,
+        Key::Duration,
+        Key::Loop,
+        Key::Camera,
+        Key::Grid,
     ];
 
     /// The dataset property name (`dataset.<name>` in JS).
@@ -91,17 +109,144 @@ impl Key {
             Key::Heatmap => "heatmap",
             Key::Ik => "ik",
             Key::IkTarget => "ikTarget",
+            Key::Speed => "speed",
+            Key::Duration => "duration",
+            Key::Loop => "loop",
+            Key::Camera => "camera",
+            Key::Grid => "grid",
         }
     }
+}
+
+/// Where one viewer mirrors its state, reports its events and shows a fatal error: its
+/// `<kloub-viewer>` element, the element's shadow root and the element's event callback.
+/// The default host (natively, and before an element exists) writes nowhere.
+#[derive(Clone, Default)]
+pub struct Host {
+    #[cfg(target_arch = "wasm32")]
+    element: Option<web_sys::HtmlElement>,
+    #[cfg(target_arch = "wasm32")]
+    overlay: Option<web_sys::Node>,
+    #[cfg(target_arch = "wasm32")]
+    emit: Option<js_sys::Function>,
+}
+
+impl std::fmt::Debug for Host {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Host")
+    }
+}
+
+#[cfg(target_arch = "wasm32")]
+impl Host {
+    /// A host writing `element.dataset`, putting the error overlay into `overlay` (the
+    /// element's shadow root) and calling `emit(type, detail)` for each event.
+    pub fn new(element: web_sys::HtmlElement, overlay: web_sys::Node, emit: Option<js_sys::Function>) -> Self {
+        Self { element: Some(element), overlay: Some(overlay), emit }
+    }
+
+    fn same(&self, other: &Host) -> bool {
+        self.element.is_some() && self.element == other.element
+    }
+}
+
+impl Host {
+    /// Sets `element.dataset[name] = value`.
+    pub fn write(&self, name: &str, value: &str) {
+        #[cfg(target_arch = "wasm32")]
+        if let Some(element) = &self.element {
+            // Failure here only means the page refused the property; there is nowhere to report it.
+            let _ = element.dataset().set(name, value);
+        }
+        #[cfg(not(target_arch = "wasm32"))]
+        let _ = (name, value);
+    }
+
+    /// Reports an event (`load`, `error`, `play`, `pause`, `timeupdate`, `loop`, `finished`)
+    /// with a text detail; the element dispatches it as a DOM event.
+    pub fn emit(&self, event: &str, detail: &str) {
+        #[cfg(target_arch = "wasm32")]
+        if let Some(emit) = &self.emit {
+            let _ = emit.call2(
+                &wasm_bindgen::JsValue::NULL,
+                &wasm_bindgen::JsValue::from_str(event),
+                &wasm_bindgen::JsValue::from_str(detail),
+            );
+        }
+        #[cfg(not(target_arch = "wasm32"))]
+        let _ = (event, detail);
+    }
+
+    /// Shows an unrecoverable error: `data-status="error"`, `data-error`, an `error` event and
+    /// an overlay (`.kloub-panic`) with the message and a Reload button over the viewer.
+    /// Never panics (it runs inside the panic hook).
+    pub fn show_fatal(&self, message: &str) {
+        self.write(Key::Status.name(), "error");
+        self.write(Key::Error.name(), message);
+        self.emit("error", message);
+        #[cfg(target_arch = "wasm32")]
+        if let Some(parent) = &self.overlay {
+            // Best effort: without a document there is no overlay to show.
+            let _ = overlay(parent, message);
+        }
+    }
+}
+
+#[cfg(target_arch = "wasm32")]
+thread_local! {
+    /// Every mounted viewer's host: a panic stops the whole wasm instance, so every viewer
+    /// on the page shows the error.
+    static HOSTS: std::cell::RefCell<Vec<Host>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// Registers a mounted viewer's host for [`show_fatal_everywhere`].
+#[cfg(target_arch = "wasm32")]
+pub fn register(host: &Host) {
+    HOSTS.with(|h| {
+        if let Ok(mut hosts) = h.try_borrow_mut() {
+            hosts.push(host.clone());
+        }
+    });
+}
+
+/// Forgets an unmounted viewer's host.
+#[cfg(target_arch = "wasm32")]
+pub fn unregister(host: &Host) {
+    HOSTS.with(|h| {
+        if let Ok(mut hosts) = h.try_borrow_mut() {
+            hosts.retain(|other| !other.same(host));
+        }
+    });
+}
+
+/// Shows `message` as a fatal error in every mounted viewer (from the panic hook).
+#[cfg(target_arch = "wasm32")]
+pub fn show_fatal_everywhere(message: &str) {
+    HOSTS.with(|h| {
+        if let Ok(hosts) = h.try_borrow() {
+            hosts.iter().for_each(|host| host.show_fatal(message));
+        }
+    });
 }
 
 /// Remembers what was written so each key is written only when its value changes.
 #[derive(Debug, Default)]
 pub struct Dataset {
     written: [Option<String>; Key::ALL.len()],
+    host: Host,
 }
 
 impl Dataset {
+    /// A mirror writing through `host`.
+    pub fn new(host: Host) -> Self {
+        Self { written: Default::default(), host }
+    }
+
+    /// Where this mirror writes and reports events.
+    pub fn host(&self) -> &Host {
+        &self.host
+    }
+
     /// Writes `value` under `key` unless it is already there; returns whether it wrote.
     pub fn set(&mut self, key: Key, value: &str) -> bool {
         let slot = &mut self.written[key as usize];
@@ -109,7 +254,7 @@ impl Dataset {
             return false;
         }
         *slot = Some(value.to_owned());
-        write_dataset(key.name(), value);
+        self.host.write(key.name(), value);
         true
     }
 
@@ -150,45 +295,26 @@ pub fn download(name: &str, text: &str) -> Result<(), String> {
     }
 }
 
-/// Sets `document.body.dataset[name] = value` (no-op natively or without a body).
-pub fn write_dataset(name: &str, value: &str) {
-    #[cfg(target_arch = "wasm32")]
-    if let Some(body) = web_sys::window().and_then(|w| w.document()).and_then(|d| d.body()) {
-        // Failure here only means the page refused the property; there is nowhere to report it.
-        let _ = body.dataset().set(name, value);
-    }
-    #[cfg(not(target_arch = "wasm32"))]
-    let _ = (name, value);
-}
-
-/// Shows an unrecoverable error: sets `dataset.status = "error"` and `dataset.error`, and puts
-/// an overlay (`#kloub-panic`) with the message and a Reload button over the page.
-/// Never panics (it runs inside the panic hook). Natively it does nothing.
-pub fn show_fatal(message: &str) {
-    write_dataset(Key::Status.name(), "error");
-    write_dataset(Key::Error.name(), message);
-    #[cfg(target_arch = "wasm32")]
-    // Best effort: without a document there is no overlay to show.
-    let _ = overlay(message);
-}
-
 #[cfg(target_arch = "wasm32")]
-fn overlay(message: &str) -> Option<()> {
+fn overlay(parent: &web_sys::Node, message: &str) -> Option<()> {
     use wasm_bindgen::JsCast;
     use wasm_bindgen::closure::Closure;
 
-    const ID: &str = "kloub-panic";
+    const CLASS: &str = "kloub-panic";
     let document = web_sys::window()?.document()?;
-    let body = document.body()?;
-    if let Some(old) = document.get_element_by_id(ID) {
-        old.remove();
+    let mut child = parent.first_child();
+    while let Some(node) = child {
+        child = node.next_sibling();
+        if node.dyn_ref::<web_sys::Element>().is_some_and(|e| e.class_name() == CLASS) {
+            let _ = parent.remove_child(&node);
+        }
     }
     let div: web_sys::HtmlElement = document.create_element("div").ok()?.dyn_into().ok()?;
-    div.set_id(ID);
+    div.set_class_name(CLASS);
     div.set_attribute("role", "alert").ok()?;
     let style = div.style();
     for (property, value) in [
-        ("position", "fixed"),
+        ("position", "absolute"),
         ("inset", "0"),
         ("z-index", "2147483647"),
         ("display", "flex"),
@@ -224,7 +350,7 @@ fn overlay(message: &str) -> Option<()> {
     div.append_child(&title).ok()?;
     div.append_child(&text).ok()?;
     div.append_child(&button).ok()?;
-    body.append_child(&div).ok()?;
+    parent.append_child(&div).ok()?;
     Some(())
 }
 

@@ -1,7 +1,11 @@
-//! The wasm entry point: `start(canvas_id)`, exported to JavaScript, and the [`Viewer`]
-//! handle it returns.
+//! The wasm entry point: the [`Viewer`] handle that the `<kloub-viewer>` element
+//! (`web/kloub-viewer.js`) creates, configures and mounts on its own canvas. Many viewers may
+//! run on one page; each writes only to its own element (state as `data-*` attributes, events
+//! through the element's callback, the error overlay into its shadow root).
 
-use wasm_bindgen::JsCast;
+use std::cell::RefCell;
+use std::rc::Rc;
+
 use wasm_bindgen::prelude::*;
 
 use crate::app::{App, AppConfig};
@@ -9,39 +13,176 @@ use crate::backend::BackendChoice;
 use kloub_core::job::dqs::SkinningMethod;
 
 use crate::candy::Sample;
-use crate::control::{Command, Controls, parse_loop_mode};
-use crate::dom::{self, Key};
+use crate::control::{Command, Controls, Prefs, parse_loop_mode};
+use crate::dom::{self, Host};
+use crate::load::{Delivery, Inbox, SourceFile};
 use crate::render::SkinningPath;
 
-/// Starts the viewer on the `<canvas>` with id `canvas_id`.
-///
-/// Reads `?backend=` from the page URL (`gl` forces WebGL2, `webgpu` forces WebGPU; default:
-/// WebGPU when available, else WebGL2), installs the panic overlay, and runs the app.
-/// On failure the error overlay is shown, `dataset.status` is `"error"`, and the error is
-/// returned to the caller as well. On success, resolves to the [`Viewer`] handle.
-#[wasm_bindgen]
-pub async fn start(canvas_id: String) -> Result<Viewer, JsValue> {
-    // A second start (another logger already installed) keeps the first logger.
-    let _ = eframe::WebLogger::init(log::LevelFilter::Info);
-    dom::write_dataset(Key::Status.name(), "loading");
-    let controls = Controls::default();
-    let result = run(&canvas_id, controls.clone()).await;
-    if let Err(error) = &result {
-        dom::show_fatal(&format!("Kloub could not start: {}", dom::js_error_text(error)));
-    }
-    result.map(|()| Viewer { controls })
-}
-
-/// Controls a running viewer from JavaScript. Names are resolved against the model shown at
-/// the call (an unknown name throws); the change applies at the next frame, the same way the
-/// side panel's controls do. State is read back from `document.body.dataset`.
+/// Controls one viewer from JavaScript. Names are resolved against the model shown at the
+/// call (an unknown name throws); the change applies at the next frame, the same way the side
+/// panel's controls do. State is read back from the element's `data-*` attributes.
 #[wasm_bindgen]
 pub struct Viewer {
     controls: Controls,
+    inbox: Inbox,
+    mounted: Rc<RefCell<Option<(eframe::WebRunner, Host)>>>,
+}
+
+impl Default for Viewer {
+    fn default() -> Self {
+        Self::new()
+    }
 }
 
 #[wasm_bindgen]
 impl Viewer {
+    /// A viewer that is not shown yet: configure it, then [`Viewer::mount`] it.
+    #[wasm_bindgen(constructor)]
+    pub fn new() -> Viewer {
+        // A second viewer (another logger already installed) keeps the first logger.
+        let _ = eframe::WebLogger::init(log::LevelFilter::Info);
+        install_panic_hook();
+        Viewer { controls: Controls::default(), inbox: Inbox::default(), mounted: Rc::default() }
+    }
+
+    /// Starts the viewer on `canvas`, mirroring its state into `element.dataset`, putting
+    /// the error overlay into `overlay` (the element's shadow root) and reporting events
+    /// through `emit(type, detail)`. `backend`: `"webgpu"`, `"webgl2"` (also `"gl"`) or
+    /// `null`/`"auto"` (WebGPU when available). `src`: a model URL to show first. The side
+    /// panel shows unless [`Viewer::set_panels`] said otherwise. Resolves when the first frame
+    /// is scheduled; rejects (after showing the overlay) when no renderer could start.
+    pub fn mount(
+        &self,
+        canvas: web_sys::HtmlCanvasElement,
+        element: web_sys::HtmlElement,
+        overlay: web_sys::Node,
+        emit: Option<js_sys::Function>,
+        backend: Option<String>,
+        src: Option<String>,
+    ) -> js_sys::Promise {
+        let host = Host::new(element, overlay, emit);
+        let controls = self.controls.clone();
+        let inbox = self.inbox.clone();
+        let mounted = self.mounted.clone();
+        wasm_bindgen_futures::future_to_promise(async move {
+            if mounted.borrow().is_some() {
+                return Err(JsValue::from_str("this viewer is already mounted"));
+            }
+            host.write(dom::Key::Status.name(), "loading");
+            let choice = BackendChoice::from_query(backend.as_deref());
+            let mut options = eframe::WebOptions::default();
+            if let egui_wgpu::WgpuSetup::CreateNew(create) = &mut options.wgpu_options.wgpu_setup {
+                create.instance_descriptor.backends = choice.backends();
+            }
+            let runner = eframe::WebRunner::new();
+            dom::register(&host);
+            let config = AppConfig { model_url: src.filter(|s| !s.is_empty()), controls, inbox, host: host.clone(), panels: true };
+            let started =
+                runner.start(canvas, options, Box::new(move |cc| Ok(Box::new(App::new(cc, config)?)))).await;
+            if let Err(error) = started {
+                let message = format!("Kloub could not start: {}", dom::js_error_text(&error));
+                host.show_fatal(&message);
+                dom::unregister(&host);
+                return Err(JsValue::from_str(&message));
+            }
+            *mounted.borrow_mut() = Some((runner, host));
+            Ok(JsValue::UNDEFINED)
+        })
+    }
+
+    /// Stops the viewer and frees its GPU resources (the element left the page).
+    pub fn destroy(&self) {
+        if let Some((runner, host)) = self.mounted.borrow_mut().take() {
+            runner.destroy();
+            dom::unregister(&host);
+        }
+    }
+
+    /// How every newly shown model starts: `autoplay`, the clip named `clip` (`null`: the
+    /// first), `speed`, loop mode `loop_mode` (`"once"`, `"repeat"`, `"pingpong"`), and a
+    /// layer of `layer_clip` on the subtree under `layer_root` (both or neither).
+    pub fn configure(
+        &self,
+        autoplay: bool,
+        clip: Option<String>,
+        speed: f32,
+        loop_mode: &str,
+        layer_clip: Option<String>,
+        layer_root: Option<String>,
+    ) -> Result<(), JsValue> {
+        if !speed.is_finite() {
+            return Err(JsValue::from_str("speed must be a finite number"));
+        }
+        let loop_mode = parse_loop_mode(loop_mode).map_err(|e| JsValue::from_str(&e))?;
+        let layer = match (layer_clip.filter(|s| !s.is_empty()), layer_root.filter(|s| !s.is_empty())) {
+            (Some(clip), Some(root)) => Some((clip, root, 1.0)),
+            _ => None,
+        };
+        let clip = clip.filter(|s| !s.is_empty());
+        self.controls.set_prefs(Prefs { autoplay, clip, speed, loop_mode, layer });
+        Ok(())
+    }
+
+    /// Fetches and shows the model at `url` (relative URIs inside resolve against it).
+    #[wasm_bindgen(js_name = loadUrl)]
+    pub fn load_url(&self, url: String) {
+        self.controls.send_global(Command::LoadUrl(url));
+    }
+
+    /// Shows the model among `files` (names with relative folders, e.g. `CesiumMan/CesiumMan.gltf`,
+    /// and their bytes): a `.glb`/`.gltf`; the other files resolve its URIs. Several models
+    /// are listed in the side panel to switch between.
+    #[wasm_bindgen(js_name = loadFiles)]
+    pub fn load_files(&self, names: Vec<String>, contents: Vec<js_sys::Uint8Array>) -> Result<(), JsValue> {
+        if names.len() != contents.len() {
+            return Err(JsValue::from_str("loadFiles: names and contents differ in length"));
+        }
+        let files = names.into_iter().zip(contents).map(|(name, bytes)| SourceFile { name, bytes: bytes.to_vec() });
+        self.inbox.push(Delivery { origin: "dropped files".to_owned(), files: Ok(files.collect()) });
+        self.controls.wake();
+        Ok(())
+    }
+
+    /// Shows or hides the ground grid.
+    #[wasm_bindgen(js_name = setGrid)]
+    pub fn set_grid(&self, on: bool) {
+        self.controls.send_global(Command::SetGrid(on));
+    }
+
+    /// Shows the "drop to open" hint while files are dragged over the viewer.
+    #[wasm_bindgen(js_name = setDropHint)]
+    pub fn set_drop_hint(&self, on: bool) {
+        self.controls.send_global(Command::SetDropHint(on));
+    }
+
+    /// Shows or hides the side panel and menus.
+    #[wasm_bindgen(js_name = setPanels)]
+    pub fn set_panels(&self, on: bool) {
+        self.controls.send_global(Command::SetPanels(on));
+    }
+
+    /// The crossfade duration a clip change uses (the panel's setting), in seconds.
+    #[wasm_bindgen(js_name = setCrossfadeDuration)]
+    pub fn set_crossfade_duration(&self, seconds: f32) -> Result<(), JsValue> {
+        if !(seconds.is_finite() && seconds >= 0.0) {
+            return Err(JsValue::from_str(&format!("crossfade duration {seconds}: expected seconds >= 0")));
+        }
+        self.controls.send_global(Command::SetTransitionDuration(seconds));
+        Ok(())
+    }
+
+    /// Places the camera: `yaw` and `pitch` in radians, `distance` from the target point
+    /// `x, y, z` (the values of `data-camera`).
+    #[wasm_bindgen(js_name = setCamera)]
+    pub fn set_camera(&self, yaw: f32, pitch: f32, distance: f32, x: f32, y: f32, z: f32) -> Result<(), JsValue> {
+        let values = [yaw, pitch, distance, x, y, z];
+        if values.iter().any(|v| !v.is_finite()) || distance <= 0.0 {
+            return Err(JsValue::from_str("setCamera: finite numbers and a positive distance expected"));
+        }
+        self.controls.send(Command::SetCamera(values));
+        Ok(())
+    }
+
     /// Runs every clock (clip, blended clips, layer).
     pub fn play(&self) {
         self.controls.send(Command::Play);
@@ -239,34 +380,13 @@ impl Viewer {
     }
 }
 
-async fn run(canvas_id: &str, controls: Controls) -> Result<(), JsValue> {
-    let window = web_sys::window().ok_or("no window")?;
-    let document = window.document().ok_or("no document")?;
-    let canvas: web_sys::HtmlCanvasElement = document
-        .get_element_by_id(canvas_id)
-        .ok_or_else(|| format!("no element with id {canvas_id:?}"))?
-        .dyn_into()
-        .map_err(|_| format!("#{canvas_id} is not a <canvas>"))?;
-    let query = web_sys::UrlSearchParams::new_with_str(&window.location().search()?)?;
-    let choice = BackendChoice::from_query(query.get("backend").as_deref());
-
-    let mut options = eframe::WebOptions::default();
-    if let egui_wgpu::WgpuSetup::CreateNew(create) = &mut options.wgpu_options.wgpu_setup {
-        create.instance_descriptor.backends = choice.backends();
-    }
-
-    let runner = eframe::WebRunner::new();
-    // Installed after the runner's own hook, so ours runs first and then chains to eframe's,
-    // which logs the panic to the console and stops the runner.
-    install_panic_hook();
-    let config = AppConfig { model_url: Some("/models/default.glb".to_owned()), controls };
-    runner.start(canvas, options, Box::new(move |cc| Ok(Box::new(App::new(cc, config)?)))).await
-}
-
 fn install_panic_hook() {
-    let previous = std::panic::take_hook();
-    std::panic::set_hook(Box::new(move |info| {
-        dom::show_fatal(&info.to_string());
-        previous(info);
-    }));
+    static INSTALLED: std::sync::Once = std::sync::Once::new();
+    INSTALLED.call_once(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            dom::show_fatal_everywhere(&info.to_string());
+            previous(info);
+        }));
+    });
 }

@@ -2,7 +2,8 @@
 //!
 //! Kloub's viewer: an eframe app ([`app::App`]) that imports glTF/GLB with `kloub-core`,
 //! plays its clips, and draws it with the wgpu [`render::SceneRenderer`] into a texture shown
-//! in egui's central panel. On `wasm32` the exported `start(canvas_id)` runs it in a page.
+//! in egui's central panel. On `wasm32` the exported [`Viewer`] runs it
+//! inside a `<kloub-viewer>` element (`web/kloub-viewer.js`).
 //!
 //! Modules: [`app`] (frame loop, model state), [`ui`] (side panel), [`control`] (commands
 //! from the page), [`load`] (fetch, drop,
@@ -22,4 +23,4 @@ pub mod render;
 pub mod ui;
 
 #[cfg(target_arch = "wasm32")]
-pub use entry::{Viewer, start};
+pub use entry::Viewer;

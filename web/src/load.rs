@@ -74,43 +74,75 @@ pub fn file_name_of_url(url: &str) -> &str {
     path.rsplit('/').find(|s| !s.is_empty()).unwrap_or(path)
 }
 
+/// Names of the models among `files` (`.glb`/`.gltf`), in the order given.
+pub fn model_names(files: &[SourceFile]) -> Vec<String> {
+    files.iter().filter(|f| is_model_name(&f.name)).map(|f| f.name.clone()).collect()
+}
+
+/// The folder part of a relative path (`"a/b/"` for `"a/b/c.gltf"`, `""` for `"c.gltf"`).
+fn folder_of(name: &str) -> &str {
+    name.rfind(['/', '\\']).map_or("", |i| &name[..=i])
+}
+
+/// The last segment of a relative path.
+pub fn base_name(name: &str) -> &str {
+    name.rsplit(['/', '\\']).next().unwrap_or(name)
+}
+
 /// Imports the model among `files`: the first `.glb`/`.gltf` (or the only file when none is
 /// named so); the other files resolve its external URIs (`.bin`, textures).
 ///
 /// # Errors
 /// A message naming the file: nothing to import, or the importer's error with its JSON pointer.
 pub fn import_files(files: Vec<SourceFile>) -> Result<LoadedModel, String> {
-    let (sidecars, files): (Vec<SourceFile>, Vec<SourceFile>) =
-        files.into_iter().partition(|f| is_sidecar_name(&f.name));
-    let sidecar = match sidecars.into_iter().next() {
-        Some(f) => Some(String::from_utf8(f.bytes).map_err(|_| format!("{}: not UTF-8 text", f.name))?),
+    import_model(&files, None)
+}
+
+/// Imports the model named `wanted` among `files` (default: the first model, or the only
+/// file). Files may carry relative folders (a dropped folder): the model's URIs resolve
+/// relative to its own folder, then by file name. A `<model>.kloub.json` among them is its
+/// joint-settings sidecar.
+///
+/// # Errors
+/// A message naming the file: nothing to import, or the importer's error with its JSON pointer.
+pub fn import_model(files: &[SourceFile], wanted: Option<&str>) -> Result<LoadedModel, String> {
+    let sidecar = match files.iter().find(|f| is_sidecar_name(&f.name)) {
+        Some(f) => Some(String::from_utf8(f.bytes.clone()).map_err(|_| format!("{}: not UTF-8 text", f.name))?),
         None => None,
     };
-    let main = match files.iter().position(|f| is_model_name(&f.name)) {
-        Some(i) => i,
-        None if files.len() == 1 => 0,
-        None if files.is_empty() => return Err("no files to open".to_owned()),
-        None => return Err("none of the dropped files is a .glb or .gltf model".to_owned()),
+    let candidates: Vec<&SourceFile> = files.iter().filter(|f| !is_sidecar_name(&f.name)).collect();
+    let main = match wanted {
+        Some(name) => candidates.iter().position(|f| f.name == name).ok_or_else(|| format!("{name}: not among the files"))?,
+        None => match candidates.iter().position(|f| is_model_name(&f.name)) {
+            Some(i) => i,
+            None if candidates.len() == 1 => 0,
+            None if candidates.is_empty() => return Err("no files to open".to_owned()),
+            None => return Err("none of the dropped files is a .glb or .gltf model".to_owned()),
+        },
     };
-    let mut files = files;
-    let model = files.swap_remove(main);
-    let resolver: Box<dyn Resolver> = if files.is_empty() {
+    let model = candidates[main];
+    let folder = folder_of(&model.name);
+    let others: Vec<&SourceFile> =
+        candidates.iter().enumerate().filter(|&(i, f)| i != main && !is_model_name(&f.name)).map(|(_, f)| *f).collect();
+    let resolver: Box<dyn Resolver> = if others.is_empty() {
         Box::new(NoResolver)
     } else {
         let mut map = MapResolver::new();
-        for file in files {
-            map.insert(file.name, file.bytes);
+        for file in others {
+            let key = file.name.strip_prefix(folder).unwrap_or(&file.name);
+            map.insert(key.to_owned(), file.bytes.clone());
         }
         Box::new(map)
     };
+    let display = base_name(&model.name).to_owned();
     let imported = import(&model.bytes, resolver.as_ref(), &ImportOptions::default()).map_err(|e| {
         if e.pointer.is_empty() {
-            format!("{}: {}", model.name, e.message)
+            format!("{display}: {}", e.message)
         } else {
-            format!("{}: {}: {}", model.name, e.pointer, e.message)
+            format!("{display}: {}: {}", e.pointer, e.message)
         }
     })?;
-    Ok(LoadedModel { name: model.name, asset: imported.asset, warnings: imported.warnings, sidecar })
+    Ok(LoadedModel { name: display, asset: imported.asset, warnings: imported.warnings, sidecar })
 }
 
 /// Fetches `url` and delivers its bytes to `inbox`, then asks `ctx` for a repaint.
@@ -246,6 +278,32 @@ mod tests {
     fn gltf_without_its_bin_names_the_buffer() {
         let err = import_files(vec![shared("RiggedSimple/glTF/RiggedSimple.gltf")]).err();
         assert!(err.as_deref().is_some_and(|e| e.starts_with("RiggedSimple.gltf: /buffers/0")), "{err:?}");
+    }
+
+    #[test]
+    fn folder_paths_resolve_relative_to_the_model() {
+        let mut files = vec![shared("RiggedSimple/glTF/RiggedSimple.gltf"), shared("RiggedSimple/glTF/RiggedSimple0.bin")];
+        files[0].name = "drop/glTF/RiggedSimple.gltf".into();
+        files[1].name = "drop/glTF/RiggedSimple0.bin".into();
+        // A same-named decoy elsewhere in the folder must not be picked.
+        files.push(SourceFile { name: "drop/other/RiggedSimple0.bin".into(), bytes: vec![0; 4] });
+        let model = import_model(&files, None).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(model.name, "RiggedSimple.gltf");
+        assert_eq!(model.asset.skins.len(), 1);
+    }
+
+    #[test]
+    fn several_models_are_listed_and_picked_by_name() {
+        let files = vec![
+            shared("RiggedSimple/glTF-Binary/RiggedSimple.glb"),
+            shared("Fox/glTF-Binary/Fox.glb"),
+            SourceFile { name: "notes.txt".into(), bytes: b"hi".to_vec() },
+        ];
+        assert_eq!(super::model_names(&files), ["RiggedSimple.glb", "Fox.glb"]);
+        assert_eq!(import_model(&files, None).map(|m| m.name), Ok("RiggedSimple.glb".to_owned()));
+        let fox = import_model(&files, Some("Fox.glb")).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(fox.asset.clips.len(), 3);
+        assert!(import_model(&files, Some("Cat.glb")).is_err());
     }
 
     #[test]

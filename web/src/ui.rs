@@ -39,6 +39,12 @@ pub struct PanelState<'a> {
     /// Under spherical joint blending: `(mesh, vertices, vertices falling back to DQS)` per
     /// skinned draw.
     pub sjb_fallbacks: &'a [(usize, usize, usize)],
+    /// Models dropped together, to switch between (empty: one model).
+    pub library: &'a [String],
+    /// Which of [`PanelState::library`] is shown.
+    pub library_shown: Option<usize>,
+    /// Whether the ground grid is drawn.
+    pub grid: bool,
 }
 
 /// Smoothed CPU milliseconds per frame of each stage (the GPU's own time is not included).
@@ -113,6 +119,21 @@ pub fn side_panel(
             ui.spinner();
         }
     });
+    if state.library.len() > 1 {
+        egui::CollapsingHeader::new(format!("Models ({})", state.library.len())).id_salt("library").default_open(true).show(
+            ui,
+            |ui| {
+                egui::ScrollArea::vertical().id_salt("library list").max_height(160.0).show(ui, |ui| {
+                    for (i, name) in state.library.iter().enumerate() {
+                        let label = crate::load::base_name(name);
+                        if ui.selectable_label(state.library_shown == Some(i), label).on_hover_text(name).clicked() {
+                            actions.commands.push(Command::ShowModel(i));
+                        }
+                    }
+                });
+            },
+        );
+    }
     ui.separator();
 
     if let Some(model) = model {
@@ -139,9 +160,15 @@ pub fn side_panel(
             }
             ik_panel(ui, model, &mut actions);
             copies_control(ui, model, &mut actions);
-            if ui.button("Frame model").on_hover_text("Or double-click the viewport").clicked() {
-                actions.frame = true;
-            }
+            ui.horizontal(|ui| {
+                if ui.button("Frame model").on_hover_text("Or double-click the viewport").clicked() {
+                    actions.frame = true;
+                }
+                let mut grid = state.grid;
+                if ui.checkbox(&mut grid, "Grid").changed() {
+                    actions.commands.push(Command::SetGrid(grid));
+                }
+            });
             warnings(ui, model);
             ui.separator();
             stats(ui, state);

@@ -231,6 +231,8 @@ pub struct SceneRenderer {
     compute: Option<ComputeKit>,
     /// Deviation heatmap on: the full-scale distance (a fraction of the model's size).
     heatmap: Option<f32>,
+    /// Draw the ground grid.
+    grid: bool,
 }
 
 impl SceneRenderer {
@@ -269,6 +271,7 @@ impl SceneRenderer {
             times: RenderTimes::default(),
             compute: ComputeKit::new(device),
             heatmap: None,
+            grid: true,
         }
     }
 
@@ -417,6 +420,16 @@ impl SceneRenderer {
     /// Whether the deviation heatmap is on.
     pub fn heatmap(&self) -> bool {
         self.heatmap.is_some()
+    }
+
+    /// Shows or hides the ground grid (on by default).
+    pub fn set_grid(&mut self, on: bool) {
+        self.grid = on;
+    }
+
+    /// Whether the ground grid is drawn.
+    pub fn grid(&self) -> bool {
+        self.grid
     }
 
     /// Whether [`SkinningPath::Compute`] is available on this device.
@@ -578,8 +591,10 @@ impl SceneRenderer {
             let draws = scene.draws.len();
             let opaque = (0..copies * draws).filter(|slot| scene.draws.get(slot % draws).is_some_and(|d| !d.blend));
             scene.encode(&mut pass, &self.pipelines, opaque, self.draw_stride);
-            pass.set_pipeline(&self.pipelines.grid);
-            pass.draw(0..6, 0..1);
+            if self.grid {
+                pass.set_pipeline(&self.pipelines.grid);
+                pass.draw(0..6, 0..1);
+            }
             let blended = self.scratch.blend_order.iter().map(|&(_, i)| i);
             scene.encode(&mut pass, &self.pipelines, blended, self.draw_stride);
         }

@@ -1,0 +1,143 @@
+// Types of <kloub-viewer>, Kloub's glTF animation viewer element (kloub-viewer.js).
+
+/** `detail` of each event a <kloub-viewer> dispatches. */
+export interface KloubViewerEventMap {
+  /** A model is on screen (after its first painted frame). */
+  load: CustomEvent<{ name: string }>;
+  /** A load or a call failed; the previous model stays on screen. */
+  error: CustomEvent<{ message: string }>;
+  /** The clock started. */
+  play: CustomEvent<Record<string, never>>;
+  /** The clock stopped. */
+  pause: CustomEvent<Record<string, never>>;
+  /** The clock moved (once per painted frame while it runs, and on seeks). */
+  timeupdate: CustomEvent<{ currentTime: number }>;
+  /** The clip wrapped around (repeat) or turned (pingpong); `count` ends passed this frame. */
+  loop: CustomEvent<{ count: number }>;
+  /** A `loop="once"` clip reached its end and stopped. */
+  finished: CustomEvent<Record<string, never>>;
+}
+
+export type SkinningMethod = 'rigid' | 'lbs' | 'dqs' | 'sjb';
+export type SkinningPath = 'gpu' | 'compute' | 'cpu';
+export type LoopMode = 'once' | 'repeat' | 'pingpong';
+export type Backend = 'auto' | 'webgpu' | 'webgl2';
+
+/**
+ * The viewer state mirrored into the element's data-* attributes (also `viewer.state`).
+ * Values are strings, as in `HTMLElement.dataset`.
+ */
+export interface KloubViewerState {
+  status?: 'loading' | 'ready' | 'error';
+  error?: string;
+  backend?: 'webgpu' | 'webgl2';
+  model?: string;
+  /** JSON array of clip names. */
+  clips?: string;
+  clip?: string;
+  time?: string;
+  duration?: string;
+  playing?: 'true' | 'false';
+  speed?: string;
+  loop?: LoopMode;
+  crossfade?: string;
+  /** `CLIP@ROOT:WEIGHT`. */
+  layer?: string;
+  skinning?: SkinningMethod;
+  skinningPath?: SkinningPath;
+  heatmap?: 'true' | 'false';
+  grid?: 'true' | 'false';
+  quality?: string;
+  copies?: string;
+  ik?: string;
+  ikTarget?: string;
+  /** `yaw,pitch,distance,x,y,z`. */
+  camera?: string;
+  frames?: string;
+  /** The 3D view's rectangle in CSS pixels of the canvas, `x,y,width,height`. */
+  viewport?: string;
+}
+
+export declare class KloubViewer extends HTMLElement {
+  static readonly observedAttributes: string[];
+
+  /** Model URL (attribute `src`); setting it loads the model. */
+  src: string;
+  /** Start new models playing (attribute `autoplay`). */
+  autoplay: boolean;
+  /** The clip shown; setting it crossfades to that clip (attribute `animation-name`). */
+  animationName: string;
+  /** Playback speed, negative plays backwards (attribute `speed`, default 1). */
+  speed: number;
+  /** Loop mode (attribute `loop`: absent or "" repeats, "once", "pingpong"). */
+  loop: LoopMode;
+  /** Skinning method (attribute `skinning`, default `lbs`). */
+  skinning: SkinningMethod;
+  /** Side panel and menus shown (attribute `controls`). */
+  controls: boolean;
+  /** The renderer in use; choose it with the `backend` attribute (auto | webgpu | webgl2). */
+  readonly backend: string;
+
+  /** Starts the clock. */
+  play(): void;
+  /** Stops the clock. */
+  pause(): void;
+  readonly paused: boolean;
+  /** The clock in seconds; setting it seeks (clamped to the clip). */
+  currentTime: number;
+  /** The clip's duration in seconds (0 without a clip). */
+  readonly duration: number;
+  readonly availableAnimations: string[];
+  /** A model is shown. */
+  readonly loaded: boolean;
+
+  /** Crossfades to the clip `name` over `seconds` (default: the `crossfade-duration` attribute, else 0.3). */
+  crossfadeTo(name: string | null, seconds?: number): void;
+  /** Plays `clip` on the subtree under `rootJoint` with `weight` in [0, 1]; a null clip removes the layer. */
+  setLayer(clip: string | null, rootJoint: string | null, weight?: number): void;
+  /** Drags `joint` to the world point by IK (`depth` joints above it turn, default 2); null clears every goal. */
+  setIkTarget(joint: string | null, target?: [number, number, number] | null, depth?: number): void;
+  /** Shows a model from a URL or from files; resolves with its name once it is on screen. */
+  load(urlOrFiles: string | URL | FileList | File[]): Promise<string>;
+
+  /** Plays `name` as a click in the clip list does (crossfading when something plays). */
+  playClip(name: string | null): void;
+  seek(seconds: number): void;
+  setSpeed(speed: number): void;
+  setLoop(mode: LoopMode): void;
+  /** Blends clips by relative weight as the base pose. */
+  setBlend(names: string[], weights: number[]): void;
+  setSkinning(method: SkinningMethod): void;
+  /** `compute` throws on WebGL2. */
+  setSkinningPath(path: SkinningPath): void;
+  /** Colours vertices by their distance from linear blend skinning's result. */
+  setHeatmap(on: boolean): void;
+  /** Shows or hides the ground grid. */
+  setGrid(on: boolean): void;
+  /** Shows 1 to 100 characters in a grid, each 0.37 s behind the previous. */
+  setCopies(n: number): void;
+  loadSample(name: 'candy-wrapper'): void;
+  setCandyPose(twistDegrees: number, bendDegrees: number): void;
+  /** `[yaw, pitch, distance, targetX, targetY, targetZ]`. */
+  camera: number[];
+  readonly state: KloubViewerState;
+
+  addEventListener<K extends keyof KloubViewerEventMap>(
+    type: K,
+    listener: (this: KloubViewer, event: KloubViewerEventMap[K]) => unknown,
+    options?: boolean | AddEventListenerOptions,
+  ): void;
+  addEventListener(type: string, listener: EventListenerOrEventListenerObject, options?: boolean | AddEventListenerOptions): void;
+  removeEventListener<K extends keyof KloubViewerEventMap>(
+    type: K,
+    listener: (this: KloubViewer, event: KloubViewerEventMap[K]) => unknown,
+    options?: boolean | EventListenerOptions,
+  ): void;
+  removeEventListener(type: string, listener: EventListenerOrEventListenerObject, options?: boolean | EventListenerOptions): void;
+}
+
+declare global {
+  interface HTMLElementTagNameMap {
+    'kloub-viewer': KloubViewer;
+  }
+}
