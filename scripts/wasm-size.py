@@ -10,8 +10,11 @@ import collections
 import csv
 import io
 import re
+import signal
 import subprocess
 import sys
+
+signal.signal(signal.SIGPIPE, signal.SIG_DFL)  # quiet under `| head`
 
 path = sys.argv[1] if len(sys.argv) > 1 else 'target/wasm-bindgen/kloub_web_bg.wasm'
 out = subprocess.run(['twiggy', 'top', '-f', 'csv', path], check=True, capture_output=True, text=True).stdout

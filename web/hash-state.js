@@ -21,8 +21,9 @@ export function hashToView(hash) {
   const p = new URLSearchParams(String(hash).replace(/^#/, ''));
   const view = {};
   const number = (key) => {
-    const v = Number(p.get(key));
-    return p.has(key) && Number.isFinite(v) ? v : undefined;
+    const text = (p.get(key) ?? '').trim();
+    const v = Number(text);
+    return text !== '' && Number.isFinite(v) ? v : undefined;
   };
   if (p.get('src')) view.src = p.get('src');
   if (p.get('clip')) view.clip = p.get('clip');

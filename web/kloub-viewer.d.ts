@@ -47,6 +47,10 @@ export interface KloubViewerState {
   skinningPath?: SkinningPath;
   heatmap?: 'true' | 'false';
   grid?: 'true' | 'false';
+  /** Comma-separated: skeleton, bounds, wireframe, normals. */
+  overlays?: string;
+  /** The selected joint's name. */
+  joint?: string;
   quality?: string;
   copies?: string;
   ik?: string;
@@ -112,6 +116,14 @@ export declare class KloubViewer extends HTMLElement {
   setSkinningPath(path: SkinningPath): void;
   /** Colours vertices by their distance from linear blend skinning's result. */
   setHeatmap(on: boolean): void;
+  /** Overlays: the skeleton (names on hover), the framing bounds, the deformed wireframe, the normals. */
+  setOverlays(overlays: { skeleton?: boolean; bounds?: boolean; wireframe?: boolean; normals?: boolean }): void;
+  /** Selects a joint by name: its axes are drawn and its channels plotted in the panel; null clears. */
+  selectJoint(name: string | null): void;
+  /** Holds morph target `target` (index or name) of the mesh on node `node` at `weight`; null lets the clip drive it. */
+  setMorphWeight(node: string, target: number | string, weight: number | null): void;
+  /** Downloads the view as `<model>.png`. */
+  screenshot(): void;
   /** Shows or hides the ground grid. */
   setGrid(on: boolean): void;
   /** Shows 1 to 100 characters in a grid, each 0.37 s behind the previous. */

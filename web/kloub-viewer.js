@@ -164,6 +164,13 @@ export class KloubViewer extends HTMLElement {
       viewer.setPanels(this.hasAttribute('controls'));
       await viewer.mount(this.#canvas, this, this.shadowRoot, emit, backend === 'auto' ? null : backend,
         this.getAttribute('src'));
+      // Removed from the page while starting: stop now (disconnectedCallback found nothing to stop).
+      if (!this.isConnected && this.#viewer === viewer) {
+        viewer.destroy();
+        this.#viewer = null;
+        this.#mounting = null;
+        return;
+      }
       if (this.hasAttribute('crossfade-duration')) viewer.setCrossfadeDuration(this.#crossfadeSeconds());
       if (this.hasAttribute('skinning')) viewer.setSkinning(this.getAttribute('skinning'));
     } catch (e) {
@@ -305,6 +312,16 @@ export class KloubViewer extends HTMLElement {
   setSkinningPath(path) { this.#require().setSkinningPath(path); }
   setHeatmap(on) { this.#require().setHeatmap(Boolean(on)); }
   setGrid(on) { this.#require().setGrid(Boolean(on)); }
+  /** Overlays: `{ skeleton, bounds, wireframe, normals }` (missing keys: off). */
+  setOverlays({ skeleton = false, bounds = false, wireframe = false, normals = false } = {}) {
+    this.#require().setOverlays(Boolean(skeleton), Boolean(bounds), Boolean(wireframe), Boolean(normals));
+  }
+  /** Selects a joint by name (axes drawn, channels plotted in the panel); null clears. */
+  selectJoint(name) { this.#require().selectJoint(name ?? null); }
+  /** Holds morph target `target` (index or name) of the mesh on `node` at `weight`; null lets the clip drive it. */
+  setMorphWeight(node, target, weight) { this.#require().setMorphWeight(node, target, weight ?? undefined); }
+  /** Downloads the view as `<model>.png`. */
+  screenshot() { this.#require().screenshot(); }
   setCopies(n) { this.#require().setCopies(n); }
   loadSample(name) { this.#require().loadSample(name); }
   setCandyPose(twist, bend) { this.#require().setCandyPose(twist, bend); }

@@ -1,5 +1,6 @@
 // Kloub browser tests: drive the real page served by `kloub serve` in Debian chromium, on WebGPU and WebGL2.
 // Prints one line per test and closes with "browser: N passed, M failed"; exits 1 on any failure.
+import { readFileSync } from 'node:fs';
 import { join } from 'node:path';
 import {
   SHARED, control, dataset, diffFraction, dropFiles, nonBackgroundFraction, openBrowser, pageUrl, recordEvents, savePng,
@@ -316,6 +317,42 @@ for (const backend of BACKENDS) {
     assert(nonBackgroundFraction(a) > 0.02 && nonBackgroundFraction(b) > 0.02, 'a viewer shows nothing');
   });
 
+  test(`${backend}: keyboard shortcuts reach the viewer: bones, play/pause, frame step`, async (ctx) => {
+    const { page } = ctx;
+    await openApp(ctx, backend);
+    await control(page, 'pause');
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.playing === 'false', 'a pause');
+    const ds = await dataset(page);
+    const [x, y, w, h] = ds.viewport.split(',').map(Number);
+    // A click in the view focuses the canvas inside the element's shadow root.
+    await page.mouse.click(x + w * 0.9, y + h * 0.9);
+    await page.keyboard.press('b');
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.overlays === 'skeleton', 'B to show the skeleton');
+    await page.keyboard.press('Space');
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.playing === 'true', 'space to play');
+    await page.keyboard.press('Space');
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.playing === 'false', 'space to pause');
+    const t0 = Number((await dataset(page)).time);
+    await page.keyboard.press('ArrowRight');
+    await waitForDataset(page, (t) => Math.abs(Number(document.querySelector('kloub-viewer').dataset.time) - (Math.round(t * 30) + 1) / 30) < 2e-3, '→ to step a frame', 30000, t0);
+  });
+
+  test(`${backend}: load() resolves with the model's name, or rejects with the error and keeps the model`, async (ctx) => {
+    const { page } = ctx;
+    await recordEvents(page);
+    await openApp(ctx, backend);
+    const bytes = readFileSync(RIGGED_SIMPLE).toString('base64');
+    const name = await page.evaluate(async (b64) => {
+      const bin = Uint8Array.from(atob(b64), (c) => c.charCodeAt(0));
+      return document.querySelector('kloub-viewer').load([new File([bin], 'RiggedSimple.glb')]);
+    }, bytes);
+    assert(name === 'RiggedSimple.glb', `load(files) resolved with ${name}`);
+    const message = await page.evaluate(() => document.querySelector('kloub-viewer').load('/assets/missing.glb').then(() => 'resolved', (e) => e.message));
+    assert(/missing\.glb/.test(message) && /404/.test(message), `load(url) of a missing file: ${message}`);
+    const ds = await dataset(page);
+    assert(ds.model === 'RiggedSimple.glb', `the model after the failed load: ${ds.model}`);
+  });
+
   test(`${backend}: the URL hash reproduces the exact view`, async (ctx) => {
     const { page } = ctx;
     // A model from a URL (a dropped file has none): the bundled Fox by ?src=.
@@ -380,6 +417,19 @@ for (const backend of BACKENDS) {
     assert(errors.length === 1 && errors[0][2].message.includes('broken.glb'), `error events: ${JSON.stringify(errors)}`);
   });
 }
+
+test('hash-state.js: a view round-trips through the hash; malformed keys are dropped', async () => {
+  const { viewToHash, hashToView } = await import('../../web/hash-state.js');
+  const state = { clip: 'Run', time: '0.300', playing: 'false', speed: '1.500', layer: 'Survey@b_Neck_04:0.60', skinning: 'dqs', camera: '0.9,0.35,260,5,40,-10' };
+  const view = hashToView(viewToHash(state, '/assets/Fox.glb'));
+  const want = { src: '/assets/Fox.glb', clip: 'Run', time: 0.3, paused: true, speed: 1.5, layer: { clip: 'Survey', root: 'b_Neck_04', weight: 0.6 }, skinning: 'dqs', camera: [0.9, 0.35, 260, 5, 40, -10] };
+  assert(JSON.stringify(view) === JSON.stringify(want), `round trip: ${JSON.stringify(view)}`);
+  assert(viewToHash({ playing: 'true', speed: '1.000', skinning: 'lbs' }, null) === '', 'defaults make no hash');
+  const bad = hashToView('#t=abc&speed=&camera=1,2,3&layer=nothing&clip=');
+  assert(JSON.stringify(bad) === '{}', `malformed keys kept: ${JSON.stringify(bad)}`);
+  const zero = hashToView('#camera=0,0,0,0,0,0');
+  assert(zero.camera === undefined, 'a zero camera distance is refused');
+});
 
 const server = await startServer();
 let passed = 0;

@@ -3,7 +3,7 @@
 //! state into the page ([`crate::dom`]).
 
 use egui::{Color32, Pos2, Rect, Sense};
-use glam::{Mat4, Vec3};
+use glam::Vec3;
 use kloub_core::animator::{Crossfade, Layer};
 use kloub_core::asset::NodeIndex;
 use kloub_core::clip::Clip;
@@ -18,6 +18,7 @@ use crate::control::{Command, Controls};
 use crate::dom::{Dataset, Key};
 use crate::ik::IkState;
 use crate::load::{self, Inbox, LoadedModel};
+use crate::overlay::{self, Overlays, Projection, nearest_within};
 use crate::render::{Camera, SceneRenderer, msaa_samples};
 use crate::ui;
 use kloub_core::rig::JointSettings;
@@ -129,6 +130,11 @@ pub struct Model {
     pub ik: Vec<IkState>,
     /// The goal the panel edits and a joint click retargets.
     pub ik_selected: usize,
+    /// The joint picked in the viewport or the joint tree: its axes are drawn and its
+    /// channels plotted.
+    pub selected_joint: Option<NodeIndex>,
+    /// Morph weights set by the panel's sliders, by pose weight slot (`None`: animated).
+    pub morph_overrides: Vec<Option<f32>>,
 }
 
 /// Most copies of the character the grid shows.
@@ -162,6 +168,7 @@ impl Model {
         let clips_json = serde_json::to_string(&clip_names).map_err(|e| e.to_string())?;
         let key_times = asset.clips.iter().map(key_times).collect();
         let in_joint_tree = joint_tree_nodes(&asset);
+        let asset_weight_slots = instance.pose().weights.len();
         let mut blend_weights = vec![0.0; asset.clips.len()];
         if let Some(w) = clip.and_then(|c| blend_weights.get_mut(c)) {
             *w = 1.0;
@@ -195,6 +202,8 @@ impl Model {
             bounds: None,
             ik: Vec::new(),
             ik_selected: 0,
+            selected_joint: None,
+            morph_overrides: vec![None; asset_weight_slots],
         })
     }
 
@@ -210,11 +219,17 @@ impl Model {
             if self.instance.evaluate(&self.asset, clip, t).is_err() {
                 continue;
             }
-            if let Some((lo, hi)) = self.instance.scene_bounds(&self.asset) {
+            // A file without meshes (a bare skeleton) is framed on its joints.
+            let sample = self.instance.scene_bounds(&self.asset).or_else(|| node_bounds(self.instance.worlds()));
+            if let Some((lo, hi)) = sample {
                 bounds = Some(bounds.map_or((lo, hi), |(a, b)| (a.min(lo), b.max(hi))));
             }
         }
-        bounds
+        // Joints alone may lie on a line or a point: give the box some thickness.
+        bounds.map(|(lo, hi)| {
+            let pad = ((hi - lo).max_element() * 0.05).max(1e-3);
+            if self.has_meshes() { (lo, hi) } else { (lo - Vec3::splat(pad), hi + Vec3::splat(pad)) }
+        })
     }
 
     /// Display name of `clip`, `""` for the rest pose.
@@ -248,6 +263,15 @@ impl Model {
         }
         for ik in &mut self.ik {
             ik.apply(&self.asset, &mut self.instance)?;
+        }
+        // The morph sliders win over the clip (the main character only: copies keep the clip's).
+        if self.morph_overrides.iter().any(Option::is_some) {
+            let weights = &mut self.instance.pose_mut().weights;
+            for (w, o) in weights.iter_mut().zip(&self.morph_overrides) {
+                if let Some(o) = o {
+                    *w = *o;
+                }
+            }
         }
         Ok(())
     }
@@ -497,6 +521,11 @@ impl Model {
         events
     }
 
+    /// Whether any node draws a mesh (else the viewport shows the skeleton).
+    pub fn has_meshes(&self) -> bool {
+        self.asset.nodes.iter().any(|n| n.mesh.is_some())
+    }
+
     /// The main clip's duration in seconds (0 for the rest pose).
     pub fn duration(&self) -> f32 {
         self.animator.main().duration(&self.asset)
@@ -524,6 +553,13 @@ fn restart_if_finished(player: &mut Player, asset: &Asset) {
     } else if player.speed < 0.0 && player.time <= 0.0 {
         player.time = duration;
     }
+}
+
+/// Bounds of the nodes' world positions (`None` without nodes).
+fn node_bounds(worlds: &[glam::Mat4]) -> Option<(Vec3, Vec3)> {
+    let mut points = worlds.iter().map(|w| w.w_axis.truncate()).filter(|p| p.is_finite());
+    let first = points.next()?;
+    Some(points.fold((first, first), |(lo, hi), p| (lo.min(p), hi.max(p))))
 }
 
 /// Sorted distinct key times of `clip`.
@@ -634,6 +670,17 @@ pub struct App {
     ik_drag: Option<usize>,
     /// Whether the side panel and menus show.
     panels: bool,
+    /// Overlays drawn over the model.
+    overlays: Overlays,
+    overlay_scratch: overlay::OverlayScratch,
+    /// The keyboard-shortcut help window is open.
+    help: bool,
+    /// Where the 3D view was laid out last frame.
+    viewport_rect: Rect,
+    /// A screenshot being read back from the GPU.
+    screenshot: Option<crate::render::readback::PendingReadback>,
+    /// The last screenshot, PNG-encoded (kept for tests; downloaded in the browser).
+    last_screenshot: Option<Vec<u8>>,
     /// Files dropped together holding several models, and which one is shown.
     library: Option<Library>,
     /// The page says files are dragged over the viewer.
@@ -648,14 +695,51 @@ pub struct App {
     ik_markers: Vec<Pos2>,
 }
 
+/// Degrees one Shift+arrow press orbits the camera.
+const ORBIT_STEP: f32 = 15.0;
+/// Distance factor of one `-` press (`+` divides by it).
+const ZOOM_STEP: f32 = 1.25;
+
+/// Steps per second of the ←/→ frame step.
+const FRAME_RATE: f32 = 30.0;
+
+/// What the help window lists.
+const SHORTCUTS: &[(&str, &str)] = &[
+    ("Space", "play / pause"),
+    ("← →", "previous / next frame (1/30 s)"),
+    ("Home", "back to the start"),
+    ("↑ ↓", "previous / next clip"),
+    ("Shift + arrows", "orbit the camera"),
+    ("+ / -", "zoom in / out"),
+    ("F", "frame the model (or double-click)"),
+    ("B", "bones: the skeleton, names on hover, click to select"),
+    ("W", "wireframe"),
+    ("N", "normals"),
+    ("G", "ground grid"),
+    ("? or H", "this help"),
+    ("Drag", "orbit"),
+    ("Right/middle drag, Shift+drag", "pan"),
+    ("Wheel, pinch", "zoom"),
+    ("Drop files or a folder", "open a model (.glb, or .gltf with its files)"),
+];
+
+/// `data-overlays`: the overlays that are on, comma-separated.
+fn overlay_names(o: Overlays) -> String {
+    let names = [(o.skeleton, "skeleton"), (o.bounds, "bounds"), (o.wireframe, "wireframe"), (o.normals, "normals")];
+    names.iter().filter(|(on, _)| *on).map(|(_, n)| *n).collect::<Vec<_>>().join(",")
+}
+
 /// Gives egui its fonts: Ubuntu-Light for all text (monospace included: the panel has no
 /// code) and egui's icon font as the fallback, as egui's defaults do minus the monospace font.
 pub fn install_fonts(ctx: &egui::Context) {
     use egui::{FontData, FontDefinitions, FontFamily, FontTweak};
     use std::sync::Arc;
     let mut fonts = FontDefinitions::empty();
-    fonts.font_data.insert("Ubuntu-Light".to_owned(), Arc::new(FontData::from_static(epaint_default_fonts::UBUNTU_LIGHT)));
-    let icons = FontData::from_static(epaint_default_fonts::EGUI_ICONS).tweak(FontTweak { scale: 0.9, ..Default::default() });
+    fonts
+        .font_data
+        .insert("Ubuntu-Light".to_owned(), Arc::new(FontData::from_static(epaint_default_fonts::UBUNTU_LIGHT)));
+    let icons =
+        FontData::from_static(epaint_default_fonts::EGUI_ICONS).tweak(FontTweak { scale: 0.9, ..Default::default() });
     fonts.font_data.insert("egui-icons".to_owned(), Arc::new(icons));
     for family in [FontFamily::Proportional, FontFamily::Monospace] {
         fonts.families.insert(family, vec!["Ubuntu-Light".to_owned(), "egui-icons".to_owned()]);
@@ -677,52 +761,6 @@ fn smooth(mean: f32, value: f32) -> f32 {
 /// How far the wheel moves an IK target along the view direction, per scrolled point, as a
 /// fraction of the camera's distance (scrolling up, positive, pulls it closer).
 const IK_DEPTH_PER_POINT: f32 = 0.0002;
-
-/// Pointer distance (points) within which the IK target or a joint is grabbed.
-const IK_GRAB_RADIUS: f32 = 14.0;
-
-/// World ↔ viewport points for one frame's camera.
-struct Projection {
-    view_proj: Mat4,
-    inverse: Mat4,
-    rect: Rect,
-}
-
-impl Projection {
-    fn new(camera: &Camera, rect: Rect) -> Self {
-        let aspect = (rect.width() / rect.height().max(1.0)).max(1e-3);
-        let view_proj = camera.view_proj(aspect);
-        Self { view_proj, inverse: view_proj.inverse(), rect }
-    }
-
-    /// Where `p` appears, and its depth (NDC z); `None` behind the camera.
-    fn to_screen(&self, p: Vec3) -> Option<(Pos2, f32)> {
-        let c = self.view_proj * p.extend(1.0);
-        if c.w <= 1e-6 || !c.is_finite() {
-            return None;
-        }
-        let n = c.truncate() / c.w;
-        let r = self.rect;
-        Some((Pos2::new(r.min.x + (n.x + 1.0) * 0.5 * r.width(), r.min.y + (1.0 - n.y) * 0.5 * r.height()), n.z))
-    }
-
-    /// The world point under `at` at NDC depth `depth`.
-    fn unproject(&self, at: Pos2, depth: f32) -> Option<Vec3> {
-        let r = self.rect;
-        let ndc = Vec3::new((at.x - r.min.x) / r.width() * 2.0 - 1.0, 1.0 - (at.y - r.min.y) / r.height() * 2.0, depth);
-        let w = self.inverse * ndc.extend(1.0);
-        (w.w.abs() > 1e-12).then(|| w.truncate() / w.w).filter(|p| p.is_finite())
-    }
-}
-
-/// The item drawn nearest to `pointer`, within [`IK_GRAB_RADIUS`].
-fn nearest_within<T>(pointer: Pos2, items: impl Iterator<Item = (Pos2, T)>) -> Option<T> {
-    items
-        .map(|(at, item)| (at.distance(pointer), item))
-        .filter(|(d, _)| *d <= IK_GRAB_RADIUS)
-        .min_by(|a, b| a.0.total_cmp(&b.0))
-        .map(|(_, item)| item)
-}
 
 /// Draws the IK chain, the target (green when reached) and the error; returns the target's
 /// position.
@@ -797,6 +835,12 @@ impl App {
             ik_markers: Vec::new(),
             panels: config.panels,
             library: None,
+            overlays: Overlays::default(),
+            overlay_scratch: overlay::OverlayScratch::default(),
+            help: false,
+            screenshot: None,
+            last_screenshot: None,
+            viewport_rect: Rect::ZERO,
             drop_hint: false,
             announce_load: false,
             reported_playing: false,
@@ -927,7 +971,17 @@ impl App {
             model.warnings.len()
         );
         let nodes = model.asset.nodes.iter().map(|n| n.name.clone()).collect();
-        self.controls.publish(model.clip_names.clone(), nodes);
+        let morphs = model
+            .asset
+            .nodes
+            .iter()
+            .map(|n| {
+                let mesh = n.mesh.and_then(|m| model.asset.meshes.get(m as usize));
+                let names = mesh.map_or(&[][..], |m| m.target_names.as_slice());
+                (0..n.weights.len()).map(|t| names.get(t).cloned().unwrap_or_else(|| format!("target {t}"))).collect()
+            })
+            .collect();
+        self.controls.publish(model.clip_names.clone(), nodes, morphs);
         self.reported_playing = model.is_playing();
         self.model = Some(model);
         self.announce_load = true;
@@ -1010,6 +1064,14 @@ impl App {
                 self.scene.set_grid(on);
                 return Ok(());
             }
+            Command::SetOverlays(overlays) => {
+                self.overlays = overlays;
+                return Ok(());
+            }
+            Command::Screenshot => {
+                self.screenshot();
+                return Ok(());
+            }
             Command::LoadUrl(url) => {
                 self.pending += 1;
                 self.status = Status::Loading;
@@ -1050,7 +1112,24 @@ impl App {
             | Command::SetDropHint(_)
             | Command::LoadUrl(_)
             | Command::SetGrid(_)
+            | Command::SetOverlays(_)
+            | Command::Screenshot
             | Command::ShowModel(_) => {}
+            Command::SelectJoint(node) => model.selected_joint = node,
+            Command::SetMorph { node, target, weight } => {
+                let n = model.asset.nodes.get(node as usize).ok_or_else(|| format!("node {node} does not exist"))?;
+                if target >= n.weights.len() {
+                    return Err(format!(
+                        "{}: morph target {target} of {} does not exist",
+                        model.name,
+                        model.node_name(node)
+                    ));
+                }
+                let start = model.asset.weight_offsets.get(node as usize).copied().unwrap_or(0) as usize;
+                if let Some(slot) = model.morph_overrides.get_mut(start + target) {
+                    *slot = weight.map(|w| if w.is_finite() { w } else { 0.0 });
+                }
+            }
             Command::SetCamera([yaw, pitch, distance, x, y, z]) => {
                 self.camera.yaw = yaw;
                 self.camera.pitch = pitch;
@@ -1161,6 +1240,7 @@ impl App {
     /// Draws the 3D viewport into `ui` and handles camera input.
     fn viewport(&mut self, ui: &mut egui::Ui) {
         let (rect, response) = ui.allocate_exact_size(ui.available_size(), Sense::click_and_drag());
+        self.viewport_rect = rect;
         let viewport = format!("{},{},{},{}", rect.min.x, rect.min.y, rect.width(), rect.height());
         self.dataset.set(Key::Viewport, &viewport);
         let height = rect.height();
@@ -1194,6 +1274,14 @@ impl App {
             if !response.dragged() || response.drag_stopped() {
                 self.ik_drag = None;
             }
+        } else if response.clicked()
+            && let (Some(model), Some(pointer)) = (self.model.as_ref(), response.interact_pointer_pos())
+            && model.ik.is_empty()
+            && (self.overlays.skeleton || !model.has_meshes())
+        {
+            // A click on a joint selects it (its axes and channel plot); elsewhere clears.
+            let points = overlay::joint_points(model, &projection, origin);
+            pending = Some(Command::SelectJoint(nearest_within(pointer, points.into_iter())));
         } else if response.clicked()
             && let (Some(model), Some(pointer)) = (self.model.as_ref(), response.interact_pointer_pos())
             && let Some(ik) = model.ik.get(model.ik_selected)
@@ -1326,6 +1414,25 @@ impl App {
         let uv = Rect::from_min_max(Pos2::ZERO, Pos2::new(1.0, 1.0));
         ui.painter().image(id, rect, uv, Color32::WHITE);
         drop(renderer);
+        if let Some(model) = self.model.as_mut() {
+            let painter = ui.painter_at(rect);
+            overlay::paint_mesh_lines(&painter, model, &projection, origin, self.overlays, &mut self.overlay_scratch);
+            if self.overlays.bounds
+                && let Some(bounds) = model.bounds
+            {
+                overlay::paint_box(&painter, &projection, bounds, origin);
+            }
+            // A file without meshes (a bare skeleton) always shows its skeleton.
+            if self.overlays.skeleton || !model.has_meshes() {
+                let points = overlay::joint_points(model, &projection, origin);
+                let hovered = response.hover_pos().and_then(|p| nearest_within(p, points.iter().copied()));
+                overlay::paint_skeleton(&painter, model, &points, model.selected_joint, hovered);
+            }
+            if let Some(joint) = model.selected_joint {
+                let size = model.bounds.map_or(1.0, |(lo, hi)| (hi - lo).length());
+                overlay::paint_axes(&painter, model, &projection, origin, joint, size);
+            }
+        }
         self.ik_markers.clear();
         if let Some(model) = self.model.as_ref() {
             for (i, ik) in model.ik.iter().enumerate() {
@@ -1340,6 +1447,199 @@ impl App {
         {
             self.fail(message);
         }
+    }
+
+    /// Keyboard shortcuts (when no text field has the keyboard): space play/pause, ←/→ step
+    /// a frame (1/30 s), Home to the start, ↑/↓ previous/next clip, F frame, B bones,
+    /// W wireframe, N normals, G grid, ? or H help.
+    fn shortcuts(&mut self, ctx: &egui::Context) {
+        if ctx.egui_wants_keyboard_input() {
+            return;
+        }
+        use egui::Key as K;
+        // Each press with whether Shift was held (from the event itself, as the browser sent it).
+        let press = |key: K, shift: bool| {
+            ctx.input(|i| {
+                i.events.iter().any(|e| {
+                    matches!(e, egui::Event::Key { key: k, pressed: true, modifiers, .. }
+                        if *k == key && modifiers.shift == shift)
+                })
+            })
+        };
+        let pressed = |key: K| press(key, false);
+        let mut commands = Vec::new();
+        if pressed(K::Questionmark) || press(K::Questionmark, true) || pressed(K::H) {
+            self.help = !self.help;
+        }
+        if pressed(K::Escape) {
+            self.help = false;
+        }
+        if pressed(K::F) {
+            self.frame_model();
+        }
+        let mut overlays = self.overlays;
+        overlays.skeleton ^= pressed(K::B);
+        overlays.wireframe ^= pressed(K::W);
+        overlays.normals ^= pressed(K::N);
+        if overlays != self.overlays {
+            commands.push(Command::SetOverlays(overlays));
+        }
+        if pressed(K::G) {
+            commands.push(Command::SetGrid(!self.scene.grid()));
+        }
+        // Shift + arrows orbit, + and - zoom: the camera without a pointer.
+        let shifted = |key: K| f32::from(u8::from(press(key, true)));
+        let step = ORBIT_STEP.to_radians();
+        self.camera.orbit(
+            (shifted(K::ArrowLeft) - shifted(K::ArrowRight)) * step,
+            (shifted(K::ArrowUp) - shifted(K::ArrowDown)) * step,
+        );
+        // `+` is Shift+= on most layouts.
+        if pressed(K::Plus) || press(K::Plus, true) || pressed(K::Equals) || press(K::Equals, true) {
+            self.camera.zoom(1.0 / ZOOM_STEP);
+        }
+        if pressed(K::Minus) {
+            self.camera.zoom(ZOOM_STEP);
+        }
+        if let Some(model) = &self.model {
+            if pressed(K::Space) {
+                commands.push(if model.is_playing() { Command::Pause } else { Command::Play });
+            }
+            let time = model.animator.main().time;
+            let step = if pressed(K::ArrowRight) {
+                1.0
+            } else if pressed(K::ArrowLeft) {
+                -1.0
+            } else {
+                0.0
+            };
+            if step != 0.0 {
+                commands.push(Command::Pause);
+                commands.push(Command::Seek(((time * FRAME_RATE).round() + step) / FRAME_RATE));
+            }
+            if pressed(K::Home) {
+                commands.push(Command::Seek(0.0));
+            }
+            let clips = model.clip_names.len();
+            let clip = model.animator.main().clip;
+            let next = if pressed(K::ArrowDown) {
+                1
+            } else if pressed(K::ArrowUp) {
+                clips.saturating_sub(1)
+            } else {
+                0
+            };
+            if clips > 0 && next > 0 {
+                commands.push(Command::PlayClip(Some(clip.map_or(0, |c| (c + next) % clips))));
+            }
+        }
+        for command in commands {
+            if let Err(message) = self.apply(command) {
+                self.fail(message);
+            }
+        }
+    }
+
+    /// While a model downloads: its name and a progress bar over the top of the viewport.
+    fn loading_bar(&self, ctx: &egui::Context) {
+        if self.status != Status::Loading {
+            return;
+        }
+        let progress = self.inbox.progress();
+        let rect = self.viewport_rect;
+        egui::Area::new(egui::Id::unique("kloub-loading-bar"))
+            .order(egui::Order::Foreground)
+            .fixed_pos(egui::pos2(rect.center().x - 160.0, rect.top() + 12.0))
+            .interactable(false)
+            .show(ctx, |ui| {
+                egui::Frame::popup(ui.style()).show(ui, |ui| {
+                    ui.set_width(320.0);
+                    let mb = |b: u64| b as f64 / 1_048_576.0;
+                    match progress {
+                        Some(load::Progress { name, received, total: Some(total) }) if total > 0 => {
+                            ui.label(format!("Loading {name}: {:.1} of {:.1} MB", mb(received), mb(total)));
+                            ui.add(
+                                egui::ProgressBar::new((received as f64 / total as f64).min(1.0) as f32)
+                                    .show_percentage(),
+                            );
+                        }
+                        Some(load::Progress { name, received, .. }) => {
+                            ui.label(format!("Loading {name}: {:.1} MB", mb(received)));
+                            ui.add(egui::ProgressBar::new(0.0).animate(true));
+                        }
+                        None => {
+                            ui.horizontal(|ui| {
+                                ui.spinner();
+                                ui.label("Loading…");
+                            });
+                        }
+                    }
+                });
+            });
+        ctx.request_repaint();
+    }
+
+    /// The keyboard-shortcut help window (`?`).
+    fn help_window(&mut self, ctx: &egui::Context) {
+        if !self.help {
+            return;
+        }
+        let mut open = true;
+        egui::Window::new("Keyboard and mouse").open(&mut open).collapsible(false).resizable(false).show(ctx, |ui| {
+            egui::Grid::new("help grid").striped(true).show(ui, |ui| {
+                for (keys, what) in SHORTCUTS {
+                    ui.strong(*keys);
+                    ui.label(*what);
+                    ui.end_row();
+                }
+            });
+        });
+        self.help &= open;
+    }
+
+    /// Starts saving the view (the 3D viewport, without the panels' overlays) as a PNG: the
+    /// GPU copy is read back over the next frames, then offered as `<model>.png`.
+    fn screenshot(&mut self) {
+        if let Some(texture) = self.scene.target_texture() {
+            self.screenshot =
+                Some(crate::render::readback::PendingReadback::start(&self.gpu.device, &self.gpu.queue, texture, 4));
+        }
+    }
+
+    /// Finishes a screenshot whose pixels arrived.
+    fn finish_screenshot(&mut self, ctx: &egui::Context) {
+        let Some(pending) = &self.screenshot else { return };
+        let Some(result) = pending.poll(&self.gpu.device) else {
+            ctx.request_repaint();
+            return;
+        };
+        let (width, height) = pending.size();
+        self.screenshot = None;
+        let png = result.and_then(|pixels| {
+            let image = image::RgbaImage::from_raw(width, height, pixels).ok_or("screenshot: size mismatch")?;
+            let mut out = std::io::Cursor::new(Vec::new());
+            image.write_to(&mut out, image::ImageFormat::Png).map_err(|e| format!("screenshot: {e}"))?;
+            Ok(out.into_inner())
+        });
+        match png {
+            Ok(png) => {
+                let stem =
+                    self.model.as_ref().map_or("kloub", |m| m.name.rsplit_once('.').map_or(m.name.as_str(), |s| s.0));
+                #[cfg(target_arch = "wasm32")]
+                if let Err(message) = crate::dom::download(&format!("{stem}.png"), &png, "image/png") {
+                    self.fail(message);
+                }
+                #[cfg(not(target_arch = "wasm32"))]
+                let _ = stem;
+                self.last_screenshot = Some(png);
+            }
+            Err(message) => self.fail(message),
+        }
+    }
+
+    /// The last screenshot as PNG bytes (natively kept for tests).
+    pub fn last_screenshot(&self) -> Option<&[u8]> {
+        self.last_screenshot.as_deref()
     }
 
     /// Frames the camera on the current model's animated bounds.
@@ -1412,6 +1712,15 @@ impl App {
         d.set(Key::SkinningPath, self.scene.skinning_path().name());
         d.set(Key::Heatmap, if self.scene.heatmap() { "true" } else { "false" });
         d.set(Key::Grid, if self.scene.grid() { "true" } else { "false" });
+        d.set(Key::Overlays, &overlay_names(self.overlays));
+        let progress = self.inbox.progress().filter(|_| self.status == Status::Loading);
+        d.set(
+            Key::Progress,
+            &progress.map_or(String::new(), |p| {
+                format!("{}/{}", p.received, p.total.map_or(String::new(), |t| t.to_string()))
+            }),
+        );
+        d.set(Key::Joint, &model.and_then(|m| m.selected_joint.map(|j| m.node_name(j))).unwrap_or_default());
         let quality = model.and_then(|m| m.candy.as_ref()).and_then(|c| {
             let i = SkinningMethod::ALL.iter().position(|&m| m == self.skinning)?;
             let q = c.quality[i];
@@ -1491,6 +1800,7 @@ impl eframe::App for App {
             sjb_fallbacks: &sjb_fallbacks,
             library: self.library.as_ref().map_or(&[], |l| l.models.as_slice()),
             grid: self.scene.grid(),
+            overlays: self.overlays,
             library_shown: self.library.as_ref().and_then(|l| l.shown),
         };
         let actions = if self.panels {
@@ -1505,12 +1815,19 @@ impl eframe::App for App {
         if actions.frame {
             self.frame_model();
         }
+        self.help |= actions.help;
+        if actions.screenshot {
+            self.screenshot();
+        }
+        self.finish_screenshot(&ctx);
         if actions.save_sidecar
             && let Some(model) = &self.model
         {
             let stem = model.name.rsplit_once('.').map_or(model.name.as_str(), |(stem, _)| stem);
             let text = model.sidecar_json();
-            if let Err(message) = crate::dom::download(&format!("{stem}.kloub.json"), &text) {
+            if let Err(message) =
+                crate::dom::download(&format!("{stem}.kloub.json"), text.as_bytes(), "application/json")
+            {
                 self.fail(message);
             }
         }
@@ -1530,8 +1847,13 @@ impl eframe::App for App {
             }
         }
 
+        if ctx.current_pass_index() == 0 {
+            self.shortcuts(&ctx);
+        }
         self.evaluate();
         egui::CentralPanel::no_frame().show(ui, |ui| self.viewport(ui));
+        self.loading_bar(&ctx);
+        self.help_window(&ctx);
         Self::drop_hint(&ctx, self.drop_hint);
         self.error_window(&ctx);
 

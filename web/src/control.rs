@@ -97,6 +97,21 @@ pub enum Command {
     SetCamera([f32; 6]),
     /// Shows or hides the ground grid (kept across models).
     SetGrid(bool),
+    /// Holds morph target `target` of node `node` at `weight` (`None`: the clip drives it).
+    SetMorph {
+        /// The mesh node.
+        node: u32,
+        /// Target index in the node's mesh.
+        target: usize,
+        /// Held weight, or `None` to animate.
+        weight: Option<f32>,
+    },
+    /// Saves the view as a PNG (a download in the browser).
+    Screenshot,
+    /// Which overlays are drawn (kept across models).
+    SetOverlays(crate::overlay::Overlays),
+    /// Selects a joint (its axes and channel plot); `None` clears.
+    SelectJoint(Option<u32>),
     /// Shows model `i` of the files dropped together (the side panel's model list).
     ShowModel(usize),
     /// Shows the "drop to open" hint (the page handles drag-and-drop itself).
@@ -144,6 +159,7 @@ struct Shared {
     repaint: Option<egui::Context>,
     compute: bool,
     prefs: Prefs,
+    morphs: Vec<Vec<String>>,
 }
 
 /// A cheap, clonable handle on the command channel (single-threaded, like the page).
@@ -256,12 +272,27 @@ impl Controls {
     }
 
     /// The app's side: publishes a new model's names and drops commands meant for the old one.
-    pub(crate) fn publish(&self, clips: Vec<String>, nodes: Vec<Option<String>>) {
+    /// `morphs[n]` names node `n`'s morph targets (empty without morphs).
+    pub(crate) fn publish(&self, clips: Vec<String>, nodes: Vec<Option<String>>, morphs: Vec<Vec<String>>) {
         let mut shared = self.0.borrow_mut();
         shared.generation += 1;
         shared.queue.retain(|(g, _)| *g == ANY_MODEL);
         shared.clips = clips;
         shared.nodes = nodes;
+        shared.morphs = morphs;
+    }
+
+    /// Index of the morph target named `name` on node `node` of the shown model.
+    ///
+    /// # Errors
+    /// A message listing the node's targets.
+    pub fn morph_target_index(&self, node: u32, name: &str) -> Result<usize, String> {
+        let shared = self.0.borrow();
+        let names = shared.morphs.get(node as usize).map_or(&[][..], Vec::as_slice);
+        names
+            .iter()
+            .position(|n| n == name)
+            .ok_or_else(|| format!("no morph target named {name:?} on that node; targets: {}", names.join(", ")))
     }
 
     /// The app's side: the context to wake when a command arrives.
@@ -312,7 +343,7 @@ mod tests {
     fn names_resolve_against_the_published_model() {
         let c = Controls::default();
         assert!(c.clip_index("Walk").expect_err("no model yet").contains("no clips"));
-        c.publish(vec!["Survey".into(), "Walk".into()], vec![None, Some("Hips".into())]);
+        c.publish(vec!["Survey".into(), "Walk".into()], vec![None, Some("Hips".into())], vec![]);
         assert_eq!(c.clip_index("Walk"), Ok(1));
         assert!(c.clip_index("Run").expect_err("no such clip").contains("Survey, Walk"));
         assert_eq!(c.node_index("Hips"), Ok(1));
@@ -322,13 +353,13 @@ mod tests {
     #[test]
     fn commands_for_an_older_model_are_dropped() {
         let c = Controls::default();
-        c.publish(vec!["A".into()], vec![]);
+        c.publish(vec!["A".into()], vec![], vec![]);
         c.send(Command::Pause);
         c.send(Command::Seek(0.5));
         assert_eq!(c.take(), vec![Command::Pause, Command::Seek(0.5)]);
         assert!(c.take().is_empty());
         c.send(Command::Play);
-        c.publish(vec!["B".into()], vec![]);
+        c.publish(vec!["B".into()], vec![], vec![]);
         assert!(c.take().is_empty(), "a new model drops queued commands");
     }
 

@@ -56,11 +56,17 @@ pub enum Key {
     Camera,
     /// `"true"` while the ground grid is drawn, else `"false"`.
     Grid,
+    /// The overlays that are on, comma-separated: `skeleton`, `bounds`, `wireframe`, `normals`.
+    Overlays,
+    /// The selected joint's name (`""` when none).
+    Joint,
+    /// While a model downloads: `"RECEIVED/TOTAL"` bytes (TOTAL empty when unknown); else `""`.
+    Progress,
 }
 
 impl Key {
     /// Every key, in a fixed order.
-    pub const ALL: [Key; 24] = [
+    pub const ALL: [Key; 27] = [
         Key::Backend,
         Key::Status,
         Key::Model,
@@ -85,6 +91,9 @@ impl Key {
         Key::Loop,
         Key::Camera,
         Key::Grid,
+        Key::Overlays,
+        Key::Joint,
+        Key::Progress,
     ];
 
     /// The dataset property name (`dataset.<name>` in JS).
@@ -114,6 +123,9 @@ impl Key {
             Key::Loop => "loop",
             Key::Camera => "camera",
             Key::Grid => "grid",
+            Key::Overlays => "overlays",
+            Key::Joint => "joint",
+            Key::Progress => "progress",
         }
     }
 }
@@ -264,21 +276,21 @@ impl Dataset {
     }
 }
 
-/// Offers `text` to the user as a file named `name` (a browser download). Natively it does
-/// nothing and returns an error.
+/// Offers `bytes` to the user as a file named `name` of type `mime` (a browser download).
+/// Natively it does nothing and returns an error.
 ///
 /// # Errors
 /// When the page refuses (or natively).
-pub fn download(name: &str, text: &str) -> Result<(), String> {
+pub fn download(name: &str, bytes: &[u8], mime: &str) -> Result<(), String> {
     #[cfg(target_arch = "wasm32")]
     {
         use wasm_bindgen::JsCast;
         let fail = |e: wasm_bindgen::JsValue| format!("download {name}: {e:?}");
         let document = web_sys::window().and_then(|w| w.document()).ok_or("no document")?;
-        let parts = js_sys::Array::of1(&wasm_bindgen::JsValue::from_str(text));
+        let parts = js_sys::Array::of1(&js_sys::Uint8Array::from(bytes));
         let options = web_sys::BlobPropertyBag::new();
-        options.set_type("application/json");
-        let blob = web_sys::Blob::new_with_str_sequence_and_options(&parts, &options).map_err(fail)?;
+        options.set_type(mime);
+        let blob = web_sys::Blob::new_with_u8_array_sequence_and_options(&parts, &options).map_err(fail)?;
         let url = web_sys::Url::create_object_url_with_blob(&blob).map_err(fail)?;
         let anchor: web_sys::HtmlAnchorElement =
             document.create_element("a").map_err(fail)?.dyn_into().map_err(|_| "not an anchor".to_owned())?;
@@ -290,7 +302,7 @@ pub fn download(name: &str, text: &str) -> Result<(), String> {
     }
     #[cfg(not(target_arch = "wasm32"))]
     {
-        let _ = text;
+        let _ = (bytes, mime);
         Err(format!("saving {name} needs the browser"))
     }
 }

@@ -76,9 +76,14 @@ impl Viewer {
             }
             let runner = eframe::WebRunner::new();
             dom::register(&host);
-            let config = AppConfig { model_url: src.filter(|s| !s.is_empty()), controls, inbox, host: host.clone(), panels: true };
-            let started =
-                runner.start(canvas, options, Box::new(move |cc| Ok(Box::new(App::new(cc, config)?)))).await;
+            let config = AppConfig {
+                model_url: src.filter(|s| !s.is_empty()),
+                controls,
+                inbox,
+                host: host.clone(),
+                panels: true,
+            };
+            let started = runner.start(canvas, options, Box::new(move |cc| Ok(Box::new(App::new(cc, config)?)))).await;
             if let Err(error) = started {
                 let message = format!("Kloub could not start: {}", dom::js_error_text(&error));
                 host.show_fatal(&message);
@@ -147,6 +152,47 @@ impl Viewer {
     #[wasm_bindgen(js_name = setGrid)]
     pub fn set_grid(&self, on: bool) {
         self.controls.send_global(Command::SetGrid(on));
+    }
+
+    /// Turns the overlays on or off: the skeleton (names on hover, click to select), the
+    /// framing bounds, the deformed wireframe and the normals.
+    #[wasm_bindgen(js_name = setOverlays)]
+    pub fn set_overlays(&self, skeleton: bool, bounds: bool, wireframe: bool, normals: bool) {
+        let overlays = crate::overlay::Overlays { skeleton, bounds, wireframe, normals };
+        self.controls.send_global(Command::SetOverlays(overlays));
+    }
+
+    /// Selects the joint named `name` (its axes are drawn and its channels plotted); `null`
+    /// clears the selection.
+    #[wasm_bindgen(js_name = selectJoint)]
+    pub fn select_joint(&self, name: Option<String>) -> Result<(), JsValue> {
+        let node = match name.as_deref() {
+            None | Some("") => None,
+            Some(name) => Some(self.controls.node_index(name).map_err(|e| JsValue::from_str(&e))?),
+        };
+        self.controls.send(Command::SelectJoint(node));
+        Ok(())
+    }
+
+    /// Holds morph target `target` (its index, or its name from the mesh's `targetNames`) of
+    /// the mesh on node `node` at `weight`; `null` weight lets the clip drive it again.
+    #[wasm_bindgen(js_name = setMorphWeight)]
+    pub fn set_morph_weight(&self, node: String, target: JsValue, weight: Option<f32>) -> Result<(), JsValue> {
+        let node_index = self.controls.node_index(&node).map_err(|e| JsValue::from_str(&e))?;
+        let target = match (target.as_f64(), target.as_string()) {
+            (Some(i), _) if i >= 0.0 && i.fract() == 0.0 => i as usize,
+            (_, Some(name)) => {
+                self.controls.morph_target_index(node_index, &name).map_err(|e| JsValue::from_str(&e))?
+            }
+            _ => return Err(JsValue::from_str("setMorphWeight: target is an index or a name")),
+        };
+        self.controls.send(Command::SetMorph { node: node_index, target, weight });
+        Ok(())
+    }
+
+    /// Saves the view as `<model>.png` (a download).
+    pub fn screenshot(&self) {
+        self.controls.send_global(Command::Screenshot);
     }
 
     /// Shows the "drop to open" hint while files are dragged over the viewer.

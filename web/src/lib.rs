@@ -19,6 +19,7 @@ pub mod dom;
 mod entry;
 pub mod ik;
 pub mod load;
+pub mod overlay;
 pub mod render;
 pub mod ui;
 

@@ -41,19 +41,49 @@ pub struct LoadedModel {
     pub sidecar: Option<String>,
 }
 
-/// Deliveries waiting for the app, shared between the app and the async readers.
+/// How far a download has come: bytes received and, when the server said, the total.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Progress {
+    /// What is being read (a file name).
+    pub name: String,
+    /// Bytes received so far.
+    pub received: u64,
+    /// `Content-Length`, when known.
+    pub total: Option<u64>,
+}
+
+#[derive(Debug, Default)]
+struct InboxState {
+    deliveries: Vec<Delivery>,
+    progress: Option<Progress>,
+}
+
+/// Deliveries waiting for the app, shared between the app and the async readers, and the
+/// progress of the download under way.
 #[derive(Clone, Debug, Default)]
-pub struct Inbox(Rc<RefCell<Vec<Delivery>>>);
+pub struct Inbox(Rc<RefCell<InboxState>>);
 
 impl Inbox {
-    /// Queues a delivery.
+    /// Queues a delivery (and ends the progress report).
     pub fn push(&self, delivery: Delivery) {
-        self.0.borrow_mut().push(delivery);
+        let mut state = self.0.borrow_mut();
+        state.deliveries.push(delivery);
+        state.progress = None;
     }
 
     /// Takes every queued delivery, oldest first.
     pub fn take(&self) -> Vec<Delivery> {
-        std::mem::take(&mut *self.0.borrow_mut())
+        std::mem::take(&mut self.0.borrow_mut().deliveries)
+    }
+
+    /// Reports a download's progress.
+    pub fn set_progress(&self, progress: Progress) {
+        self.0.borrow_mut().progress = Some(progress);
+    }
+
+    /// The download under way, if any.
+    pub fn progress(&self) -> Option<Progress> {
+        self.0.borrow().progress.clone()
     }
 }
 
@@ -112,7 +142,9 @@ pub fn import_model(files: &[SourceFile], wanted: Option<&str>) -> Result<Loaded
     };
     let candidates: Vec<&SourceFile> = files.iter().filter(|f| !is_sidecar_name(&f.name)).collect();
     let main = match wanted {
-        Some(name) => candidates.iter().position(|f| f.name == name).ok_or_else(|| format!("{name}: not among the files"))?,
+        Some(name) => {
+            candidates.iter().position(|f| f.name == name).ok_or_else(|| format!("{name}: not among the files"))?
+        }
         None => match candidates.iter().position(|f| is_model_name(&f.name)) {
             Some(i) => i,
             None if candidates.len() == 1 => 0,
@@ -150,7 +182,7 @@ pub fn import_model(files: &[SourceFile], wanted: Option<&str>) -> Result<Loaded
 pub fn fetch_into(url: String, inbox: Inbox, ctx: egui::Context) {
     wasm_bindgen_futures::spawn_local(async move {
         let name = file_name_of_url(&url).to_owned();
-        let files = fetch_bytes(&url).await.map(|bytes| vec![SourceFile { name, bytes }]);
+        let files = fetch_bytes(&url, &name, &inbox, &ctx).await.map(|bytes| vec![SourceFile { name, bytes }]);
         inbox.push(Delivery { origin: url, files });
         ctx.request_repaint();
     });
@@ -163,8 +195,9 @@ pub fn fetch_into(url: String, inbox: Inbox, ctx: egui::Context) {
     ctx.request_repaint();
 }
 
+/// Fetches `url`, streaming the body so the app can show a progress bar.
 #[cfg(target_arch = "wasm32")]
-async fn fetch_bytes(url: &str) -> Result<Vec<u8>, String> {
+async fn fetch_bytes(url: &str, name: &str, inbox: &Inbox, ctx: &egui::Context) -> Result<Vec<u8>, String> {
     use wasm_bindgen::JsCast;
     use wasm_bindgen_futures::JsFuture;
 
@@ -177,10 +210,35 @@ async fn fetch_bytes(url: &str) -> Result<Vec<u8>, String> {
     if !response.ok() {
         return Err(format!("{url}: HTTP {} {}", response.status(), response.status_text()));
     }
-    let buffer = response.array_buffer().map_err(|e| format!("{url}: {}", crate::dom::js_error_text(&e)))?;
-    let buffer = JsFuture::from(buffer).await.map_err(|e| format!("{url}: {}", crate::dom::js_error_text(&e)))?;
-    Ok(js_sys::Uint8Array::new(&buffer).to_vec())
+    let fail = |e: wasm_bindgen::JsValue| format!("{url}: {}", crate::dom::js_error_text(&e));
+    let total = response.headers().get("content-length").ok().flatten().and_then(|v| v.trim().parse::<u64>().ok());
+    let Some(body) = response.body() else {
+        let buffer = JsFuture::from(response.array_buffer().map_err(fail)?).await.map_err(fail)?;
+        return Ok(js_sys::Uint8Array::new(&buffer).to_vec());
+    };
+    let reader: web_sys::ReadableStreamDefaultReader =
+        body.get_reader().dyn_into().map_err(|_| format!("{url}: the body has no reader"))?;
+    let mut bytes = Vec::with_capacity(total.map_or(0, |t| t.min(MAX_PREALLOCATE) as usize));
+    loop {
+        let chunk = JsFuture::from(reader.read()).await.map_err(fail)?;
+        let done = js_sys::Reflect::get(&chunk, &"done".into()).map_err(fail)?.as_bool().unwrap_or(true);
+        if done {
+            break;
+        }
+        let value = js_sys::Reflect::get(&chunk, &"value".into()).map_err(fail)?;
+        let array: js_sys::Uint8Array = value.dyn_into().map_err(|_| format!("{url}: a body chunk is not bytes"))?;
+        let start = bytes.len();
+        bytes.resize(start + array.length() as usize, 0);
+        array.copy_to(&mut bytes[start..]);
+        inbox.set_progress(Progress { name: name.to_owned(), received: bytes.len() as u64, total });
+        ctx.request_repaint();
+    }
+    Ok(bytes)
 }
+
+/// Most bytes reserved up front from a `Content-Length` (a larger body grows as it arrives).
+#[cfg(target_arch = "wasm32")]
+const MAX_PREALLOCATE: u64 = 256 << 20;
 
 /// Reads dropped files (asynchronously in the browser) and delivers them together.
 pub fn read_dropped_into(dropped: Vec<egui::DroppedFileHandle>, inbox: Inbox, ctx: egui::Context) {
@@ -282,7 +340,8 @@ mod tests {
 
     #[test]
     fn folder_paths_resolve_relative_to_the_model() {
-        let mut files = vec![shared("RiggedSimple/glTF/RiggedSimple.gltf"), shared("RiggedSimple/glTF/RiggedSimple0.bin")];
+        let mut files =
+            vec![shared("RiggedSimple/glTF/RiggedSimple.gltf"), shared("RiggedSimple/glTF/RiggedSimple0.bin")];
         files[0].name = "drop/glTF/RiggedSimple.gltf".into();
         files[1].name = "drop/glTF/RiggedSimple0.bin".into();
         // A same-named decoy elsewhere in the folder must not be picked.

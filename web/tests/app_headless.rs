@@ -642,3 +642,177 @@ fn two_ik_goals_are_solved_together() {
     h.step(0.016, Vec::new());
     assert!(h.get(Key::Ik).starts_with("arm_joint_R_3:"), "dataset.ik = {}", h.get(Key::Ik));
 }
+
+fn key(key: egui::Key) -> Vec<egui::Event> {
+    vec![egui::Event::Key { key, physical_key: None, pressed: true, repeat: false, modifiers: egui::Modifiers::NONE }]
+}
+
+#[test]
+fn overlays_shortcuts_joint_selection_and_screenshot() {
+    let fox = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/Fox.glb")).expect("web/assets/Fox.glb");
+    let mut h = Harness::new();
+    load_paused(&mut h, "Fox.glb", fox);
+    let viewport = (320, 40, SIZE[0], SIZE[1] - 40);
+    let plain = h.step(0.016, Vec::new());
+    assert_eq!(h.get(Key::Overlays), "");
+
+    // B: the skeleton over the model.
+    h.step_events(0.016, key(egui::Key::B));
+    let bones = h.step(0.016, Vec::new());
+    assert_eq!(h.get(Key::Overlays), "skeleton");
+    let changed = changed_pixels(&plain, &bones, viewport);
+    assert!(changed > 100, "the skeleton changed only {changed} pixels");
+    save(&bones, "overlay-skeleton.png");
+
+    // W: the wireframe adds many more lines.
+    h.step_events(0.016, key(egui::Key::W));
+    let wire = h.step(0.016, Vec::new());
+    assert_eq!(h.get(Key::Overlays), "skeleton,wireframe");
+    let more = changed_pixels(&bones, &wire, viewport);
+    assert!(more > 500, "the wireframe changed only {more} pixels");
+    save(&wire, "overlay-wireframe.png");
+
+    // Space plays and pauses; → steps one frame (1/30 s) and pauses.
+    h.step_events(0.016, key(egui::Key::Space));
+    h.step(0.016, Vec::new());
+    assert_eq!(h.get(Key::Playing), "true");
+    h.step_events(0.016, key(egui::Key::Space));
+    h.step(0.016, Vec::new());
+    assert_eq!(h.get(Key::Playing), "false");
+    let t0 = main_time(&h);
+    h.step_events(0.016, key(egui::Key::ArrowRight));
+    h.step(0.016, Vec::new());
+    let t1 = main_time(&h);
+    let expected = ((t0 * 30.0).round() + 1.0) / 30.0;
+    assert!((t1 - expected).abs() < 1e-4, "→ from {t0} went to {t1}, expected {expected}");
+    // ↓ plays the next clip.
+    h.step_events(0.016, key(egui::Key::ArrowDown));
+    h.step(0.016, Vec::new());
+    assert_eq!(h.get(Key::Clip), "Walk");
+
+    // A selected joint draws its axes and names itself.
+    let controls = h.app.controls().clone();
+    let neck = controls.node_index("b_Neck_04").expect("b_Neck_04");
+    controls.send(Command::Pause);
+    controls.send(Command::SetOverlays(kloub_web::overlay::Overlays::default()));
+    h.step(0.016, Vec::new());
+    let unselected = h.step(0.016, Vec::new());
+    controls.send(Command::SelectJoint(Some(neck)));
+    h.step(0.016, Vec::new());
+    let selected = h.step(0.016, Vec::new());
+    assert_eq!(h.get(Key::Joint), "b_Neck_04");
+    assert_eq!(h.get(Key::Overlays), "");
+    let axes = changed_pixels(&unselected, &selected, viewport);
+    assert!(axes > 20, "the joint's axes changed only {axes} pixels");
+
+    // The screenshot is a PNG of the viewport alone, with the fox in it.
+    controls.send_global(Command::Screenshot);
+    for _ in 0..5 {
+        h.step(0.016, Vec::new());
+    }
+    let png = h.app.last_screenshot().expect("a screenshot after a few frames");
+    let shot = image::load_from_memory_with_format(png, image::ImageFormat::Png).expect("a PNG").to_rgba8();
+    assert!(shot.width() > 200 && shot.height() > 200, "{}x{}", shot.width(), shot.height());
+    let background = *shot.get_pixel(2, 2);
+    let model_pixels = shot.pixels().filter(|p| p.0.iter().zip(background.0).any(|(a, b)| a.abs_diff(b) > 40)).count();
+    assert!(model_pixels > 1000, "the screenshot shows {model_pixels} non-background pixels");
+}
+
+#[test]
+fn a_bare_skeleton_is_framed_and_drawn() {
+    let gltf = br#"{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],
+        "nodes":[{"name":"hips","children":[1,2]},{"name":"spine","translation":[0,1,0],"children":[3]},
+                 {"name":"leg","translation":[0.3,-1,0]},{"name":"head","translation":[0,0.8,0]}]}"#;
+    let mut h = Harness::new();
+    let empty = h.step(0.016, Vec::new());
+    h.step(0.016, vec![dropped("bones.gltf", gltf.to_vec())]);
+    h.step(0.016, Vec::new());
+    assert_eq!(h.get(Key::Model), "bones.gltf", "{}", h.get(Key::Error));
+    let shown = h.step(0.016, Vec::new());
+    save(&shown, "bare-skeleton.png");
+    let viewport = (320, 40, SIZE[0], SIZE[1] - 40);
+    let drawn = changed_pixels(&empty, &shown, viewport);
+    assert!(drawn > 200, "the skeleton changed only {drawn} viewport pixels");
+    let model = h.app.model().expect("a model");
+    let (lo, hi) = model.bounds.expect("framed on its joints");
+    assert!((hi - lo).y > 1.7, "the bounds hold every joint: {lo:?} {hi:?}");
+}
+
+#[test]
+fn a_held_morph_weight_changes_the_face_until_released() {
+    let mut h = Harness::new();
+    load_paused(&mut h, "RobotExpressive.glb", shared_asset("threejs/RobotExpressive/RobotExpressive.glb"));
+    let controls = h.app.controls().clone();
+    let model = h.app.model().expect("a model");
+    let (node, _) = model
+        .asset
+        .nodes
+        .iter()
+        .enumerate()
+        .find(|(_, n)| !n.weights.is_empty())
+        .expect("RobotExpressive has a morphing head");
+    let node = u32::try_from(node).expect("node index");
+    let target = controls.morph_target_index(node, "Surprised").expect("a Surprised target");
+    let slot = model.asset.weight_offsets[node as usize] as usize + target;
+    let plain = h.step(0.016, Vec::new());
+    controls.send(Command::SetMorph { node, target, weight: Some(1.0) });
+    h.step(0.016, Vec::new());
+    let surprised = h.step(0.016, Vec::new());
+    let weight = h.app.model().map(|m| m.instance.pose().weights[slot]);
+    assert_eq!(weight, Some(1.0), "the held weight is in the pose");
+    save(&surprised, "morph-surprised.png");
+    let viewport = (320, 40, SIZE[0], SIZE[1] - 40);
+    let changed = changed_pixels(&plain, &surprised, viewport);
+    assert!(changed > 50, "holding Surprised at 1 changed only {changed} pixels");
+    controls.send(Command::SetMorph { node, target, weight: None });
+    h.step(0.016, Vec::new());
+    let released = h.step(0.016, Vec::new());
+    assert!(changed_pixels(&plain, &released, viewport) < 10, "releasing the weight restores the clip's face");
+    assert!(controls.morph_target_index(node, "Bored").is_err());
+}
+
+#[test]
+fn the_camera_moves_from_the_keyboard() {
+    let fox = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/Fox.glb")).expect("web/assets/Fox.glb");
+    let mut h = Harness::new();
+    load_paused(&mut h, "Fox.glb", fox);
+    h.step(0.016, Vec::new());
+    let camera =
+        |h: &Harness| -> Vec<f32> { h.get(Key::Camera).split(',').map(|v| v.parse().unwrap_or(f32::NAN)).collect() };
+    let before = camera(&h);
+    let shift = egui::Modifiers { shift: true, ..egui::Modifiers::NONE };
+    let event = egui::Event::Key {
+        key: egui::Key::ArrowLeft,
+        physical_key: None,
+        pressed: true,
+        repeat: false,
+        modifiers: shift,
+    };
+    h.step_events(0.016, vec![event]);
+    h.step(0.016, Vec::new());
+    let orbited = camera(&h);
+    assert!((orbited[0] - before[0] - 15f32.to_radians()).abs() < 1e-3, "Shift+← turns 15°: {before:?} -> {orbited:?}");
+    assert_eq!(h.get(Key::Time), "0.016", "Shift+← does not step the clock");
+    h.step_events(0.016, key(egui::Key::Minus));
+    h.step(0.016, Vec::new());
+    let zoomed = camera(&h);
+    assert!((zoomed[2] / orbited[2] - 1.25).abs() < 1e-3, "- backs off 1.25×: {orbited:?} -> {zoomed:?}");
+}
+
+#[test]
+fn several_models_dropped_together_are_listed_to_switch_between() {
+    let fox = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/Fox.glb")).expect("web/assets/Fox.glb");
+    let simple = shared_asset("khronos/RiggedSimple/glTF-Binary/RiggedSimple.glb");
+    let mut h = Harness::new();
+    h.step(0.016, vec![dropped("Fox.glb", fox), dropped("RiggedSimple.glb", simple)]);
+    h.step(0.016, Vec::new());
+    assert_eq!(h.get(Key::Model), "Fox.glb", "the first model shows: {}", h.get(Key::Error));
+    h.app.controls().send_global(Command::ShowModel(1));
+    h.step(0.016, Vec::new());
+    h.step(0.016, Vec::new());
+    assert_eq!(h.get(Key::Model), "RiggedSimple.glb");
+    assert_ne!(h.get(Key::Clips), r#"["Survey","Walk","Run"]"#, "the clip list follows the shown model");
+    h.app.controls().send_global(Command::ShowModel(0));
+    h.step(0.016, Vec::new());
+    assert_eq!(h.get(Key::Model), "Fox.glb");
+}

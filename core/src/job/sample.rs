@@ -208,6 +208,28 @@ impl SampleJob<'_> {
     }
 }
 
+/// One channel's value at `time` (clamped to its keys), exactly as [`SampleJob`] computes it:
+/// `channel.width` floats into `out` (a rotation as `[x, y, z, w]`, unit length). For a
+/// plot or a probe of one property; [`SampleJob`] is the per-frame path for whole clips.
+///
+/// # Errors
+/// `out` is not `channel.width` long, a non-finite `time`, or values shorter than the keys.
+pub fn sample_channel(channel: &Channel, time: f32, rotation: RotationLerp, out: &mut [f32]) -> Result<(), JobError> {
+    if !time.is_finite() {
+        return Err(not_finite(time));
+    }
+    check_eq("output width", channel.width as usize, out.len())?;
+    let at = locate(&channel.times, time, &mut 0);
+    match channel.target {
+        ChannelTarget::Rotation => {
+            let q = sample_rotation(channel, at, rotation)?.unwrap_or(Quat::IDENTITY);
+            out.copy_from_slice(&q.to_array());
+            Ok(())
+        }
+        _ => interpolate(channel, at, out),
+    }
+}
+
 /// Where a time falls among a channel's keys.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum At {
@@ -387,6 +409,40 @@ pub fn nlerp(a: Quat, b: Quat, u: f32) -> Quat {
     let v = va.lerp(vb, u);
     // Unit inputs on the same hemisphere never lerp through zero; keep `a` if they were not unit.
     Quat::from_vec4(v).try_normalize_quat().unwrap_or(a)
+}
+
+#[cfg(test)]
+mod sample_channel_tests {
+    use super::*;
+
+    #[test]
+    fn matches_the_job_and_rejects_bad_input() {
+        let channel = Channel {
+            node: 0,
+            target: ChannelTarget::Translation,
+            interpolation: Interpolation::Linear,
+            times: vec![0.0, 1.0],
+            values: vec![0.0, 0.0, 0.0, 2.0, 4.0, 6.0],
+            width: 3,
+        };
+        let mut out = [0.0; 3];
+        assert!(sample_channel(&channel, 0.25, RotationLerp::Slerp, &mut out).is_ok());
+        assert_eq!(out, [0.5, 1.0, 1.5]);
+        assert!(sample_channel(&channel, 7.0, RotationLerp::Slerp, &mut out).is_ok());
+        assert_eq!(out, [2.0, 4.0, 6.0], "clamped to the last key");
+        assert!(sample_channel(&channel, f32::NAN, RotationLerp::Slerp, &mut out).is_err());
+        assert!(sample_channel(&channel, 0.5, RotationLerp::Slerp, &mut [0.0; 2]).is_err());
+        let rotation = Channel {
+            target: ChannelTarget::Rotation,
+            values: vec![0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 0.0, 0.0],
+            width: 4,
+            ..channel
+        };
+        let mut q = [0.0; 4];
+        assert!(sample_channel(&rotation, 0.5, RotationLerp::Slerp, &mut q).is_ok());
+        let half = std::f32::consts::FRAC_1_SQRT_2;
+        assert!((q[1] - half).abs() < 1e-5 && (q[3] - half).abs() < 1e-5, "{q:?}");
+    }
 }
 
 #[cfg(test)]

@@ -52,6 +52,7 @@ pub mod morph;
 pub mod offscreen;
 pub mod palette;
 pub mod pipelines;
+pub mod readback;
 pub mod scene;
 pub mod texture;
 pub mod uniforms;

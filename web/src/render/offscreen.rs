@@ -4,6 +4,7 @@
 //! The device is created under WebGL2's downlevel limits (raised to the adapter's texture
 //! size and alignment) so native tests catch a renderer that would not fit WebGL2.
 
+use super::readback::readback_buffer;
 use image::RgbaImage;
 use kloub_core::Instance;
 use kloub_core::asset::Asset;
@@ -132,15 +133,6 @@ pub fn read_buffer_bytes(device: &wgpu::Device, queue: &wgpu::Queue, buffer: &wg
     encoder.copy_buffer_to_buffer(buffer, 0, &readback, 0, buffer.size());
     queue.submit([encoder.finish()]);
     map_read(device, &readback)
-}
-
-fn readback_buffer(device: &wgpu::Device, size: u64) -> wgpu::Buffer {
-    device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("kloub readback"),
-        size,
-        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-        mapped_at_creation: false,
-    })
 }
 
 /// Maps `buffer` for reading, waits, and copies it out.
