@@ -51,6 +51,10 @@ export interface KloubViewerState {
   overlays?: string;
   /** The selected joint's name. */
   joint?: string;
+  lighting?: 'studio' | 'outdoor' | 'flat' | 'rim';
+  background?: 'dark' | 'grey' | 'light';
+  /** While a model downloads: `RECEIVED/TOTAL` bytes. */
+  progress?: string;
   quality?: string;
   copies?: string;
   ik?: string;
@@ -122,6 +126,8 @@ export declare class KloubViewer extends HTMLElement {
   selectJoint(name: string | null): void;
   /** Holds morph target `target` (index or name) of the mesh on node `node` at `weight`; null lets the clip drive it. */
   setMorphWeight(node: string, target: number | string, weight: number | null): void;
+  setLighting(name: 'studio' | 'outdoor' | 'flat' | 'rim'): void;
+  setBackground(name: 'dark' | 'grey' | 'light'): void;
   /** Downloads the view as `<model>.png`. */
   screenshot(): void;
   /** Shows or hides the ground grid. */

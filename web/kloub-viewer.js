@@ -320,6 +320,10 @@ export class KloubViewer extends HTMLElement {
   selectJoint(name) { this.#require().selectJoint(name ?? null); }
   /** Holds morph target `target` (index or name) of the mesh on `node` at `weight`; null lets the clip drive it. */
   setMorphWeight(node, target, weight) { this.#require().setMorphWeight(node, target, weight ?? undefined); }
+  /** Lighting preset: studio, outdoor, flat or rim. */
+  setLighting(name) { this.#require().setLighting(name); }
+  /** Background: dark, grey or light. */
+  setBackground(name) { this.#require().setBackground(name); }
   /** Downloads the view as `<model>.png`. */
   screenshot() { this.#require().screenshot(); }
   setCopies(n) { this.#require().setCopies(n); }

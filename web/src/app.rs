@@ -1072,6 +1072,14 @@ impl App {
                 self.screenshot();
                 return Ok(());
             }
+            Command::SetLighting(lighting) => {
+                self.scene.set_look(crate::render::uniforms::Look { lighting, ..self.scene.look() });
+                return Ok(());
+            }
+            Command::SetBackground(background) => {
+                self.scene.set_look(crate::render::uniforms::Look { background, ..self.scene.look() });
+                return Ok(());
+            }
             Command::LoadUrl(url) => {
                 self.pending += 1;
                 self.status = Status::Loading;
@@ -1114,6 +1122,8 @@ impl App {
             | Command::SetGrid(_)
             | Command::SetOverlays(_)
             | Command::Screenshot
+            | Command::SetLighting(_)
+            | Command::SetBackground(_)
             | Command::ShowModel(_) => {}
             Command::SelectJoint(node) => model.selected_joint = node,
             Command::SetMorph { node, target, weight } => {
@@ -1246,6 +1256,7 @@ impl App {
         let height = rect.height();
         let delta = response.drag_delta();
         let shift = ui.input(|i| i.modifiers.shift);
+        let multi_touch = ui.input(|i| i.multi_touch()).is_some_and(|t| t.num_touches >= 2);
         let projection = Projection::new(&self.camera, rect);
         let origin = self.model.as_ref().map_or(Vec3::ZERO, |m| m.copy_offset(0));
         let markers: Vec<Option<(Pos2, f32)>> = self
@@ -1299,7 +1310,7 @@ impl App {
                     depth: ik.depth().min(available).max(1),
                 });
             }
-        } else if response.dragged_by(egui::PointerButton::Primary) && !shift {
+        } else if response.dragged_by(egui::PointerButton::Primary) && !shift && !multi_touch {
             self.camera.orbit_pixels(delta.x, delta.y, height);
         } else if response.dragged_by(egui::PointerButton::Secondary)
             || response.dragged_by(egui::PointerButton::Middle)
@@ -1343,6 +1354,13 @@ impl App {
             if zoom != 1.0 {
                 self.camera.zoom(1.0 / zoom);
             }
+        }
+        // Two fingers pan (their pinch zooms through zoom_delta above); one finger orbits as a drag.
+        if response.hovered()
+            && let Some(touch) = ui.input(|i| i.multi_touch())
+            && touch.num_touches >= 2
+        {
+            self.camera.pan_pixels(touch.translation_delta.x, touch.translation_delta.y, height);
         }
         if response.double_clicked() {
             self.frame_model();
@@ -1713,6 +1731,8 @@ impl App {
         d.set(Key::Heatmap, if self.scene.heatmap() { "true" } else { "false" });
         d.set(Key::Grid, if self.scene.grid() { "true" } else { "false" });
         d.set(Key::Overlays, &overlay_names(self.overlays));
+        d.set(Key::Lighting, self.scene.look().lighting.name());
+        d.set(Key::Background, self.scene.look().background.name());
         let progress = self.inbox.progress().filter(|_| self.status == Status::Loading);
         d.set(
             Key::Progress,
@@ -1801,6 +1821,7 @@ impl eframe::App for App {
             library: self.library.as_ref().map_or(&[], |l| l.models.as_slice()),
             grid: self.scene.grid(),
             overlays: self.overlays,
+            look: self.scene.look(),
             library_shown: self.library.as_ref().and_then(|l| l.shown),
         };
         let actions = if self.panels {

@@ -106,6 +106,10 @@ pub enum Command {
         /// Held weight, or `None` to animate.
         weight: Option<f32>,
     },
+    /// Lighting preset (kept across models).
+    SetLighting(crate::render::uniforms::Lighting),
+    /// Background (kept across models).
+    SetBackground(crate::render::uniforms::Background),
     /// Saves the view as a PNG (a download in the browser).
     Screenshot,
     /// Which overlays are drawn (kept across models).

@@ -62,11 +62,15 @@ pub enum Key {
     Joint,
     /// While a model downloads: `"RECEIVED/TOTAL"` bytes (TOTAL empty when unknown); else `""`.
     Progress,
+    /// The lighting preset: `"studio"` | `"outdoor"` | `"flat"` | `"rim"`.
+    Lighting,
+    /// The background: `"dark"` | `"grey"` | `"light"`.
+    Background,
 }
 
 impl Key {
     /// Every key, in a fixed order.
-    pub const ALL: [Key; 27] = [
+    pub const ALL: [Key; 29] = [
         Key::Backend,
         Key::Status,
         Key::Model,
@@ -94,6 +98,8 @@ impl Key {
         Key::Overlays,
         Key::Joint,
         Key::Progress,
+        Key::Lighting,
+        Key::Background,
     ];
 
     /// The dataset property name (`dataset.<name>` in JS).
@@ -126,6 +132,8 @@ impl Key {
             Key::Overlays => "overlays",
             Key::Joint => "joint",
             Key::Progress => "progress",
+            Key::Lighting => "lighting",
+            Key::Background => "background",
         }
     }
 }

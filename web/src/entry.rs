@@ -190,6 +190,22 @@ impl Viewer {
         Ok(())
     }
 
+    /// Lighting preset: `"studio"`, `"outdoor"`, `"flat"` or `"rim"`.
+    #[wasm_bindgen(js_name = setLighting)]
+    pub fn set_lighting(&self, name: &str) -> Result<(), JsValue> {
+        let lighting = crate::render::uniforms::Lighting::from_name(name).map_err(|e| JsValue::from_str(&e))?;
+        self.controls.send_global(Command::SetLighting(lighting));
+        Ok(())
+    }
+
+    /// Background: `"dark"`, `"grey"` or `"light"`.
+    #[wasm_bindgen(js_name = setBackground)]
+    pub fn set_background(&self, name: &str) -> Result<(), JsValue> {
+        let background = crate::render::uniforms::Background::from_name(name).map_err(|e| JsValue::from_str(&e))?;
+        self.controls.send_global(Command::SetBackground(background));
+        Ok(())
+    }
+
     /// Saves the view as `<model>.png` (a download).
     pub fn screenshot(&self) {
         self.controls.send_global(Command::Screenshot);

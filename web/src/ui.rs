@@ -48,6 +48,8 @@ pub struct PanelState<'a> {
     pub grid: bool,
     /// Which overlays are on.
     pub overlays: crate::overlay::Overlays,
+    /// Lighting and background.
+    pub look: crate::render::uniforms::Look,
 }
 
 /// Smoothed CPU milliseconds per frame of each stage (the GPU's own time is not included).
@@ -371,6 +373,29 @@ fn view_panel(ui: &mut egui::Ui, state: &PanelState<'_>, actions: &mut PanelActi
         if o != state.overlays {
             actions.commands.push(Command::SetOverlays(o));
         }
+        ui.horizontal(|ui| {
+            use crate::render::uniforms::{Background, Lighting};
+            let mut lighting = state.look.lighting;
+            egui::ComboBox::from_id_salt("lighting").selected_text(lighting.name()).show_ui(ui, |ui| {
+                for l in Lighting::ALL {
+                    ui.selectable_value(&mut lighting, l, l.name());
+                }
+            });
+            ui.label("light");
+            let mut background = state.look.background;
+            egui::ComboBox::from_id_salt("background").selected_text(background.name()).show_ui(ui, |ui| {
+                for b in Background::ALL {
+                    ui.selectable_value(&mut background, b, b.name());
+                }
+            });
+            ui.label("background");
+            if lighting != state.look.lighting {
+                actions.commands.push(Command::SetLighting(lighting));
+            }
+            if background != state.look.background {
+                actions.commands.push(Command::SetBackground(background));
+            }
+        });
     });
 }
 

@@ -816,3 +816,36 @@ fn several_models_dropped_together_are_listed_to_switch_between() {
     h.step(0.016, Vec::new());
     assert_eq!(h.get(Key::Model), "Fox.glb");
 }
+
+#[test]
+fn lighting_and_background_presets_change_the_view() {
+    use kloub_web::render::uniforms::{Background, Lighting};
+    for l in Lighting::ALL {
+        assert_eq!(Lighting::from_name(l.name()), Ok(l));
+    }
+    for b in Background::ALL {
+        assert_eq!(Background::from_name(b.name()), Ok(b));
+    }
+    assert!(Lighting::from_name("disco").is_err() && Background::from_name("plaid").is_err());
+    let fox = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/Fox.glb")).expect("web/assets/Fox.glb");
+    let mut h = Harness::new();
+    load_paused(&mut h, "Fox.glb", fox);
+    h.step(0.016, Vec::new());
+    let studio = h.step(0.016, Vec::new());
+    assert_eq!((h.get(Key::Lighting), h.get(Key::Background)), ("studio", "dark"));
+    let controls = h.app.controls().clone();
+    controls.send_global(Command::SetLighting(Lighting::Flat));
+    h.step(0.016, Vec::new());
+    let flat = h.step(0.016, Vec::new());
+    assert_eq!(h.get(Key::Lighting), "flat");
+    let viewport = (320, 40, SIZE[0], SIZE[1] - 40);
+    assert!(changed_pixels(&studio, &flat, viewport) > 300, "flat lighting looks the same as studio");
+    controls.send_global(Command::SetBackground(Background::Light));
+    h.step(0.016, Vec::new());
+    let light = h.step(0.016, Vec::new());
+    assert_eq!(h.get(Key::Background), "light");
+    // The corner of the view is background: near white now.
+    let corner = light.get_pixel(SIZE[0] - 5, 45).0;
+    assert!(corner[0] > 180 && corner[1] > 180, "the light background reads {corner:?}");
+    save(&light, "look-flat-light.png");
+}

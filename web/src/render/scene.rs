@@ -233,6 +233,8 @@ pub struct SceneRenderer {
     heatmap: Option<f32>,
     /// Draw the ground grid.
     grid: bool,
+    /// Lighting and background.
+    look: super::uniforms::Look,
 }
 
 impl SceneRenderer {
@@ -272,6 +274,7 @@ impl SceneRenderer {
             compute: ComputeKit::new(device),
             heatmap: None,
             grid: true,
+            look: super::uniforms::Look::default(),
         }
     }
 
@@ -432,6 +435,16 @@ impl SceneRenderer {
         self.grid
     }
 
+    /// Sets the lighting and background.
+    pub fn set_look(&mut self, look: super::uniforms::Look) {
+        self.look = look;
+    }
+
+    /// The lighting and background.
+    pub fn look(&self) -> super::uniforms::Look {
+        self.look
+    }
+
     /// Whether [`SkinningPath::Compute`] is available on this device.
     pub fn supports_compute(&self) -> bool {
         self.compute.is_some()
@@ -513,7 +526,7 @@ impl SceneRenderer {
         }
 
         let aspect = size[0] as f32 / size[1] as f32;
-        let frame = FrameUniform::new(camera.view_proj(aspect), camera.eye(), camera.target, &self.ground);
+        let frame = FrameUniform::new(camera.view_proj(aspect), camera.eye(), camera.target, &self.ground, self.look);
         queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&frame));
 
         let copies = instances.len();
@@ -571,7 +584,7 @@ impl SceneRenderer {
                     depth_slice: None,
                     resolve_target,
                     ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(FrameUniform::clear_color()),
+                        load: wgpu::LoadOp::Clear(FrameUniform::clear_color(self.look.background)),
                         store: if resolve_target.is_some() { wgpu::StoreOp::Discard } else { wgpu::StoreOp::Store },
                     },
                 })],

@@ -63,44 +63,143 @@ impl Default for Ground {
     }
 }
 
-/// Linear RGB of the background gradient and lights (one place for the look).
-const BACKGROUND_TOP: [f32; 4] = [0.05, 0.055, 0.065, 1.0];
-const BACKGROUND_BOTTOM: [f32; 4] = [0.012, 0.013, 0.016, 1.0];
-const SKY: [f32; 4] = [0.42, 0.44, 0.48, 1.0];
-const GROUND: [f32; 4] = [0.14, 0.13, 0.12, 1.0];
-const LIGHT: [f32; 4] = [1.0, 0.97, 0.92, 1.0];
-const LIGHT_INTENSITY: f32 = 0.85;
+/// How the scene is lit: a key light and a hemisphere (sky above, ground below).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Lighting {
+    /// A warm key light over the viewer's left shoulder and a soft grey hemisphere.
+    #[default]
+    Studio,
+    /// A bright sun from high up and a blue sky over brown ground.
+    Outdoor,
+    /// The hemisphere only, evenly bright: textures and vertex colours as authored.
+    Flat,
+    /// A key light from behind and to the side: silhouettes and rims.
+    Rim,
+}
+
+impl Lighting {
+    /// Every preset, in menu order.
+    pub const ALL: [Lighting; 4] = [Lighting::Studio, Lighting::Outdoor, Lighting::Flat, Lighting::Rim];
+
+    /// The page name: `studio`, `outdoor`, `flat`, `rim`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Lighting::Studio => "studio",
+            Lighting::Outdoor => "outdoor",
+            Lighting::Flat => "flat",
+            Lighting::Rim => "rim",
+        }
+    }
+
+    /// The preset named `name` (see [`Lighting::name`]).
+    ///
+    /// # Errors
+    /// A message naming the accepted values.
+    pub fn from_name(name: &str) -> Result<Self, String> {
+        Self::ALL.into_iter().find(|l| l.name() == name).ok_or_else(|| {
+            format!("lighting {name:?}: expected \"studio\", \"outdoor\", \"flat\" or \"rim\"")
+        })
+    }
+
+    /// Key light colour and intensity, sky and ground colours (linear RGB).
+    fn colors(self) -> ([f32; 4], f32, [f32; 4], [f32; 4]) {
+        match self {
+            Lighting::Studio => ([1.0, 0.97, 0.92, 1.0], 0.85, [0.42, 0.44, 0.48, 1.0], [0.14, 0.13, 0.12, 1.0]),
+            Lighting::Outdoor => ([1.0, 0.93, 0.8, 1.0], 1.1, [0.35, 0.45, 0.62, 1.0], [0.2, 0.16, 0.11, 1.0]),
+            Lighting::Flat => ([1.0, 1.0, 1.0, 1.0], 0.0, [0.95, 0.95, 0.95, 1.0], [0.8, 0.8, 0.8, 1.0]),
+            Lighting::Rim => ([0.85, 0.9, 1.0, 1.0], 1.3, [0.16, 0.17, 0.2, 1.0], [0.05, 0.05, 0.05, 1.0]),
+        }
+    }
+}
+
+/// The view's background gradient.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Background {
+    /// Near black, lighter at the top.
+    #[default]
+    Dark,
+    /// Mid grey.
+    Grey,
+    /// Near white.
+    Light,
+}
+
+impl Background {
+    /// Every choice, in menu order.
+    pub const ALL: [Background; 3] = [Background::Dark, Background::Grey, Background::Light];
+
+    /// The page name: `dark`, `grey`, `light`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Background::Dark => "dark",
+            Background::Grey => "grey",
+            Background::Light => "light",
+        }
+    }
+
+    /// The background named `name` (see [`Background::name`]).
+    ///
+    /// # Errors
+    /// A message naming the accepted values.
+    pub fn from_name(name: &str) -> Result<Self, String> {
+        Self::ALL
+            .into_iter()
+            .find(|b| b.name() == name)
+            .ok_or_else(|| format!("background {name:?}: expected \"dark\", \"grey\" or \"light\""))
+    }
+
+    /// Top and bottom colours (linear RGB).
+    fn colors(self) -> ([f32; 4], [f32; 4]) {
+        match self {
+            Background::Dark => ([0.05, 0.055, 0.065, 1.0], [0.012, 0.013, 0.016, 1.0]),
+            Background::Grey => ([0.2, 0.21, 0.22, 1.0], [0.09, 0.095, 0.1, 1.0]),
+            Background::Light => ([0.9, 0.9, 0.92, 1.0], [0.62, 0.63, 0.65, 1.0]),
+        }
+    }
+}
+
+/// Lighting and background together: the look of the view.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Look {
+    /// The lights.
+    pub lighting: Lighting,
+    /// The background.
+    pub background: Background,
+}
 
 impl FrameUniform {
     /// Frame constants for a camera (`view_proj`, `eye`) over `ground`. The key light comes
     /// from above, over the viewer's left shoulder, so the lit side always faces the camera.
-    pub fn new(view_proj: Mat4, eye: Vec3, target: Vec3, ground: &Ground) -> Self {
+    /// Lit and cleared as `look` says (the key light follows the camera, except the sun).
+    pub fn new(view_proj: Mat4, eye: Vec3, target: Vec3, ground: &Ground, look: Look) -> Self {
         let forward = (target - eye).normalize_or(Vec3::NEG_Z);
         let right = forward.cross(Vec3::Y).normalize_or(Vec3::X);
-        let light = (-forward * 0.6 - right * 0.45 + Vec3::Y * 0.9).normalize_or(Vec3::Y);
+        let light = match look.lighting {
+            Lighting::Outdoor => Vec3::new(0.35, 1.0, 0.25).normalize_or(Vec3::Y),
+            Lighting::Rim => (forward * 0.8 + right * 0.5 + Vec3::Y * 0.35).normalize_or(Vec3::Y),
+            Lighting::Studio | Lighting::Flat => (-forward * 0.6 - right * 0.45 + Vec3::Y * 0.9).normalize_or(Vec3::Y),
+        };
+        let (light_color, intensity, sky, ground_color) = look.lighting.colors();
+        let (top, bottom) = look.background.colors();
         let fade = ground.radius * 8.0;
         Self {
             view_proj: view_proj.to_cols_array_2d(),
             camera_pos: eye.extend(1.0).to_array(),
-            light_dir: light.extend(LIGHT_INTENSITY).to_array(),
-            light_color: LIGHT,
-            sky_color: SKY,
-            ground_color: GROUND,
+            light_dir: light.extend(intensity).to_array(),
+            light_color,
+            sky_color: sky,
+            ground_color,
             grid: [ground.height, ground.cell_size(), fade, fade],
             grid_center: [ground.center.x, ground.height, ground.center.z, 0.0],
-            background_top: BACKGROUND_TOP,
-            background_bottom: BACKGROUND_BOTTOM,
+            background_top: top,
+            background_bottom: bottom,
         }
     }
 
-    /// The clear colour matching the bottom of the background gradient.
-    pub fn clear_color() -> wgpu::Color {
-        wgpu::Color {
-            r: f64::from(BACKGROUND_BOTTOM[0]),
-            g: f64::from(BACKGROUND_BOTTOM[1]),
-            b: f64::from(BACKGROUND_BOTTOM[2]),
-            a: 1.0,
-        }
+    /// The clear colour matching the bottom of `background`'s gradient.
+    pub fn clear_color(background: Background) -> wgpu::Color {
+        let bottom = background.colors().1;
+        wgpu::Color { r: f64::from(bottom[0]), g: f64::from(bottom[1]), b: f64::from(bottom[2]), a: 1.0 }
     }
 }
 
