@@ -75,6 +75,7 @@ export class KloubViewer extends HTMLElement {
   #mounting = null;
   #pendingTime = null;
   #teardown = null;
+  #pickers = [];
 
   constructor() {
     super();
@@ -87,7 +88,22 @@ export class KloubViewer extends HTMLElement {
     const loading = document.createElement('div');
     loading.className = 'kloub-loading';
     loading.textContent = 'Loading…';
-    root.append(style, this.#canvas, loading);
+    // The panel's Open menu: file inputs the viewer clicks through the "kloub:open" request.
+    this.#pickers = ['files', 'folder'].map((kind) => {
+      const input = document.createElement('input');
+      input.type = 'file';
+      input.multiple = true;
+      input.hidden = true;
+      if (kind === 'folder') input.webkitdirectory = true;
+      else input.accept = '.glb,.gltf,.bin,.png,.jpg,.jpeg,.webp,.ktx2,.json';
+      input.addEventListener('change', () => {
+        const files = [...input.files].map((file) => ({ name: file.webkitRelativePath || file.name, file }));
+        input.value = '';
+        if (files.length > 0) this.#loadFiles(files).catch((e) => this.#fail(String(e)));
+      });
+      return input;
+    });
+    root.append(style, this.#canvas, loading, ...this.#pickers);
     // Drops are read here (folders too) and handed over whole; capture runs before the canvas's own handler.
     const drag = (on) => (event) => {
       if (!this.hasAttribute('controls') || !event.dataTransfer) return;
@@ -159,7 +175,11 @@ export class KloubViewer extends HTMLElement {
       const viewer = new Viewer();
       this.#viewer = viewer;
       this.#configure();
-      const emit = (type, detail) => queueMicrotask(() => this.#dispatch(type, detail));
+      const emit = (type, detail) => {
+        // A request of the viewer's own, answered while the user's click is still being handled.
+        if (type === 'kloub:open') this.#pickers[detail === 'folder' ? 1 : 0].click();
+        else queueMicrotask(() => this.#dispatch(type, detail));
+      };
       const backend = this.getAttribute('backend');
       viewer.setPanels(this.hasAttribute('controls'));
       await viewer.mount(this.#canvas, this, this.shadowRoot, emit, backend === 'auto' ? null : backend,

@@ -337,6 +337,43 @@ for (const backend of BACKENDS) {
     await waitForDataset(page, (t) => Math.abs(Number(document.querySelector('kloub-viewer').dataset.time) - (Math.round(t * 30) + 1) / 30) < 2e-3, '→ to step a frame', 30000, t0);
   });
 
+  test(`${backend}: Open → Files… in the panel opens a file chooser, and the chosen glTF files show`, async (ctx) => {
+    const { page } = ctx;
+    await openApp(ctx, backend);
+    const ds = await dataset(page);
+    const panelRight = Number(ds.viewport.split(',')[0]);
+    // The panel's header row: "Open" is the rightmost button, then its menu's first item below it.
+    await page.mouse.click(panelRight - 28, 18);
+    const chooser = page.waitForEvent('filechooser', { timeout: 10000 });
+    // The menu is laid out on the next frames (the default clip plays, so frames keep coming).
+    await waitFrames(page, 3);
+    await page.waitForTimeout(200);
+    await page.mouse.click(panelRight - 20, 46);
+    const picker = await chooser.catch(async (e) => {
+      savePng(await viewportShot(page, 'body'), `${backend}-open-menu.png`);
+      throw e;
+    });
+    assert(picker.isMultiple(), 'the file chooser takes several files');
+    await picker.setFiles(CESIUM_MAN);
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.model === 'CesiumMan.gltf' && document.querySelector('kloub-viewer').dataset.status === 'ready', 'CesiumMan from the file chooser');
+  });
+
+  test(`${backend}: Open → Folder… takes a whole folder; the .gltf's files resolve inside it`, async (ctx) => {
+    const { page } = ctx;
+    await openApp(ctx, backend);
+    const panelRight = Number((await dataset(page)).viewport.split(',')[0]);
+    await page.mouse.click(panelRight - 28, 18);
+    const chooser = page.waitForEvent('filechooser', { timeout: 10000 });
+    await waitFrames(page, 3);
+    await page.waitForTimeout(200);
+    await page.mouse.click(panelRight - 20, 70);
+    const picker = await chooser;
+    // The folder holds the .gltf, its .bin and its texture: relative URIs resolve against the model's folder.
+    await picker.setFiles(join(SHARED, 'khronos/CesiumMan/glTF'));
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.model === 'CesiumMan.gltf' && document.querySelector('kloub-viewer').dataset.status === 'ready', 'CesiumMan from its folder');
+    assert((await dataset(page)).error === '', `error: ${(await dataset(page)).error}`);
+  });
+
   test(`${backend}: load() resolves with the model's name, or rejects with the error and keeps the model`, async (ctx) => {
     const { page } = ctx;
     await recordEvents(page);

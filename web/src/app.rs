@@ -1837,6 +1837,10 @@ impl eframe::App for App {
             self.frame_model();
         }
         self.help |= actions.help;
+        if let Some(folder) = actions.open {
+            // The element opens its file input (the click is still the user's gesture).
+            self.dataset.host().emit("kloub:open", if folder { "folder" } else { "files" });
+        }
         if actions.screenshot {
             self.screenshot();
         }

@@ -91,6 +91,8 @@ pub struct PanelActions {
     pub screenshot: bool,
     /// Open the keyboard help.
     pub help: bool,
+    /// Ask the page for a file picker (`Some(true)`: a folder picker).
+    pub open: Option<bool>,
 }
 
 /// Clip lists longer than this get a filter box.
@@ -109,6 +111,16 @@ pub fn side_panel(
     ui.horizontal(|ui| {
         ui.heading("Kloub");
         ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
+            ui.menu_button("Open", |ui| {
+                if ui.button("Files…").on_hover_text("A .glb, or a .gltf with its .bin and textures").clicked() {
+                    actions.open = Some(false);
+                    ui.close();
+                }
+                if ui.button("Folder…").on_hover_text("Every model in a folder, with their files").clicked() {
+                    actions.open = Some(true);
+                    ui.close();
+                }
+            });
             ui.menu_button("Samples", |ui| {
                 for sample in Sample::ALL {
                     if ui.button(sample.label()).clicked() {

@@ -96,9 +96,10 @@ impl Lighting {
     /// # Errors
     /// A message naming the accepted values.
     pub fn from_name(name: &str) -> Result<Self, String> {
-        Self::ALL.into_iter().find(|l| l.name() == name).ok_or_else(|| {
-            format!("lighting {name:?}: expected \"studio\", \"outdoor\", \"flat\" or \"rim\"")
-        })
+        Self::ALL
+            .into_iter()
+            .find(|l| l.name() == name)
+            .ok_or_else(|| format!("lighting {name:?}: expected \"studio\", \"outdoor\", \"flat\" or \"rim\""))
     }
 
     /// Key light colour and intensity, sky and ground colours (linear RGB).
