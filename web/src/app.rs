@@ -1453,6 +1453,10 @@ impl App {
         }
         self.ik_markers.clear();
         if let Some(model) = self.model.as_ref() {
+            for ik in model.ik.iter().filter(|ik| ik.use_limits) {
+                let frames = ik.limit_frames(model.instance.worlds());
+                overlay::paint_limits(ui.painter(), &projection, origin, &frames, &ik.limits);
+            }
             for (i, ik) in model.ik.iter().enumerate() {
                 let selected = i == model.ik_selected && model.ik.len() > 1;
                 if let Some(at) = paint_ik(ui.painter(), &projection, ik, origin, self.ik_drag == Some(i) || selected) {

@@ -31,6 +31,9 @@ pub struct IkState {
     pub use_limits: bool,
     /// Stiffness of the rotating joints, root first.
     pub stiffness: Vec<f32>,
+    /// How much of the solve is applied over the animated pose (0: the animation, 1: the
+    /// solved pose).
+    pub weight: f32,
 }
 
 impl IkState {
@@ -60,6 +63,7 @@ impl IkState {
             chain,
             solver,
             iterations: 32,
+            weight: 1.0,
             target: target.unwrap_or(here),
             report: IkReport::default(),
             parents,
@@ -70,6 +74,28 @@ impl IkState {
     /// Takes the chain's limits and stiffness from the model's joint settings.
     pub fn use_settings(&mut self, settings: &JointSettings) {
         (self.limits, self.stiffness) = settings.chain(&self.chain);
+    }
+
+    /// Where each rotating joint's limit lies in the world, root first, for drawing: the
+    /// joint's position, the rotation of its rest frame (parent world × rest rotation), and
+    /// the bone to the next chain joint in that frame (the child's rest offset).
+    pub fn limit_frames(&self, worlds: &[Mat4]) -> Vec<(Vec3, glam::Quat, Vec3)> {
+        let joints = self.chain.joints();
+        joints[..self.chain.depth()]
+            .iter()
+            .zip(&joints[1..])
+            .map(|(&j, &child)| {
+                let parent = self.parents.get(j as usize).copied().flatten();
+                let parent_rotation = parent
+                    .and_then(|p| worlds.get(p as usize))
+                    .map_or(glam::Quat::IDENTITY, |w| w.to_scale_rotation_translation().1);
+                let rest = self.rest.get(j as usize).map_or(glam::Quat::IDENTITY, |t| t.rotation);
+                let bone = self.rest.get(child as usize).map_or(Vec3::ZERO, |t| t.translation);
+                let length = position(worlds, j).distance(position(worlds, child));
+                let bone = bone.try_normalize().map_or(Vec3::ZERO, |d| d * length);
+                (position(worlds, j), (parent_rotation * rest).normalize(), bone)
+            })
+            .collect()
     }
 
     /// The end effector.
@@ -90,7 +116,12 @@ impl IkState {
     pub fn apply(&mut self, asset: &Asset, instance: &mut Instance) -> Result<(), String> {
         let limits: &[JointLimit] = if self.use_limits { &self.limits } else { &[] };
         let goal = IkGoal { chain: &self.chain, target: self.target, stiffness: &self.stiffness, limits, pole: None };
-        let settings = IkSettings { solver: self.solver, iterations: self.iterations, tolerance: 1e-5, weight: 1.0 };
+        let settings = IkSettings {
+            solver: self.solver,
+            iterations: self.iterations,
+            tolerance: 1e-5,
+            weight: self.weight.clamp(0.0, 1.0),
+        };
         let mut reports = [IkReport::default()];
         IkJob {
             parents: &self.parents,

@@ -154,6 +154,71 @@ pub fn paint_axes(
     }
 }
 
+/// Draws each limited chain joint's allowed range: a hinge as an arc from its smallest to
+/// its largest angle in the plane it turns in, a ball joint as its swing cone. `frames` are
+/// [`crate::ik::IkState::limit_frames`] (joint, rest frame, bone), `limits` the same joints'.
+pub fn paint_limits(
+    painter: &egui::Painter,
+    projection: &Projection,
+    origin: Vec3,
+    frames: &[(Vec3, glam::Quat, Vec3)],
+    limits: &[kloub_core::job::ik::JointLimit],
+) -> usize {
+    use kloub_core::job::ik::JointLimit;
+    const STEPS: usize = 24;
+    let stroke = Stroke::new(1.5, Color32::from_rgba_unmultiplied(255, 214, 64, 170));
+    let screen = |p: Vec3| projection.to_screen(p + origin).map(|s| s.0);
+    let drawn = std::cell::Cell::new(0);
+    let polyline = |points: &[Vec3]| {
+        let pts: Vec<Pos2> = points.iter().filter_map(|&p| screen(p)).collect();
+        if pts.len() == points.len() {
+            painter.add(egui::Shape::line(pts, stroke));
+            drawn.set(drawn.get() + 1);
+        }
+    };
+    for (&(at, frame, bone), limit) in frames.iter().zip(limits) {
+        let radius = bone.length() * 0.4;
+        if radius <= 0.0 {
+            continue;
+        }
+        match *limit {
+            JointLimit::Free => {}
+            JointLimit::Hinge { axis, min, max } => {
+                let axis_w = (frame * axis).normalize_or_zero();
+                let reference = frame * bone.reject_from_normalized(axis.normalize_or_zero());
+                let Some(reference) = reference.try_normalize() else { continue };
+                let arc: Vec<Vec3> = (0..=STEPS)
+                    .map(|i| {
+                        let a = min + (max - min) * i as f32 / STEPS as f32;
+                        at + glam::Quat::from_axis_angle(axis_w, a) * reference * radius
+                    })
+                    .collect();
+                polyline(&arc);
+                for end in [arc.first(), arc.last()].into_iter().flatten() {
+                    polyline(&[at, *end]);
+                }
+            }
+            JointLimit::Ball { axis, swing, .. } => {
+                let axis_w = (frame * axis).normalize_or_zero();
+                let u = axis_w.any_orthonormal_vector();
+                let v = axis_w.cross(u);
+                let rim: Vec<Vec3> = (0..=STEPS)
+                    .map(|i| {
+                        let phi = std::f32::consts::TAU * i as f32 / STEPS as f32;
+                        let dir = axis_w * swing.cos() + (u * phi.cos() + v * phi.sin()) * swing.sin();
+                        at + dir * radius
+                    })
+                    .collect();
+                polyline(&rim);
+                for i in (0..STEPS).step_by(STEPS / 4) {
+                    polyline(&[at, rim[i]]);
+                }
+            }
+        }
+    }
+    drawn.get()
+}
+
 /// Draws the box `(min, max)` offset by `origin`.
 pub fn paint_box(painter: &egui::Painter, projection: &Projection, (min, max): (Vec3, Vec3), origin: Vec3) {
     let corner = |i: usize| {
@@ -259,5 +324,26 @@ mod tests {
         let items = [(Pos2::new(0.0, 0.0), 'a'), (Pos2::new(5.0, 0.0), 'b'), (Pos2::new(100.0, 0.0), 'c')];
         assert_eq!(nearest_within(Pos2::new(4.0, 0.0), items.into_iter()), Some('b'));
         assert_eq!(nearest_within(Pos2::new(60.0, 0.0), items.into_iter()), None);
+    }
+
+    #[test]
+    fn limits_draw_an_arc_per_hinge_and_a_cone_per_ball() {
+        use kloub_core::job::ik::JointLimit;
+        let camera = Camera { target: Vec3::ZERO, distance: 5.0, ..Camera::default() };
+        let rect = Rect::from_min_size(Pos2::ZERO, egui::vec2(400.0, 300.0));
+        let projection = Projection::new(&camera, rect);
+        let frames = [(Vec3::ZERO, glam::Quat::IDENTITY, Vec3::Y), (Vec3::Y, glam::Quat::IDENTITY, Vec3::Y)];
+        let hinge = JointLimit::Hinge { axis: Vec3::X, min: 0.0, max: 2.0 };
+        let ball = JointLimit::Ball { axis: Vec3::Y, swing: 0.8, twist_min: -0.5, twist_max: 0.5 };
+        let ctx = egui::Context::default();
+        let mut counts = Vec::new();
+        let mut output = ctx.run_ui(egui::RawInput::default(), |ui| {
+            let painter = ui.painter();
+            counts.push(paint_limits(painter, &projection, Vec3::ZERO, &frames, &[hinge, ball]));
+            counts.push(paint_limits(painter, &projection, Vec3::ZERO, &frames, &[JointLimit::Free, JointLimit::Free]));
+        });
+        output.textures_delta.clear();
+        // Hinge: the arc and its two end spokes; ball: the rim and four spokes.
+        assert_eq!(counts, [3 + 5, 0]);
     }
 }

@@ -6,6 +6,7 @@
 //! directly, reporting that they changed.
 
 use egui::{Color32, Sense, Stroke, pos2, vec2};
+use glam::Vec3;
 use kloub_core::animator::{Crossfade, Easing, Outgoing};
 use kloub_core::asset::NodeIndex;
 use kloub_core::clip::ChannelTarget;
@@ -798,6 +799,10 @@ fn ik_panel(ui: &mut egui::Ui, model: &mut Model, actions: &mut PanelActions) {
         "Inferred from the joint names: elbows and knees are hinges, shoulders and hips ball joints.\nThis chain, root first: {}",
         kinds.join(", ")
     ));
+    ui.add(egui::Slider::new(&mut ik.weight, 0.0..=1.0).text("weight"))
+        .on_hover_text("How much of the solve is applied over the animated pose");
+    chain_editor(ui, model, selected);
+    let ik = &mut model.ik[selected];
     let reached = ik.report.error <= 1e-3;
     ui.label(format!(
         "error {:.5} after {} iteration{}{}",
@@ -820,6 +825,100 @@ fn ik_panel(ui: &mut egui::Ui, model: &mut Model, actions: &mut PanelActions) {
             actions.save_sidecar = true;
         }
     });
+}
+
+/// The selected goal's chain, root first: each rotating joint's stiffness and limit (kind,
+/// axis, angles in degrees), edited in the model's joint settings (saved by "Save limits").
+fn chain_editor(ui: &mut egui::Ui, model: &mut Model, goal: usize) {
+    let Some(ik) = model.ik.get(goal) else { return };
+    let joints: Vec<NodeIndex> = ik.chain.joints()[..ik.depth()].to_vec();
+    let bones: Vec<Vec3> = ik.chain.joints()[1..]
+        .iter()
+        .map(|&c| model.asset.nodes.get(c as usize).map_or(Vec3::Y, |n| n.rest.translation))
+        .collect();
+    let mut changed = false;
+    egui::CollapsingHeader::new("Chain joints: limits and stiffness").id_salt(("chain editor", goal)).show(ui, |ui| {
+        for (i, &joint) in joints.iter().enumerate() {
+            let j = joint as usize;
+            let name = model.node_name(joint);
+            let settings = &mut model.joint_settings;
+            let (Some(limit), Some(stiffness)) = (settings.limits.get_mut(j), settings.stiffness.get_mut(j)) else {
+                continue;
+            };
+            ui.separator();
+            ui.strong(name);
+            changed |= ui
+                .add(egui::Slider::new(stiffness, 0.0..=1.0).text("stiffness η"))
+                .on_hover_text("1 turns fully each sweep, 0 never moves")
+                .changed();
+            let kind = match limit {
+                JointLimit::Free => 0,
+                JointLimit::Hinge { .. } => 1,
+                JointLimit::Ball { .. } => 2,
+            };
+            let mut new_kind = kind;
+            ui.horizontal(|ui| {
+                for (k, label) in ["free", "hinge", "ball"].into_iter().enumerate() {
+                    ui.radio_value(&mut new_kind, k, label);
+                }
+            });
+            if new_kind != kind {
+                let bone = bones.get(i).copied().and_then(Vec3::try_normalize).unwrap_or(Vec3::Y);
+                *limit = match new_kind {
+                    1 => JointLimit::Hinge { axis: bone.any_orthonormal_vector(), min: 0.0, max: 150f32.to_radians() },
+                    2 => JointLimit::Ball {
+                        axis: bone,
+                        swing: 60f32.to_radians(),
+                        twist_min: (-45f32).to_radians(),
+                        twist_max: 45f32.to_radians(),
+                    },
+                    _ => JointLimit::Free,
+                };
+                changed = true;
+            }
+            let degrees = |ui: &mut egui::Ui, value: &mut f32, range: std::ops::RangeInclusive<f32>, text: &str| {
+                let mut d = value.to_degrees();
+                let moved = ui.add(egui::Slider::new(&mut d, range).suffix("°").text(text)).changed();
+                if moved {
+                    *value = d.to_radians();
+                }
+                moved
+            };
+            match limit {
+                JointLimit::Free => {}
+                JointLimit::Hinge { axis, min, max } => {
+                    ui.horizontal(|ui| {
+                        ui.label("axis");
+                        for (label, a) in [("x", Vec3::X), ("y", Vec3::Y), ("z", Vec3::Z)] {
+                            if ui.selectable_label(axis.abs_diff_eq(a, 1e-4), label).clicked() {
+                                *axis = a;
+                                changed = true;
+                            }
+                        }
+                        ui.weak(format!("({:.2}, {:.2}, {:.2})", axis.x, axis.y, axis.z));
+                    });
+                    changed |= degrees(ui, min, -180.0..=180.0, "min");
+                    changed |= degrees(ui, max, -180.0..=180.0, "max");
+                    if *min > *max {
+                        std::mem::swap(min, max);
+                    }
+                }
+                JointLimit::Ball { swing, twist_min, twist_max, .. } => {
+                    changed |= degrees(ui, swing, 0.0..=180.0, "swing cone");
+                    changed |= degrees(ui, twist_min, -180.0..=180.0, "twist min");
+                    changed |= degrees(ui, twist_max, -180.0..=180.0, "twist max");
+                    if *twist_min > *twist_max {
+                        std::mem::swap(twist_min, twist_max);
+                    }
+                }
+            }
+        }
+    });
+    if changed {
+        for ik in &mut model.ik {
+            ik.use_settings(&model.joint_settings);
+        }
+    }
 }
 
 fn solver_label(solver: IkSolver) -> &'static str {
