@@ -55,6 +55,7 @@ export interface KloubViewerState {
   background?: 'dark' | 'grey' | 'light';
   /** While a model downloads: `RECEIVED/TOTAL` bytes. */
   progress?: string;
+  ragdoll?: '' | 'simulating' | 'resting' | 'blending';
   quality?: string;
   copies?: string;
   ik?: string;
@@ -121,7 +122,13 @@ export declare class KloubViewer extends HTMLElement {
   /** Colours vertices by their distance from linear blend skinning's result. */
   setHeatmap(on: boolean): void;
   /** Overlays: the skeleton (names on hover), the framing bounds, the deformed wireframe, the normals. */
-  setOverlays(overlays: { skeleton?: boolean; bounds?: boolean; wireframe?: boolean; normals?: boolean }): void;
+  setOverlays(overlays: { skeleton?: boolean; bounds?: boolean; wireframe?: boolean; normals?: boolean; bodies?: boolean }): void;
+  /** Drops the character as a ragdoll from the pose on screen (data-ragdoll: simulating, then resting). */
+  startRagdoll(): void;
+  /** Ends the ragdoll: at once, or blending back to the animation over `seconds`. */
+  stopRagdoll(seconds?: number): void;
+  /** Gravity in m/s² for a person-sized body (scaled to the model) and velocity damping per second. */
+  setRagdollOptions(options: { gravity?: number; damping?: number }): void;
   /** Selects a joint by name: its axes are drawn and its channels plotted in the panel; null clears. */
   selectJoint(name: string | null): void;
   /** Holds morph target `target` (index or name) of the mesh on node `node` at `weight`; null lets the clip drive it. */

@@ -332,10 +332,16 @@ export class KloubViewer extends HTMLElement {
   setSkinningPath(path) { this.#require().setSkinningPath(path); }
   setHeatmap(on) { this.#require().setHeatmap(Boolean(on)); }
   setGrid(on) { this.#require().setGrid(Boolean(on)); }
-  /** Overlays: `{ skeleton, bounds, wireframe, normals }` (missing keys: off). */
-  setOverlays({ skeleton = false, bounds = false, wireframe = false, normals = false } = {}) {
-    this.#require().setOverlays(Boolean(skeleton), Boolean(bounds), Boolean(wireframe), Boolean(normals));
+  /** Overlays: `{ skeleton, bounds, wireframe, normals, bodies }` (missing keys: off). */
+  setOverlays({ skeleton = false, bounds = false, wireframe = false, normals = false, bodies = false } = {}) {
+    this.#require().setOverlays(Boolean(skeleton), Boolean(bounds), Boolean(wireframe), Boolean(normals), Boolean(bodies));
   }
+  /** Drops the character as a ragdoll from the pose on screen. */
+  startRagdoll() { this.#require().startRagdoll(); }
+  /** Ends the ragdoll: at once, or blending back to the animation over `seconds`. */
+  stopRagdoll(seconds) { this.#require().stopRagdoll(seconds ?? undefined); }
+  /** Ragdoll gravity (m/s² for a person-sized body) and damping. */
+  setRagdollOptions({ gravity = 9.81, damping = 0.5 } = {}) { this.#require().setRagdollOptions(gravity, damping); }
   /** Selects a joint by name (axes drawn, channels plotted in the panel); null clears. */
   selectJoint(name) { this.#require().selectJoint(name ?? null); }
   /** Holds morph target `target` (index or name) of the mesh on `node` at `weight`; null lets the clip drive it. */

@@ -30,6 +30,7 @@ pub mod job;
 pub mod math;
 pub mod player;
 pub mod pose;
+pub mod ragdoll;
 pub mod rig;
 #[cfg(test)]
 mod testutil;

@@ -47,6 +47,27 @@ pub enum Command {
     Inspect(InspectArgs),
     /// Bring an end effector to a target by inverse kinematics and print the chain as JSON.
     Ik(IkArgs),
+    /// Drop a posed file as a ragdoll and print its joints' world positions every 1/60 s as JSON.
+    Ragdoll(RagdollArgs),
+}
+
+/// `kloub ragdoll` arguments.
+#[derive(Debug, clap::Args)]
+pub struct RagdollArgs {
+    /// The glTF/GLB file.
+    pub file: std::path::PathBuf,
+    /// Pose with this clip (name or index) first; the rest pose without.
+    #[arg(long)]
+    pub clip: Option<String>,
+    /// Time in the clip, seconds.
+    #[arg(long, default_value_t = 0.0)]
+    pub time: f32,
+    /// Seconds to simulate (60 frames each).
+    #[arg(long)]
+    pub seconds: f32,
+    /// Print JSON (the only format; accepted for symmetry with the other commands).
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// `kloub ik` arguments.
@@ -276,6 +297,21 @@ where
         Command::Pose(args) => run_pose(&args),
         Command::Inspect(args) => run_inspect(&args),
         Command::Ik(args) => run_ik(&args),
+        Command::Ragdoll(args) => run_ragdoll(&args),
+    }
+}
+
+fn run_ragdoll(args: &RagdollArgs) -> ExitCode {
+    let file = args.file.display().to_string();
+    match crate::ragdoll::ragdoll_file(&args.file, args.clip.as_deref(), args.time, args.seconds) {
+        Ok(doc) => write_stdout(&file, |out| {
+            serde_json::to_writer(&mut *out, &doc).map_err(std::io::Error::from)?;
+            writeln!(out)
+        }),
+        Err(e) => {
+            eprintln!("kloub: {file}: {e}");
+            ExitCode::FAILURE
+        }
     }
 }
 

@@ -9,4 +9,5 @@ pub mod inspect;
 pub mod logger;
 pub mod paths;
 pub mod pose;
+pub mod ragdoll;
 pub mod serve;

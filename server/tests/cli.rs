@@ -474,3 +474,38 @@ fn ik_reaches_a_target_with_every_solver() {
         .expect("runs");
     assert_eq!(out.status.code(), Some(2), "a non-finite target is a usage error");
 }
+
+#[test]
+fn ragdoll_prints_every_frame_falls_and_repeats_itself() {
+    let file = fox();
+    let path = file.to_str().expect("a UTF-8 path");
+    let args = ["ragdoll", path, "--clip", "Walk", "--time", "0.25", "--seconds", "2", "--json"];
+    let out = kloub_ok(&args);
+    assert_eq!(out, kloub_ok(&args), "the same input gives the same output");
+    let doc: serde_json::Value = serde_json::from_slice(&out).expect("JSON");
+    assert_eq!(doc["asset"], "Fox.glb");
+    assert_eq!(doc["clip"]["name"], "Walk");
+    assert_eq!(doc["hz"], 60.0);
+    let joints = doc["joints"].as_array().expect("joints").len();
+    assert_eq!(joints, 24);
+    let frames = doc["frames"].as_array().expect("frames");
+    assert_eq!(frames.len(), 121, "the start and 120 steps");
+    let ys = |f: &serde_json::Value| -> Vec<f64> {
+        let p = f["positions"].as_array().expect("positions");
+        assert_eq!(p.len(), joints * 3);
+        p.iter().map(|v| v.as_f64().expect("a finite number")).skip(1).step_by(3).collect()
+    };
+    let top = |f| ys(f).into_iter().fold(f64::NEG_INFINITY, f64::max);
+    let (first, last) = (top(&frames[0]), top(&frames[120]));
+    assert!(last < first - 10.0, "the fox fell: highest joint {first} -> {last}");
+    let ground = doc["ground"].as_f64().expect("ground");
+    assert!(ys(&frames[120]).iter().all(|&y| y > ground - 2.0), "no joint under the ground {ground}");
+
+    let bad = kloub().args(["ragdoll", path, "--seconds=-1"]).output().expect("run");
+    assert_eq!(bad.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("--seconds -1"), "{}", String::from_utf8_lossy(&bad.stderr));
+    let cube = shared_assets().join("khronos/BoxAnimated/glTF-Binary/BoxAnimated.glb");
+    let none = kloub().args(["ragdoll", cube.to_str().expect("path"), "--seconds", "1"]).output().expect("run");
+    assert_eq!(none.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&none.stderr).contains("no skin"), "{}", String::from_utf8_lossy(&none.stderr));
+}

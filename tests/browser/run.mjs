@@ -131,7 +131,8 @@ for (const backend of BACKENDS) {
     await control(page, 'playClip', 'Run');
     await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.clip === 'Run' && document.querySelector('kloub-viewer').dataset.crossfade !== '', 'the crossfade to start');
     const mid = Number((await dataset(page)).crossfade);
-    assert(mid >= 0 && mid < 1, `crossfade weight ${mid}`);
+    // A slow frame (a loaded machine) may land on the last frame of the fade, weight 1.
+    assert(mid >= 0 && mid <= 1, `crossfade weight ${mid}`);
     await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.crossfade === '', 'the crossfade to finish');
     const faded = await still(page, null, 0);
     const cut = await still(page, 'Run', 0);
@@ -388,6 +389,27 @@ for (const backend of BACKENDS) {
     assert(/missing\.glb/.test(message) && /404/.test(message), `load(url) of a missing file: ${message}`);
     const ds = await dataset(page);
     assert(ds.model === 'RiggedSimple.glb', `the model after the failed load: ${ds.model}`);
+  });
+
+  test(`${backend}: the ragdoll falls, settles and hands back to the animation`, async (ctx) => {
+    const { page } = ctx;
+    await openApp(ctx, backend);
+    await control(page, 'pause');
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.playing === 'false', 'a pause');
+    await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
+    const standing = await viewportShot(page);
+    await control(page, 'setOverlays', { bodies: true });
+    await control(page, 'startRagdoll');
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.ragdoll === 'simulating', 'the ragdoll to start');
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.ragdoll === 'resting', 'the body to settle', 90000);
+    await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
+    const fallen = await viewportShot(page);
+    savePng(standing, `${backend}-ragdoll-standing.png`);
+    savePng(fallen, `${backend}-ragdoll-fallen.png`);
+    const changed = diffFraction(standing, fallen);
+    assert(changed > 0.01, `the fall changed only ${(changed * 100).toFixed(2)}% of the viewport`);
+    await control(page, 'stopRagdoll', 0.3);
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.ragdoll === '', 'the hand-back to the animation', 30000);
   });
 
   test(`${backend}: the URL hash reproduces the exact view`, async (ctx) => {

@@ -135,6 +135,12 @@ pub struct Model {
     pub selected_joint: Option<NodeIndex>,
     /// Morph weights set by the panel's sliders, by pose weight slot (`None`: animated).
     pub morph_overrides: Vec<Option<f32>>,
+    /// The ragdoll, while the character is one.
+    pub ragdoll: Option<crate::ragdoll::RagdollState>,
+    /// Gravity and damping for the ragdoll (the panel's sliders).
+    pub ragdoll_options: kloub_core::ragdoll::RagdollOptions,
+    /// Last frame's worlds of the main character (a ragdoll inherits their velocity).
+    previous: crate::ragdoll::PreviousWorlds,
 }
 
 /// Most copies of the character the grid shows.
@@ -204,6 +210,9 @@ impl Model {
             ik_selected: 0,
             selected_joint: None,
             morph_overrides: vec![None; asset_weight_slots],
+            ragdoll: None,
+            ragdoll_options: crate::ragdoll::default_options(),
+            previous: crate::ragdoll::PreviousWorlds::default(),
         })
     }
 
@@ -250,6 +259,9 @@ impl Model {
     /// # Errors
     /// The job error (not expected for an asset the importer accepted).
     pub fn evaluate(&mut self) -> Result<(), String> {
+        // Kept (without reallocating) so a ragdoll can start with the animation's velocities.
+        self.previous.worlds.clear();
+        self.previous.worlds.extend_from_slice(self.instance.worlds());
         self.animator.evaluate(&self.asset, &mut self.instance).map_err(|e| e.to_string())?;
         for (animator, instance) in &mut self.copies {
             animator.evaluate(&self.asset, instance).map_err(|e| e.to_string())?;
@@ -261,8 +273,14 @@ impl Model {
             }
             candy.update_quality(self.instance.pose());
         }
-        for ik in &mut self.ik {
-            ik.apply(&self.asset, &mut self.instance)?;
+        if let Some(ragdoll) = &self.ragdoll {
+            // The bodies own the skeleton (blended over the animation while handing back).
+            ragdoll.ragdoll.write_pose(self.instance.pose_mut(), ragdoll.weight());
+            self.instance.update(&self.asset).map_err(|e| e.to_string())?;
+        } else {
+            for ik in &mut self.ik {
+                ik.apply(&self.asset, &mut self.instance)?;
+            }
         }
         // The morph sliders win over the clip (the main character only: copies keep the clip's).
         if self.morph_overrides.iter().any(Option::is_some) {
@@ -521,6 +539,41 @@ impl Model {
         events
     }
 
+    /// Turns the character into a ragdoll from the pose on screen, moving as the animation
+    /// moved in the last frame.
+    ///
+    /// # Errors
+    /// A model without a skinned skeleton.
+    pub fn start_ragdoll(&mut self) -> Result<(), String> {
+        let previous = (self.previous.worlds.len() == self.asset.nodes.len() && self.previous.dt > 0.0)
+            .then_some((self.previous.worlds.as_slice(), self.previous.dt));
+        let ragdoll = kloub_core::ragdoll::Ragdoll::new(
+            &self.asset,
+            &mut self.instance,
+            &self.joint_settings,
+            previous,
+            self.ragdoll_options,
+        )
+        .map_err(|e| format!("{}: {e}", self.name))?;
+        self.ragdoll = Some(crate::ragdoll::RagdollState { ragdoll, blend_back: None });
+        Ok(())
+    }
+
+    /// Advances the ragdoll by `dt` seconds of wall time (ending it once handed back).
+    pub fn advance_ragdoll(&mut self, dt: f32) {
+        self.previous.dt = dt;
+        if let Some(ragdoll) = &mut self.ragdoll
+            && !ragdoll.advance(dt)
+        {
+            self.ragdoll = None;
+        }
+    }
+
+    /// Whether the ragdoll still moves (the view needs frames).
+    pub fn ragdoll_moving(&self) -> bool {
+        self.ragdoll.as_ref().is_some_and(|r| r.blend_back.is_some() || !r.ragdoll.is_resting())
+    }
+
     /// Whether any node draws a mesh (else the viewport shows the skeleton).
     pub fn has_meshes(&self) -> bool {
         self.asset.nodes.iter().any(|n| n.mesh.is_some())
@@ -695,6 +748,9 @@ pub struct App {
     ik_markers: Vec<Pos2>,
 }
 
+/// Speed a click gives a ragdoll body, in skeleton sizes per second.
+const RAGDOLL_PUSH: f32 = 2.0;
+
 /// Degrees one Shift+arrow press orbits the camera.
 const ORBIT_STEP: f32 = 15.0;
 /// Distance factor of one `-` press (`+` divides by it).
@@ -725,7 +781,13 @@ const SHORTCUTS: &[(&str, &str)] = &[
 
 /// `data-overlays`: the overlays that are on, comma-separated.
 fn overlay_names(o: Overlays) -> String {
-    let names = [(o.skeleton, "skeleton"), (o.bounds, "bounds"), (o.wireframe, "wireframe"), (o.normals, "normals")];
+    let names = [
+        (o.skeleton, "skeleton"),
+        (o.bounds, "bounds"),
+        (o.wireframe, "wireframe"),
+        (o.normals, "normals"),
+        (o.bodies, "bodies"),
+    ];
     names.iter().filter(|(on, _)| *on).map(|(_, n)| *n).collect::<Vec<_>>().join(",")
 }
 
@@ -1126,6 +1188,21 @@ impl App {
             | Command::SetBackground(_)
             | Command::ShowModel(_) => {}
             Command::SelectJoint(node) => model.selected_joint = node,
+            Command::StartRagdoll => model.start_ragdoll()?,
+            Command::StopRagdoll => model.ragdoll = None,
+            Command::RagdollToAnimation(seconds) => {
+                if let Some(ragdoll) = &mut model.ragdoll {
+                    ragdoll.blend_back = Some((0.0, seconds.max(0.0)));
+                }
+            }
+            Command::SetRagdollOptions { gravity, damping } => {
+                model.ragdoll_options.gravity = gravity;
+                model.ragdoll_options.damping = damping;
+                let options = model.ragdoll_options;
+                if let Some(ragdoll) = &mut model.ragdoll {
+                    ragdoll.ragdoll.set_options(options);
+                }
+            }
             Command::SetMorph { node, target, weight } => {
                 let n = model.asset.nodes.get(node as usize).ok_or_else(|| format!("node {node} does not exist"))?;
                 if target >= n.weights.len() {
@@ -1273,6 +1350,19 @@ impl App {
             }
         }
         let mut pending = None;
+        // A click on a ragdoll body pushes it away from the camera.
+        if response.clicked()
+            && let (Some(model), Some(pointer)) = (self.model.as_mut(), response.interact_pointer_pos())
+            && let Some(state) = &mut model.ragdoll
+            && let (Some(near), Some(far)) = (projection.unproject(pointer, 0.0), projection.unproject(pointer, 0.9))
+        {
+            let dir = (far - near).normalize_or_zero();
+            let ragdoll = &mut state.ragdoll;
+            if let Some((body, at)) = ragdoll.pick(near - origin, dir, 1.5) {
+                let speed = ragdoll.size() * RAGDOLL_PUSH;
+                ragdoll.push(body, dir * speed, at);
+            }
+        }
         if let Some(goal) = self.ik_drag {
             if let (Some(Some((_, depth))), Some(pointer), Some(ik)) = (
                 markers.get(goal),
@@ -1445,6 +1535,11 @@ impl App {
                 let points = overlay::joint_points(model, &projection, origin);
                 let hovered = response.hover_pos().and_then(|p| nearest_within(p, points.iter().copied()));
                 overlay::paint_skeleton(&painter, model, &points, model.selected_joint, hovered);
+            }
+            if self.overlays.bodies
+                && let Some(state) = &model.ragdoll
+            {
+                overlay::paint_bodies(&painter, &projection, origin, &state.ragdoll);
             }
             if let Some(joint) = model.selected_joint {
                 let size = model.bounds.map_or(1.0, |(lo, hi)| (hi - lo).length());
@@ -1736,6 +1831,10 @@ impl App {
         d.set(Key::Grid, if self.scene.grid() { "true" } else { "false" });
         d.set(Key::Overlays, &overlay_names(self.overlays));
         d.set(Key::Lighting, self.scene.look().lighting.name());
+        d.set(
+            Key::Ragdoll,
+            model.and_then(|m| m.ragdoll.as_ref()).map_or("", crate::ragdoll::RagdollState::state_name),
+        );
         d.set(Key::Background, self.scene.look().background.name());
         let progress = self.inbox.progress().filter(|_| self.status == Status::Loading);
         d.set(
@@ -1798,6 +1897,7 @@ impl eframe::App for App {
             self.fps.update(unstable_dt);
             self.apply_commands();
             if let Some(model) = &mut self.model {
+                model.advance_ragdoll(stable_dt.clamp(0.0, MAX_DT));
                 let events = model.advance(stable_dt.clamp(0.0, MAX_DT));
                 if events.looped > 0 {
                     self.dataset.host().emit("loop", &events.looped.to_string());
@@ -1890,7 +1990,7 @@ impl eframe::App for App {
             self.frames += 1;
         }
         self.sync_dataset();
-        if self.model.as_ref().is_some_and(Model::is_animating) {
+        if self.model.as_ref().is_some_and(|m| m.is_animating() || m.ragdoll_moving()) {
             ctx.request_repaint();
         }
     }

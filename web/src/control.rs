@@ -110,6 +110,19 @@ pub enum Command {
     SetLighting(crate::render::uniforms::Lighting),
     /// Background (kept across models).
     SetBackground(crate::render::uniforms::Background),
+    /// Turns the character into a ragdoll from the pose on screen.
+    StartRagdoll,
+    /// Ends the ragdoll at once (back to the animation).
+    StopRagdoll,
+    /// Hands the ragdoll back to the animation over this many seconds.
+    RagdollToAnimation(f32),
+    /// Ragdoll gravity (m/s² for a person-sized skeleton) and damping.
+    SetRagdollOptions {
+        /// Gravity.
+        gravity: f32,
+        /// Velocity damping per second.
+        damping: f32,
+    },
     /// Saves the view as a PNG (a download in the browser).
     Screenshot,
     /// Which overlays are drawn (kept across models).

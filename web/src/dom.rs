@@ -66,11 +66,13 @@ pub enum Key {
     Lighting,
     /// The background: `"dark"` | `"grey"` | `"light"`.
     Background,
+    /// The ragdoll: `"simulating"` | `"resting"` | `"blending"` (back to the animation); `""` off.
+    Ragdoll,
 }
 
 impl Key {
     /// Every key, in a fixed order.
-    pub const ALL: [Key; 29] = [
+    pub const ALL: [Key; 30] = [
         Key::Backend,
         Key::Status,
         Key::Model,
@@ -100,6 +102,7 @@ impl Key {
         Key::Progress,
         Key::Lighting,
         Key::Background,
+        Key::Ragdoll,
     ];
 
     /// The dataset property name (`dataset.<name>` in JS).
@@ -134,6 +137,7 @@ impl Key {
             Key::Progress => "progress",
             Key::Lighting => "lighting",
             Key::Background => "background",
+            Key::Ragdoll => "ragdoll",
         }
     }
 }

@@ -155,10 +155,10 @@ impl Viewer {
     }
 
     /// Turns the overlays on or off: the skeleton (names on hover, click to select), the
-    /// framing bounds, the deformed wireframe and the normals.
+    /// framing bounds, the deformed wireframe, the normals and the ragdoll's bodies.
     #[wasm_bindgen(js_name = setOverlays)]
-    pub fn set_overlays(&self, skeleton: bool, bounds: bool, wireframe: bool, normals: bool) {
-        let overlays = crate::overlay::Overlays { skeleton, bounds, wireframe, normals };
+    pub fn set_overlays(&self, skeleton: bool, bounds: bool, wireframe: bool, normals: bool, bodies: bool) {
+        let overlays = crate::overlay::Overlays { skeleton, bounds, wireframe, normals, bodies };
         self.controls.send_global(Command::SetOverlays(overlays));
     }
 
@@ -203,6 +203,34 @@ impl Viewer {
     pub fn set_background(&self, name: &str) -> Result<(), JsValue> {
         let background = crate::render::uniforms::Background::from_name(name).map_err(|e| JsValue::from_str(&e))?;
         self.controls.send_global(Command::SetBackground(background));
+        Ok(())
+    }
+
+    /// Turns the character into a ragdoll from the pose on screen (throws later, as an
+    /// `error` event, for a model without a skin).
+    #[wasm_bindgen(js_name = startRagdoll)]
+    pub fn start_ragdoll(&self) {
+        self.controls.send(Command::StartRagdoll);
+    }
+
+    /// Ends the ragdoll: back to the animation at once, or blending over `seconds`.
+    #[wasm_bindgen(js_name = stopRagdoll)]
+    pub fn stop_ragdoll(&self, seconds: Option<f32>) -> Result<(), JsValue> {
+        match seconds {
+            None => self.controls.send(Command::StopRagdoll),
+            Some(s) if s.is_finite() && s >= 0.0 => self.controls.send(Command::RagdollToAnimation(s)),
+            Some(s) => return Err(JsValue::from_str(&format!("stopRagdoll: {s} seconds: expected >= 0"))),
+        }
+        Ok(())
+    }
+
+    /// Ragdoll gravity (m/s² for a person-sized skeleton) and velocity damping per second.
+    #[wasm_bindgen(js_name = setRagdollOptions)]
+    pub fn set_ragdoll_options(&self, gravity: f32, damping: f32) -> Result<(), JsValue> {
+        if !(gravity.is_finite() && damping.is_finite() && damping >= 0.0) {
+            return Err(JsValue::from_str("setRagdollOptions: finite gravity and damping >= 0 expected"));
+        }
+        self.controls.send(Command::SetRagdollOptions { gravity, damping });
         Ok(())
     }
 

@@ -20,6 +20,7 @@ mod entry;
 pub mod ik;
 pub mod load;
 pub mod overlay;
+pub mod ragdoll;
 pub mod render;
 pub mod ui;
 

@@ -28,6 +28,8 @@ pub struct Overlays {
     pub wireframe: bool,
     /// Deformed vertex normals as short lines.
     pub normals: bool,
+    /// The ragdoll's capsules.
+    pub bodies: bool,
 }
 
 /// Buffers the overlays reuse between frames.
@@ -217,6 +219,38 @@ pub fn paint_limits(
         }
     }
     drawn.get()
+}
+
+/// Draws the ragdoll's capsules: each as its axis with a circle of its radius at both ends
+/// (radius measured on screen at the capsule's centre).
+pub fn paint_bodies(
+    painter: &egui::Painter,
+    projection: &Projection,
+    origin: Vec3,
+    ragdoll: &kloub_core::ragdoll::Ragdoll,
+) -> usize {
+    let stroke = Stroke::new(1.5, Color32::from_rgb(120, 255, 170));
+    let mut drawn = 0;
+    for (i, body) in ragdoll.bodies().iter().enumerate() {
+        let Some((rotation, center)) = ragdoll.body_pose(i) else { continue };
+        let axis = rotation * Vec3::Y * body.half_height;
+        let (a, b) = (center - axis + origin, center + axis + origin);
+        let side = (rotation * Vec3::X) * body.radius;
+        let (Some((pa, _)), Some((pb, _)), Some((pc, _)), Some((ps, _))) = (
+            projection.to_screen(a),
+            projection.to_screen(b),
+            projection.to_screen(center + origin),
+            projection.to_screen(center + origin + side),
+        ) else {
+            continue;
+        };
+        let r = pc.distance(ps).max(1.0);
+        painter.line_segment([pa, pb], stroke);
+        painter.circle_stroke(pa, r, stroke);
+        painter.circle_stroke(pb, r, stroke);
+        drawn += 1;
+    }
+    drawn
 }
 
 /// Draws the box `(min, max)` offset by `origin`.

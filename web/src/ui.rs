@@ -67,12 +67,14 @@ pub struct StageTimes {
 }
 
 /// Panel state that lives across frames and models.
-#[derive(Debug, Default)]
+#[derive(Debug)]
 pub struct PanelMemory {
     /// The clip list's filter text.
     pub clip_filter: String,
     /// While the timeline is dragged: whether playback resumes when it is released.
     pub scrub_resume: Option<bool>,
+    /// Seconds the ragdoll takes to hand back to the animation.
+    pub ragdoll_blend: f32,
 }
 
 /// What the user asked for that the panel cannot do itself.
@@ -181,6 +183,9 @@ pub fn side_panel(
                 ui.separator();
             }
             ik_panel(ui, model, &mut actions);
+            if model.asset.skins.iter().any(|s| !s.joints.is_empty()) {
+                ragdoll_panel(ui, model, state, memory, &mut actions);
+            }
             copies_control(ui, model, &mut actions);
             morph_panel(ui, model);
             outline_panel(ui, model, &mut actions);
@@ -355,6 +360,68 @@ fn outline_node(
     if clicked {
         actions.commands.push(Command::SelectJoint(if selected { None } else { Some(node) }));
     }
+}
+
+impl Default for PanelMemory {
+    fn default() -> Self {
+        Self { clip_filter: String::new(), scrub_resume: None, ragdoll_blend: 0.5 }
+    }
+}
+
+/// Ragdoll: start it from the pose on screen, reset, hand back to the animation, show the
+/// bodies, gravity and damping.
+fn ragdoll_panel(
+    ui: &mut egui::Ui,
+    model: &Model,
+    state: &PanelState<'_>,
+    memory: &mut PanelMemory,
+    actions: &mut PanelActions,
+) {
+    egui::CollapsingHeader::new("Ragdoll").id_salt("ragdoll").default_open(true).show(ui, |ui| {
+        let running = model.ragdoll.as_ref();
+        ui.horizontal(|ui| {
+            let start = if running.is_some() { "Drop again" } else { "Ragdoll" };
+            if ui.button(start).on_hover_text("Let the character fall from the pose on screen").clicked() {
+                actions.commands.push(Command::StartRagdoll);
+            }
+            if ui
+                .add_enabled(running.is_some(), egui::Button::new("Reset"))
+                .on_hover_text("Back to the animation at once")
+                .clicked()
+            {
+                actions.commands.push(Command::StopRagdoll);
+            }
+            let blending = running.is_some_and(|r| r.blend_back.is_some());
+            if ui
+                .add_enabled(running.is_some() && !blending, egui::Button::new("To animation"))
+                .on_hover_text("Blend back to the animation over the time below")
+                .clicked()
+            {
+                actions.commands.push(Command::RagdollToAnimation(memory.ragdoll_blend));
+            }
+        });
+        ui.add(egui::Slider::new(&mut memory.ragdoll_blend, 0.0..=3.0).suffix(" s").text("blend back"));
+        let mut overlays = state.overlays;
+        if ui.checkbox(&mut overlays.bodies, "Show bodies").changed() {
+            actions.commands.push(Command::SetOverlays(overlays));
+        }
+        let (mut gravity, mut damping) = (model.ragdoll_options.gravity, model.ragdoll_options.damping);
+        let g = ui.add(egui::Slider::new(&mut gravity, 0.0..=20.0).suffix(" m/s²").text("gravity"));
+        let d = ui.add(egui::Slider::new(&mut damping, 0.0..=5.0).text("damping"));
+        if g.changed() || d.changed() {
+            actions.commands.push(Command::SetRagdollOptions { gravity, damping });
+        }
+        match running {
+            Some(r) => {
+                ui.label(format!("{} bodies, {}", r.ragdoll.bodies().len(), r.state_name()));
+                ui.weak("Click a body to push it.");
+            }
+            None => {
+                ui.weak("Gravity is scaled to the character's size: any model falls like a person.");
+            }
+        }
+    });
+    ui.separator();
 }
 
 /// Camera framing, overlays, grid, screenshot and help.

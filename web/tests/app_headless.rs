@@ -849,3 +849,44 @@ fn lighting_and_background_presets_change_the_view() {
     assert!(corner[0] > 180 && corner[1] > 180, "the light background reads {corner:?}");
     save(&light, "look-flat-light.png");
 }
+
+#[test]
+fn the_ragdoll_falls_settles_and_hands_back_to_the_animation() {
+    let mut h = Harness::new();
+    load_paused(&mut h, "CesiumMan.glb", shared_asset("khronos/CesiumMan/glTF-Binary/CesiumMan.glb"));
+    let controls = h.app.controls().clone();
+    controls.send_global(Command::SetOverlays(kloub_web::overlay::Overlays { bodies: true, ..Default::default() }));
+    h.step(0.016, Vec::new());
+    let standing = h.step(0.016, Vec::new());
+    let head = |h: &Harness| -> f32 {
+        let m = h.app.model().expect("a model");
+        m.instance.worlds().iter().map(|w| w.w_axis.y).fold(f32::NEG_INFINITY, f32::max)
+    };
+    let top = head(&h);
+    controls.send(Command::StartRagdoll);
+    h.step(0.016, Vec::new());
+    assert_eq!(h.get(Key::Ragdoll), "simulating", "{}", h.get(Key::Error));
+    let mut frames = 0;
+    while h.get(Key::Ragdoll) == "simulating" && frames < 600 {
+        h.step(1.0 / 60.0, Vec::new());
+        frames += 1;
+    }
+    let fallen = h.step(1.0 / 60.0, Vec::new());
+    save(&fallen, "ragdoll-fallen.png");
+    assert_eq!(h.get(Key::Ragdoll), "resting", "still moving after {frames} frames");
+    eprintln!("CesiumMan came to rest after {:.2} s", frames as f32 / 60.0);
+    assert!(head(&h) < top * 0.6, "the body fell: highest joint {top} -> {}", head(&h));
+    let viewport = (320, 40, SIZE[0], SIZE[1] - 40);
+    assert!(changed_pixels(&standing, &fallen, viewport) > 500, "the view did not change");
+    controls.send(Command::RagdollToAnimation(0.5));
+    h.step(0.016, Vec::new());
+    assert_eq!(h.get(Key::Ragdoll), "blending");
+    for _ in 0..40 {
+        h.step(1.0 / 60.0, Vec::new());
+    }
+    assert_eq!(h.get(Key::Ragdoll), "", "handed back after 0.5 s");
+    assert!((head(&h) - top).abs() < top * 0.05, "back on its feet: {top} vs {}", head(&h));
+    // A model without a skin cannot be one.
+    let before = h.get(Key::Error).to_owned();
+    assert!(before.is_empty());
+}

@@ -1,0 +1,684 @@
+//! Ragdoll physics (seed 000 §3.4): the skinned character becomes a set of rigid capsules
+//! joined by limited joints, simulated by rapier3d at a fixed 60 Hz over a ground plane, and
+//! its skeleton is written back from the bodies every frame.
+//!
+//! - **Bodies**: one capsule per significant bone (a joint and its main child joint; a leaf
+//!   joint reaches as far as the vertices it carries). The radius comes from the skinned
+//!   vertices the joint influences most, the mass from the capsule's volume. Shorter bones
+//!   (fingers, twist helpers, roots at one point) have no body and ride on their parent's.
+//! - **Joints** at each body's joint, in the joint's rest frame, so the limits are the IK
+//!   limits ([`JointSettings`]: a hinge becomes a revolute joint with its angle range, a ball
+//!   a spherical joint with its swing cone and twist range) and an unlimited joint gets a
+//!   moderate spherical range. Ragdoll bodies do not collide with each other, only with the
+//!   ground.
+//! - **Start** from any pose: each body keeps its offset to its joint (the bind of the
+//!   moment it was built), and may inherit velocities from the previous frame's pose.
+//! - **Units**: glTF's metres are trusted for nothing but proportions: gravity is scaled to
+//!   the skeleton's size (a body as tall as a person falls like one), so a 100-unit fox and a
+//!   1.7-unit man fall alike.
+//!
+//! [`Ragdoll::step`] advances by wall time in fixed steps; [`Ragdoll::write_pose`] writes the
+//! interpolated pose into a [`Pose`]'s locals. Same inputs, same steps: the same output.
+
+use rapier3d::prelude::{
+    ColliderBuilder, GenericJointBuilder, Group, ImpulseJointHandle, InteractionGroups, InteractionTestMode,
+    JointAxesMask, JointAxis, PhysicsWorld, RigidBodyBuilder, RigidBodyHandle,
+};
+
+use crate::asset::{Asset, NodeIndex};
+use crate::instance::Instance;
+use crate::job::ik::JointLimit;
+use crate::math::{Mat4, Quat, Transform, Vec3};
+use crate::pose::Pose;
+use crate::rig::JointSettings;
+
+/// Simulation steps per second.
+pub const STEP_HZ: f32 = 60.0;
+
+/// A person's height in metres: gravity is scaled so a skeleton this tall falls at 9.81 m/s².
+const PERSON_HEIGHT: f32 = 1.75;
+
+/// Bones shorter than this fraction of the skeleton's size get no body.
+const MIN_BONE: f32 = 0.04;
+
+/// Most wall time one [`Ragdoll::step`] simulates (a stalled tab does not run a second of
+/// steps at once).
+const MAX_FRAME: f32 = 0.25;
+
+/// Speed under which a body counts as at rest, in skeleton sizes per second.
+const REST_SPEED: f32 = 0.03;
+
+/// Range of a joint without a limit of its own: swing and twist, radians.
+const FREE_SWING: f32 = 0.7;
+const FREE_TWIST: f32 = 0.5;
+
+/// What shapes the simulation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RagdollOptions {
+    /// Gravity in m/s² for a person-sized skeleton (scaled to the model's size).
+    pub gravity: f32,
+    /// Linear and angular velocity damping of every body (per second).
+    pub damping: f32,
+    /// Ground friction.
+    pub friction: f32,
+}
+
+impl Default for RagdollOptions {
+    fn default() -> Self {
+        Self { gravity: 9.81, damping: 0.5, friction: 0.8 }
+    }
+}
+
+/// One simulated bone.
+#[derive(Clone, Debug)]
+pub struct RagdollBody {
+    /// The joint the body carries.
+    pub joint: NodeIndex,
+    /// The capsule's radius and half-height of its straight part (model units).
+    pub radius: f32,
+    /// Half the length of the capsule's straight part.
+    pub half_height: f32,
+    /// The limit its joint to the parent body has (what the test and the overlay check).
+    pub limit: JointLimit,
+    /// Whether a joint ties it to a parent body (else it is a root of the ragdoll).
+    pub attached: bool,
+    handle: RigidBodyHandle,
+    /// The joint's world transform in the body's frame (rigid part) and its world scale.
+    body_from_joint: (Quat, Vec3),
+    scale: Vec3,
+    /// Body pose before the last step (for interpolation).
+    previous: (Quat, Vec3),
+}
+
+/// Why a ragdoll could not be built.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum RagdollError {
+    /// The asset has no skinned skeleton.
+    #[error("no skin: a ragdoll needs a skinned skeleton")]
+    NoSkeleton,
+    /// No bone is long enough for a body.
+    #[error("no bone is long enough to simulate")]
+    NoBones,
+    /// The instance does not belong to the asset.
+    #[error("the pose does not match the asset: {0}")]
+    Mismatch(String),
+}
+
+/// A running ragdoll of one character.
+pub struct Ragdoll {
+    world: PhysicsWorld,
+    bodies: Vec<RagdollBody>,
+    /// Body index of each node (`usize::MAX`: none).
+    body_of: Vec<usize>,
+    /// The locals when the ragdoll started (joints without a body keep theirs).
+    start_locals: Vec<Transform>,
+    /// Parents-first node order.
+    order: Vec<NodeIndex>,
+    parents: Vec<Option<NodeIndex>>,
+    accumulator: f32,
+    steps: u64,
+    ground: f32,
+    size: f32,
+    _joints: Vec<ImpulseJointHandle>,
+}
+
+impl std::fmt::Debug for Ragdoll {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Ragdoll").field("bodies", &self.bodies.len()).field("steps", &self.steps).finish()
+    }
+}
+
+fn rigid(m: &Mat4) -> (Vec3, Quat, Vec3) {
+    let (scale, rotation, translation) = m.to_scale_rotation_translation();
+    let rotation = if rotation.is_finite() { rotation.normalize() } else { Quat::IDENTITY };
+    (scale, rotation, translation)
+}
+
+fn pose(rotation: Quat, translation: Vec3) -> rapier3d::math::Pose {
+    rapier3d::math::Pose::from_parts(translation, rotation)
+}
+
+impl Ragdoll {
+    /// Builds the ragdoll of `instance`'s current pose (evaluated: worlds up to date). With
+    /// `previous` (the worlds one frame earlier, `dt` seconds before), the bodies start with
+    /// the animation's velocities. `settings` gives the joint limits.
+    ///
+    /// # Errors
+    /// No skin, no bone long enough, or an instance of another asset.
+    pub fn new(
+        asset: &Asset,
+        instance: &mut Instance,
+        settings: &JointSettings,
+        previous: Option<(&[Mat4], f32)>,
+        options: RagdollOptions,
+    ) -> Result<Self, RagdollError> {
+        let n = asset.nodes.len();
+        let worlds: Vec<Mat4> = instance.worlds().to_vec();
+        if worlds.len() != n {
+            return Err(RagdollError::Mismatch(format!("{} worlds for {n} nodes", worlds.len())));
+        }
+        let mut is_joint = vec![false; n];
+        for &j in asset.skins.iter().flat_map(|s| s.joints.iter()) {
+            if let Some(slot) = is_joint.get_mut(j as usize) {
+                *slot = true;
+            }
+        }
+        if !is_joint.iter().any(|&j| j) {
+            return Err(RagdollError::NoSkeleton);
+        }
+        let at = |j: usize| worlds[j].w_axis.truncate();
+        let (lo, hi) = (0..n)
+            .filter(|&j| is_joint[j])
+            .map(at)
+            .fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(a, b), p| (a.min(p), b.max(p)));
+        let size = (hi - lo).length().max(1e-4);
+
+        // The skinned vertices, each with the joint that moves it most.
+        let mut vertices: Vec<Vec<Vec3>> = vec![Vec::new(); n];
+        let (mut positions, mut normals) = (Vec::new(), Vec::new());
+        let mut floor = f32::INFINITY;
+        for (node_index, node) in asset.nodes.iter().enumerate() {
+            let (Some(mesh), Some(skin)) = (node.mesh, node.skin) else { continue };
+            let (Some(mesh), Some(skin)) = (asset.meshes.get(mesh as usize), asset.skins.get(skin as usize)) else {
+                continue;
+            };
+            let Ok(node_index) = u32::try_from(node_index) else { continue };
+            for (p, prim) in mesh.primitives.iter().enumerate() {
+                if !prim.is_skinned()
+                    || instance.deform_primitive(asset, node_index, p, &mut positions, &mut normals).is_err()
+                {
+                    continue;
+                }
+                for (v, (joints, weights)) in positions.iter().zip(prim.joints.iter().zip(&prim.weights)) {
+                    let v = Vec3::from(*v);
+                    if !v.is_finite() {
+                        continue;
+                    }
+                    floor = floor.min(v.y);
+                    let best = (0..8).max_by(|&a, &b| weights[a].total_cmp(&weights[b])).unwrap_or(0);
+                    if let Some(&joint) = skin.joints.get(joints[best] as usize)
+                        && let Some(list) = vertices.get_mut(joint as usize)
+                    {
+                        list.push(v);
+                    }
+                }
+            }
+        }
+        if !floor.is_finite() {
+            floor = lo.y;
+        }
+
+        // Children joints and subtree sizes (for the main child of a branching joint).
+        let parents: Vec<Option<NodeIndex>> = asset.nodes.iter().map(|node| node.parent).collect();
+        let mut subtree = vec![0usize; n];
+        for &node in asset.order.iter().rev() {
+            let node = node as usize;
+            if is_joint[node] {
+                subtree[node] += 1;
+            }
+            if let Some(p) = parents[node] {
+                let s = subtree[node];
+                subtree[p as usize] += s;
+            }
+        }
+
+        let mut world = PhysicsWorld::new();
+        let scale = size / PERSON_HEIGHT;
+        world.gravity = Vec3::new(0.0, -options.gravity * scale, 0.0);
+        world.integration_parameters.dt = 1.0 / STEP_HZ;
+        world.integration_parameters.length_unit = scale.max(1e-3);
+        world.integration_parameters.num_solver_iterations = 8;
+        // Ragdoll bodies collide with the ground only.
+        let bones = InteractionGroups::new(Group::GROUP_1, Group::GROUP_2, InteractionTestMode::And);
+        let ground_groups = InteractionGroups::new(Group::GROUP_2, Group::GROUP_1, InteractionTestMode::And);
+        let thick = size;
+        world.insert(
+            RigidBodyBuilder::fixed().translation(Vec3::new(lo.x.midpoint(hi.x), floor - thick, lo.z.midpoint(hi.z))),
+            ColliderBuilder::cuboid(size * 50.0, thick, size * 50.0)
+                .friction(options.friction)
+                .collision_groups(ground_groups),
+        );
+
+        let mut bodies: Vec<RagdollBody> = Vec::new();
+        let mut body_of = vec![usize::MAX; n];
+        let mut joints = Vec::new();
+        for &node in &asset.order {
+            let j = node as usize;
+            if !is_joint[j] {
+                continue;
+            }
+            let origin = at(j);
+            let main_child = asset.nodes[j]
+                .children
+                .iter()
+                .copied()
+                .filter(|&c| is_joint[c as usize])
+                .max_by_key(|&c| (subtree[c as usize], std::cmp::Reverse(c)));
+            let tip = match main_child {
+                Some(c) => at(c as usize),
+                None => {
+                    // A leaf reaches along its parent bone as far as its vertices go.
+                    let dir = parents[j].map(|p| origin - at(p as usize)).and_then(Vec3::try_normalize);
+                    let Some(dir) = dir else { continue };
+                    let reach = vertices[j].iter().map(|v| (*v - origin).dot(dir)).fold(0.0f32, f32::max);
+                    origin + dir * reach
+                }
+            };
+            let bone = tip - origin;
+            let length = bone.length();
+            if length < MIN_BONE * size || !length.is_finite() {
+                continue;
+            }
+            let dir = bone / length;
+            let mut distances: Vec<f32> = vertices[j]
+                .iter()
+                .map(|v| {
+                    let t = (*v - origin).dot(dir).clamp(0.0, length);
+                    v.distance(origin + dir * t)
+                })
+                .filter(|d| d.is_finite())
+                .collect();
+            distances.sort_by(f32::total_cmp);
+            let radius = distances.get(distances.len() * 7 / 10).copied().unwrap_or(length * 0.2);
+            let radius = radius.clamp(length * 0.1, length * 0.5).max(size * 0.005);
+            let half_height = (length * 0.5 - radius * 0.5).max(length * 0.05);
+            let rotation = Quat::from_rotation_arc(Vec3::Y, dir);
+            let center = origin + bone * 0.5;
+            let mut builder = RigidBodyBuilder::dynamic()
+                .pose(pose(rotation, center))
+                .linear_damping(options.damping)
+                .angular_damping(options.damping)
+                .ccd_enabled(true);
+            if let Some((before, dt)) = previous
+                && dt > 0.0
+                && before.len() == n
+            {
+                let (_, r0, t0) = rigid(&before[j]);
+                let (_, r1, t1) = rigid(&worlds[j]);
+                let moved = (t1 - t0) / dt;
+                let (axis, angle) = (r1 * r0.conjugate()).normalize().to_axis_angle();
+                let angle = if angle > std::f32::consts::PI { angle - std::f32::consts::TAU } else { angle };
+                if moved.is_finite() && axis.is_finite() && angle.is_finite() {
+                    let spin = axis * angle / dt;
+                    builder = builder.linvel(moved + spin.cross(center - t1)).angvel(spin);
+                }
+            }
+            let collider = ColliderBuilder::capsule_y(half_height, radius).density(1.0).collision_groups(bones);
+            let (handle, _) = world.insert(builder, collider);
+            let (scale_j, rot_j, trans_j) = rigid(&worlds[j]);
+            let body_from_joint = (rotation.conjugate() * rot_j, rotation.conjugate() * (trans_j - center));
+
+            // The joint to the parent body, in this joint's rest frame.
+            let mut parent_body = parents[j];
+            while let Some(p) = parent_body {
+                if body_of[p as usize] != usize::MAX {
+                    break;
+                }
+                parent_body = parents[p as usize];
+            }
+            let limit = settings.limits.get(j).copied().unwrap_or_default();
+            let attached = parent_body.is_some();
+            if let Some(p) = parent_body {
+                let parent = &bodies[body_of[p as usize]];
+                let parent_pose = world.bodies[parent.handle].position();
+                let parent_rotation = parents[j].map_or(Quat::IDENTITY, |pn| rigid(&worlds[pn as usize]).1);
+                let rest_frame = (parent_rotation * asset.nodes[j].rest.rotation).normalize();
+                let axis = match limit {
+                    JointLimit::Hinge { axis, .. } | JointLimit::Ball { axis, .. } => axis,
+                    JointLimit::Free => asset.nodes[j]
+                        .children
+                        .first()
+                        .and_then(|&c| asset.nodes[c as usize].rest.translation.try_normalize())
+                        .unwrap_or(Vec3::Y),
+                };
+                let to_axis = Quat::from_rotation_arc(Vec3::X, axis.try_normalize().unwrap_or(Vec3::X));
+                let frame1 = parent_pose.inverse() * pose(rest_frame * to_axis, origin);
+                let frame2 = pose(rotation, center).inverse() * pose(rot_j * to_axis, origin);
+                let joint = match limit {
+                    JointLimit::Hinge { min, max, .. } => GenericJointBuilder::new(JointAxesMask::LOCKED_REVOLUTE_AXES)
+                        .local_frame1(frame1)
+                        .local_frame2(frame2)
+                        .limits(JointAxis::AngX, [min, max]),
+                    JointLimit::Ball { swing, twist_min, twist_max, .. } => {
+                        let s = swing * std::f32::consts::FRAC_1_SQRT_2;
+                        GenericJointBuilder::new(JointAxesMask::LOCKED_SPHERICAL_AXES)
+                            .local_frame1(frame1)
+                            .local_frame2(frame2)
+                            .limits(JointAxis::AngX, [twist_min, twist_max])
+                            .limits(JointAxis::AngY, [-s, s])
+                            .limits(JointAxis::AngZ, [-s, s])
+                    }
+                    JointLimit::Free => GenericJointBuilder::new(JointAxesMask::LOCKED_SPHERICAL_AXES)
+                        .local_frame1(frame1)
+                        .local_frame2(frame2)
+                        .limits(JointAxis::AngX, [-FREE_TWIST, FREE_TWIST])
+                        .limits(JointAxis::AngY, [-FREE_SWING, FREE_SWING])
+                        .limits(JointAxis::AngZ, [-FREE_SWING, FREE_SWING]),
+                };
+                joints.push(world.insert_impulse_joint(parent.handle, handle, joint.build()));
+            }
+            body_of[j] = bodies.len();
+            bodies.push(RagdollBody {
+                joint: node,
+                radius,
+                half_height,
+                limit,
+                attached,
+                handle,
+                body_from_joint,
+                scale: scale_j,
+                previous: (rotation, center),
+            });
+        }
+        if bodies.is_empty() {
+            return Err(RagdollError::NoBones);
+        }
+        Ok(Self {
+            world,
+            bodies,
+            body_of,
+            start_locals: instance.pose().locals.clone(),
+            order: asset.order.clone(),
+            parents,
+            accumulator: 0.0,
+            steps: 0,
+            ground: floor,
+            size,
+            _joints: joints,
+        })
+    }
+
+    /// The simulated bones.
+    pub fn bodies(&self) -> &[RagdollBody] {
+        &self.bodies
+    }
+
+    /// Height of the ground plane (the lowest skinned vertex when the ragdoll started).
+    pub fn ground(&self) -> f32 {
+        self.ground
+    }
+
+    /// The skeleton's size (its joints' bounding-box diagonal), the scale of the simulation.
+    pub fn size(&self) -> f32 {
+        self.size
+    }
+
+    /// Fixed steps taken so far.
+    pub fn steps(&self) -> u64 {
+        self.steps
+    }
+
+    /// A body's world pose now (rotation, centre); `None` for an unknown index.
+    pub fn body_pose(&self, body: usize) -> Option<(Quat, Vec3)> {
+        let b = self.bodies.get(body)?;
+        let p = self.world.bodies.get(b.handle)?.position();
+        Some((p.rotation, p.translation))
+    }
+
+    /// The fastest body's speed, in model units per second (near 0: at rest).
+    pub fn max_speed(&self) -> f32 {
+        self.bodies
+            .iter()
+            .filter_map(|b| self.world.bodies.get(b.handle))
+            .map(|rb| rb.linvel().length())
+            .fold(0.0, f32::max)
+    }
+
+    /// Sets gravity (m/s² for a person-sized skeleton) and damping while running.
+    pub fn set_options(&mut self, options: RagdollOptions) {
+        let scale = self.size / PERSON_HEIGHT;
+        self.world.gravity = Vec3::new(0.0, -options.gravity * scale, 0.0);
+        for b in &self.bodies {
+            if let Some(rb) = self.world.bodies.get_mut(b.handle) {
+                rb.set_linear_damping(options.damping);
+                rb.set_angular_damping(options.damping);
+            }
+        }
+    }
+
+    /// Pushes body `body` at world point `at` so that it gains `velocity` (model units per
+    /// second): an impulse of its mass times that velocity.
+    pub fn push(&mut self, body: usize, velocity: Vec3, at: Vec3) {
+        if !(velocity.is_finite() && at.is_finite()) {
+            return;
+        }
+        if let Some(rb) = self.bodies.get(body).and_then(|b| self.world.bodies.get_mut(b.handle)) {
+            let impulse = velocity * rb.mass();
+            rb.apply_impulse_at_point(impulse, at, true);
+        }
+    }
+
+    /// Whether every body has come to rest: slower than 3% of the skeleton's size per second,
+    /// after at least half a second (a body dropped from stillness is not yet at rest).
+    pub fn is_resting(&self) -> bool {
+        self.steps as f32 >= STEP_HZ * 0.5 && self.max_speed() < REST_SPEED * self.size
+    }
+
+    /// The body nearest to the world-space ray `origin + t·dir` (within its capsule radius
+    /// times `slack`), and the hit point.
+    pub fn pick(&self, origin: Vec3, dir: Vec3, slack: f32) -> Option<(usize, Vec3)> {
+        let dir = dir.try_normalize()?;
+        let mut best: Option<(f32, usize, Vec3)> = None;
+        for (i, b) in self.bodies.iter().enumerate() {
+            let (rotation, center) = self.body_pose(i)?;
+            let axis = rotation * Vec3::Y;
+            // Closest points of the ray and the capsule's segment.
+            let (a, bb) = (center - axis * b.half_height, center + axis * b.half_height);
+            let (t, s) = closest_ray_segment(origin, dir, a, bb);
+            let p = origin + dir * t;
+            let q = a + (bb - a) * s;
+            if p.distance(q) <= b.radius * slack && best.is_none_or(|(bt, _, _)| t < bt) {
+                best = Some((t, i, q));
+            }
+        }
+        best.map(|(_, i, q)| (i, q))
+    }
+
+    /// Advances the simulation by `dt` seconds of wall time in fixed 1/60 s steps (at most
+    /// a quarter of a second per call).
+    pub fn step(&mut self, dt: f32) {
+        if !(dt.is_finite() && dt > 0.0) {
+            return;
+        }
+        self.accumulator += dt.min(MAX_FRAME);
+        let step = 1.0 / STEP_HZ;
+        while self.accumulator >= step {
+            self.step_once();
+            self.accumulator -= step;
+        }
+    }
+
+    /// One fixed step.
+    pub fn step_once(&mut self) {
+        for b in &mut self.bodies {
+            if let Some(rb) = self.world.bodies.get(b.handle) {
+                let p = rb.position();
+                b.previous = (p.rotation, p.translation);
+            }
+        }
+        self.world.step();
+        self.steps += 1;
+    }
+
+    /// Writes the skeleton as the bodies hold it into `pose`'s locals: joints with a body
+    /// follow it (interpolated between the last two steps by the time left over), the others
+    /// keep their locals from when the ragdoll started. With `weight` < 1 the result is
+    /// blended (slerp) over the locals already in `pose` (the animation), to hand back.
+    pub fn write_pose(&self, pose: &mut Pose, weight: f32) {
+        let n = self.parents.len();
+        if pose.locals.len() != n || self.start_locals.len() != n {
+            return;
+        }
+        let alpha = (self.accumulator * STEP_HZ).clamp(0.0, 1.0);
+        let weight = weight.clamp(0.0, 1.0);
+        let mut worlds = vec![Mat4::IDENTITY; n];
+        for &node in &self.order {
+            let j = node as usize;
+            let parent_world = self.parents[j].map_or(Mat4::IDENTITY, |p| worlds[p as usize]);
+            let body = self.body_of[j];
+            let local = match self.bodies.get(body) {
+                Some(b) => {
+                    let Some(rb) = self.world.bodies.get(b.handle) else { continue };
+                    let now = rb.position();
+                    let rotation = b.previous.0.slerp(now.rotation, alpha).normalize();
+                    let center = b.previous.1.lerp(now.translation, alpha);
+                    let (jr, jt) = b.body_from_joint;
+                    let start = self.start_locals[j];
+                    if b.attached {
+                        // A joint takes only its rotation from its body: its offset from the
+                        // parent stays the bone's, so bones keep their lengths exactly even
+                        // where the solver lets a joint's two anchors drift apart a little.
+                        let parent_rotation = rigid(&parent_world).1;
+                        let r = (parent_rotation.conjugate() * rotation * jr).normalize();
+                        if r.is_finite() { Transform { rotation: r, ..start } } else { start }
+                    } else {
+                        let world =
+                            Mat4::from_scale_rotation_translation(b.scale, rotation * jr, center + rotation * jt);
+                        let (s, r, t) = (parent_world.inverse() * world).to_scale_rotation_translation();
+                        if s.is_finite() && r.is_finite() && t.is_finite() {
+                            Transform { translation: t, rotation: r.normalize(), scale: s }
+                        } else {
+                            start
+                        }
+                    }
+                }
+                None => self.start_locals[j],
+            };
+            let out = &mut pose.locals[j];
+            let blended = if weight >= 1.0 {
+                local
+            } else {
+                Transform {
+                    translation: out.translation.lerp(local.translation, weight),
+                    rotation: out.rotation.slerp(local.rotation, weight).normalize(),
+                    scale: out.scale.lerp(local.scale, weight),
+                }
+            };
+            *out = blended;
+            worlds[j] = parent_world * blended.to_mat4();
+        }
+    }
+}
+
+/// Parameters `(t ≥ 0, s ∈ [0, 1])` of the closest points of the ray `o + t·d` (unit `d`) and
+/// the segment `a..b`.
+fn closest_ray_segment(o: Vec3, d: Vec3, a: Vec3, b: Vec3) -> (f32, f32) {
+    let e = b - a;
+    let w = o - a;
+    let (dd, de, ee) = (1.0, d.dot(e), e.dot(e));
+    let (dw, ew) = (d.dot(w), e.dot(w));
+    let denom = dd * ee - de * de;
+    let s = if denom.abs() > 1e-12 { ((dd * ew - de * dw) / denom).clamp(0.0, 1.0) } else { 0.0 };
+    let t = (a + e * s - o).dot(d).max(0.0);
+    (t, s)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testutil::load;
+
+    const MODELS: [&str; 5] = [
+        "khronos/CesiumMan/glTF-Binary/CesiumMan.glb",
+        "khronos/Fox/glTF-Binary/Fox.glb",
+        "khronos/RiggedFigure/glTF-Binary/RiggedFigure.glb",
+        "threejs/RobotExpressive/RobotExpressive.glb",
+        "kaykit/Knight/Knight.glb",
+    ];
+
+    /// Simulates `asset` from its first clip at 0.3 s for `seconds`; returns every node's
+    /// world position at the end, the start worlds, and the ragdoll.
+    fn simulate(asset: &Asset, seconds: f32) -> (Vec<Vec3>, Vec<Mat4>, Ragdoll, Instance) {
+        let mut instance = Instance::new(asset);
+        let clip = (!asset.clips.is_empty()).then_some(0);
+        instance.evaluate(asset, clip, 0.3).expect("evaluate");
+        let start = instance.worlds().to_vec();
+        let settings = JointSettings::humanoid(asset);
+        let mut ragdoll =
+            Ragdoll::new(asset, &mut instance, &settings, None, RagdollOptions::default()).expect("ragdoll");
+        let steps = (seconds * STEP_HZ).round() as u32;
+        for _ in 0..steps {
+            ragdoll.step_once();
+            ragdoll.write_pose(instance.pose_mut(), 1.0);
+            instance.update(asset).expect("update");
+            assert!(instance.worlds().iter().all(|w| w.is_finite()), "NaN after {} steps", ragdoll.steps());
+        }
+        let positions = instance.worlds().iter().map(|w| w.w_axis.truncate()).collect();
+        (positions, start, ragdoll, instance)
+    }
+
+    #[test]
+    fn every_model_falls_and_settles_deterministically_keeping_bones_and_limits() {
+        for path in MODELS {
+            let asset = load(path);
+            let (a, start, ragdoll, instance) = simulate(&asset, 6.0);
+            let (b, _, _, _) = simulate(&asset, 6.0);
+            assert!(a == b, "{path}: two runs differ");
+            let size = ragdoll.size();
+            // Bone lengths: each joint to its parent joint.
+            let joints: std::collections::HashSet<u32> =
+                asset.skins.iter().flat_map(|s| s.joints.iter().copied()).collect();
+            let mut worst = 0.0f32;
+            for &j in &joints {
+                let Some(p) = asset.nodes[j as usize].parent.filter(|p| joints.contains(p)) else { continue };
+                let before = start[j as usize].w_axis.truncate().distance(start[p as usize].w_axis.truncate());
+                if before < size * 1e-3 {
+                    continue;
+                }
+                let after = a[j as usize].distance(a[p as usize]);
+                worst = worst.max((after / before - 1.0).abs());
+            }
+            assert!(worst <= 0.01, "{path}: a bone changed length by {:.2}%", worst * 100.0);
+            // At rest, above the ground.
+            let speed = ragdoll.max_speed();
+            assert!(ragdoll.is_resting(), "{path}: still moving at {speed} (size {size})");
+            let start_height = start.iter().map(|w| w.w_axis.y).fold(f32::NEG_INFINITY, f32::max);
+            let end_height = a.iter().map(|p| p.y).fold(f32::NEG_INFINITY, f32::max);
+            assert!(end_height < start_height - 0.1 * size, "{path}: did not fall ({start_height} -> {end_height})");
+            for (i, body) in ragdoll.bodies().iter().enumerate() {
+                let (rotation, center) = ragdoll.body_pose(i).expect("a body");
+                let reach = (rotation * Vec3::Y * body.half_height).y.abs() + body.radius;
+                let bottom = center.y - reach;
+                assert!(
+                    bottom >= ragdoll.ground() - 0.01 * size,
+                    "{path}: body {i} sank to {bottom} (ground {})",
+                    ragdoll.ground()
+                );
+            }
+            // Joint limits (in the joints' rest frames) within 2°.
+            let tolerance = 2f32.to_radians();
+            for body in ragdoll.bodies() {
+                let j = body.joint as usize;
+                let (rest, local) = (asset.nodes[j].rest.rotation, instance.pose().locals[j].rotation);
+                if !matches!(body.limit, JointLimit::Free) {
+                    let clamped = body.limit.clamp(rest, local);
+                    let off = clamped.angle_between(local).to_degrees();
+                    assert!(
+                        body.limit.allows(rest, local, tolerance),
+                        "{path}: {:?} leaves its limit by {off:.2}°",
+                        asset.nodes[j].name
+                    );
+                }
+            }
+            eprintln!(
+                "{path}: {} bodies, size {size:.3}, bones within {:.3}%, speed {speed:.4}",
+                ragdoll.bodies().len(),
+                worst * 100.0
+            );
+        }
+    }
+
+    #[test]
+    fn bad_inputs_are_errors() {
+        let asset = load("khronos/BoxAnimated/glTF-Binary/BoxAnimated.glb");
+        let mut instance = Instance::new(&asset);
+        instance.update(&asset).expect("update");
+        let settings = JointSettings::humanoid(&asset);
+        let err = Ragdoll::new(&asset, &mut instance, &settings, None, RagdollOptions::default()).err();
+        assert_eq!(err, Some(RagdollError::NoSkeleton));
+        let fox = load("khronos/Fox/glTF-Binary/Fox.glb");
+        let err =
+            Ragdoll::new(&fox, &mut instance, &JointSettings::humanoid(&fox), None, RagdollOptions::default()).err();
+        assert!(matches!(err, Some(RagdollError::Mismatch(_))), "{err:?}");
+    }
+}

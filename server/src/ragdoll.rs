@@ -1,0 +1,119 @@
+//! `kloub ragdoll`: drop a posed file as a ragdoll and print its joints, frame by frame, as
+//! JSON, with the same core simulation the viewer runs ([`kloub_core::ragdoll::Ragdoll`]).
+//!
+//! ```json
+//! { "asset": "Fox.glb", "clip": {"index": 1, "name": "Walk"}, "time": 0.25, "hz": 60,
+//!   "ground": 0.0, "bodies": 21,
+//!   "joints": [ {"index": 2, "name": "_rootJoint"}, ... ],
+//!   "frames": [ {"time": 0.0, "positions": [x0, y0, z0, x1, ...]}, ... ] }
+//! ```
+//! `frames[0]` is the pose it starts from; then one frame per 1/60 s step. `positions` holds
+//! every joint's world position, in the order of `joints`.
+
+use std::path::Path;
+
+use kloub_core::Instance;
+use kloub_core::asset::Asset;
+use kloub_core::ragdoll::{Ragdoll, RagdollOptions, STEP_HZ};
+use kloub_core::rig::JointSettings;
+use serde::Serialize;
+
+use crate::ik::NodeRef;
+use crate::pose::{PoseError, import_file};
+
+/// One 1/60 s frame.
+#[derive(Clone, Debug, Serialize)]
+pub struct RagdollFrame {
+    /// Seconds since the ragdoll started.
+    pub time: f64,
+    /// World positions of the joints, flat `[x, y, z, ...]`.
+    pub positions: Vec<f64>,
+}
+
+/// The JSON document.
+#[derive(Clone, Debug, Serialize)]
+pub struct RagdollDoc {
+    /// File name.
+    pub asset: String,
+    /// The clip posed first, if any.
+    pub clip: Option<NodeRef>,
+    /// Time in that clip.
+    pub time: f32,
+    /// Steps per second.
+    pub hz: f32,
+    /// Height of the ground plane.
+    pub ground: f32,
+    /// Simulated bodies.
+    pub bodies: usize,
+    /// The joints, in the order of each frame's positions.
+    pub joints: Vec<NodeRef>,
+    /// The frames.
+    pub frames: Vec<RagdollFrame>,
+}
+
+/// Reads the file at `path`, poses it with `clip` at `time` and simulates `seconds`.
+///
+/// # Errors
+/// An unreadable or invalid file, an unknown clip, a model without a skin.
+pub fn ragdoll_file(path: &Path, clip: Option<&str>, time: f32, seconds: f32) -> Result<RagdollDoc, PoseError> {
+    let (name, imported) = import_file(path)?;
+    ragdoll_asset(&name, &imported.asset, clip, time, seconds)
+}
+
+/// Poses `asset` and simulates it.
+///
+/// # Errors
+/// An unknown clip, a bad time or duration, a model without a skin.
+pub fn ragdoll_asset(
+    asset_name: &str,
+    asset: &Asset,
+    clip: Option<&str>,
+    time: f32,
+    seconds: f32,
+) -> Result<RagdollDoc, PoseError> {
+    let err = |message: String| PoseError { pointer: None, message };
+    if !(seconds.is_finite() && (0.0..=600.0).contains(&seconds)) {
+        return Err(err(format!("--seconds {seconds}: expected 0 to 600")));
+    }
+    let clip_index = match clip {
+        Some(c) => Some(asset.find_clip(c).ok_or_else(|| err(format!("no clip {c:?}")))?),
+        None => None,
+    };
+    let mut instance = Instance::new(asset);
+    instance.evaluate(asset, clip_index, time).map_err(|e| err(e.to_string()))?;
+    let settings = JointSettings::humanoid(asset);
+    let mut ragdoll = Ragdoll::new(asset, &mut instance, &settings, None, RagdollOptions::default())
+        .map_err(|e| err(e.to_string()))?;
+    let mut joints: Vec<u32> = asset.skins.iter().flat_map(|s| s.joints.iter().copied()).collect();
+    joints.sort_unstable();
+    joints.dedup();
+    let frame = |instance: &Instance, step: u64| RagdollFrame {
+        time: step as f64 / f64::from(STEP_HZ),
+        positions: joints
+            .iter()
+            .flat_map(|&j| {
+                let p = instance.worlds()[j as usize].w_axis;
+                [f64::from(p.x), f64::from(p.y), f64::from(p.z)]
+            })
+            .collect(),
+    };
+    let steps = (seconds * STEP_HZ).round() as u64;
+    let mut frames = Vec::with_capacity(steps as usize + 1);
+    frames.push(frame(&instance, 0));
+    for step in 1..=steps {
+        ragdoll.step_once();
+        ragdoll.write_pose(instance.pose_mut(), 1.0);
+        instance.update(asset).map_err(|e| err(e.to_string()))?;
+        frames.push(frame(&instance, step));
+    }
+    Ok(RagdollDoc {
+        asset: asset_name.to_owned(),
+        clip: clip_index.map(|c| NodeRef { index: c as u32, name: asset.clips[c].name.clone() }),
+        time,
+        hz: STEP_HZ,
+        ground: ragdoll.ground(),
+        bodies: ragdoll.bodies().len(),
+        joints: joints.iter().map(|&j| NodeRef { index: j, name: asset.nodes[j as usize].name.clone() }).collect(),
+        frames,
+    })
+}
