@@ -51,9 +51,10 @@ pub enum Command {
     Ragdoll(RagdollArgs),
 }
 
-/// `kloub ragdoll` arguments.
+/// A file posed by a clip at a time (the rest pose without a clip): what `kloub ik` and
+/// `kloub ragdoll` start from.
 #[derive(Debug, clap::Args)]
-pub struct RagdollArgs {
+pub struct PosedFile {
     /// The glTF/GLB file.
     pub file: std::path::PathBuf,
     /// Pose with this clip (name or index) first; the rest pose without.
@@ -62,6 +63,14 @@ pub struct RagdollArgs {
     /// Time in the clip, seconds.
     #[arg(long, default_value_t = 0.0)]
     pub time: f32,
+}
+
+/// `kloub ragdoll` arguments.
+#[derive(Debug, clap::Args)]
+pub struct RagdollArgs {
+    /// The file and its pose.
+    #[command(flatten)]
+    pub posed: PosedFile,
     /// Seconds to simulate (60 frames each).
     #[arg(long)]
     pub seconds: f32,
@@ -73,14 +82,9 @@ pub struct RagdollArgs {
 /// `kloub ik` arguments.
 #[derive(Debug, clap::Args)]
 pub struct IkArgs {
-    /// The glTF/GLB file.
-    pub file: std::path::PathBuf,
-    /// Pose with this clip (name or index) first; the rest pose without.
-    #[arg(long)]
-    pub clip: Option<String>,
-    /// Time in the clip, seconds.
-    #[arg(long, default_value_t = 0.0)]
-    pub time: f32,
+    /// The file and its pose.
+    #[command(flatten)]
+    pub posed: PosedFile,
     /// End effector: a joint (node) name or index.
     #[arg(long)]
     pub effector: String,
@@ -302,8 +306,9 @@ where
 }
 
 fn run_ragdoll(args: &RagdollArgs) -> ExitCode {
-    let file = args.file.display().to_string();
-    match crate::ragdoll::ragdoll_file(&args.file, args.clip.as_deref(), args.time, args.seconds) {
+    let posed = &args.posed;
+    let file = posed.file.display().to_string();
+    match crate::ragdoll::ragdoll_file(&posed.file, posed.clip.as_deref(), posed.time, args.seconds) {
         Ok(doc) => write_stdout(&file, |out| {
             serde_json::to_writer(&mut *out, &doc).map_err(std::io::Error::from)?;
             writeln!(out)
@@ -316,7 +321,7 @@ fn run_ragdoll(args: &RagdollArgs) -> ExitCode {
 }
 
 fn run_ik(args: &IkArgs) -> ExitCode {
-    let file = args.file.display().to_string();
+    let file = args.posed.file.display().to_string();
     let sidecar = match &args.limits {
         Some(path) => match std::fs::read_to_string(path) {
             Ok(text) => Some(text),
@@ -328,8 +333,8 @@ fn run_ik(args: &IkArgs) -> ExitCode {
         None => None,
     };
     let request = crate::ik::IkRequest {
-        clip: args.clip.clone(),
-        time: args.time,
+        clip: args.posed.clip.clone(),
+        time: args.posed.time,
         effector: args.effector.clone(),
         depth: args.depth,
         target: args.target,
@@ -349,7 +354,7 @@ fn run_ik(args: &IkArgs) -> ExitCode {
             weight: 1.0,
         },
     };
-    match crate::ik::ik_file(&args.file, &request) {
+    match crate::ik::ik_file(&args.posed.file, &request) {
         Ok(doc) => write_stdout(&file, |out| {
             serde_json::to_writer(&mut *out, &doc).map_err(std::io::Error::from)?;
             writeln!(out)

@@ -100,30 +100,9 @@ pub fn read_texture_bytes(
     texture: &wgpu::Texture,
     bytes_per_texel: u32,
 ) -> Result<Vec<u8>, String> {
-    let (width, height) = (texture.width(), texture.height());
-    let row = width * bytes_per_texel;
-    let padded = row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
-    let readback = readback_buffer(device, u64::from(padded) * u64::from(height));
-    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("kloub readback") });
-    encoder.copy_texture_to_buffer(
-        texture.as_image_copy(),
-        wgpu::TexelCopyBufferInfo {
-            buffer: &readback,
-            layout: wgpu::TexelCopyBufferLayout {
-                offset: 0,
-                bytes_per_row: Some(padded),
-                rows_per_image: Some(height),
-            },
-        },
-        texture.size(),
-    );
-    queue.submit([encoder.finish()]);
-    let bytes = map_read(device, &readback)?;
-    let mut out = Vec::with_capacity((row * height) as usize);
-    for chunk in bytes.chunks_exact(padded as usize).take(height as usize) {
-        out.extend_from_slice(&chunk[..row as usize]);
-    }
-    Ok(out)
+    let pending = super::readback::PendingReadback::start(device, queue, texture, bytes_per_texel);
+    device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| format!("device poll: {e}"))?;
+    pending.poll(device).ok_or("readback: the GPU finished without mapping the buffer")?
 }
 
 /// The contents of `buffer` (`COPY_SRC`). Blocks until the GPU is done.
