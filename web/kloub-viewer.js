@@ -147,11 +147,13 @@ export class KloubViewer extends HTMLElement {
       this.#configure();
       switch (name) {
         case 'src': if (value) viewer.loadUrl(value); break;
-        case 'animation-name': if (value) this.crossfadeTo(value, this.#crossfadeSeconds()); break;
+        // Before a model is shown the names cannot resolve: configure() above makes the next model start so.
+        case 'animation-name': if (value && this.loaded) this.crossfadeTo(value, this.#crossfadeSeconds()); break;
         case 'speed': viewer.setSpeed(this.speed); break;
         case 'loop': viewer.setLoop(loopMode(value)); break;
         case 'crossfade-duration': viewer.setCrossfadeDuration(this.#crossfadeSeconds()); break;
         case 'layer-clip': case 'layer-root': {
+          if (!this.loaded) break;
           const clip = this.getAttribute('layer-clip');
           const root = this.getAttribute('layer-root');
           if (!clip) viewer.setLayer(null, null, 0);

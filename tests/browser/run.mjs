@@ -316,6 +316,10 @@ for (const backend of BACKENDS) {
     savePng(a, `${backend}-embed-left.png`);
     savePng(b, `${backend}-embed-right.png`);
     assert(nonBackgroundFraction(a) > 0.02 && nonBackgroundFraction(b) > 0.02, 'a viewer shows nothing');
+    // Attributes changed on a shown model act at once (animation-name crossfades, speed applies).
+    await page.evaluate(() => { const v = document.getElementById('left'); v.setAttribute('animation-name', 'Survey'); v.speed = 2; });
+    await waitForDataset(page, () => document.getElementById('left').dataset.clip === 'Survey' && document.getElementById('left').dataset.speed === '2.000', 'the attribute changes');
+    assert((await page.evaluate(() => document.getElementById('right').dataset.clip)) === 'Run', 'the other viewer changed too');
   });
 
   test(`${backend}: keyboard shortcuts reach the viewer: bones, play/pause, frame step`, async (ctx) => {
