@@ -730,6 +730,8 @@ pub struct App {
     help: bool,
     /// Where the 3D view was laid out last frame.
     viewport_rect: Rect,
+    /// Large deliveries waiting one frame to be imported (the bar says "Parsing…").
+    parsing: Vec<load::Delivery>,
     /// A screenshot being read back from the GPU.
     screenshot: Option<crate::render::readback::PendingReadback>,
     /// The last screenshot, PNG-encoded (kept for tests; downloaded in the browser).
@@ -747,6 +749,9 @@ pub struct App {
     /// Where each IK target was drawn last frame, in points (for `dataset.ikTarget`).
     ik_markers: Vec<Pos2>,
 }
+
+/// Deliveries at least this large get a "Parsing…" frame before their import.
+const PARSE_NOTICE_BYTES: usize = 4 << 20;
 
 /// Speed a click gives a ragdoll body, in skeleton sizes per second.
 const RAGDOLL_PUSH: f32 = 2.0;
@@ -903,6 +908,7 @@ impl App {
             screenshot: None,
             last_screenshot: None,
             viewport_rect: Rect::ZERO,
+            parsing: Vec::new(),
             drop_hint: false,
             announce_load: false,
             reported_playing: false,
@@ -947,7 +953,22 @@ impl App {
 
     /// Imports and installs every delivery that arrived since the last frame.
     fn receive(&mut self) {
+        // A large delivery is held for one frame so the "Parsing…" bar is painted before the
+        // import blocks the frame; small ones are imported at once.
+        let mut arrived = std::mem::take(&mut self.parsing);
         for delivery in self.inbox.take() {
+            let bytes: usize = delivery.files.as_ref().map_or(0, |f| f.iter().map(|f| f.bytes.len()).sum());
+            if bytes >= PARSE_NOTICE_BYTES {
+                self.parsing.push(delivery);
+            } else {
+                arrived.push(delivery);
+            }
+        }
+        if !self.parsing.is_empty() {
+            self.status = Status::Loading;
+            self.controls.wake();
+        }
+        for delivery in arrived {
             self.pending = self.pending.saturating_sub(1);
             let result = match delivery.files {
                 // A sidecar alone edits the shown model's joint settings.
@@ -973,7 +994,7 @@ impl App {
                 Err(message) => self.fail(message),
             }
         }
-        if self.pending > 0 {
+        if self.pending > 0 || !self.parsing.is_empty() {
             self.status = Status::Loading;
         }
     }
@@ -1672,7 +1693,19 @@ impl App {
                 egui::Frame::popup(ui.style()).show(ui, |ui| {
                     ui.set_width(320.0);
                     let mb = |b: u64| b as f64 / 1_048_576.0;
+                    let parsing = self.parsing.first().and_then(|d| d.files.as_ref().ok()).map(|files| {
+                        let bytes: usize = files.iter().map(|f| f.bytes.len()).sum();
+                        let name = files.iter().find(|f| load::is_model_name(&f.name)).or(files.first());
+                        (name.map_or("files", |f| load::base_name(&f.name)).to_owned(), bytes)
+                    });
                     match progress {
+                        _ if parsing.is_some() => {
+                            let (name, bytes) = parsing.unwrap_or_default();
+                            ui.horizontal(|ui| {
+                                ui.spinner();
+                                ui.label(format!("Parsing {name} ({:.1} MB)…", mb(bytes as u64)));
+                            });
+                        }
                         Some(load::Progress { name, received, total: Some(total) }) if total > 0 => {
                             ui.label(format!("Loading {name}: {:.1} of {:.1} MB", mb(received), mb(total)));
                             ui.add(

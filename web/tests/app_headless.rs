@@ -890,3 +890,18 @@ fn the_ragdoll_falls_settles_and_hands_back_to_the_animation() {
     let before = h.get(Key::Error).to_owned();
     assert!(before.is_empty());
 }
+
+#[test]
+fn a_large_drop_shows_parsing_for_a_frame_before_it_is_imported() {
+    let fox = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/Fox.glb")).expect("web/assets/Fox.glb");
+    let mut h = Harness::new();
+    h.step(0.016, Vec::new());
+    // 5 MB with the model: past the threshold for the "Parsing…" notice.
+    h.step(0.016, vec![dropped("Fox.glb", fox), dropped("padding.bin", vec![0; 5 << 20])]);
+    h.step(0.016, Vec::new());
+    assert_eq!(h.get(Key::Status), "loading", "held for a frame");
+    assert_eq!(h.get(Key::Model), "");
+    h.step(0.016, Vec::new());
+    assert_eq!(h.get(Key::Model), "Fox.glb", "{}", h.get(Key::Error));
+    assert_eq!(h.get(Key::Status), "ready");
+}
