@@ -481,6 +481,31 @@ for (const backend of BACKENDS) {
   });
 }
 
+test('<kloub-viewer>: changing backend remounts on the other renderer; a removed element stops', async (ctx) => {
+  const { page } = ctx;
+  await page.goto(`${ctx.url}/embed.html?backend=webgpu`);
+  await waitForDataset(page, () => ['left', 'right'].every((id) => document.getElementById(id).dataset.status === 'ready'), 'both viewers');
+  await page.evaluate(() => document.getElementById('left').setAttribute('backend', 'webgl2'));
+  await waitForDataset(page, () => {
+    const d = document.getElementById('left').dataset;
+    return d.backend === 'webgl2' && d.status === 'ready' && d.model === 'default.glb';
+  }, 'the left viewer on WebGL2');
+  assert((await page.evaluate(() => document.getElementById('right').dataset.backend)) === 'webgpu', 'the right viewer changed backend');
+  // Removing an element stops its viewer: its frame count no longer moves while the other's does.
+  const before = await page.evaluate(() => {
+    const right = document.getElementById('right');
+    right.remove();
+    window.__removed = right;
+    return Number(right.dataset.frames);
+  });
+  const left0 = Number(await page.evaluate(() => document.getElementById('left').dataset.frames));
+  await page.waitForFunction((f) => Number(document.getElementById('left').dataset.frames) >= f + 5, left0, { timeout: 30000 });
+  const after = await page.evaluate(() => Number(window.__removed.dataset.frames));
+  assert(after <= before + 1, `the removed viewer kept painting: ${before} -> ${after}`);
+  const errors = ctx.logs.filter((l) => l.startsWith('[pageerror]'));
+  assert(errors.length === 0, `page errors: ${errors.join('; ')}`);
+});
+
 test('hash-state.js: a view round-trips through the hash; malformed keys are dropped', async () => {
   const { viewToHash, hashToView } = await import('../../web/hash-state.js');
   const state = { clip: 'Run', time: '0.300', playing: 'false', speed: '1.500', layer: 'Survey@b_Neck_04:0.60', skinning: 'dqs', camera: '0.9,0.35,260,5,40,-10' };
