@@ -38,6 +38,9 @@ viewer.addEventListener('load', () => {
   }
 });
 
+// At most two hash writes a second while playing (browsers limit replaceState calls, Safari to 100 per 30 s).
+const HASH_INTERVAL_MS = 500;
+
 // Keep the hash current (replaceState: no history entry per frame). A dropped model has no URL: then no src.
 let scheduled = false;
 function writeHash() {
@@ -50,7 +53,7 @@ function writeHash() {
 new MutationObserver(() => {
   if (!scheduled) {
     scheduled = true;
-    setTimeout(writeHash, 200);
+    setTimeout(writeHash, HASH_INTERVAL_MS);
   }
 }).observe(viewer, { attributes: true, attributeFilter: ['data-clip', 'data-time', 'data-playing', 'data-speed', 'data-layer', 'data-skinning', 'data-camera', 'data-model', 'data-status'] });
 // The src attribute follows later loads from URLs only through the element; a drop keeps src stale on purpose.

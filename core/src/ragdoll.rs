@@ -21,8 +21,8 @@
 //! interpolated pose into a [`Pose`]'s locals. Same inputs, same steps: the same output.
 
 use rapier3d::prelude::{
-    ColliderBuilder, GenericJointBuilder, Group, ImpulseJointHandle, InteractionGroups, InteractionTestMode,
-    JointAxesMask, JointAxis, PhysicsWorld, RigidBodyBuilder, RigidBodyHandle,
+    ColliderBuilder, GenericJointBuilder, Group, InteractionGroups, InteractionTestMode, JointAxesMask, JointAxis,
+    PhysicsWorld, RigidBodyBuilder, RigidBodyHandle,
 };
 
 use crate::asset::{Asset, NodeIndex};
@@ -119,7 +119,8 @@ pub struct Ragdoll {
     steps: u64,
     ground: f32,
     size: f32,
-    _joints: Vec<ImpulseJointHandle>,
+    /// World transforms written by [`Ragdoll::write_pose`], kept to reuse the allocation.
+    worlds: Vec<Mat4>,
 }
 
 impl std::fmt::Debug for Ragdoll {
@@ -241,7 +242,6 @@ impl Ragdoll {
 
         let mut bodies: Vec<RagdollBody> = Vec::new();
         let mut body_of = vec![usize::MAX; n];
-        let mut joints = Vec::new();
         for &node in &asset.order {
             let j = node as usize;
             if !is_joint[j] {
@@ -325,11 +325,7 @@ impl Ragdoll {
                 let rest_frame = (parent_rotation * asset.nodes[j].rest.rotation).normalize();
                 let axis = match limit {
                     JointLimit::Hinge { axis, .. } | JointLimit::Ball { axis, .. } => axis,
-                    JointLimit::Free => asset.nodes[j]
-                        .children
-                        .first()
-                        .and_then(|&c| asset.nodes[c as usize].rest.translation.try_normalize())
-                        .unwrap_or(Vec3::Y),
+                    JointLimit::Free => crate::job::ik::bone_axis(asset, &asset.nodes[j]),
                 };
                 let to_axis = Quat::from_rotation_arc(Vec3::X, axis.try_normalize().unwrap_or(Vec3::X));
                 let frame1 = parent_pose.inverse() * pose(rest_frame * to_axis, origin);
@@ -355,7 +351,7 @@ impl Ragdoll {
                         .limits(JointAxis::AngY, [-FREE_SWING, FREE_SWING])
                         .limits(JointAxis::AngZ, [-FREE_SWING, FREE_SWING]),
                 };
-                joints.push(world.insert_impulse_joint(parent.handle, handle, joint.build()));
+                world.insert_impulse_joint(parent.handle, handle, joint.build());
             }
             body_of[j] = bodies.len();
             bodies.push(RagdollBody {
@@ -384,7 +380,7 @@ impl Ragdoll {
             steps: 0,
             ground: floor,
             size,
-            _joints: joints,
+            worlds: vec![Mat4::IDENTITY; n],
         })
     }
 
@@ -504,21 +500,21 @@ impl Ragdoll {
     /// follow it (interpolated between the last two steps by the time left over), the others
     /// keep their locals from when the ragdoll started. With `weight` < 1 the result is
     /// blended (slerp) over the locals already in `pose` (the animation), to hand back.
-    pub fn write_pose(&self, pose: &mut Pose, weight: f32) {
+    pub fn write_pose(&mut self, pose: &mut Pose, weight: f32) {
         let n = self.parents.len();
-        if pose.locals.len() != n || self.start_locals.len() != n {
+        if pose.locals.len() != n || self.start_locals.len() != n || self.worlds.len() != n {
             return;
         }
         let alpha = (self.accumulator * STEP_HZ).clamp(0.0, 1.0);
         let weight = weight.clamp(0.0, 1.0);
-        let mut worlds = vec![Mat4::IDENTITY; n];
+        let worlds = &mut self.worlds;
         for &node in &self.order {
             let j = node as usize;
             let parent_world = self.parents[j].map_or(Mat4::IDENTITY, |p| worlds[p as usize]);
             let body = self.body_of[j];
-            let local = match self.bodies.get(body) {
-                Some(b) => {
-                    let Some(rb) = self.world.bodies.get(b.handle) else { continue };
+            let handle = self.bodies.get(body).map(|b| (b, self.world.bodies.get(b.handle)));
+            let local = match handle {
+                Some((b, Some(rb))) => {
                     let now = rb.position();
                     let rotation = b.previous.0.slerp(now.rotation, alpha).normalize();
                     let center = b.previous.1.lerp(now.translation, alpha);
@@ -542,7 +538,8 @@ impl Ragdoll {
                         }
                     }
                 }
-                None => self.start_locals[j],
+                // A joint without a body (or with one rapier no longer has) keeps its start local.
+                _ => self.start_locals[j],
             };
             let out = &mut pose.locals[j];
             let blended = if weight >= 1.0 {

@@ -308,8 +308,13 @@ where
 fn run_ragdoll(args: &RagdollArgs) -> ExitCode {
     let posed = &args.posed;
     let file = posed.file.display().to_string();
-    match crate::ragdoll::ragdoll_file(&posed.file, posed.clip.as_deref(), posed.time, args.seconds) {
-        Ok(doc) => write_stdout(&file, |out| {
+    print_json(&file, crate::ragdoll::ragdoll_file(&posed.file, posed.clip.as_deref(), posed.time, args.seconds))
+}
+
+/// Prints a command's document as one line of JSON, or its error naming `file` (exit 1).
+fn print_json<T: serde::Serialize, E: std::fmt::Display>(file: &str, result: Result<T, E>) -> ExitCode {
+    match result {
+        Ok(doc) => write_stdout(file, |out| {
             serde_json::to_writer(&mut *out, &doc).map_err(std::io::Error::from)?;
             writeln!(out)
         }),
@@ -354,16 +359,7 @@ fn run_ik(args: &IkArgs) -> ExitCode {
             weight: 1.0,
         },
     };
-    match crate::ik::ik_file(&args.posed.file, &request) {
-        Ok(doc) => write_stdout(&file, |out| {
-            serde_json::to_writer(&mut *out, &doc).map_err(std::io::Error::from)?;
-            writeln!(out)
-        }),
-        Err(e) => {
-            eprintln!("kloub: {file}: {e}");
-            ExitCode::FAILURE
-        }
-    }
+    print_json(&file, crate::ik::ik_file(&args.posed.file, &request))
 }
 
 fn run_serve(args: ServeArgs) -> ExitCode {

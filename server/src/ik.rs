@@ -14,7 +14,7 @@ use std::path::Path;
 
 use kloub_core::Instance;
 use kloub_core::asset::Asset;
-use kloub_core::job::ik::{IkChain, IkGoal, IkJob, IkReport, IkSettings, IkSolver, JointLimit};
+use kloub_core::job::ik::{IkChain, IkGoal, IkJob, IkReport, IkSettings, JointLimit};
 use kloub_core::math::{Mat4, Transform, Vec3};
 use kloub_core::rig::JointSettings;
 use serde::Serialize;
@@ -110,18 +110,13 @@ pub fn ik_asset(asset_name: &str, asset: &Asset, request: &IkRequest) -> Result<
         Some(c) => Some(asset.find_clip(c).ok_or_else(|| err(format!("no clip {c:?}")))?),
         None => None,
     };
-    let effector = asset
-        .nodes
-        .iter()
-        .position(|n| n.name.as_deref() == Some(request.effector.as_str()))
-        .or_else(|| request.effector.parse::<usize>().ok().filter(|&i| i < asset.nodes.len()))
-        .ok_or_else(|| err(format!("no node {:?}", request.effector)))? as u32;
+    let effector = crate::pose::find_node(asset, &request.effector)
+        .ok_or_else(|| err(format!("no node {:?}", request.effector)))?;
     let parents: Vec<Option<u32>> = asset.nodes.iter().map(|n| n.parent).collect();
     let chain = IkChain::new(&parents, effector, request.depth).map_err(|e| err(e.to_string()))?;
     let mut instance = Instance::new(asset);
     instance.evaluate(asset, clip, request.time).map_err(|e| err(e.to_string()))?;
-    let rest: Vec<Transform> = asset.nodes.iter().map(|n| n.rest).collect();
-    let mut locals = instance.pose().locals.clone();
+    let rest: Vec<Transform> = kloub_core::pose::Pose::rest(asset).locals;
     let mut joints = JointSettings::humanoid(asset);
     if let Some(text) = &request.sidecar {
         joints.apply_json(asset, text).map_err(|e| err(format!("limits: {e}")))?;
@@ -143,14 +138,13 @@ pub fn ik_asset(asset_name: &str, asset: &Asset, request: &IkRequest) -> Result<
     IkJob {
         parents: &parents,
         rest: &rest,
-        locals: &mut locals,
+        locals: &mut instance.pose_mut().locals,
         goals: &[goal],
         settings: request.settings,
         reports: &mut reports,
     }
     .run()
     .map_err(|e| err(e.to_string()))?;
-    instance.pose_mut().locals.copy_from_slice(&locals);
     instance.update(asset).map_err(|e| err(e.to_string()))?;
     let worlds: &[Mat4] = instance.worlds();
     let position = |n: u32| worlds[n as usize].w_axis.truncate().to_array();
@@ -161,7 +155,7 @@ pub fn ik_asset(asset_name: &str, asset: &Asset, request: &IkRequest) -> Result<
         .map(|&j| ChainJoint {
             index: j,
             name: asset.nodes[j as usize].name.clone(),
-            rotation: widen(locals[j as usize].rotation.to_array()),
+            rotation: widen(instance.pose().locals[j as usize].rotation.to_array()),
             world: widen(position(j)),
         })
         .collect();
@@ -181,9 +175,4 @@ pub fn ik_asset(asset_name: &str, asset: &Asset, request: &IkRequest) -> Result<
         iterations: report.iterations,
         chain: chain_out,
     })
-}
-
-/// `ccd`, `twobone`, `fabrik` or `dls`.
-pub fn parse_solver(name: &str) -> Option<IkSolver> {
-    IkSolver::ALL.into_iter().find(|s| s.name() == name)
 }

@@ -135,6 +135,9 @@ pub struct Model {
     pub selected_joint: Option<NodeIndex>,
     /// Morph weights set by the panel's sliders, by pose weight slot (`None`: animated).
     pub morph_overrides: Vec<Option<f32>>,
+    /// Joints worth offering as IK end effectors, best first, with their chain depth
+    /// ([`crate::ik::default_effectors`], found once per model).
+    pub ik_offers: Vec<(NodeIndex, usize)>,
     /// The ragdoll, while the character is one.
     pub ragdoll: Option<crate::ragdoll::RagdollState>,
     /// Gravity and damping for the ragdoll (the panel's sliders).
@@ -175,6 +178,7 @@ impl Model {
         let key_times = asset.clips.iter().map(key_times).collect();
         let in_joint_tree = joint_tree_nodes(&asset);
         let asset_weight_slots = instance.pose().weights.len();
+        let ik_offers = crate::ik::default_effectors(&asset);
         let mut blend_weights = vec![0.0; asset.clips.len()];
         if let Some(w) = clip.and_then(|c| blend_weights.get_mut(c)) {
             *w = 1.0;
@@ -210,8 +214,9 @@ impl Model {
             ik_selected: 0,
             selected_joint: None,
             morph_overrides: vec![None; asset_weight_slots],
+            ik_offers,
             ragdoll: None,
-            ragdoll_options: crate::ragdoll::default_options(),
+            ragdoll_options: kloub_core::ragdoll::RagdollOptions::default(),
             previous: crate::ragdoll::PreviousWorlds::default(),
         })
     }
@@ -273,7 +278,7 @@ impl Model {
             }
             candy.update_quality(self.instance.pose());
         }
-        if let Some(ragdoll) = &self.ragdoll {
+        if let Some(ragdoll) = &mut self.ragdoll {
             // The bodies own the skeleton (blended over the animation while handing back).
             ragdoll.ragdoll.write_pose(self.instance.pose_mut(), ragdoll.weight());
             self.instance.update(&self.asset).map_err(|e| e.to_string())?;
@@ -744,8 +749,7 @@ pub struct App {
     announce_load: bool,
     /// Whether the main clock ran at the last report (`play`/`pause` events).
     reported_playing: bool,
-    /// The time last reported (`timeupdate` events).
-    reported_time: String,
+
     /// Where each IK target was drawn last frame, in points (for `dataset.ikTarget`).
     ik_markers: Vec<Pos2>,
 }
@@ -912,7 +916,6 @@ impl App {
             drop_hint: false,
             announce_load: false,
             reported_playing: false,
-            reported_time: String::new(),
         };
         app.controls.set_repaint(cc.egui_ctx.clone());
         app.controls.set_supports_compute(app.scene.supports_compute());
@@ -1193,6 +1196,20 @@ impl App {
             _ => {}
         }
         let Some(model) = &mut self.model else { return Ok(()) };
+        // Copies replay the main animator: only commands that change it need a re-sync.
+        let animates = matches!(
+            command,
+            Command::Play
+                | Command::Pause
+                | Command::PlayClip(_)
+                | Command::CrossfadeTo { .. }
+                | Command::Seek(_)
+                | Command::SetSpeed(_)
+                | Command::SetLoop(_)
+                | Command::SetLayer { .. }
+                | Command::SetBlend(_)
+                | Command::SetCandyPose { .. }
+        );
         match command {
             Command::SetSkinning(_)
             | Command::SetSkinningPath(_)
@@ -1324,7 +1341,7 @@ impl App {
                 model.apply_blend()?;
             }
         }
-        if !model.copies.is_empty() {
+        if animates && !model.copies.is_empty() {
             model.sync_copies();
         }
         Ok(())
@@ -1853,7 +1870,7 @@ impl App {
         d.set(Key::Model, model.map_or("", |m| m.name.as_str()));
         d.set(Key::Clips, model.map_or("[]", |m| m.clips_json.as_str()));
         d.set(Key::Clip, model.map_or("", |m| m.clip_name(m.animator.main().clip)));
-        d.set(Key::Time, &model.map_or(String::new(), |m| format!("{:.3}", m.animator.main().time)));
+        let time_moved = d.set(Key::Time, &model.map_or(String::new(), |m| format!("{:.3}", m.animator.main().time)));
         d.set(Key::Playing, if model.is_some_and(Model::is_playing) { "true" } else { "false" });
         let fade = model.and_then(|m| m.animator.crossfade());
         d.set(Key::Crossfade, &fade.map_or(String::new(), |f| format!("{:.2}", f.weight)));
@@ -1907,10 +1924,8 @@ impl App {
             self.reported_playing = playing;
             d.host().emit(if playing { "play" } else { "pause" }, "");
         }
-        let time = d.get(Key::Time).unwrap_or("");
-        if model.is_some() && time != self.reported_time {
-            self.reported_time = time.to_owned();
-            d.host().emit("timeupdate", time);
+        if model.is_some() && time_moved {
+            d.host().emit("timeupdate", d.get(Key::Time).unwrap_or(""));
         }
         if self.announce_load && self.frames > 0 {
             self.announce_load = false;
@@ -1977,9 +1992,6 @@ impl eframe::App for App {
         if let Some(folder) = actions.open {
             // The element opens its file input (the click is still the user's gesture).
             self.dataset.host().emit("kloub:open", if folder { "folder" } else { "files" });
-        }
-        if actions.screenshot {
-            self.screenshot();
         }
         self.finish_screenshot(&ctx);
         if actions.save_sidecar

@@ -150,15 +150,17 @@ fn position(worlds: &[Mat4], node: NodeIndex) -> Vec3 {
 /// deepest joint of the skins; each with the depth its hierarchy allows (up to 2).
 pub fn default_effectors(asset: &Asset) -> Vec<(NodeIndex, usize)> {
     let joints: Vec<NodeIndex> = asset.skins.iter().flat_map(|s| s.joints.iter().copied()).collect();
-    let name =
-        |j: NodeIndex| asset.nodes.get(j as usize).and_then(|n| n.name.as_deref()).unwrap_or("").to_ascii_lowercase();
+    let names: Vec<String> = joints
+        .iter()
+        .map(|&j| asset.nodes.get(j as usize).and_then(|n| n.name.as_deref()).unwrap_or("").to_ascii_lowercase())
+        .collect();
     let mut out: Vec<NodeIndex> = Vec::new();
     for keys in [
         &["hand", "wrist", "lowerarm", "arm_joint_l_3", "arm_joint_r_3"][..],
         &["foot", "ankle", "leg_joint_l_5", "leg_joint_r_5"][..],
     ] {
-        for &j in &joints {
-            if keys.iter().any(|k| name(j).contains(k)) && !out.contains(&j) {
+        for (&j, name) in joints.iter().zip(&names) {
+            if keys.iter().any(|k| name.contains(k)) && !out.contains(&j) {
                 out.push(j);
             }
         }

@@ -3,7 +3,7 @@
 //! and handed back to the animation over a chosen duration.
 
 use glam::Mat4;
-use kloub_core::ragdoll::{Ragdoll, RagdollOptions};
+use kloub_core::ragdoll::Ragdoll;
 
 /// A running ragdoll of the shown model.
 #[derive(Debug)]
@@ -54,9 +54,4 @@ pub struct PreviousWorlds {
     pub worlds: Vec<Mat4>,
     /// Seconds between that frame and the current one.
     pub dt: f32,
-}
-
-/// Default options for a model (gravity and damping as the panel shows them).
-pub fn default_options() -> RagdollOptions {
-    RagdollOptions::default()
 }

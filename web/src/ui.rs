@@ -90,8 +90,6 @@ pub struct PanelActions {
     pub blend_changed: bool,
     /// Download the model's `.kloub.json` sidecar.
     pub save_sidecar: bool,
-    /// Save the view as a PNG.
-    pub screenshot: bool,
     /// Open the keyboard help.
     pub help: bool,
     /// Ask the page for a file picker (`Some(true)`: a folder picker).
@@ -432,7 +430,7 @@ fn view_panel(ui: &mut egui::Ui, state: &PanelState<'_>, actions: &mut PanelActi
                 actions.frame = true;
             }
             if ui.button("Screenshot").on_hover_text("Save the view as a PNG").clicked() {
-                actions.screenshot = true;
+                actions.commands.push(Command::Screenshot);
             }
             if ui.button("?").on_hover_text("Keyboard and mouse (? or H)").clicked() {
                 actions.help = true;
@@ -793,9 +791,8 @@ fn ik_panel(ui: &mut egui::Ui, model: &mut Model, actions: &mut PanelActions) {
             "Drag a ring in the viewport to move its target; click a joint to make it the selected goal's end effector",
         )
         .changed();
-    let offers = crate::ik::default_effectors(&model.asset);
     if toggled {
-        let command = match (on, offers.first()) {
+        let command = match (on, model.ik_offers.first()) {
             (true, Some(&(effector, depth))) => Command::SetIk { effector: Some(effector), depth, target: None },
             _ => Command::SetIk { effector: None, depth: 0, target: None },
         };
@@ -813,7 +810,7 @@ fn ik_panel(ui: &mut egui::Ui, model: &mut Model, actions: &mut PanelActions) {
         }
     });
     ui.horizontal(|ui| {
-        let unused = offers.iter().find(|(j, _)| model.ik.iter().all(|g| g.effector() != *j));
+        let unused = model.ik_offers.iter().find(|(j, _)| model.ik.iter().all(|g| g.effector() != *j));
         if ui
             .add_enabled(unused.is_some(), egui::Button::new("Add target"))
             .on_hover_text("Another end effector (the next hand or foot)")

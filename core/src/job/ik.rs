@@ -147,6 +147,16 @@ const BALL_SWING: f32 = 100.0 * std::f32::consts::PI / 180.0;
 /// Shoulders and hips: twist about the bone, either way.
 const BALL_TWIST: f32 = 80.0 * std::f32::consts::PI / 180.0;
 
+/// The direction of `node`'s bone in its rest frame: towards its first child (`Y` for a leaf
+/// or a child at its origin).
+pub fn bone_axis(asset: &crate::Asset, node: &crate::asset::Node) -> Vec3 {
+    node.children
+        .first()
+        .and_then(|&c| asset.nodes.get(c as usize))
+        .and_then(|c| c.rest.translation.try_normalize())
+        .unwrap_or(Vec3::Y)
+}
+
 /// Default limits for every node of `asset`, inferred from common humanoid joint names:
 /// elbows and knees (`elbow`, `knee`, `forearm`, `lowerarm`, `shin`, `calf`, `lowerleg`, and
 /// RiggedFigure's `arm_joint_*_2`/`leg_joint_*_2`) are hinges about local X; shoulders and hips
@@ -179,12 +189,7 @@ pub fn humanoid_limits(asset: &crate::asset::Asset) -> Vec<JointLimit> {
                 || numbered("armjoint", '1')
                 || numbered("legjoint", '1')
             {
-                let axis = node
-                    .children
-                    .first()
-                    .and_then(|&c| asset.nodes.get(c as usize))
-                    .and_then(|c| c.rest.translation.try_normalize())
-                    .unwrap_or(Vec3::Y);
+                let axis = bone_axis(asset, node);
                 JointLimit::Ball { axis, swing: BALL_SWING, twist_min: -BALL_TWIST, twist_max: BALL_TWIST }
             } else {
                 JointLimit::Free
@@ -355,11 +360,14 @@ impl IkJob<'_> {
     /// `settings.weight`.
     pub fn run(&mut self) -> Result<(), JobError> {
         self.validate()?;
+        // The animated rotations, kept only when they are blended back in.
+        let weight = self.settings.weight.clamp(0.0, 1.0);
         let mut original = [[Quat::IDENTITY; MAX_CHAIN]; MAX_GOALS];
-        let keep = self.goals.len();
-        for (g, goal) in self.goals.iter().take(keep).enumerate() {
-            for (k, &j) in goal.chain.joints().iter().enumerate() {
-                original[g][k] = self.locals[j as usize].rotation;
+        if weight < 1.0 {
+            for (g, goal) in self.goals.iter().enumerate() {
+                for (k, &j) in goal.chain.joints().iter().enumerate() {
+                    original[g][k] = self.locals[j as usize].rotation;
+                }
             }
         }
         match self.settings.solver {
@@ -380,9 +388,8 @@ impl IkJob<'_> {
                 }
             }
         }
-        let weight = self.settings.weight.clamp(0.0, 1.0);
         if weight < 1.0 {
-            for (g, goal) in self.goals.iter().take(keep).enumerate() {
+            for (g, goal) in self.goals.iter().enumerate() {
                 for (k, &j) in goal.chain.joints().iter().enumerate() {
                     let local = &mut self.locals[j as usize];
                     local.rotation = original[g][k].slerp(local.rotation, weight).normalize();

@@ -65,12 +65,15 @@ impl PendingReadback {
         let _ = device.poll(wgpu::PollType::Poll);
         let mapped = self.state.lock().ok()?.take()?;
         Some(mapped.and_then(|()| {
-            let bytes = self.buffer.get_mapped_range(..).map_err(|e| format!("readback range: {e}"))?.to_vec();
-            self.buffer.unmap();
             let mut out = Vec::with_capacity((self.row * self.height) as usize);
-            for chunk in bytes.chunks_exact(self.padded as usize).take(self.height as usize) {
-                out.extend_from_slice(&chunk[..self.row as usize]);
+            {
+                // Rows are copied straight out of the mapping, dropping the row padding.
+                let mapped = self.buffer.get_mapped_range(..).map_err(|e| format!("readback range: {e}"))?;
+                for chunk in mapped.chunks_exact(self.padded as usize).take(self.height as usize) {
+                    out.extend_from_slice(&chunk[..self.row as usize]);
+                }
             }
+            self.buffer.unmap();
             Ok(out)
         }))
     }
