@@ -72,10 +72,13 @@ fn ik(c: &mut Criterion) {
     for (name, parents, rest, effector, depth, solvers) in cases {
         let chain = IkChain::new(&parents, effector, depth).expect("chain");
         let goals = targets(&parents, &rest, &chain);
-        for &solver in solvers {
+        // Plain CCD (seed 000's sweeps only) next to every solver with its defaults.
+        let runs = solvers.iter().map(|&s| (s, true)).chain([(IkSolver::Ccd, false)]);
+        for (solver, accelerate) in runs {
             let mut locals = rest.clone();
-            let settings = IkSettings { solver, iterations: 32, tolerance: 1e-4, weight: 1.0 };
-            group.bench_function(format!("{}/{name}", solver.name()), |b| {
+            let settings = IkSettings { solver, iterations: 32, tolerance: 1e-4, weight: 1.0, accelerate };
+            let label = if accelerate { solver.name() } else { "plain-ccd" };
+            group.bench_function(format!("{label}/{name}"), |b| {
                 b.iter(|| {
                     for &target in &goals {
                         locals.copy_from_slice(&rest);

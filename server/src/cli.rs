@@ -103,6 +103,9 @@ pub struct IkArgs {
     /// Stop within this distance of the target (world units).
     #[arg(long, default_value_t = 1e-4)]
     pub tolerance: f32,
+    /// CCD as seed 000 has it, without the pattern move after each sweep (slow near full reach).
+    #[arg(long)]
+    pub plain_ccd: bool,
     /// Two-bone: bend the middle joint towards this world point x,y,z.
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub pole: Option<[f32; 3]>,
@@ -357,6 +360,7 @@ fn run_ik(args: &IkArgs) -> ExitCode {
             iterations: args.iterations,
             tolerance: args.tolerance,
             weight: 1.0,
+            accelerate: !args.plain_ccd,
         },
     };
     print_json(&file, crate::ik::ik_file(&args.posed.file, &request))

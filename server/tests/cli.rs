@@ -401,6 +401,19 @@ fn ik_reaches_a_target_with_every_solver() {
         assert_eq!(reached, last, "{solver}: reached is the effector's world position");
         assert!(doc["iterations"].as_u64().expect("iterations") >= 1);
     }
+    // CCD's pattern move: the default reaches this near-full-reach target in a few sweeps; seed
+    // 000's plain CCD is still creeping after 32.
+    let sweeps = |extra: &[&str]| {
+        let mut args =
+            vec!["ik", path, "--clip", "0", "--effector", "arm_joint_L_3", "--depth", "2", "--target", &target];
+        args.extend_from_slice(extra);
+        let doc: serde_json::Value = serde_json::from_slice(&kloub_ok(&args)).expect("JSON on stdout");
+        (doc["error"].as_f64().expect("error"), doc["iterations"].as_u64().expect("iterations"))
+    };
+    let (error, iterations) = sweeps(&[]);
+    assert!(error <= 1e-4 && iterations <= 8, "ccd: error {error} after {iterations} sweeps");
+    let (plain_error, plain_iterations) = sweeps(&["--plain-ccd"]);
+    assert!(plain_iterations == 32 && plain_error > 1e-4, "plain ccd: error {plain_error} after {plain_iterations}");
     let limited = [
         "ik",
         path,

@@ -324,6 +324,7 @@ impl Model {
         let mut state = IkState::new(&self.asset, &self.instance, &self.joint_settings, effector, depth, target)?;
         if let Some(like) = like {
             state.iterations = like.iterations;
+            state.accelerate = like.accelerate;
             state.use_limits = like.use_limits;
             if like.solver != kloub_core::job::ik::IkSolver::TwoBone || state.depth() == 2 {
                 state.solver = like.solver;

@@ -17,6 +17,8 @@ pub struct IkState {
     pub solver: IkSolver,
     /// Most iterations per frame.
     pub iterations: u32,
+    /// CCD: a pattern move after each sweep ([`IkSettings::accelerate`]).
+    pub accelerate: bool,
     /// World-space target.
     pub target: Vec3,
     /// How the last solve ended.
@@ -63,6 +65,7 @@ impl IkState {
             chain,
             solver,
             iterations: 32,
+            accelerate: true,
             weight: 1.0,
             target: target.unwrap_or(here),
             report: IkReport::default(),
@@ -121,6 +124,7 @@ impl IkState {
             iterations: self.iterations,
             tolerance: 1e-5,
             weight: self.weight.clamp(0.0, 1.0),
+            accelerate: self.accelerate,
         };
         let mut reports = [IkReport::default()];
         IkJob {

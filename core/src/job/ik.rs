@@ -134,7 +134,10 @@ impl JointLimit {
     /// Whether `rotation` is within the limit (up to `tolerance` radians).
     pub fn allows(&self, rest: Quat, rotation: Quat, tolerance: f32) -> bool {
         let clamped = self.clamp(rest, rotation);
-        clamped.angle_between(rotation) <= tolerance
+        // The angle of the difference from its sine and cosine: precise near 0, where
+        // `acos` of a dot product loses ~1e-3 rad to f32 rounding.
+        let difference = clamped.conjugate() * rotation;
+        2.0 * Vec3::new(difference.x, difference.y, difference.z).length().atan2(difference.w.abs()) <= tolerance
     }
 }
 
@@ -273,11 +276,16 @@ pub struct IkSettings {
     pub tolerance: f32,
     /// 1 applies the solution, 0 keeps the animated pose; in between rotations are slerped.
     pub weight: f32,
+    /// CCD only: after each sweep, a Hooke–Jeeves pattern move extrapolates the turn the sweep
+    /// made (×1, ×2, ×4, … while the error keeps falling). The sweep itself stays seed 000's;
+    /// near full reach, where plain CCD creeps (its first-order step vanishes), this is what
+    /// makes it converge in a few sweeps. `false`: plain CCD.
+    pub accelerate: bool,
 }
 
 impl Default for IkSettings {
     fn default() -> Self {
-        Self { solver: IkSolver::Ccd, iterations: 32, tolerance: 1e-4, weight: 1.0 }
+        Self { solver: IkSolver::Ccd, iterations: 32, tolerance: 1e-4, weight: 1.0, accelerate: true }
     }
 }
 
@@ -411,9 +419,16 @@ impl IkJob<'_> {
         let tolerance = self.settings.tolerance;
         let mut worlds = [Mat4::IDENTITY; MAX_CHAIN];
         let mut done = 0u32;
+        let accelerate = self.settings.accelerate;
+        let mut previous = [[Quat::IDENTITY; MAX_CHAIN]; MAX_GOALS];
+        for (g, goal) in self.goals.iter().enumerate() {
+            for (k, &j) in goal.chain.joints().iter().enumerate() {
+                previous[g][k] = self.locals[j as usize].rotation;
+            }
+        }
         for sweep in 0..self.settings.iterations {
             let mut all_reached = true;
-            for goal in self.goals {
+            for (g, goal) in self.goals.iter().enumerate() {
                 let joints = goal.chain.joints();
                 let last = joints.len() - 1;
                 chain_worlds(self.parents, self.locals, joints, &mut worlds);
@@ -448,6 +463,9 @@ impl IkJob<'_> {
                     rotate_joint(self.locals, self.rest, joints[k], goal.limits.get(k), &parent, turn);
                     update_from(self.locals, joints, k, &parent, &mut worlds);
                 }
+                if accelerate {
+                    pattern_move(self.parents, self.rest, self.locals, goal, &mut previous[g], &mut worlds);
+                }
             }
             done = sweep + 1;
             if all_reached {
@@ -460,6 +478,67 @@ impl IkJob<'_> {
             let effector = worlds[goal.chain.joints().len() - 1].w_axis.truncate();
             self.reports[g] = IkReport { error: effector.distance(goal.target), iterations: done };
         }
+    }
+}
+
+/// Hooke–Jeeves pattern move after a CCD sweep of `goal`: the sweep turned each rotating joint
+/// by Δ (from `previous` to now, in its parent's frame); Δ^s is tried on top for s = 1, 2, 4,
+/// … (at most 32) while the effector's error keeps falling, limits applied, and the best kept.
+/// A joint the sweep did not turn (η = 0) stays. `previous` becomes the result: the next
+/// sweep's starting point.
+fn pattern_move(
+    parents: &[Option<NodeIndex>],
+    rest: &[Transform],
+    locals: &mut [Transform],
+    goal: &IkGoal,
+    previous: &mut [Quat; MAX_CHAIN],
+    worlds: &mut [Mat4; MAX_CHAIN],
+) {
+    let joints = goal.chain.joints();
+    let last = joints.len() - 1;
+    let mut swept = [Quat::IDENTITY; MAX_CHAIN];
+    let mut delta = [(Vec3::X, 0.0f32); MAX_CHAIN];
+    for (k, &j) in joints[..last].iter().enumerate() {
+        swept[k] = locals[j as usize].rotation;
+        let d = swept[k] * previous[k].conjugate();
+        delta[k] = if d.w < 0.0 { -d } else { d }.normalize().to_axis_angle();
+    }
+    // Every rotating joint at `scale` times its sweep's turn beyond where the sweep left it.
+    let extrapolate = |locals: &mut [Transform], scale: f32| {
+        for (k, &j) in joints[..last].iter().enumerate() {
+            let (axis, angle) = delta[k];
+            let mut rotated = swept[k];
+            if scale != 0.0 && angle != 0.0 {
+                let turned = (Quat::from_axis_angle(axis, angle * scale) * swept[k]).normalize();
+                let turned = match goal.limits.get(k) {
+                    Some(limit) => limit.clamp(rest[j as usize].rotation, turned),
+                    None => turned,
+                };
+                if turned.is_finite() {
+                    rotated = turned;
+                }
+            }
+            locals[j as usize].rotation = rotated;
+        }
+    };
+    let error = |locals: &[Transform], worlds: &mut [Mat4; MAX_CHAIN]| {
+        chain_worlds(parents, locals, joints, worlds);
+        worlds[last].w_axis.truncate().distance(goal.target)
+    };
+    let mut best = (0.0f32, error(locals, worlds));
+    let mut scale = 1.0f32;
+    while scale <= 32.0 {
+        extrapolate(locals, scale);
+        let e = error(locals, worlds);
+        if e >= best.1 {
+            break;
+        }
+        best = (scale, e);
+        scale *= 2.0;
+    }
+    extrapolate(locals, best.0);
+    for (k, &j) in joints[..last].iter().enumerate() {
+        previous[k] = locals[j as usize].rotation;
     }
 }
 
@@ -830,7 +909,8 @@ mod tests {
     /// each rotating joint turned up to 2 rad about a random axis) per chain, solver and
     /// iteration budget on RiggedFigure, solved from another random pose; reached = within
     /// 1e-3 of the chain's length. The floors are this implementation's measured rates minus
-    /// a margin (BENCHMARKS.md "Inverse kinematics"): CCD converges slowly near full reach.
+    /// a margin (BENCHMARKS.md "Inverse kinematics"): plain CCD converges slowly near full
+    /// reach; with its pattern move it reaches ≥ 99 % within 32 sweeps.
     #[test]
     fn solvers_reach_random_targets_on_rigged_figure() {
         let asset = crate::testutil::load("khronos/RiggedFigure/glTF-Binary/RiggedFigure.glb");
@@ -841,18 +921,21 @@ mod tests {
         };
         let arm = IkChain::new(&parents, find("arm_joint_L_3"), 2).expect("arm");
         let leg = IkChain::new(&parents, find("leg_joint_L_5"), 3).expect("leg");
+        // (chain, solver, accelerated CCD, most iterations, floor of targets reached)
         let cases = [
-            ("arm", &arm, IkSolver::Ccd, 32, 690),
-            ("arm", &arm, IkSolver::Ccd, 128, 970),
-            ("arm", &arm, IkSolver::TwoBone, 1, 1000),
-            ("arm", &arm, IkSolver::Fabrik, 32, 950),
-            ("arm", &arm, IkSolver::Dls, 32, 980),
-            ("leg", &leg, IkSolver::Ccd, 32, 740),
-            ("leg", &leg, IkSolver::Ccd, 128, 985),
-            ("leg", &leg, IkSolver::Fabrik, 32, 950),
-            ("leg", &leg, IkSolver::Dls, 32, 980),
+            ("arm", &arm, IkSolver::Ccd, true, 32, 990),
+            ("arm", &arm, IkSolver::Ccd, false, 32, 690),
+            ("arm", &arm, IkSolver::Ccd, false, 128, 970),
+            ("arm", &arm, IkSolver::TwoBone, true, 1, 1000),
+            ("arm", &arm, IkSolver::Fabrik, true, 32, 950),
+            ("arm", &arm, IkSolver::Dls, true, 32, 980),
+            ("leg", &leg, IkSolver::Ccd, true, 32, 990),
+            ("leg", &leg, IkSolver::Ccd, false, 32, 740),
+            ("leg", &leg, IkSolver::Ccd, false, 128, 985),
+            ("leg", &leg, IkSolver::Fabrik, true, 32, 950),
+            ("leg", &leg, IkSolver::Dls, true, 32, 980),
         ];
-        for (name, chain, solver, iterations, floor) in cases {
+        for (name, chain, solver, accelerate, iterations, floor) in cases {
             let mut seed = 0x9e37_79b9_u32;
             let mut random = move || {
                 seed ^= seed << 13;
@@ -879,7 +962,7 @@ mod tests {
                 let mut locals = rest.clone();
                 random_pose(&mut locals);
                 let goal = IkGoal { chain, target, stiffness: &[], limits: &[], pole: None };
-                let settings = IkSettings { solver, iterations, tolerance: 1e-4 * length, weight: 1.0 };
+                let settings = IkSettings { solver, iterations, tolerance: 1e-4 * length, weight: 1.0, accelerate };
                 let report = solve(&parents, &rest, &mut locals, goal, settings);
                 assert!(report.error.is_finite() && locals.iter().all(|l| l.rotation.is_finite()));
                 if report.error <= 1e-3 * length {
@@ -887,22 +970,21 @@ mod tests {
                 }
                 sweeps += report.iterations;
             }
+            let solver = match (solver, accelerate) {
+                (IkSolver::Ccd, false) => "plain ccd",
+                _ => solver.name(),
+            };
             eprintln!(
-                "{name} ({} joints) {} ≤ {iterations}: {reached}/1000 reached, {:.1} iterations on average",
+                "{name} ({} joints) {solver} ≤ {iterations}: {reached}/1000 reached, {:.1} iterations on average",
                 joints.len(),
-                solver.name(),
                 sweeps as f32 / 1000.0
             );
-            assert!(
-                reached >= floor,
-                "{name} {} ≤ {iterations}: {reached} of 1000 reached (floor {floor})",
-                solver.name()
-            );
+            assert!(reached >= floor, "{name} {solver} ≤ {iterations}: {reached} of 1000 reached (floor {floor})");
         }
     }
 
     /// RiggedFigure's names give hinge elbows and knees and ball shoulders and hips; solving
-    /// random targets with them never leaves a limit.
+    /// 1000 random targets with them never leaves a limit, with any solver that takes limits.
     #[test]
     fn humanoid_limits_from_names_hold_on_rigged_figure() {
         let asset = crate::testutil::load("khronos/RiggedFigure/glTF-Binary/RiggedFigure.glb");
@@ -921,18 +1003,31 @@ mod tests {
         let chain = IkChain::new(&parents, find("arm_joint_L_3") as u32, 2).expect("arm");
         let chain_limits: Vec<JointLimit> = chain.joints()[..2].iter().map(|&j| limits[j as usize]).collect();
         let shoulder = tip(&parents, &rest, chain.joints()[0]);
-        for solver in [IkSolver::Ccd, IkSolver::Fabrik, IkSolver::Dls] {
-            for i in 0..50 {
-                let a = i as f32 * 0.7;
-                let target = shoulder + Vec3::new(a.sin(), (a * 1.3).cos(), (a * 0.4).sin()) * 0.3;
+        let runs = [(IkSolver::Ccd, true), (IkSolver::Ccd, false), (IkSolver::Fabrik, true), (IkSolver::Dls, true)];
+        let length = shoulder.distance(tip(&parents, &rest, chain.joints()[1]))
+            + tip(&parents, &rest, chain.joints()[1]).distance(tip(&parents, &rest, chain.effector()));
+        for (solver, accelerate) in runs {
+            let mut seed = 0x2545_f491_u32;
+            let mut random = move || {
+                seed ^= seed << 13;
+                seed ^= seed >> 17;
+                seed ^= seed << 5;
+                seed as f32 / u32::MAX as f32
+            };
+            // 1000 targets around the shoulder, out to 1.2 × the arm's length (some unreachable).
+            for _ in 0..1000 {
+                let direction =
+                    Vec3::new(random() - 0.5, random() - 0.5, random() - 0.5).try_normalize().unwrap_or(Vec3::X);
+                let target = shoulder + direction * random() * 1.2 * length;
                 let mut locals = rest.clone();
                 let goal = IkGoal { chain: &chain, target, stiffness: &[], limits: &chain_limits, pole: None };
-                let report = solve(&parents, &rest, &mut locals, goal, IkSettings { solver, ..IkSettings::default() });
+                let settings = IkSettings { solver, accelerate, ..IkSettings::default() };
+                let report = solve(&parents, &rest, &mut locals, goal, settings);
                 assert!(report.error.is_finite());
                 for (k, &j) in chain.joints()[..2].iter().enumerate() {
                     assert!(
-                        chain_limits[k].allows(rest[j as usize].rotation, locals[j as usize].rotation, 1e-3),
-                        "{solver:?}: joint {j} left its limit"
+                        chain_limits[k].allows(rest[j as usize].rotation, locals[j as usize].rotation, 1e-4),
+                        "{solver:?} (accelerate {accelerate}): joint {j} left its limit"
                     );
                 }
             }
