@@ -283,9 +283,7 @@ impl Model {
             ragdoll.ragdoll.write_pose(self.instance.pose_mut(), ragdoll.weight());
             self.instance.update(&self.asset).map_err(|e| e.to_string())?;
         } else {
-            for ik in &mut self.ik {
-                ik.apply(&self.asset, &mut self.instance)?;
-            }
+            crate::ik::apply_all(&mut self.ik, &self.asset, &mut self.instance)?;
         }
         // The morph sliders win over the clip (the main character only: copies keep the clip's).
         if self.morph_overrides.iter().any(Option::is_some) {

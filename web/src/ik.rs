@@ -1,10 +1,10 @@
-//! Inverse kinematics in the viewer: one end effector dragged towards a target, solved every
+//! Inverse kinematics in the viewer: end effectors dragged towards their targets, solved every
 //! frame on top of the animation with kloub_core's [`IkJob`].
 
 use glam::{Mat4, Vec3};
 use kloub_core::Instance;
 use kloub_core::asset::{Asset, NodeIndex};
-use kloub_core::job::ik::{IkChain, IkGoal, IkJob, IkReport, IkSettings, IkSolver, JointLimit};
+use kloub_core::job::ik::{IkChain, IkGoal, IkJob, IkReport, IkSettings, IkSolver, JointLimit, MAX_GOALS};
 use kloub_core::math::Transform;
 use kloub_core::rig::JointSettings;
 
@@ -111,39 +111,69 @@ impl IkState {
         self.chain.depth()
     }
 
-    /// Solves on `instance`'s pose (already evaluated for this frame) and updates its worlds
-    /// and palettes.
-    ///
-    /// # Errors
-    /// A job error (a goal the job rejects, e.g. two-bone on a chain that is not depth 2).
-    pub fn apply(&mut self, asset: &Asset, instance: &mut Instance) -> Result<(), String> {
-        let limits: &[JointLimit] = if self.use_limits { &self.limits } else { &[] };
-        let goal = IkGoal { chain: &self.chain, target: self.target, stiffness: &self.stiffness, limits, pole: None };
-        let settings = IkSettings {
+    /// The solver settings of this goal's job.
+    fn settings(&self) -> IkSettings {
+        IkSettings {
             solver: self.solver,
             iterations: self.iterations,
             tolerance: 1e-5,
             weight: self.weight.clamp(0.0, 1.0),
             accelerate: self.accelerate,
-        };
-        let mut reports = [IkReport::default()];
-        IkJob {
-            parents: &self.parents,
-            rest: &self.rest,
-            locals: &mut instance.pose_mut().locals,
-            goals: &[goal],
-            settings,
-            reports: &mut reports,
         }
-        .run()
-        .map_err(|e| e.to_string())?;
-        instance.update(asset).map_err(|e| e.to_string())?;
-        self.report = reports[0];
-        for (p, &j) in self.joints.iter_mut().zip(self.chain.joints()) {
+    }
+
+    /// The goal as the job takes it.
+    fn goal(&self) -> IkGoal<'_> {
+        let limits: &[JointLimit] = if self.use_limits { &self.limits } else { &[] };
+        IkGoal { chain: &self.chain, target: self.target, stiffness: &self.stiffness, limits, pole: None }
+    }
+}
+
+/// Solves every goal on `instance`'s pose (already evaluated for this frame), then updates
+/// its worlds and palettes once. Goals with the same settings are solved together, up to
+/// [`MAX_GOALS`] per job: CCD sweeps them in turn, so chains sharing joints (two hands
+/// reaching down to the spine) settle on a pose that serves both instead of the last goal
+/// undoing the first.
+///
+/// # Errors
+/// A job error (a goal the job rejects, e.g. two-bone on a chain that is not depth 2).
+pub fn apply_all(states: &mut [IkState], asset: &Asset, instance: &mut Instance) -> Result<(), String> {
+    let mut solved = vec![false; states.len()];
+    for i in 0..states.len() {
+        if solved[i] {
+            continue;
+        }
+        let settings = states[i].settings();
+        let group: Vec<usize> =
+            (i..states.len()).filter(|&k| !solved[k] && states[k].settings() == settings).take(MAX_GOALS).collect();
+        let mut reports = [IkReport::default(); MAX_GOALS];
+        {
+            let goals: Vec<IkGoal> = group.iter().map(|&k| states[k].goal()).collect();
+            // Every state of a model holds the same hierarchy.
+            let (parents, rest) = (&states[i].parents, &states[i].rest);
+            IkJob {
+                parents,
+                rest,
+                locals: &mut instance.pose_mut().locals,
+                goals: &goals,
+                settings,
+                reports: &mut reports[..goals.len()],
+            }
+            .run()
+            .map_err(|e| e.to_string())?;
+        }
+        for (report, &k) in reports.iter().zip(&group) {
+            states[k].report = *report;
+            solved[k] = true;
+        }
+    }
+    instance.update(asset).map_err(|e| e.to_string())?;
+    for state in states.iter_mut() {
+        for (p, &j) in state.joints.iter_mut().zip(state.chain.joints()) {
             *p = position(instance.worlds(), j);
         }
-        Ok(())
     }
+    Ok(())
 }
 
 fn position(worlds: &[Mat4], node: NodeIndex) -> Vec3 {

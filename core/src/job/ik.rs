@@ -1034,6 +1034,72 @@ mod tests {
         }
     }
 
+    /// Two hands whose chains share the spine (depth 4: elbow, shoulder, two torso joints),
+    /// targets from random poses of all of them: solved in one job, CCD reaches both nearly
+    /// always; solved one after the other, the second goal's turn of the spine drags the
+    /// first hand off its target.
+    #[test]
+    fn goals_sharing_joints_are_solved_together() {
+        let asset = crate::testutil::load("khronos/RiggedFigure/glTF-Binary/RiggedFigure.glb");
+        let parents: Vec<Option<NodeIndex>> = asset.nodes.iter().map(|n| n.parent).collect();
+        let rest: Vec<Transform> = asset.nodes.iter().map(|n| n.rest).collect();
+        let find = |name: &str| {
+            asset.nodes.iter().position(|n| n.name.as_deref() == Some(name)).expect("a RiggedFigure joint") as u32
+        };
+        let left = IkChain::new(&parents, find("arm_joint_L_3"), 4).expect("left");
+        let right = IkChain::new(&parents, find("arm_joint_R_3"), 4).expect("right");
+        assert_eq!(left.joints()[..2], right.joints()[..2], "the chains share the spine");
+        let mut seed = 0x1234_5678_u32;
+        let mut random = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 17;
+            seed ^= seed << 5;
+            seed as f32 / u32::MAX as f32
+        };
+        let (mut together, mut apart) = (0, 0);
+        for _ in 0..200 {
+            let mut posed = rest.clone();
+            for &j in left.joints()[..4].iter().chain(&right.joints()[2..4]) {
+                let axis = Vec3::new(random() - 0.5, random() - 0.5, random() - 0.5).try_normalize().unwrap_or(Vec3::X);
+                posed[j as usize].rotation = rest[j as usize].rotation * Quat::from_axis_angle(axis, random() * 0.8);
+            }
+            let targets = [tip(&parents, &posed, left.effector()), tip(&parents, &posed, right.effector())];
+            let goals = [
+                IkGoal { chain: &left, target: targets[0], stiffness: &[], limits: &[], pole: None },
+                IkGoal { chain: &right, target: targets[1], stiffness: &[], limits: &[], pole: None },
+            ];
+            let settings = IkSettings::default();
+            let reached = |locals: &[Transform]| {
+                [&left, &right]
+                    .iter()
+                    .zip(&targets)
+                    .all(|(c, t)| tip(&parents, locals, c.effector()).distance(*t) < 1e-3)
+            };
+            let mut locals = rest.clone();
+            let mut reports = [IkReport::default(); 2];
+            IkJob {
+                parents: &parents,
+                rest: &rest,
+                locals: &mut locals,
+                goals: &goals,
+                settings,
+                reports: &mut reports,
+            }
+            .run()
+            .expect("valid");
+            assert!(locals.iter().all(|l| l.rotation.is_finite()));
+            together += usize::from(reached(&locals));
+            let mut locals = rest.clone();
+            for goal in goals {
+                solve(&parents, &rest, &mut locals, goal, settings);
+            }
+            apart += usize::from(reached(&locals));
+        }
+        eprintln!("both hands reached: {together}/200 solved together, {apart}/200 one after the other");
+        assert!(together >= 190, "together: {together} of 200");
+        assert!(apart < together, "one after the other: {apart}, together: {together}");
+    }
+
     #[test]
     fn bad_input_is_an_error_not_a_panic() {
         let (parents, rest) = arm(3);
