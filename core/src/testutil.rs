@@ -19,6 +19,16 @@ pub fn load(file: &str) -> Asset {
     crate::import(&bytes, &crate::NoResolver, &Default::default()).unwrap_or_else(|e| panic!("{file}: {e}")).asset
 }
 
+/// A deterministic uniform generator in [0, 1] (xorshift32 from `seed`, which must not be 0).
+pub fn xorshift(mut seed: u32) -> impl FnMut() -> f32 {
+    move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 17;
+        seed ^= seed << 5;
+        seed as f32 / u32::MAX as f32
+    }
+}
+
 thread_local! {
     static ALLOCATIONS: Cell<u64> = const { Cell::new(0) };
 }

@@ -936,13 +936,7 @@ mod tests {
             ("leg", &leg, IkSolver::Dls, true, 32, 980),
         ];
         for (name, chain, solver, accelerate, iterations, floor) in cases {
-            let mut seed = 0x9e37_79b9_u32;
-            let mut random = move || {
-                seed ^= seed << 13;
-                seed ^= seed >> 17;
-                seed ^= seed << 5;
-                seed as f32 / u32::MAX as f32
-            };
+            let mut random = crate::testutil::xorshift(0x9e37_79b9_u32);
             let joints = chain.joints();
             let length: f32 =
                 joints.windows(2).map(|w| tip(&parents, &rest, w[0]).distance(tip(&parents, &rest, w[1]))).sum();
@@ -1007,13 +1001,7 @@ mod tests {
         let length = shoulder.distance(tip(&parents, &rest, chain.joints()[1]))
             + tip(&parents, &rest, chain.joints()[1]).distance(tip(&parents, &rest, chain.effector()));
         for (solver, accelerate) in runs {
-            let mut seed = 0x2545_f491_u32;
-            let mut random = move || {
-                seed ^= seed << 13;
-                seed ^= seed >> 17;
-                seed ^= seed << 5;
-                seed as f32 / u32::MAX as f32
-            };
+            let mut random = crate::testutil::xorshift(0x2545_f491_u32);
             // 1000 targets around the shoulder, out to 1.2 × the arm's length (some unreachable).
             for _ in 0..1000 {
                 let direction =
@@ -1049,13 +1037,7 @@ mod tests {
         let left = IkChain::new(&parents, find("arm_joint_L_3"), 4).expect("left");
         let right = IkChain::new(&parents, find("arm_joint_R_3"), 4).expect("right");
         assert_eq!(left.joints()[..2], right.joints()[..2], "the chains share the spine");
-        let mut seed = 0x1234_5678_u32;
-        let mut random = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 17;
-            seed ^= seed << 5;
-            seed as f32 / u32::MAX as f32
-        };
+        let mut random = crate::testutil::xorshift(0x1234_5678_u32);
         let (mut together, mut apart) = (0, 0);
         for _ in 0..200 {
             let mut posed = rest.clone();
