@@ -484,7 +484,7 @@ impl IkJob<'_> {
 /// Hooke–Jeeves pattern move after a CCD sweep of `goal`: the sweep turned each rotating joint
 /// by Δ (from `previous` to now, in its parent's frame); Δ^s is tried on top for s = 1, 2, 4,
 /// … (at most 32) while the effector's error keeps falling, limits applied, and the best kept.
-/// A joint the sweep did not turn (η = 0) stays. `previous` becomes the result: the next
+/// A joint with η = 0 for this goal stays. `previous` becomes the result: the next
 /// sweep's starting point.
 fn pattern_move(
     parents: &[Option<NodeIndex>],
@@ -508,7 +508,10 @@ fn pattern_move(
         for (k, &j) in joints[..last].iter().enumerate() {
             let (axis, angle) = delta[k];
             let mut rotated = swept[k];
-            if scale != 0.0 && angle != 0.0 {
+            // A joint this goal holds still (η = 0) is not extrapolated even when another goal
+            // sharing it turned it.
+            let frozen = goal.stiffness.get(k) == Some(&0.0);
+            if scale != 0.0 && angle != 0.0 && !frozen {
                 let turned = (Quat::from_axis_angle(axis, angle * scale) * swept[k]).normalize();
                 let turned = match goal.limits.get(k) {
                     Some(limit) => limit.clamp(rest[j as usize].rotation, turned),
