@@ -76,7 +76,8 @@ fn ik(c: &mut Criterion) {
         let runs = solvers.iter().map(|&s| (s, true)).chain([(IkSolver::Ccd, false)]);
         for (solver, accelerate) in runs {
             let mut locals = rest.clone();
-            let settings = IkSettings { solver, iterations: 32, tolerance: 1e-4, weight: 1.0, accelerate };
+            let settings =
+                IkSettings { solver, iterations: 32, tolerance: 1e-4, weight: 1.0, accelerate, softness: 0.0 };
             let label = if accelerate { solver.name() } else { "plain-ccd" };
             group.bench_function(format!("{label}/{name}"), |b| {
                 b.iter(|| {

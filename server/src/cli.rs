@@ -106,6 +106,9 @@ pub struct IkArgs {
     /// CCD as seed 000 has it, without the pattern move after each sweep (slow near full reach).
     #[arg(long)]
     pub plain_ccd: bool,
+    /// Two-bone: soft reach, the last F × chain length of reach approached smoothly (0 ≤ F < 1).
+    #[arg(long, default_value_t = 0.0, value_name = "F")]
+    pub soft: f32,
     /// Two-bone: bend the middle joint towards this world point x,y,z.
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub pole: Option<[f32; 3]>,
@@ -361,6 +364,7 @@ fn run_ik(args: &IkArgs) -> ExitCode {
             tolerance: args.tolerance,
             weight: 1.0,
             accelerate: !args.plain_ccd,
+            softness: args.soft,
         },
     };
     print_json(&file, crate::ik::ik_file(&args.posed.file, &request))

@@ -323,6 +323,7 @@ impl Model {
         if let Some(like) = like {
             state.iterations = like.iterations;
             state.accelerate = like.accelerate;
+            state.softness = like.softness;
             state.use_limits = like.use_limits;
             if like.solver != kloub_core::job::ik::IkSolver::TwoBone || state.depth() == 2 {
                 state.solver = like.solver;

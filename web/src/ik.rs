@@ -19,6 +19,8 @@ pub struct IkState {
     pub iterations: u32,
     /// CCD: a pattern move after each sweep ([`IkSettings::accelerate`]).
     pub accelerate: bool,
+    /// Two-bone: soft reach ([`IkSettings::softness`]).
+    pub softness: f32,
     /// World-space target.
     pub target: Vec3,
     /// How the last solve ended.
@@ -66,6 +68,7 @@ impl IkState {
             solver,
             iterations: 32,
             accelerate: true,
+            softness: 0.0,
             weight: 1.0,
             target: target.unwrap_or(here),
             report: IkReport::default(),
@@ -119,6 +122,7 @@ impl IkState {
             tolerance: 1e-5,
             weight: self.weight.clamp(0.0, 1.0),
             accelerate: self.accelerate,
+            softness: self.softness.clamp(0.0, 0.5),
         }
     }
 

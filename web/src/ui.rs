@@ -850,6 +850,11 @@ fn ik_panel(ui: &mut egui::Ui, model: &mut Model, actions: &mut PanelActions) {
         }
     });
     ui.add(egui::Slider::new(&mut ik.iterations, 1..=128).text("iterations"));
+    if ik.solver == IkSolver::TwoBone {
+        ui.add(egui::Slider::new(&mut ik.softness, 0.0..=0.5).text("soft reach")).on_hover_text(
+            "The last part of the reach (a fraction of the chain's length) is approached smoothly,\nso the elbow or knee eases into full extension instead of snapping straight",
+        );
+    }
     if ik.solver == IkSolver::Ccd {
         ui.checkbox(&mut ik.accelerate, "Pattern move").on_hover_text(
             "After each CCD sweep, extrapolate the turn it made while the error keeps falling.\nOff: CCD exactly as the thesis has it (slow near full reach).",

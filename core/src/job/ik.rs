@@ -281,11 +281,16 @@ pub struct IkSettings {
     /// near full reach, where plain CCD creeps (its first-order step vanishes), this is what
     /// makes it converge in a few sweeps. `false`: plain CCD.
     pub accelerate: bool,
+    /// Two-bone only: soft reach (Jones' "soft IK"). The last `softness` × chain length of the
+    /// reach is approached asymptotically, so the middle joint eases into full extension instead
+    /// of snapping straight as the target passes it; the effector stops short of targets in that
+    /// band. 0: hard reach. In [0, 1).
+    pub softness: f32,
 }
 
 impl Default for IkSettings {
     fn default() -> Self {
-        Self { solver: IkSolver::Ccd, iterations: 32, tolerance: 1e-4, weight: 1.0, accelerate: true }
+        Self { solver: IkSolver::Ccd, iterations: 32, tolerance: 1e-4, weight: 1.0, accelerate: true, softness: 0.0 }
     }
 }
 
@@ -328,6 +333,9 @@ impl IkJob<'_> {
         let s = &self.settings;
         if !(s.tolerance.is_finite() && s.tolerance >= 0.0 && s.weight.is_finite()) {
             return Err(JobError::InvalidInput("tolerance and weight must be finite, tolerance ≥ 0".into()));
+        }
+        if !(0.0..1.0).contains(&s.softness) {
+            return Err(JobError::InvalidInput(format!("softness {} is not in [0, 1)", s.softness)));
         }
         for (g, goal) in self.goals.iter().enumerate() {
             let joints = goal.chain.joints();
@@ -382,7 +390,7 @@ impl IkJob<'_> {
             IkSolver::Ccd => self.ccd(),
             IkSolver::TwoBone => {
                 for (g, goal) in self.goals.iter().enumerate() {
-                    self.reports[g] = two_bone(self.parents, self.rest, self.locals, goal);
+                    self.reports[g] = two_bone(self.parents, self.rest, self.locals, goal, self.settings.softness);
                 }
             }
             IkSolver::Fabrik => {
@@ -551,6 +559,7 @@ fn two_bone(
     rest: &[Transform],
     locals: &mut [Transform],
     goal: &IkGoal<'_>,
+    softness: f32,
 ) -> IkReport {
     let joints = goal.chain.joints();
     let mut worlds = [Mat4::IDENTITY; MAX_CHAIN];
@@ -559,7 +568,8 @@ fn two_bone(
     let (l1, l2) = (a.distance(b), b.distance(c));
     let parent = parent_world(parents, locals, joints[0]);
     if l1 > 1e-9 && l2 > 1e-9 {
-        let reach = goal.target.distance(a).clamp((l1 - l2).abs() + 1e-6, l1 + l2 - 1e-6);
+        let reach = soft_reach(goal.target.distance(a), l1 + l2, softness * (l1 + l2));
+        let reach = reach.clamp((l1 - l2).abs() + 1e-6, l1 + l2 - 1e-6);
         // Bend the middle joint to the interior angle that makes |a − c| = reach.
         let current = (a - b).normalize_or_zero().dot((c - b).normalize_or_zero()).clamp(-1.0, 1.0).acos();
         let wanted = ((l1 * l1 + l2 * l2 - reach * reach) / (2.0 * l1 * l2)).clamp(-1.0, 1.0).acos();
@@ -595,6 +605,18 @@ fn two_bone(
     }
     chain_worlds(parents, locals, joints, &mut worlds);
     IkReport { error: worlds[2].w_axis.truncate().distance(goal.target), iterations: 1 }
+}
+
+/// The distance a chain of length `length` reaches towards a target `distance` away with a soft
+/// band `soft` wide: unchanged up to `length − soft`, then `length − soft + soft·(1 − e^(−x/soft))`
+/// for the `x` beyond it, approaching `length` without reaching it (continuous and smooth at
+/// the band's start).
+fn soft_reach(distance: f32, length: f32, soft: f32) -> f32 {
+    let start = length - soft;
+    if soft <= 0.0 || distance <= start {
+        return distance;
+    }
+    start + soft * (1.0 - (-(distance - start) / soft).exp())
 }
 
 /// FABRIK on one goal: positions first, then rotations.
@@ -898,6 +920,50 @@ mod tests {
         }
     }
 
+    /// Soft reach: inside the band the effector stops short of the target on the line to it,
+    /// at the distance the soft curve gives, and as the target moves out the reach grows
+    /// smoothly towards the full length; before the band the target is reached exactly.
+    #[test]
+    fn two_bone_soft_reach_eases_into_full_extension() {
+        let (parents, rest) = arm(3);
+        let chain = IkChain::new(&parents, 3, 2).expect("chain");
+        let root = tip(&parents, &rest, 1);
+        let length = 2.0;
+        let softness = 0.1;
+        let mut reached = Vec::new();
+        for distance in [1.5, 1.79, 1.85, 1.9, 2.0, 2.2, 3.0] {
+            let target = root + Vec3::new(0.6, 0.0, 0.8) * distance;
+            let mut locals = rest.clone();
+            let goal = IkGoal { chain: &chain, target, stiffness: &[], limits: &[], pole: Some(root + Vec3::X) };
+            let settings = IkSettings { solver: IkSolver::TwoBone, softness, ..IkSettings::default() };
+            solve(&parents, &rest, &mut locals, goal, settings);
+            let effector = tip(&parents, &locals, 3);
+            let wanted = soft_reach(distance, length, softness * length);
+            assert!((effector.distance(root) - wanted).abs() < 1e-4, "{distance}: reach {}", effector.distance(root));
+            assert!(
+                (effector - root).normalize().abs_diff_eq(Vec3::new(0.6, 0.0, 0.8), 1e-4),
+                "{distance}: off the line"
+            );
+            reached.push(effector.distance(root));
+        }
+        assert!((reached[0] - 1.5).abs() < 1e-4 && (reached[1] - 1.79).abs() < 1e-4, "before the band: exact");
+        assert!(reached.windows(2).all(|w| w[1] > w[0]), "reach grows with the target: {reached:?}");
+        assert!(reached[6] < length && reached[6] > length - 0.01, "far away: nearly straight {}", reached[6]);
+        // Hard reach (0) straightens fully as soon as the target is at the chain's length.
+        assert_eq!(soft_reach(1.95, 2.0, 0.0), 1.95);
+        let mut locals = rest.clone();
+        let target = root + Vec3::new(0.6, 0.0, 0.8) * 1.9;
+        let goal = IkGoal { chain: &chain, target, stiffness: &[], limits: &[], pole: Some(root + Vec3::X) };
+        let report = solve(
+            &parents,
+            &rest,
+            &mut locals,
+            goal,
+            IkSettings { solver: IkSolver::TwoBone, ..IkSettings::default() },
+        );
+        assert!(report.error < 1e-4);
+    }
+
     #[test]
     fn weight_blends_back_to_the_animated_pose() {
         let (parents, rest) = arm(2);
@@ -959,7 +1025,8 @@ mod tests {
                 let mut locals = rest.clone();
                 random_pose(&mut locals);
                 let goal = IkGoal { chain, target, stiffness: &[], limits: &[], pole: None };
-                let settings = IkSettings { solver, iterations, tolerance: 1e-4 * length, weight: 1.0, accelerate };
+                let settings =
+                    IkSettings { solver, iterations, tolerance: 1e-4 * length, weight: 1.0, accelerate, softness: 0.0 };
                 let report = solve(&parents, &rest, &mut locals, goal, settings);
                 assert!(report.error.is_finite() && locals.iter().all(|l| l.rotation.is_finite()));
                 if report.error <= 1e-3 * length {
@@ -1106,6 +1173,8 @@ mod tests {
         let twobone = IkSettings { solver: IkSolver::TwoBone, ..IkSettings::default() };
         assert!(run(IkGoal { chain: &three, ..good }, twobone, &mut locals).is_err(), "two-bone needs depth 2");
         assert!(run(good, IkSettings { tolerance: f32::NAN, ..IkSettings::default() }, &mut locals).is_err());
+        assert!(run(good, IkSettings { softness: 1.0, ..IkSettings::default() }, &mut locals).is_err());
+        assert!(run(good, IkSettings { softness: f32::NAN, ..IkSettings::default() }, &mut locals).is_err());
         assert!(run(good, IkSettings::default(), &mut locals[..2]).is_err());
         assert!(run(good, IkSettings::default(), &mut locals).is_ok());
     }
