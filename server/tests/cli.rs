@@ -414,6 +414,14 @@ fn ik_reaches_a_target_with_every_solver() {
     assert!(error <= 1e-4 && iterations <= 8, "ccd: error {error} after {iterations} sweeps");
     let (plain_error, plain_iterations) = sweeps(&["--plain-ccd"]);
     assert!(plain_iterations == 32 && plain_error > 1e-4, "plain ccd: error {plain_error} after {plain_iterations}");
+    // Two-bone's soft reach stops short of a target inside its band; out-of-range softness is an error.
+    let (hard, _) = sweeps(&["--solver", "twobone"]);
+    let (soft, _) = sweeps(&["--solver", "twobone", "--soft", "0.9"]);
+    assert!(hard < 1e-4 && soft > 1e-3 && soft.is_finite(), "two-bone: hard {hard}, soft {soft}");
+    let mut bad = vec!["ik", path, "--effector", "arm_joint_L_3", "--depth", "2", "--target", &target];
+    bad.extend_from_slice(&["--solver", "twobone", "--soft", "1.5"]);
+    let out = kloub().args(&bad).output().expect("runs");
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("softness"));
     let limited = [
         "ik",
         path,
