@@ -106,6 +106,16 @@ export declare class KloubViewer extends HTMLElement {
   setLayer(clip: string | null, rootJoint: string | null, weight?: number): void;
   /** Drags `joint` to the world point by IK (`depth` joints above it turn, default 2); null clears every goal. */
   setIkTarget(joint: string | null, target?: [number, number, number] | null, depth?: number): void;
+  /**
+   * The solver of `joint`'s IK goal (set its target first). Two-bone: `pole` (the middle joint bends towards it;
+   * null or left out: none) and `softness` (0–0.5 of the chain's length eased); CCD: `patternMove`. Left out:
+   * unchanged (except the pole).
+   */
+  setIkSolver(
+    joint: string,
+    solver: 'ccd' | 'twobone' | 'fabrik' | 'dls',
+    options?: { pole?: [number, number, number] | null; softness?: number; patternMove?: boolean; iterations?: number },
+  ): void;
   /** Shows a model from a URL or from files; resolves with its name once it is on screen. */
   load(urlOrFiles: string | URL | FileList | File[]): Promise<string>;
 

@@ -300,6 +300,14 @@ export class KloubViewer extends HTMLElement {
     const [x, y, z] = target ?? [];
     this.#require().setIkTarget(joint ?? null, x, y, z, depth);
   }
+  /**
+   * The solver of `joint`'s IK goal ('ccd' | 'twobone' | 'fabrik' | 'dls') and its options:
+   * `{ pole: [x, y, z] | null, softness, patternMove, iterations }` (left out: unchanged; no pole: none).
+   */
+  setIkSolver(joint, solver, options = {}) {
+    const [x, y, z] = options.pole ?? [];
+    this.#require().setIkSolver(joint, solver, x, y, z, options.softness, options.patternMove, options.iterations);
+  }
 
   /**
    * Shows a model: a URL, or files (a FileList or File[]; a .gltf with its .bin and textures).

@@ -238,6 +238,21 @@ for (const backend of BACKENDS) {
     savePng(after, `${backend}-ik-after.png`);
     const changed = diffFraction(before, after);
     assert(changed > 0.002, `dragging the target changed only ${(changed * 100).toFixed(3)}% of the viewport`);
+    // The JS API: the goal switched to two-bone with a pole shows the pole's diamond; bad calls throw.
+    const thrown = await page.evaluate(() => {
+      const viewer = document.querySelector('kloub-viewer');
+      viewer.setIkSolver('arm_joint_L_3', 'twobone', { pole: [0.6, 1.0, 0.4], softness: 0.05 });
+      const fails = (f) => { try { f(); return false; } catch { return true; } };
+      return [
+        fails(() => viewer.setIkSolver('arm_joint_L_3', 'newton')),
+        fails(() => viewer.setIkSolver('arm_joint_L_3', 'twobone', { softness: 2 })),
+        fails(() => viewer.setIkSolver('no_such_joint', 'ccd')),
+      ];
+    });
+    assert(thrown.every(Boolean), `setIkSolver accepted a bad call: ${thrown}`);
+    await waitForDataset(page, () => /^-?[0-9.]+,-?[0-9.]+$/.test(document.querySelector('kloub-viewer').dataset.ikPole ?? ''), 'the pole diamond');
+    const { ik } = await dataset(page);
+    assert(Number.isFinite(Number(ik.split(':')[1])), `dataset.ik = ${ik}`);
   });
 
   test(`${backend}: dropping CesiumMan's three glTF files shows the textured model`, async (ctx) => {

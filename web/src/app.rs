@@ -725,7 +725,7 @@ pub struct App {
     /// Smoothed CPU time per stage.
     stages: ui::StageTimes,
     /// The IK goal whose target is being dragged in the viewport.
-    ik_drag: Option<usize>,
+    ik_drag: Option<IkHandle>,
     /// Whether the side panel and menus show.
     panels: bool,
     /// Overlays drawn over the model.
@@ -752,6 +752,8 @@ pub struct App {
 
     /// Where each IK target was drawn last frame, in points (for `dataset.ikTarget`).
     ik_markers: Vec<Pos2>,
+    /// Where each goal's pole marker was painted (`None`: no pole).
+    ik_pole_markers: Vec<Option<Pos2>>,
 }
 
 /// Deliveries at least this large get a "Parsing…" frame before their import.
@@ -833,24 +835,51 @@ fn smooth(mean: f32, value: f32) -> f32 {
 /// fraction of the camera's distance (scrolling up, positive, pulls it closer).
 const IK_DEPTH_PER_POINT: f32 = 0.0002;
 
-/// Draws the IK chain, the target (green when reached) and the error; returns the target's
-/// position.
+/// What an IK drag moves: goal `goal`'s target, or its pole.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct IkHandle {
+    goal: usize,
+    pole: bool,
+}
+
+impl IkHandle {
+    /// The handle's point in `ik` (model space).
+    fn point(self, ik: &mut IkState) -> Option<&mut Vec3> {
+        if self.pole { ik.pole.as_mut() } else { Some(&mut ik.target) }
+    }
+}
+
+/// Draws the IK chain, the target (green when reached) with the error, and the pole (a
+/// diamond tied to the middle joint) when the goal has one; returns where the target and the
+/// pole were drawn.
 fn paint_ik(
     painter: &egui::Painter,
     projection: &Projection,
     ik: &IkState,
     origin: Vec3,
     dragging: bool,
-) -> Option<Pos2> {
+) -> (Option<Pos2>, Option<Pos2>) {
     let points: Vec<Pos2> = ik.joints.iter().filter_map(|&p| projection.to_screen(p + origin).map(|s| s.0)).collect();
-    let chain = egui::Stroke::new(2.0, Color32::from_rgb(255, 214, 64));
+    let gold = Color32::from_rgb(255, 214, 64);
+    let chain = egui::Stroke::new(2.0, gold);
     for w in points.windows(2) {
         painter.line_segment([w[0], w[1]], chain);
     }
     for &p in &points {
-        painter.circle_filled(p, 3.5, Color32::from_rgb(255, 214, 64));
+        painter.circle_filled(p, 3.5, gold);
     }
-    let (at, _) = projection.to_screen(ik.target + origin)?;
+    let pole = ik.pole.and_then(|p| projection.to_screen(p + origin)).map(|(at, _)| {
+        let blue = Color32::from_rgb(110, 170, 255);
+        if let Some(&middle) = points.get(points.len() / 2) {
+            painter.line_segment([middle, at], egui::Stroke::new(1.0, blue));
+        }
+        let r = if dragging { 8.0 } else { 6.5 };
+        let diamond =
+            vec![at + egui::vec2(0.0, -r), at + egui::vec2(r, 0.0), at + egui::vec2(0.0, r), at + egui::vec2(-r, 0.0)];
+        painter.add(egui::Shape::convex_polygon(diamond, Color32::TRANSPARENT, egui::Stroke::new(2.0, blue)));
+        at
+    });
+    let Some((at, _)) = projection.to_screen(ik.target + origin) else { return (None, pole) };
     let reached = ik.report.error <= 1e-3;
     let color = if reached { Color32::from_rgb(80, 220, 120) } else { Color32::from_rgb(255, 90, 80) };
     painter.circle_stroke(at, if dragging { 11.0 } else { 9.0 }, egui::Stroke::new(2.5, color));
@@ -862,7 +891,7 @@ fn paint_ik(
         egui::FontId::monospace(12.0),
         color,
     );
-    Some(at)
+    (Some(at), pole)
 }
 
 /// The largest frame step the clock takes (a background tab resumes without a jump).
@@ -904,6 +933,7 @@ impl App {
             stages: ui::StageTimes::default(),
             ik_drag: None,
             ik_markers: Vec::new(),
+            ik_pole_markers: Vec::new(),
             panels: config.panels,
             library: None,
             overlays: Overlays::default(),
@@ -1283,6 +1313,32 @@ impl App {
                     model.ik_selected = 0;
                 }
             },
+            Command::SetIkSolver { effector, solver, pole, softness, accelerate, iterations } => {
+                let name = model.node_name(effector);
+                let ik = model
+                    .ik
+                    .iter_mut()
+                    .find(|g| g.effector() == effector)
+                    .ok_or_else(|| format!("no IK goal on {name}: set its target first"))?;
+                if solver == kloub_core::job::ik::IkSolver::TwoBone && ik.depth() != 2 {
+                    return Err(format!("two-bone needs 2 joints above {name}, not {}", ik.depth()));
+                }
+                if let Some(s) = softness
+                    && !(0.0..=0.5).contains(&s)
+                {
+                    return Err(format!("soft reach {s}: expected 0 to 0.5"));
+                }
+                if let Some(n) = iterations
+                    && !(1..=128).contains(&n)
+                {
+                    return Err(format!("iterations {n}: expected 1 to 128"));
+                }
+                ik.solver = solver;
+                ik.pole = pole.map(Vec3::from);
+                ik.softness = softness.unwrap_or(ik.softness);
+                ik.accelerate = accelerate.unwrap_or(ik.accelerate);
+                ik.iterations = iterations.unwrap_or(ik.iterations);
+            }
             Command::ReplaceIk { goal, effector, depth } => {
                 if let Some(old) = model.ik.get(goal) {
                     let state = model.ik_goal(effector, depth, Some(old.target), Some(old))?;
@@ -1374,17 +1430,32 @@ impl App {
         let multi_touch = ui.input(|i| i.multi_touch()).is_some_and(|t| t.num_touches >= 2);
         let projection = Projection::new(&self.camera, rect);
         let origin = self.model.as_ref().map_or(Vec3::ZERO, |m| m.copy_offset(0));
-        let markers: Vec<Option<(Pos2, f32)>> = self
+        // Every IK handle on screen: targets, and the poles of two-bone goals that have one.
+        let markers: Vec<(IkHandle, Pos2, f32)> = self
             .model
             .as_ref()
-            .map(|m| m.ik.iter().map(|ik| projection.to_screen(ik.target + origin)).collect())
+            .map(|m| {
+                m.ik.iter()
+                    .enumerate()
+                    .flat_map(|(goal, ik)| {
+                        let target = projection
+                            .to_screen(ik.target + origin)
+                            .map(|(at, depth)| (IkHandle { goal, pole: false }, at, depth));
+                        let pole = ik
+                            .pole
+                            .and_then(|p| projection.to_screen(p + origin))
+                            .map(|(at, depth)| (IkHandle { goal, pole: true }, at, depth));
+                        [target, pole]
+                    })
+                    .flatten()
+                    .collect()
+            })
             .unwrap_or_default();
+        let handle_at = |p: Pos2| nearest_within(p, markers.iter().map(|&(handle, at, _)| (at, handle)));
         if response.drag_started_by(egui::PointerButton::Primary) && !shift {
-            self.ik_drag = response.interact_pointer_pos().and_then(|p| {
-                nearest_within(p, markers.iter().enumerate().filter_map(|(i, m)| m.map(|(at, _)| (at, i))))
-            });
-            if let (Some(goal), Some(model)) = (self.ik_drag, self.model.as_mut()) {
-                model.ik_selected = goal;
+            self.ik_drag = response.interact_pointer_pos().and_then(handle_at);
+            if let (Some(handle), Some(model)) = (self.ik_drag, self.model.as_mut()) {
+                model.ik_selected = handle.goal;
             }
         }
         let mut pending = None;
@@ -1401,14 +1472,15 @@ impl App {
                 ragdoll.push(body, dir * speed, at);
             }
         }
-        if let Some(goal) = self.ik_drag {
-            if let (Some(Some((_, depth))), Some(pointer), Some(ik)) = (
-                markers.get(goal),
+        if let Some(handle) = self.ik_drag {
+            if let (Some(&(_, _, depth)), Some(pointer), Some(ik)) = (
+                markers.iter().find(|m| m.0 == handle),
                 response.interact_pointer_pos(),
-                self.model.as_mut().and_then(|m| m.ik.get_mut(goal)),
-            ) && let Some(world) = projection.unproject(pointer, *depth)
+                self.model.as_mut().and_then(|m| m.ik.get_mut(handle.goal)),
+            ) && let Some(world) = projection.unproject(pointer, depth)
+                && let Some(point) = handle.point(ik)
             {
-                ik.target = world - origin;
+                *point = world - origin;
             }
             if !response.dragged() || response.drag_stopped() {
                 self.ik_drag = None;
@@ -1448,12 +1520,10 @@ impl App {
         }
         // The wheel over an IK ring (or while dragging one) moves its target along the view
         // direction instead of zooming.
-        let ring = self.ik_drag.or_else(|| {
-            let p = response.hover_pos()?;
-            nearest_within(p, markers.iter().enumerate().filter_map(|(i, m)| m.map(|(at, _)| (at, i))))
-        });
-        if let Some(goal) = ring
-            && let Some(ik) = self.model.as_mut().and_then(|m| m.ik.get_mut(goal))
+        let ring = self.ik_drag.or_else(|| response.hover_pos().and_then(handle_at));
+        if let Some(handle) = ring
+            && let Some(ik) = self.model.as_mut().and_then(|m| m.ik.get_mut(handle.goal))
+            && let Some(point) = handle.point(ik)
         {
             let scroll = ui.input(|i| {
                 i.raw
@@ -1470,9 +1540,9 @@ impl App {
                     .sum::<f32>()
             });
             if scroll != 0.0
-                && let Some(direction) = (ik.target + origin - self.camera.eye()).try_normalize()
+                && let Some(direction) = (*point + origin - self.camera.eye()).try_normalize()
             {
-                ik.target -= direction * scroll * IK_DEPTH_PER_POINT * self.camera.distance;
+                *point -= direction * scroll * IK_DEPTH_PER_POINT * self.camera.distance;
             }
         } else if response.hovered() {
             let (scroll, zoom) = ui.input(|i| (i.smooth_scroll_delta.y, i.zoom_delta()));
@@ -1585,6 +1655,7 @@ impl App {
             }
         }
         self.ik_markers.clear();
+        self.ik_pole_markers.clear();
         if let Some(model) = self.model.as_ref() {
             for ik in model.ik.iter().filter(|ik| ik.use_limits) {
                 let frames = ik.limit_frames(model.instance.worlds());
@@ -1592,9 +1663,12 @@ impl App {
             }
             for (i, ik) in model.ik.iter().enumerate() {
                 let selected = i == model.ik_selected && model.ik.len() > 1;
-                if let Some(at) = paint_ik(ui.painter(), &projection, ik, origin, self.ik_drag == Some(i) || selected) {
+                let dragging = self.ik_drag.is_some_and(|h| h.goal == i);
+                let (target, pole) = paint_ik(ui.painter(), &projection, ik, origin, dragging || selected);
+                if let Some(at) = target {
                     self.ik_markers.push(at);
                 }
+                self.ik_pole_markers.push(pole);
             }
         }
         if let Some(command) = pending
@@ -1908,6 +1982,12 @@ impl App {
             Vec::new()
         };
         d.set(Key::IkTarget, &markers.join(";"));
+        let poles: Vec<String> = if model.is_some_and(|m| !m.ik.is_empty()) {
+            self.ik_pole_markers.iter().map(|p| p.map_or(String::new(), |p| format!("{:.1},{:.1}", p.x, p.y))).collect()
+        } else {
+            Vec::new()
+        };
+        d.set(Key::IkPole, &poles.join(";"));
         d.set(Key::Speed, &model.map_or(String::new(), |m| format!("{:.3}", m.animator.main().speed)));
         d.set(Key::Duration, &model.map_or(String::new(), |m| format!("{:.3}", m.duration())));
         d.set(Key::Loop, model.map_or("", |m| crate::control::loop_mode_name(m.animator.main().loop_mode)));

@@ -73,6 +73,22 @@ pub enum Command {
         /// World-space target.
         target: Option<[f32; 3]>,
     },
+    /// Sets the solver of `effector`'s goal and its options (absent: unchanged; `pole` absent
+    /// removes the pole).
+    SetIkSolver {
+        /// The goal's end effector node.
+        effector: u32,
+        /// The solver.
+        solver: kloub_core::job::ik::IkSolver,
+        /// Two-bone: the middle joint bends towards this world point.
+        pole: Option<[f32; 3]>,
+        /// Two-bone: soft reach, a fraction of the chain's length in [0, 0.5].
+        softness: Option<f32>,
+        /// CCD: the pattern move after each sweep.
+        accelerate: Option<bool>,
+        /// Most iterations per frame (1 to 128).
+        iterations: Option<u32>,
+    },
     /// Makes goal `goal` drive `effector` with `depth` joints instead (its target stays).
     ReplaceIk {
         /// Index of the goal.

@@ -44,6 +44,9 @@ pub enum Key {
     Ik,
     /// Where each IK target is drawn, `"x,y;x,y"` in CSS pixels of the canvas; `""` without IK.
     IkTarget,
+    /// Where each IK goal's pole is drawn, as [`Key::IkTarget`], one entry per goal (`""` for a
+    /// goal without a pole).
+    IkPole,
     /// Characters shown (the model and its copies), a decimal integer; `""` without a model.
     Copies,
     /// The main clock's speed (three decimals; `""` without a model).
@@ -72,7 +75,7 @@ pub enum Key {
 
 impl Key {
     /// Every key, in a fixed order.
-    pub const ALL: [Key; 30] = [
+    pub const ALL: [Key; 31] = [
         Key::Backend,
         Key::Status,
         Key::Model,
@@ -91,6 +94,7 @@ impl Key {
         Key::Heatmap,
         Key::Ik,
         Key::IkTarget,
+        Key::IkPole,
         Key::Copies,
         Key::Speed,
         Key::Duration,
@@ -127,6 +131,7 @@ impl Key {
             Key::Heatmap => "heatmap",
             Key::Ik => "ik",
             Key::IkTarget => "ikTarget",
+            Key::IkPole => "ikPole",
             Key::Speed => "speed",
             Key::Duration => "duration",
             Key::Loop => "loop",

@@ -438,6 +438,51 @@ impl Viewer {
         Ok(())
     }
 
+    /// Inverse kinematics: the solver of the goal on the joint named `effector` (set its target
+    /// first): `"ccd"`, `"twobone"` (2 joints above the effector), `"fabrik"` or `"dls"`. For
+    /// two-bone, the middle joint bends towards the world point `pole_x, pole_y, pole_z` (all
+    /// three omitted: no pole) and `softness` eases the last part of the reach (a fraction of
+    /// the chain's length, 0 to 0.5); for CCD, `pattern_move` toggles the pattern move after
+    /// each sweep. `iterations`: at most 1 to 128 per frame. Options left out stay as they are.
+    #[wasm_bindgen(js_name = setIkSolver)]
+    #[allow(clippy::too_many_arguments)]
+    pub fn set_ik_solver(
+        &self,
+        effector: &str,
+        solver: &str,
+        pole_x: Option<f32>,
+        pole_y: Option<f32>,
+        pole_z: Option<f32>,
+        softness: Option<f32>,
+        pattern_move: Option<bool>,
+        iterations: Option<u32>,
+    ) -> Result<(), JsValue> {
+        let solver = kloub_core::job::ik::IkSolver::ALL.into_iter().find(|s| s.name() == solver).ok_or_else(|| {
+            JsValue::from_str(&format!("setIkSolver: solver {solver:?}: expected ccd, twobone, fabrik or dls"))
+        })?;
+        let pole = match (pole_x, pole_y, pole_z) {
+            (None, None, None) => None,
+            (Some(x), Some(y), Some(z)) if x.is_finite() && y.is_finite() && z.is_finite() => Some([x, y, z]),
+            _ => return Err(JsValue::from_str("setIkSolver: give the pole's x, y and z as finite numbers, or none")),
+        };
+        if softness.is_some_and(|s| !(0.0..=0.5).contains(&s)) {
+            return Err(JsValue::from_str("setIkSolver: softness: expected 0 to 0.5"));
+        }
+        if iterations.is_some_and(|n| !(1..=128).contains(&n)) {
+            return Err(JsValue::from_str("setIkSolver: iterations: expected 1 to 128"));
+        }
+        let effector = self.controls.node_index(effector).map_err(|e| JsValue::from_str(&e))?;
+        self.controls.send(Command::SetIkSolver {
+            effector,
+            solver,
+            pole,
+            softness,
+            accelerate: pattern_move,
+            iterations,
+        });
+        Ok(())
+    }
+
     /// Shows a built-in sample: `"candy-wrapper"`.
     #[wasm_bindgen(js_name = loadSample)]
     pub fn load_sample(&self, name: &str) -> Result<(), JsValue> {

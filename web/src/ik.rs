@@ -21,6 +21,8 @@ pub struct IkState {
     pub accelerate: bool,
     /// Two-bone: soft reach ([`IkSettings::softness`]).
     pub softness: f32,
+    /// Two-bone: the middle joint bends towards this point (model space, like the target).
+    pub pole: Option<Vec3>,
     /// World-space target.
     pub target: Vec3,
     /// How the last solve ended.
@@ -69,6 +71,7 @@ impl IkState {
             iterations: 32,
             accelerate: true,
             softness: 0.0,
+            pole: None,
             weight: 1.0,
             target: target.unwrap_or(here),
             report: IkReport::default(),
@@ -129,7 +132,20 @@ impl IkState {
     /// The goal as the job takes it.
     fn goal(&self) -> IkGoal<'_> {
         let limits: &[JointLimit] = if self.use_limits { &self.limits } else { &[] };
-        IkGoal { chain: &self.chain, target: self.target, stiffness: &self.stiffness, limits, pole: None }
+        IkGoal { chain: &self.chain, target: self.target, stiffness: &self.stiffness, limits, pole: self.pole }
+    }
+
+    /// A pole that keeps the current bend: from the middle joint of the chain (after the last
+    /// solve) away from the line between its ends, half the chain's length out; straight
+    /// chains get one perpendicular to the line.
+    pub fn default_pole(&self) -> Vec3 {
+        let (Some(&root), Some(&tip)) = (self.joints.first(), self.joints.last()) else { return self.target };
+        let middle = self.joints.get(self.joints.len() / 2).copied().unwrap_or(root);
+        let length: f32 = self.joints.windows(2).map(|w| w[0].distance(w[1])).sum();
+        let line = (tip - root).try_normalize().unwrap_or(Vec3::Y);
+        let off = (middle - root) - line * (middle - root).dot(line);
+        let out = off.try_normalize().unwrap_or_else(|| line.any_orthonormal_vector());
+        middle + out * (0.5 * length).max(1e-3)
     }
 }
 

@@ -854,6 +854,14 @@ fn ik_panel(ui: &mut egui::Ui, model: &mut Model, actions: &mut PanelActions) {
         ui.add(egui::Slider::new(&mut ik.softness, 0.0..=0.5).text("soft reach")).on_hover_text(
             "The last part of the reach (a fraction of the chain's length) is approached smoothly,\nso the elbow or knee eases into full extension instead of snapping straight",
         );
+        let mut pole = ik.pole.is_some();
+        if ui
+            .checkbox(&mut pole, "Pole")
+            .on_hover_text("The middle joint bends towards the blue diamond: drag it in the viewport (the wheel over it moves it in depth)")
+            .changed()
+        {
+            ik.pole = pole.then(|| ik.default_pole());
+        }
     }
     if ik.solver == IkSolver::Ccd {
         ui.checkbox(&mut ik.accelerate, "Pattern move").on_hover_text(

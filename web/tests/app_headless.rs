@@ -5,6 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+use kloub_core::job::ik::IkSolver;
 use kloub_web::app::{App, AppConfig};
 use kloub_web::control::Command;
 use kloub_web::dom::Key;
@@ -641,6 +642,80 @@ fn two_ik_goals_are_solved_together() {
     controls.send(Command::RemoveIk(0));
     h.step(0.016, Vec::new());
     assert!(h.get(Key::Ik).starts_with("arm_joint_R_3:"), "dataset.ik = {}", h.get(Key::Ik));
+}
+
+/// Two-bone with a pole: the elbow bends towards the pole, and dragging the pole's diamond in
+/// the viewport swings the elbow after it while the hand stays on its target.
+#[test]
+fn a_two_bone_pole_bends_the_elbow_and_is_dragged_in_the_viewport() {
+    let mut h = Harness::new();
+    load_paused(&mut h, "RiggedFigure.glb", shared_asset("khronos/RiggedFigure/glTF-Binary/RiggedFigure.glb"));
+    let controls = h.app.controls().clone();
+    let [shoulder, elbow, hand] =
+        ["arm_joint_L_1", "arm_joint_L_2", "arm_joint_L_3"].map(|n| controls.node_index(n).expect("a joint"));
+    let world = |h: &Harness, n: u32| h.app.model().expect("a model").instance.worlds()[n as usize].w_axis.truncate();
+    let target = world(&h, hand) + glam::Vec3::new(0.0, 0.04, 0.03);
+    controls.send(Command::SetIk { effector: Some(hand), depth: 2, target: Some(target.to_array()) });
+    h.step(0.016, Vec::new());
+    h.step(0.016, Vec::new());
+    assert_eq!(h.get(Key::IkPole), "", "no pole until one is set");
+    // A pole 40° around the shoulder–target line from where the elbow points now.
+    let s = world(&h, shoulder);
+    let line = (target - s).normalize();
+    let off = |p: glam::Vec3| (p - s) - line * (p - s).dot(line);
+    let side = glam::Quat::from_axis_angle(line, 40f32.to_radians()) * off(world(&h, elbow)).normalize();
+    let pole = s + line * (world(&h, elbow) - s).dot(line) + side * 0.3;
+    let facing = |h: &Harness, pole: glam::Vec3| off(world(h, elbow)).normalize().dot(off(pole).normalize());
+    assert!(facing(&h, pole) < 0.8, "the elbow already faces the pole");
+    controls.send(Command::SetIkSolver {
+        effector: hand,
+        solver: IkSolver::TwoBone,
+        pole: Some(pole.to_array()),
+        softness: None,
+        accelerate: None,
+        iterations: None,
+    });
+    h.step(0.016, Vec::new());
+    let before = h.step(0.016, Vec::new());
+    assert!(facing(&h, pole) > 0.9, "the elbow does not bend towards the pole: {}", facing(&h, pole));
+    assert!(world(&h, hand).distance(target) < 1e-3, "the hand left its target: {}", world(&h, hand).distance(target));
+    // Drag the diamond 40 points to the right.
+    let marker = h.get(Key::IkPole).to_owned();
+    let (x, y) =
+        marker.split_once(',').map(|(x, y)| (x.parse::<f32>().expect("x"), y.parse::<f32>().expect("y"))).expect("x,y");
+    let from = egui::pos2(x, y);
+    let press = |pos, pressed| egui::Event::PointerButton {
+        pos,
+        button: egui::PointerButton::Primary,
+        pressed,
+        modifiers: egui::Modifiers::NONE,
+    };
+    h.step_events(0.016, vec![egui::Event::PointerMoved(from)]);
+    h.step_events(0.016, vec![press(from, true)]);
+    for i in 1..=10 {
+        h.step_events(0.016, vec![egui::Event::PointerMoved(from + egui::vec2(4.0, 0.0) * i as f32)]);
+    }
+    h.step_events(0.016, vec![press(from + egui::vec2(40.0, 0.0), false)]);
+    let after = h.step(0.016, Vec::new());
+    let moved = h.app.model().and_then(|m| m.ik.first()).and_then(|ik| ik.pole).expect("the pole");
+    assert!(moved.distance(pole) > 0.02, "the drag did not move the pole ({moved} vs {pole})");
+    let target_now = h.app.model().and_then(|m| m.ik.first()).map(|ik| ik.target).expect("ik");
+    assert!(target_now.distance(target) < 1e-6, "the drag moved the target instead of the pole");
+    assert!(facing(&h, moved) > 0.9, "the elbow did not follow the pole: {}", facing(&h, moved));
+    assert!(world(&h, hand).distance(target) < 1e-3, "the hand left its target: {}", world(&h, hand).distance(target));
+    assert!(changed_pixels(&before, &after, (280, 40, SIZE[0], SIZE[1] - 40)) > 30, "the arm did not move on screen");
+    // Two-bone needs exactly two joints above the effector.
+    controls.send(Command::SetIk { effector: Some(hand), depth: 1, target: None });
+    controls.send(Command::SetIkSolver {
+        effector: hand,
+        solver: IkSolver::TwoBone,
+        pole: None,
+        softness: None,
+        accelerate: None,
+        iterations: None,
+    });
+    h.step(0.016, Vec::new());
+    assert!(h.get(Key::Error).contains("two-bone needs 2"), "error: {}", h.get(Key::Error));
 }
 
 fn key(key: egui::Key) -> Vec<egui::Event> {

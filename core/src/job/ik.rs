@@ -578,17 +578,29 @@ fn two_bone(
             let pole = goal.pole.map(|p| p - a).unwrap_or(Vec3::Y);
             (c - a).cross(pole).try_normalize()
         });
-        if let Some(axis) = bend_axis {
+        let turn = match goal.limits.get(1) {
+            // A hinge turns about its own axis only: find the angle about it that gives the
+            // reach (a bend about the plane's normal would be clamped off it).
+            Some(&JointLimit::Hinge { axis: hinge, .. }) => {
+                let frame = rotation_of(&worlds[0]) * rest[joints[1] as usize].rotation;
+                let h = (frame * hinge).normalize_or_zero();
+                hinge_turn(a - b, c - b, h, reach).map(|phi| Quat::from_axis_angle(h, phi))
+            }
             // Opening the interior angle at b means rotating c away from a about `axis`.
-            let turn = Quat::from_axis_angle(axis, current - wanted);
+            _ => bend_axis.map(|axis| Quat::from_axis_angle(axis, current - wanted)),
+        };
+        if let Some(turn) = turn {
             rotate_joint(locals, rest, joints[1], goal.limits.get(1), &worlds[0], turn);
         }
         // Swing the upper joint so the effector points at the target.
-        chain_worlds(parents, locals, joints, &mut worlds);
-        let c = worlds[2].w_axis.truncate();
-        if let (Some(from), Some(to)) = ((c - a).try_normalize(), (goal.target - a).try_normalize()) {
-            rotate_joint(locals, rest, joints[0], goal.limits.first(), &parent, Quat::from_rotation_arc(from, to));
-        }
+        let swing = |locals: &mut [Transform], worlds: &mut [Mat4; MAX_CHAIN]| {
+            chain_worlds(parents, locals, joints, worlds);
+            let c = worlds[2].w_axis.truncate();
+            if let (Some(from), Some(to)) = ((c - a).try_normalize(), (goal.target - a).try_normalize()) {
+                rotate_joint(locals, rest, joints[0], goal.limits.first(), &parent, Quat::from_rotation_arc(from, to));
+            }
+        };
+        swing(locals, &mut worlds);
         // Turn the chain about the shoulder-target line so the middle joint faces the pole.
         if let Some(pole) = goal.pole {
             chain_worlds(parents, locals, joints, &mut worlds);
@@ -601,10 +613,37 @@ fn two_bone(
                     rotate_joint(locals, rest, joints[0], goal.limits.first(), &parent, turn);
                 }
             }
+            // A limit may have cut the turn short and taken the effector off the line: aim again.
+            if !goal.limits.is_empty() {
+                swing(locals, &mut worlds);
+            }
         }
     }
     chain_worlds(parents, locals, joints, &mut worlds);
     IkReport { error: worlds[2].w_axis.truncate().distance(goal.target), iterations: 1 }
+}
+
+/// The angle to turn the bone `v` (middle joint → effector) about the unit axis `h` so the
+/// effector ends `reach` from the root (`u`: middle joint → root): with `R v = v∥ + cos φ v⊥ +
+/// sin φ (h × v)`, `|u − R v|² = reach²` is `B cos φ + C sin φ = K − A`. The solution nearest
+/// the current pose (smallest |φ|); the closest reach when none is exact; `None` when turning
+/// about `h` cannot change the reach.
+fn hinge_turn(u: Vec3, v: Vec3, h: Vec3, reach: f32) -> Option<f32> {
+    if h == Vec3::ZERO {
+        return None;
+    }
+    let parallel = h * h.dot(v);
+    let (a, b, c) = (u.dot(parallel), u.dot(v - parallel), u.dot(h.cross(v)));
+    let k = 0.5 * (u.length_squared() + v.length_squared() - reach * reach);
+    let amplitude = b.hypot(c);
+    if amplitude < 1e-9 {
+        return None;
+    }
+    let delta = c.atan2(b);
+    let spread = ((k - a) / amplitude).clamp(-1.0, 1.0).acos();
+    let wrap = |x: f32| (x + std::f32::consts::PI).rem_euclid(std::f32::consts::TAU) - std::f32::consts::PI;
+    let (p, q) = (wrap(delta + spread), wrap(delta - spread));
+    Some(if p.abs() <= q.abs() { p } else { q })
 }
 
 /// The distance a chain of length `length` reaches towards a target `distance` away with a soft
@@ -1067,7 +1106,13 @@ mod tests {
         let chain = IkChain::new(&parents, find("arm_joint_L_3") as u32, 2).expect("arm");
         let chain_limits: Vec<JointLimit> = chain.joints()[..2].iter().map(|&j| limits[j as usize]).collect();
         let shoulder = tip(&parents, &rest, chain.joints()[0]);
-        let runs = [(IkSolver::Ccd, true), (IkSolver::Ccd, false), (IkSolver::Fabrik, true), (IkSolver::Dls, true)];
+        let runs = [
+            (IkSolver::Ccd, true),
+            (IkSolver::Ccd, false),
+            (IkSolver::TwoBone, true),
+            (IkSolver::Fabrik, true),
+            (IkSolver::Dls, true),
+        ];
         let length = shoulder.distance(tip(&parents, &rest, chain.joints()[1]))
             + tip(&parents, &rest, chain.joints()[1]).distance(tip(&parents, &rest, chain.effector()));
         for (solver, accelerate) in runs {
@@ -1150,6 +1195,44 @@ mod tests {
         eprintln!("both hands reached: {together}/200 solved together, {apart}/200 one after the other");
         assert!(together >= 190, "together: {together} of 200");
         assert!(apart < together, "one after the other: {apart}, together: {together}");
+    }
+
+    /// Two-bone with RiggedFigure's hinge elbow: targets from poses the hinge allows (shoulder
+    /// turned anywhere, elbow bent about its own axis) are reached, bending about the hinge.
+    #[test]
+    fn two_bone_bends_a_hinge_elbow_about_its_axis() {
+        let asset = crate::testutil::load("khronos/RiggedFigure/glTF-Binary/RiggedFigure.glb");
+        let limits = humanoid_limits(&asset);
+        let parents: Vec<Option<NodeIndex>> = asset.nodes.iter().map(|n| n.parent).collect();
+        let rest: Vec<Transform> = asset.nodes.iter().map(|n| n.rest).collect();
+        let hand = asset.nodes.iter().position(|n| n.name.as_deref() == Some("arm_joint_L_3")).expect("hand");
+        let chain = IkChain::new(&parents, hand as u32, 2).expect("arm");
+        let [shoulder, elbow] = [chain.joints()[0] as usize, chain.joints()[1] as usize];
+        let JointLimit::Hinge { axis, .. } = limits[elbow] else { panic!("a hinge elbow") };
+        let chain_limits = [JointLimit::Free, limits[elbow]];
+        let length = tip(&parents, &rest, shoulder as u32).distance(tip(&parents, &rest, elbow as u32))
+            + tip(&parents, &rest, elbow as u32).distance(tip(&parents, &rest, hand as u32));
+        let mut random = crate::testutil::xorshift(0x0bad_cafe);
+        let mut reached = 0;
+        for _ in 0..500 {
+            let mut posed = rest.clone();
+            let turn = Vec3::new(random() - 0.5, random() - 0.5, random() - 0.5).try_normalize().unwrap_or(Vec3::X);
+            posed[shoulder].rotation = rest[shoulder].rotation * Quat::from_axis_angle(turn, random() * 2.0);
+            posed[elbow].rotation = rest[elbow].rotation * Quat::from_axis_angle(axis, (random() - 0.5) * 4.0);
+            let target = tip(&parents, &posed, hand as u32);
+            let mut locals = rest.clone();
+            let goal = IkGoal { chain: &chain, target, stiffness: &[], limits: &chain_limits, pole: None };
+            let settings = IkSettings { solver: IkSolver::TwoBone, ..IkSettings::default() };
+            let report = solve(&parents, &rest, &mut locals, goal, settings);
+            assert!(
+                chain_limits[1].allows(rest[elbow].rotation, locals[elbow].rotation, 1e-4),
+                "the elbow left its hinge"
+            );
+            if report.error <= 1e-3 * length {
+                reached += 1;
+            }
+        }
+        assert!(reached >= 495, "{reached} of 500 reached");
     }
 
     #[test]
