@@ -304,7 +304,8 @@ export class KloubViewer extends HTMLElement {
    * The solver of `joint`'s IK goal ('ccd' | 'twobone' | 'fabrik' | 'dls') and its options:
    * `{ pole: [x, y, z] | null, softness, patternMove, iterations }` (left out: unchanged; no pole: none).
    */
-  setIkSolver(joint, solver, options = {}) {
+  setIkSolver(joint, solver, options) {
+    options ??= {};
     const [x, y, z] = options.pole ?? [];
     this.#require().setIkSolver(joint, solver, x, y, z, options.softness, options.patternMove, options.iterations);
   }

@@ -253,6 +253,20 @@ for (const backend of BACKENDS) {
     await waitForDataset(page, () => /^-?[0-9.]+,-?[0-9.]+$/.test(document.querySelector('kloub-viewer').dataset.ikPole ?? ''), 'the pole diamond');
     const { ik } = await dataset(page);
     assert(Number.isFinite(Number(ik.split(':')[1])), `dataset.ik = ${ik}`);
+    // A pole in front of the figure and one behind it bend the elbow differently (the arm moves on screen).
+    const poleShot = async (pole) => {
+      const before = (await dataset(page)).ikPole;
+      await page.evaluate((p) => document.querySelector('kloub-viewer').setIkSolver('arm_joint_L_3', 'twobone', { pole: p }), pole);
+      await waitForDataset(page, (b) => document.querySelector('kloub-viewer').dataset.ikPole !== b, 'the pole to move', 20000, before);
+      await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
+      return viewportShot(page);
+    };
+    const front = await poleShot([0.3, 1.0, 1.5]);
+    const back = await poleShot([0.3, 1.0, -1.5]);
+    savePng(front, `${backend}-ik-pole-front.png`);
+    savePng(back, `${backend}-ik-pole-back.png`);
+    const swung = diffFraction(front, back);
+    assert(swung > 0.001, `moving the pole from front to back changed only ${(swung * 100).toFixed(3)}% of the viewport`);
   });
 
   test(`${backend}: dropping CesiumMan's three glTF files shows the textured model`, async (ctx) => {

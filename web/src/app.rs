@@ -328,6 +328,10 @@ impl Model {
             if like.solver != kloub_core::job::ik::IkSolver::TwoBone || state.depth() == 2 {
                 state.solver = like.solver;
             }
+            // The same chain again (a new target for it): its pole stays.
+            if like.effector() == effector && like.depth() == state.depth() {
+                state.pole = like.pole;
+            }
         }
         Ok(state)
     }
@@ -845,7 +849,13 @@ struct IkHandle {
 impl IkHandle {
     /// The handle's point in `ik` (model space).
     fn point(self, ik: &mut IkState) -> Option<&mut Vec3> {
-        if self.pole { ik.pole.as_mut() } else { Some(&mut ik.target) }
+        if !self.pole {
+            Some(&mut ik.target)
+        } else if ik.active_pole().is_some() {
+            ik.pole.as_mut()
+        } else {
+            None
+        }
     }
 }
 
@@ -868,7 +878,7 @@ fn paint_ik(
     for &p in &points {
         painter.circle_filled(p, 3.5, gold);
     }
-    let pole = ik.pole.and_then(|p| projection.to_screen(p + origin)).map(|(at, _)| {
+    let pole = ik.active_pole().and_then(|p| projection.to_screen(p + origin)).map(|(at, _)| {
         let blue = Color32::from_rgb(110, 170, 255);
         if let Some(&middle) = points.get(points.len() / 2) {
             painter.line_segment([middle, at], egui::Stroke::new(1.0, blue));
@@ -1442,7 +1452,7 @@ impl App {
                             .to_screen(ik.target + origin)
                             .map(|(at, depth)| (IkHandle { goal, pole: false }, at, depth));
                         let pole = ik
-                            .pole
+                            .active_pole()
                             .and_then(|p| projection.to_screen(p + origin))
                             .map(|(at, depth)| (IkHandle { goal, pole: true }, at, depth));
                         [target, pole]

@@ -132,7 +132,12 @@ impl IkState {
     /// The goal as the job takes it.
     fn goal(&self) -> IkGoal<'_> {
         let limits: &[JointLimit] = if self.use_limits { &self.limits } else { &[] };
-        IkGoal { chain: &self.chain, target: self.target, stiffness: &self.stiffness, limits, pole: self.pole }
+        IkGoal { chain: &self.chain, target: self.target, stiffness: &self.stiffness, limits, pole: self.active_pole() }
+    }
+
+    /// The pole, when the solver uses one (two-bone): shown and draggable only then.
+    pub fn active_pole(&self) -> Option<Vec3> {
+        self.pole.filter(|_| self.solver == IkSolver::TwoBone)
     }
 
     /// A pole that keeps the current bend: from the middle joint of the chain (after the last
@@ -158,6 +163,9 @@ impl IkState {
 /// # Errors
 /// A job error (a goal the job rejects, e.g. two-bone on a chain that is not depth 2).
 pub fn apply_all(states: &mut [IkState], asset: &Asset, instance: &mut Instance) -> Result<(), String> {
+    if states.is_empty() {
+        return Ok(());
+    }
     let mut solved = vec![false; states.len()];
     for i in 0..states.len() {
         if solved[i] {

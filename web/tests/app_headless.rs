@@ -704,6 +704,25 @@ fn a_two_bone_pole_bends_the_elbow_and_is_dragged_in_the_viewport() {
     assert!(facing(&h, moved) > 0.9, "the elbow did not follow the pole: {}", facing(&h, moved));
     assert!(world(&h, hand).distance(target) < 1e-3, "the hand left its target: {}", world(&h, hand).distance(target));
     assert!(changed_pixels(&before, &after, (280, 40, SIZE[0], SIZE[1] - 40)) > 30, "the arm did not move on screen");
+    // A new target for the same chain keeps its pole; the pole is shown for two-bone only.
+    controls.send(Command::SetIk {
+        effector: Some(hand),
+        depth: 2,
+        target: Some((target + glam::Vec3::Y * 0.01).to_array()),
+    });
+    h.step(0.016, Vec::new());
+    assert_eq!(h.app.model().and_then(|m| m.ik.first()).and_then(|ik| ik.pole), Some(moved), "the pole was dropped");
+    assert_ne!(h.get(Key::IkPole), "");
+    controls.send(Command::SetIkSolver {
+        effector: hand,
+        solver: IkSolver::Ccd,
+        pole: Some(moved.to_array()),
+        softness: None,
+        accelerate: None,
+        iterations: None,
+    });
+    h.step(0.016, Vec::new());
+    assert_eq!(h.get(Key::IkPole), "", "CCD has no pole to show");
     // Two-bone needs exactly two joints above the effector.
     controls.send(Command::SetIk { effector: Some(hand), depth: 1, target: None });
     controls.send(Command::SetIkSolver {

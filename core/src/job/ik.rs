@@ -407,6 +407,10 @@ impl IkJob<'_> {
         if weight < 1.0 {
             for (g, goal) in self.goals.iter().enumerate() {
                 for (k, &j) in goal.chain.joints().iter().enumerate() {
+                    // A joint in several chains is blended once.
+                    if self.goals[..g].iter().any(|earlier| earlier.chain.joints().contains(&j)) {
+                        continue;
+                    }
                     let local = &mut self.locals[j as usize];
                     local.rotation = original[g][k].slerp(local.rotation, weight).normalize();
                 }
@@ -428,15 +432,17 @@ impl IkJob<'_> {
         let mut worlds = [Mat4::IDENTITY; MAX_CHAIN];
         let mut done = 0u32;
         let accelerate = self.settings.accelerate;
+        // Every chain's rotations when the sweep starts: the pattern move extrapolates the turn
+        // of the whole sweep (all goals), judged by the summed error.
         let mut previous = [[Quat::IDENTITY; MAX_CHAIN]; MAX_GOALS];
-        for (g, goal) in self.goals.iter().enumerate() {
-            for (k, &j) in goal.chain.joints().iter().enumerate() {
-                previous[g][k] = self.locals[j as usize].rotation;
-            }
-        }
         for sweep in 0..self.settings.iterations {
             let mut all_reached = true;
             for (g, goal) in self.goals.iter().enumerate() {
+                for (k, &j) in goal.chain.joints().iter().enumerate() {
+                    previous[g][k] = self.locals[j as usize].rotation;
+                }
+            }
+            for goal in self.goals {
                 let joints = goal.chain.joints();
                 let last = joints.len() - 1;
                 chain_worlds(self.parents, self.locals, joints, &mut worlds);
@@ -471,9 +477,9 @@ impl IkJob<'_> {
                     rotate_joint(self.locals, self.rest, joints[k], goal.limits.get(k), &parent, turn);
                     update_from(self.locals, joints, k, &parent, &mut worlds);
                 }
-                if accelerate {
-                    pattern_move(self.parents, self.rest, self.locals, goal, &mut previous[g], &mut worlds);
-                }
+            }
+            if accelerate && !all_reached {
+                pattern_move(self.parents, self.rest, self.locals, self.goals, &previous, &mut worlds);
             }
             done = sweep + 1;
             if all_reached {
@@ -489,52 +495,64 @@ impl IkJob<'_> {
     }
 }
 
-/// Hooke–Jeeves pattern move after a CCD sweep of `goal`: the sweep turned each rotating joint
-/// by Δ (from `previous` to now, in its parent's frame); Δ^s is tried on top for s = 1, 2, 4,
-/// … (at most 32) while the effector's error keeps falling, limits applied, and the best kept.
-/// A joint with η = 0 for this goal stays. `previous` becomes the result: the next
-/// sweep's starting point.
+/// Hooke–Jeeves pattern move after a CCD sweep over `goals`: the sweep turned each rotating
+/// joint by Δ (from `previous` to now, in its parent's frame); Δ^s is tried on top for s = 1,
+/// 2, 4, … (at most 32) while the summed error of the goals keeps falling, limits applied, and
+/// the best kept. A joint in several chains moves once (with the first chain's limit); a joint
+/// any goal holds still (η = 0) stays.
 fn pattern_move(
     parents: &[Option<NodeIndex>],
     rest: &[Transform],
     locals: &mut [Transform],
-    goal: &IkGoal,
-    previous: &mut [Quat; MAX_CHAIN],
+    goals: &[IkGoal<'_>],
+    previous: &[[Quat; MAX_CHAIN]; MAX_GOALS],
     worlds: &mut [Mat4; MAX_CHAIN],
 ) {
-    let joints = goal.chain.joints();
-    let last = joints.len() - 1;
-    let mut swept = [Quat::IDENTITY; MAX_CHAIN];
-    let mut delta = [(Vec3::X, 0.0f32); MAX_CHAIN];
-    for (k, &j) in joints[..last].iter().enumerate() {
-        swept[k] = locals[j as usize].rotation;
-        let d = swept[k] * previous[k].conjugate();
-        delta[k] = if d.w < 0.0 { -d } else { d }.normalize().to_axis_angle();
-    }
-    // Every rotating joint at `scale` times its sweep's turn beyond where the sweep left it.
-    let extrapolate = |locals: &mut [Transform], scale: f32| {
-        for (k, &j) in joints[..last].iter().enumerate() {
-            let (axis, angle) = delta[k];
-            let mut rotated = swept[k];
-            // A joint this goal holds still (η = 0) is not extrapolated even when another goal
-            // sharing it turned it.
-            let frozen = goal.stiffness.get(k) == Some(&0.0);
-            if scale != 0.0 && angle != 0.0 && !frozen {
-                let turned = (Quat::from_axis_angle(axis, angle * scale) * swept[k]).normalize();
-                let turned = match goal.limits.get(k) {
-                    Some(limit) => limit.clamp(rest[j as usize].rotation, turned),
-                    None => turned,
-                };
-                if turned.is_finite() {
-                    rotated = turned;
-                }
+    let mut swept = [[Quat::IDENTITY; MAX_CHAIN]; MAX_GOALS];
+    // The turn to extrapolate per joint; `None` for a joint this goal does not move.
+    let mut delta = [[None::<(Vec3, f32)>; MAX_CHAIN]; MAX_GOALS];
+    for (g, goal) in goals.iter().enumerate() {
+        for (k, &j) in rotating(goal).iter().enumerate() {
+            swept[g][k] = locals[j as usize].rotation;
+            let first = !goals[..g].iter().any(|earlier| rotating(earlier).contains(&j));
+            let frozen = goals.iter().any(|other| {
+                rotating(other).iter().position(|&x| x == j).is_some_and(|i| other.stiffness.get(i) == Some(&0.0))
+            });
+            if first && !frozen {
+                let d = swept[g][k] * previous[g][k].conjugate();
+                delta[g][k] = Some(if d.w < 0.0 { -d } else { d }.normalize().to_axis_angle());
             }
-            locals[j as usize].rotation = rotated;
+        }
+    }
+    // Every moving joint at `scale` times its sweep's turn beyond where the sweep left it.
+    let extrapolate = |locals: &mut [Transform], scale: f32| {
+        for (g, goal) in goals.iter().enumerate() {
+            for (k, &j) in rotating(goal).iter().enumerate() {
+                let Some((axis, angle)) = delta[g][k] else { continue };
+                let mut rotated = swept[g][k];
+                if scale != 0.0 && angle != 0.0 {
+                    let turned = (Quat::from_axis_angle(axis, angle * scale) * swept[g][k]).normalize();
+                    let turned = match goal.limits.get(k) {
+                        Some(limit) => limit.clamp(rest[j as usize].rotation, turned),
+                        None => turned,
+                    };
+                    if turned.is_finite() {
+                        rotated = turned;
+                    }
+                }
+                locals[j as usize].rotation = rotated;
+            }
         }
     };
     let error = |locals: &[Transform], worlds: &mut [Mat4; MAX_CHAIN]| {
-        chain_worlds(parents, locals, joints, worlds);
-        worlds[last].w_axis.truncate().distance(goal.target)
+        goals
+            .iter()
+            .map(|goal| {
+                let joints = goal.chain.joints();
+                chain_worlds(parents, locals, joints, worlds);
+                worlds[joints.len() - 1].w_axis.truncate().distance(goal.target)
+            })
+            .sum::<f32>()
     };
     let mut best = (0.0f32, error(locals, worlds));
     let mut scale = 1.0f32;
@@ -548,9 +566,12 @@ fn pattern_move(
         scale *= 2.0;
     }
     extrapolate(locals, best.0);
-    for (k, &j) in joints[..last].iter().enumerate() {
-        previous[k] = locals[j as usize].rotation;
-    }
+}
+
+/// The joints of `goal`'s chain that turn (all but the effector).
+fn rotating<'a>(goal: &IkGoal<'a>) -> &'a [NodeIndex] {
+    let joints = goal.chain.joints();
+    &joints[..joints.len() - 1]
 }
 
 /// The analytic two-bone solve of one goal (chain: upper, middle, effector).
@@ -562,6 +583,11 @@ fn two_bone(
     softness: f32,
 ) -> IkReport {
     let joints = goal.chain.joints();
+    // Start from the middle joint on its limit (an animated pose may lie off a hinge).
+    let middle = joints[1] as usize;
+    if let Some(limit) = goal.limits.get(1) {
+        locals[middle].rotation = limit.clamp(rest[middle].rotation, locals[middle].rotation);
+    }
     let mut worlds = [Mat4::IDENTITY; MAX_CHAIN];
     chain_worlds(parents, locals, joints, &mut worlds);
     let (a, b, c) = (worlds[0].w_axis.truncate(), worlds[1].w_axis.truncate(), worlds[2].w_axis.truncate());
@@ -581,10 +607,27 @@ fn two_bone(
         let turn = match goal.limits.get(1) {
             // A hinge turns about its own axis only: find the angle about it that gives the
             // reach (a bend about the plane's normal would be clamped off it).
-            Some(&JointLimit::Hinge { axis: hinge, .. }) => {
-                let frame = rotation_of(&worlds[0]) * rest[joints[1] as usize].rotation;
+            // Of the two angles, the one whose result within [min, max] comes closest.
+            Some(&JointLimit::Hinge { axis: hinge, min, max }) => {
+                let frame = rotation_of(&worlds[0]) * rest[middle].rotation;
                 let h = (frame * hinge).normalize_or_zero();
-                hinge_turn(a - b, c - b, h, reach).map(|phi| Quat::from_axis_angle(h, phi))
+                let theta =
+                    twist_angle((rest[middle].rotation.conjugate() * locals[middle].rotation).normalize(), hinge);
+                let (u, v) = (a - b, c - b);
+                let miss = |phi: f32| ((u - Quat::from_axis_angle(h, phi) * v).length() - reach).abs();
+                hinge_turn(u, v, h, reach).map(|roots| {
+                    let [p, q] = roots.map(|phi| (theta + phi).clamp(min, max) - theta);
+                    // Equally good (both within the limit): the smaller turn.
+                    let (mp, mq) = (miss(p), miss(q));
+                    let phi = if (mp - mq).abs() <= 1e-6 * (l1 + l2) {
+                        if p.abs() <= q.abs() { p } else { q }
+                    } else if mp < mq {
+                        p
+                    } else {
+                        q
+                    };
+                    Quat::from_axis_angle(h, phi)
+                })
             }
             // Opening the interior angle at b means rotating c away from a about `axis`.
             _ => bend_axis.map(|axis| Quat::from_axis_angle(axis, current - wanted)),
@@ -625,10 +668,10 @@ fn two_bone(
 
 /// The angle to turn the bone `v` (middle joint → effector) about the unit axis `h` so the
 /// effector ends `reach` from the root (`u`: middle joint → root): with `R v = v∥ + cos φ v⊥ +
-/// sin φ (h × v)`, `|u − R v|² = reach²` is `B cos φ + C sin φ = K − A`. The solution nearest
-/// the current pose (smallest |φ|); the closest reach when none is exact; `None` when turning
-/// about `h` cannot change the reach.
-fn hinge_turn(u: Vec3, v: Vec3, h: Vec3, reach: f32) -> Option<f32> {
+/// sin φ (h × v)`, `|u − R v|² = reach²` is `B cos φ + C sin φ = K − A`: its two solutions in
+/// (−π, π] (the closest reach when none is exact); `None` when turning about `h` cannot change
+/// the reach.
+fn hinge_turn(u: Vec3, v: Vec3, h: Vec3, reach: f32) -> Option<[f32; 2]> {
     if h == Vec3::ZERO {
         return None;
     }
@@ -642,8 +685,7 @@ fn hinge_turn(u: Vec3, v: Vec3, h: Vec3, reach: f32) -> Option<f32> {
     let delta = c.atan2(b);
     let spread = ((k - a) / amplitude).clamp(-1.0, 1.0).acos();
     let wrap = |x: f32| (x + std::f32::consts::PI).rem_euclid(std::f32::consts::TAU) - std::f32::consts::PI;
-    let (p, q) = (wrap(delta + spread), wrap(delta - spread));
-    Some(if p.abs() <= q.abs() { p } else { q })
+    Some([wrap(delta + spread), wrap(delta - spread)])
 }
 
 /// The distance a chain of length `length` reaches towards a target `distance` away with a soft
@@ -1233,6 +1275,73 @@ mod tests {
             }
         }
         assert!(reached >= 495, "{reached} of 500 reached");
+    }
+
+    /// A one-sided hinge (bends one way only, 0..150°) from a straight chain: two-bone bends
+    /// the allowed way and reaches, whichever side the target is on.
+    #[test]
+    fn two_bone_bends_a_one_sided_hinge_the_allowed_way() {
+        let (parents, rest) = arm(3);
+        let chain = IkChain::new(&parents, 3, 2).expect("chain");
+        let root = tip(&parents, &rest, 1);
+        let hinge = JointLimit::Hinge { axis: Vec3::X, min: 0.0, max: 150f32.to_radians() };
+        for target in [Vec3::new(0.0, 1.2, 0.9), Vec3::new(0.0, 1.2, -0.9), Vec3::new(0.3, 0.5, 0.2)] {
+            let target = root + target;
+            let mut locals = rest.clone();
+            let goal = IkGoal { chain: &chain, target, stiffness: &[], limits: &[JointLimit::Free, hinge], pole: None };
+            let report = solve(
+                &parents,
+                &rest,
+                &mut locals,
+                goal,
+                IkSettings { solver: IkSolver::TwoBone, ..IkSettings::default() },
+            );
+            assert!(report.error < 1e-4, "{target}: error {}", report.error);
+            assert!(hinge.allows(rest[2].rotation, locals[2].rotation, 1e-4), "{target}: the hinge bent the wrong way");
+            let bend = twist_angle(rest[2].rotation.conjugate() * locals[2].rotation, Vec3::X);
+            assert!(bend > 0.1, "{target}: bend {bend}");
+        }
+    }
+
+    /// With weight < 1, a joint two goals share is blended back once (w, not w²).
+    #[test]
+    fn a_shared_joint_is_weighted_once() {
+        let asset = crate::testutil::load("khronos/RiggedFigure/glTF-Binary/RiggedFigure.glb");
+        let parents: Vec<Option<NodeIndex>> = asset.nodes.iter().map(|n| n.parent).collect();
+        let rest: Vec<Transform> = asset.nodes.iter().map(|n| n.rest).collect();
+        let find = |name: &str| asset.nodes.iter().position(|n| n.name.as_deref() == Some(name)).expect("joint") as u32;
+        let left = IkChain::new(&parents, find("arm_joint_L_3"), 4).expect("left");
+        let right = IkChain::new(&parents, find("arm_joint_R_3"), 4).expect("right");
+        let spine = left.joints()[0] as usize;
+        let targets = [
+            tip(&parents, &rest, left.effector()) + Vec3::new(0.2, 0.1, 0.3),
+            tip(&parents, &rest, right.effector()) + Vec3::new(-0.1, 0.3, 0.2),
+        ];
+        let goals = [
+            IkGoal { chain: &left, target: targets[0], stiffness: &[], limits: &[], pole: None },
+            IkGoal { chain: &right, target: targets[1], stiffness: &[], limits: &[], pole: None },
+        ];
+        let run = |weight: f32| {
+            let mut locals = rest.clone();
+            let mut reports = [IkReport::default(); 2];
+            let settings = IkSettings { weight, ..IkSettings::default() };
+            IkJob {
+                parents: &parents,
+                rest: &rest,
+                locals: &mut locals,
+                goals: &goals,
+                settings,
+                reports: &mut reports,
+            }
+            .run()
+            .expect("valid");
+            locals[spine].rotation
+        };
+        let solved = run(1.0);
+        assert!(solved.angle_between(rest[spine].rotation) > 0.01, "the spine did not turn");
+        let half = run(0.5);
+        let wanted = rest[spine].rotation.slerp(solved, 0.5);
+        assert!(half.abs_diff_eq(wanted, 1e-5), "{half} vs {wanted}");
     }
 
     #[test]
