@@ -1181,7 +1181,7 @@ mod tests {
 
     /// Two hands whose chains share the spine (depth 4: elbow, shoulder, two torso joints),
     /// targets from random poses of all of them: solved in one job, CCD reaches both nearly
-    /// always; solved one after the other, the second goal's turn of the spine drags the
+    /// always (199 of 200); solved one after the other, the second goal's turn of the spine drags the
     /// first hand off its target.
     #[test]
     fn goals_sharing_joints_are_solved_together() {
@@ -1235,7 +1235,7 @@ mod tests {
             apart += usize::from(reached(&locals));
         }
         eprintln!("both hands reached: {together}/200 solved together, {apart}/200 one after the other");
-        assert!(together >= 190, "together: {together} of 200");
+        assert!(together >= 195, "together: {together} of 200");
         assert!(apart < together, "one after the other: {apart}, together: {together}");
     }
 
