@@ -1333,16 +1333,6 @@ impl App {
                 if solver == kloub_core::job::ik::IkSolver::TwoBone && ik.depth() != 2 {
                     return Err(format!("two-bone needs 2 joints above {name}, not {}", ik.depth()));
                 }
-                if let Some(s) = softness
-                    && !(0.0..=0.5).contains(&s)
-                {
-                    return Err(format!("soft reach {s}: expected 0 to 0.5"));
-                }
-                if let Some(n) = iterations
-                    && !(1..=128).contains(&n)
-                {
-                    return Err(format!("iterations {n}: expected 1 to 128"));
-                }
                 ik.solver = solver;
                 ik.pole = pole.map(Vec3::from);
                 ik.softness = softness.unwrap_or(ik.softness);

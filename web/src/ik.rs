@@ -166,33 +166,35 @@ pub fn apply_all(states: &mut [IkState], asset: &Asset, instance: &mut Instance)
     if states.is_empty() {
         return Ok(());
     }
-    let mut solved = vec![false; states.len()];
     for i in 0..states.len() {
-        if solved[i] {
+        let settings = states[i].settings();
+        // Goals with these settings, in order, go in runs of MAX_GOALS: each run starts at the
+        // goal whose rank among them is a multiple of MAX_GOALS (without allocating per frame).
+        let rank = states[..i].iter().filter(|s| s.settings() == settings).count();
+        if rank % MAX_GOALS != 0 {
             continue;
         }
-        let settings = states[i].settings();
-        let group: Vec<usize> =
-            (i..states.len()).filter(|&k| !solved[k] && states[k].settings() == settings).take(MAX_GOALS).collect();
-        let mut reports = [IkReport::default(); MAX_GOALS];
-        {
-            let goals: Vec<IkGoal> = group.iter().map(|&k| states[k].goal()).collect();
-            // Every state of a model holds the same hierarchy.
-            let (parents, rest) = (&states[i].parents, &states[i].rest);
-            IkJob {
-                parents,
-                rest,
-                locals: &mut instance.pose_mut().locals,
-                goals: &goals,
-                settings,
-                reports: &mut reports[..goals.len()],
-            }
-            .run()
-            .map_err(|e| e.to_string())?;
+        let mut group = [i; MAX_GOALS];
+        let mut goals = [states[i].goal(); MAX_GOALS];
+        let mut n = 0;
+        for k in (i..states.len()).filter(|&k| states[k].settings() == settings).take(MAX_GOALS) {
+            (group[n], goals[n]) = (k, states[k].goal());
+            n += 1;
         }
-        for (report, &k) in reports.iter().zip(&group) {
+        let mut reports = [IkReport::default(); MAX_GOALS];
+        // Every state of a model holds the same hierarchy.
+        IkJob {
+            parents: &states[i].parents,
+            rest: &states[i].rest,
+            locals: &mut instance.pose_mut().locals,
+            goals: &goals[..n],
+            settings,
+            reports: &mut reports[..n],
+        }
+        .run()
+        .map_err(|e| e.to_string())?;
+        for (report, &k) in reports[..n].iter().zip(&group[..n]) {
             states[k].report = *report;
-            solved[k] = true;
         }
     }
     instance.update(asset).map_err(|e| e.to_string())?;

@@ -193,6 +193,29 @@ impl Harness {
     fn get(&self, key: Key) -> &str {
         self.app.dataset().get(key).unwrap_or("<unset>")
     }
+
+    /// The first screen position in a `"x,y;…"` dataset key (`ikTarget`, `ikPole`).
+    fn marker(&self, key: Key) -> egui::Pos2 {
+        let first = self.get(key).split(';').next().unwrap_or("");
+        let (x, y) = first.split_once(',').expect("x,y");
+        egui::pos2(x.parse().expect("x"), y.parse().expect("y"))
+    }
+
+    /// Presses the primary button at `from`, drags by `by` in ten steps and lets go.
+    fn drag(&mut self, from: egui::Pos2, by: egui::Vec2) {
+        let press = |pos, pressed| egui::Event::PointerButton {
+            pos,
+            button: egui::PointerButton::Primary,
+            pressed,
+            modifiers: egui::Modifiers::NONE,
+        };
+        self.step_events(0.016, vec![egui::Event::PointerMoved(from)]);
+        self.step_events(0.016, vec![press(from, true)]);
+        for i in 1..=10 {
+            self.step_events(0.016, vec![egui::Event::PointerMoved(from + (by / 10.0) * i as f32)]);
+        }
+        self.step_events(0.016, vec![press(from + by, false)]);
+    }
 }
 
 /// Pixels that differ by more than a small tolerance inside `rect` (x0, y0, x1, y1).
@@ -511,35 +534,19 @@ fn dragging_the_ik_target_moves_the_hand_onto_it() {
     assert!(ik.starts_with("arm_joint_L_3:"), "dataset.ik = {ik:?}");
 
     // Drag the target ring 40 points to the left and 30 up.
-    let marker = h.get(Key::IkTarget).to_owned();
-    let (x, y) =
-        marker.split_once(',').map(|(x, y)| (x.parse::<f32>().expect("x"), y.parse::<f32>().expect("y"))).expect("x,y");
-    let from = egui::pos2(x, y);
-    let press = |pos, pressed| egui::Event::PointerButton {
-        pos,
-        button: egui::PointerButton::Primary,
-        pressed,
-        modifiers: egui::Modifiers::NONE,
-    };
-    h.step_events(0.016, vec![egui::Event::PointerMoved(from)]);
-    h.step_events(0.016, vec![press(from, true)]);
-    for i in 1..=10 {
-        h.step_events(0.016, vec![egui::Event::PointerMoved(from + egui::vec2(-4.0, -3.0) * i as f32)]);
-    }
+    let from = h.marker(Key::IkTarget);
     let to = from + egui::vec2(-40.0, -30.0);
-    h.step_events(0.016, vec![press(to, false)]);
+    h.drag(from, to - from);
     let after = h.step(0.016, Vec::new());
     save(&before, "ik-before.png");
     save(&after, "ik-after.png");
     let moved = h.app.model().and_then(|m| m.ik.first()).expect("ik").target;
     assert!(moved.distance(target) > 0.02, "the drag did not move the target ({moved} vs {target})");
     assert!(world(&h).distance(moved) < 1e-3, "the hand {} did not follow the target {moved}", world(&h));
-    let marker = h.get(Key::IkTarget).to_owned();
-    let (x2, y2) =
-        marker.split_once(',').map(|(x, y)| (x.parse::<f32>().expect("x"), y.parse::<f32>().expect("y"))).expect("x,y");
+    let ring = h.marker(Key::IkTarget);
     assert!(
-        (x2 - to.x).abs() < 2.0 && (y2 - to.y).abs() < 2.0,
-        "the ring is at {x2},{y2}, the pointer let go at {to:?}"
+        (ring.x - to.x).abs() < 2.0 && (ring.y - to.y).abs() < 2.0,
+        "the ring is at {ring:?}, the pointer let go at {to:?}"
     );
     assert!(changed_pixels(&before, &after, (280, 40, SIZE[0], SIZE[1] - 40)) > 30, "the arm did not move on screen");
 
@@ -680,22 +687,8 @@ fn a_two_bone_pole_bends_the_elbow_and_is_dragged_in_the_viewport() {
     assert!(facing(&h, pole) > 0.9, "the elbow does not bend towards the pole: {}", facing(&h, pole));
     assert!(world(&h, hand).distance(target) < 1e-3, "the hand left its target: {}", world(&h, hand).distance(target));
     // Drag the diamond 40 points to the right.
-    let marker = h.get(Key::IkPole).to_owned();
-    let (x, y) =
-        marker.split_once(',').map(|(x, y)| (x.parse::<f32>().expect("x"), y.parse::<f32>().expect("y"))).expect("x,y");
-    let from = egui::pos2(x, y);
-    let press = |pos, pressed| egui::Event::PointerButton {
-        pos,
-        button: egui::PointerButton::Primary,
-        pressed,
-        modifiers: egui::Modifiers::NONE,
-    };
-    h.step_events(0.016, vec![egui::Event::PointerMoved(from)]);
-    h.step_events(0.016, vec![press(from, true)]);
-    for i in 1..=10 {
-        h.step_events(0.016, vec![egui::Event::PointerMoved(from + egui::vec2(4.0, 0.0) * i as f32)]);
-    }
-    h.step_events(0.016, vec![press(from + egui::vec2(40.0, 0.0), false)]);
+    let from = h.marker(Key::IkPole);
+    h.drag(from, egui::vec2(40.0, 0.0));
     let after = h.step(0.016, Vec::new());
     let moved = h.app.model().and_then(|m| m.ik.first()).and_then(|ik| ik.pole).expect("the pole");
     assert!(moved.distance(pole) > 0.02, "the drag did not move the pole ({moved} vs {pole})");

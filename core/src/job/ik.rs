@@ -897,6 +897,29 @@ mod tests {
         (parent_world(parents, locals, node) * locals[node as usize].to_mat4()).w_axis.truncate()
     }
 
+    /// RiggedFigure, with the parent and rest local transform of every node.
+    fn rigged_figure() -> (crate::asset::Asset, Vec<Option<NodeIndex>>, Vec<Transform>) {
+        let asset = crate::testutil::load("khronos/RiggedFigure/glTF-Binary/RiggedFigure.glb");
+        let parents = asset.nodes.iter().map(|n| n.parent).collect();
+        let rest = asset.nodes.iter().map(|n| n.rest).collect();
+        (asset, parents, rest)
+    }
+
+    /// The node of `asset` named `name`.
+    fn node(asset: &crate::asset::Asset, name: &str) -> NodeIndex {
+        asset.nodes.iter().position(|n| n.name.as_deref() == Some(name)).expect("a RiggedFigure joint") as NodeIndex
+    }
+
+    /// The length of `chain` in the rest pose.
+    fn rest_length(parents: &[Option<NodeIndex>], rest: &[Transform], chain: &IkChain) -> f32 {
+        chain.joints().windows(2).map(|w| tip(parents, rest, w[0]).distance(tip(parents, rest, w[1]))).sum()
+    }
+
+    /// A random unit axis from three of `random`'s numbers.
+    fn random_axis(random: &mut impl FnMut() -> f32) -> Vec3 {
+        Vec3::new(random() - 0.5, random() - 0.5, random() - 0.5).try_normalize().unwrap_or(Vec3::X)
+    }
+
     fn solve(
         parents: &[Option<NodeIndex>],
         rest: &[Transform],
@@ -1063,14 +1086,9 @@ mod tests {
     /// reach; with its pattern move it reaches ≥ 99 % within 32 sweeps.
     #[test]
     fn solvers_reach_random_targets_on_rigged_figure() {
-        let asset = crate::testutil::load("khronos/RiggedFigure/glTF-Binary/RiggedFigure.glb");
-        let parents: Vec<Option<NodeIndex>> = asset.nodes.iter().map(|n| n.parent).collect();
-        let rest: Vec<Transform> = asset.nodes.iter().map(|n| n.rest).collect();
-        let find = |name: &str| {
-            asset.nodes.iter().position(|n| n.name.as_deref() == Some(name)).expect("a RiggedFigure joint") as u32
-        };
-        let arm = IkChain::new(&parents, find("arm_joint_L_3"), 2).expect("arm");
-        let leg = IkChain::new(&parents, find("leg_joint_L_5"), 3).expect("leg");
+        let (asset, parents, rest) = rigged_figure();
+        let arm = IkChain::new(&parents, node(&asset, "arm_joint_L_3"), 2).expect("arm");
+        let leg = IkChain::new(&parents, node(&asset, "leg_joint_L_5"), 3).expect("leg");
         // (chain, solver, accelerated CCD, most iterations, floor of targets reached)
         let cases = [
             ("arm", &arm, IkSolver::Ccd, true, 32, 990),
@@ -1088,12 +1106,10 @@ mod tests {
         for (name, chain, solver, accelerate, iterations, floor) in cases {
             let mut random = crate::testutil::xorshift(0x9e37_79b9_u32);
             let joints = chain.joints();
-            let length: f32 =
-                joints.windows(2).map(|w| tip(&parents, &rest, w[0]).distance(tip(&parents, &rest, w[1]))).sum();
+            let length = rest_length(&parents, &rest, chain);
             let mut random_pose = |locals: &mut [Transform]| {
                 for &j in &joints[..joints.len() - 1] {
-                    let axis =
-                        Vec3::new(random() - 0.5, random() - 0.5, random() - 0.5).try_normalize().unwrap_or(Vec3::X);
+                    let axis = random_axis(&mut random);
                     locals[j as usize].rotation =
                         rest[j as usize].rotation * Quat::from_axis_angle(axis, random() * 2.0);
                 }
@@ -1132,20 +1148,15 @@ mod tests {
     /// 1000 random targets with them never leaves a limit, with any solver that takes limits.
     #[test]
     fn humanoid_limits_from_names_hold_on_rigged_figure() {
-        let asset = crate::testutil::load("khronos/RiggedFigure/glTF-Binary/RiggedFigure.glb");
+        let (asset, parents, rest) = rigged_figure();
         let limits = humanoid_limits(&asset);
-        let find = |name: &str| {
-            asset.nodes.iter().position(|n| n.name.as_deref() == Some(name)).expect("a RiggedFigure joint")
-        };
-        assert!(matches!(limits[find("arm_joint_L_2")], JointLimit::Hinge { .. }));
-        assert!(matches!(limits[find("leg_joint_R_2")], JointLimit::Hinge { .. }));
-        assert!(matches!(limits[find("arm_joint_R_1")], JointLimit::Ball { .. }));
-        assert!(matches!(limits[find("leg_joint_L_1")], JointLimit::Ball { .. }));
-        assert_eq!(limits[find("torso_joint_2")], JointLimit::Free);
-        assert_eq!(limits[find("arm_joint_L_3")], JointLimit::Free);
-        let parents: Vec<Option<NodeIndex>> = asset.nodes.iter().map(|n| n.parent).collect();
-        let rest: Vec<Transform> = asset.nodes.iter().map(|n| n.rest).collect();
-        let chain = IkChain::new(&parents, find("arm_joint_L_3") as u32, 2).expect("arm");
+        assert!(matches!(limits[node(&asset, "arm_joint_L_2") as usize], JointLimit::Hinge { .. }));
+        assert!(matches!(limits[node(&asset, "leg_joint_R_2") as usize], JointLimit::Hinge { .. }));
+        assert!(matches!(limits[node(&asset, "arm_joint_R_1") as usize], JointLimit::Ball { .. }));
+        assert!(matches!(limits[node(&asset, "leg_joint_L_1") as usize], JointLimit::Ball { .. }));
+        assert_eq!(limits[node(&asset, "torso_joint_2") as usize], JointLimit::Free);
+        assert_eq!(limits[node(&asset, "arm_joint_L_3") as usize], JointLimit::Free);
+        let chain = IkChain::new(&parents, node(&asset, "arm_joint_L_3"), 2).expect("arm");
         let chain_limits: Vec<JointLimit> = chain.joints()[..2].iter().map(|&j| limits[j as usize]).collect();
         let shoulder = tip(&parents, &rest, chain.joints()[0]);
         let runs = [
@@ -1155,14 +1166,12 @@ mod tests {
             (IkSolver::Fabrik, true),
             (IkSolver::Dls, true),
         ];
-        let length = shoulder.distance(tip(&parents, &rest, chain.joints()[1]))
-            + tip(&parents, &rest, chain.joints()[1]).distance(tip(&parents, &rest, chain.effector()));
+        let length = rest_length(&parents, &rest, &chain);
         for (solver, accelerate) in runs {
             let mut random = crate::testutil::xorshift(0x2545_f491_u32);
             // 1000 targets around the shoulder, out to 1.2 × the arm's length (some unreachable).
             for _ in 0..1000 {
-                let direction =
-                    Vec3::new(random() - 0.5, random() - 0.5, random() - 0.5).try_normalize().unwrap_or(Vec3::X);
+                let direction = random_axis(&mut random);
                 let target = shoulder + direction * random() * 1.2 * length;
                 let mut locals = rest.clone();
                 let goal = IkGoal { chain: &chain, target, stiffness: &[], limits: &chain_limits, pole: None };
@@ -1185,21 +1194,16 @@ mod tests {
     /// first hand off its target.
     #[test]
     fn goals_sharing_joints_are_solved_together() {
-        let asset = crate::testutil::load("khronos/RiggedFigure/glTF-Binary/RiggedFigure.glb");
-        let parents: Vec<Option<NodeIndex>> = asset.nodes.iter().map(|n| n.parent).collect();
-        let rest: Vec<Transform> = asset.nodes.iter().map(|n| n.rest).collect();
-        let find = |name: &str| {
-            asset.nodes.iter().position(|n| n.name.as_deref() == Some(name)).expect("a RiggedFigure joint") as u32
-        };
-        let left = IkChain::new(&parents, find("arm_joint_L_3"), 4).expect("left");
-        let right = IkChain::new(&parents, find("arm_joint_R_3"), 4).expect("right");
+        let (asset, parents, rest) = rigged_figure();
+        let left = IkChain::new(&parents, node(&asset, "arm_joint_L_3"), 4).expect("left");
+        let right = IkChain::new(&parents, node(&asset, "arm_joint_R_3"), 4).expect("right");
         assert_eq!(left.joints()[..2], right.joints()[..2], "the chains share the spine");
         let mut random = crate::testutil::xorshift(0x1234_5678_u32);
         let (mut together, mut apart) = (0, 0);
         for _ in 0..200 {
             let mut posed = rest.clone();
             for &j in left.joints()[..4].iter().chain(&right.joints()[2..4]) {
-                let axis = Vec3::new(random() - 0.5, random() - 0.5, random() - 0.5).try_normalize().unwrap_or(Vec3::X);
+                let axis = random_axis(&mut random);
                 posed[j as usize].rotation = rest[j as usize].rotation * Quat::from_axis_angle(axis, random() * 0.8);
             }
             let targets = [tip(&parents, &posed, left.effector()), tip(&parents, &posed, right.effector())];
@@ -1243,25 +1247,22 @@ mod tests {
     /// turned anywhere, elbow bent about its own axis) are reached, bending about the hinge.
     #[test]
     fn two_bone_bends_a_hinge_elbow_about_its_axis() {
-        let asset = crate::testutil::load("khronos/RiggedFigure/glTF-Binary/RiggedFigure.glb");
+        let (asset, parents, rest) = rigged_figure();
         let limits = humanoid_limits(&asset);
-        let parents: Vec<Option<NodeIndex>> = asset.nodes.iter().map(|n| n.parent).collect();
-        let rest: Vec<Transform> = asset.nodes.iter().map(|n| n.rest).collect();
-        let hand = asset.nodes.iter().position(|n| n.name.as_deref() == Some("arm_joint_L_3")).expect("hand");
-        let chain = IkChain::new(&parents, hand as u32, 2).expect("arm");
+        let hand = node(&asset, "arm_joint_L_3");
+        let chain = IkChain::new(&parents, hand, 2).expect("arm");
         let [shoulder, elbow] = [chain.joints()[0] as usize, chain.joints()[1] as usize];
         let JointLimit::Hinge { axis, .. } = limits[elbow] else { panic!("a hinge elbow") };
         let chain_limits = [JointLimit::Free, limits[elbow]];
-        let length = tip(&parents, &rest, shoulder as u32).distance(tip(&parents, &rest, elbow as u32))
-            + tip(&parents, &rest, elbow as u32).distance(tip(&parents, &rest, hand as u32));
+        let length = rest_length(&parents, &rest, &chain);
         let mut random = crate::testutil::xorshift(0x0bad_cafe);
         let mut reached = 0;
         for _ in 0..500 {
             let mut posed = rest.clone();
-            let turn = Vec3::new(random() - 0.5, random() - 0.5, random() - 0.5).try_normalize().unwrap_or(Vec3::X);
+            let turn = random_axis(&mut random);
             posed[shoulder].rotation = rest[shoulder].rotation * Quat::from_axis_angle(turn, random() * 2.0);
             posed[elbow].rotation = rest[elbow].rotation * Quat::from_axis_angle(axis, (random() - 0.5) * 4.0);
-            let target = tip(&parents, &posed, hand as u32);
+            let target = tip(&parents, &posed, hand);
             let mut locals = rest.clone();
             let goal = IkGoal { chain: &chain, target, stiffness: &[], limits: &chain_limits, pole: None };
             let settings = IkSettings { solver: IkSolver::TwoBone, ..IkSettings::default() };
@@ -1306,12 +1307,9 @@ mod tests {
     /// With weight < 1, a joint two goals share is blended back once (w, not w²).
     #[test]
     fn a_shared_joint_is_weighted_once() {
-        let asset = crate::testutil::load("khronos/RiggedFigure/glTF-Binary/RiggedFigure.glb");
-        let parents: Vec<Option<NodeIndex>> = asset.nodes.iter().map(|n| n.parent).collect();
-        let rest: Vec<Transform> = asset.nodes.iter().map(|n| n.rest).collect();
-        let find = |name: &str| asset.nodes.iter().position(|n| n.name.as_deref() == Some(name)).expect("joint") as u32;
-        let left = IkChain::new(&parents, find("arm_joint_L_3"), 4).expect("left");
-        let right = IkChain::new(&parents, find("arm_joint_R_3"), 4).expect("right");
+        let (asset, parents, rest) = rigged_figure();
+        let left = IkChain::new(&parents, node(&asset, "arm_joint_L_3"), 4).expect("left");
+        let right = IkChain::new(&parents, node(&asset, "arm_joint_R_3"), 4).expect("right");
         let spine = left.joints()[0] as usize;
         let targets = [
             tip(&parents, &rest, left.effector()) + Vec3::new(0.2, 0.1, 0.3),
