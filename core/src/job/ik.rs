@@ -927,9 +927,20 @@ mod tests {
         goal: IkGoal<'_>,
         settings: IkSettings,
     ) -> IkReport {
-        let mut reports = [IkReport::default()];
-        IkJob { parents, rest, locals, goals: &[goal], settings, reports: &mut reports }.run().expect("valid");
-        reports[0]
+        solve_together(parents, rest, locals, &[goal], settings)[0]
+    }
+
+    /// Solves `goals` in one job (at most two here).
+    fn solve_together(
+        parents: &[Option<NodeIndex>],
+        rest: &[Transform],
+        locals: &mut [Transform],
+        goals: &[IkGoal<'_>],
+        settings: IkSettings,
+    ) -> [IkReport; 2] {
+        let mut reports = [IkReport::default(); 2];
+        IkJob { parents, rest, locals, goals, settings, reports: &mut reports[..goals.len()] }.run().expect("valid");
+        reports
     }
 
     #[test]
@@ -1219,17 +1230,7 @@ mod tests {
                     .all(|(c, t)| tip(&parents, locals, c.effector()).distance(*t) < 1e-3)
             };
             let mut locals = rest.clone();
-            let mut reports = [IkReport::default(); 2];
-            IkJob {
-                parents: &parents,
-                rest: &rest,
-                locals: &mut locals,
-                goals: &goals,
-                settings,
-                reports: &mut reports,
-            }
-            .run()
-            .expect("valid");
+            solve_together(&parents, &rest, &mut locals, &goals, settings);
             assert!(locals.iter().all(|l| l.rotation.is_finite()));
             together += usize::from(reached(&locals));
             let mut locals = rest.clone();
@@ -1321,18 +1322,7 @@ mod tests {
         ];
         let run = |weight: f32| {
             let mut locals = rest.clone();
-            let mut reports = [IkReport::default(); 2];
-            let settings = IkSettings { weight, ..IkSettings::default() };
-            IkJob {
-                parents: &parents,
-                rest: &rest,
-                locals: &mut locals,
-                goals: &goals,
-                settings,
-                reports: &mut reports,
-            }
-            .run()
-            .expect("valid");
+            solve_together(&parents, &rest, &mut locals, &goals, IkSettings { weight, ..IkSettings::default() });
             locals[spine].rotation
         };
         let solved = run(1.0);
