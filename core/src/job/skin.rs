@@ -81,77 +81,32 @@ impl LbsJob<'_> {
     /// Validates, then skins every vertex. Stops with `IndexOutOfRange` at the first
     /// weighted joint index outside `palette`.
     ///
-    /// Vertices go in blocks of [`BLOCK`]: the matrices are blended per vertex (four-wide
-    /// column adds), then positions and normals are transformed across the block from
-    /// structure-of-arrays scratch on the stack, a loop the compiler vectorizes (SSE natively,
-    /// SIMD128 on wasm).
+    /// The palette is first turned into affine rows (3 × `Vec4` per joint; on the stack for up
+    /// to [`ROW_TABLE`] joints). Vertices then go in blocks of [`BLOCK`]: one vectorized scan of
+    /// the block's joints and weights checks the joint indices (an exact per-vertex check runs
+    /// only when some index is out of range) and whether JOINTS_1 carries weight; the rows are
+    /// blended per vertex (four-wide), four vertices at a time are transposed into lanes, and
+    /// positions and normals are transformed four vertices per instruction (SSE natively,
+    /// SIMD128 on wasm; on x86-64 CPUs with AVX2 the same code is compiled once more
+    /// for them and chosen at run time).
     pub fn run(&mut self) -> Result<(), JobError> {
         self.validate()?;
         let n = self.positions.len();
-        let with_normals = !self.normals.is_empty();
-        let mut block = Block::default();
-        // An empty palette with any weight is an error below; with none, nothing is read.
-        let empty = [Mat4::ZERO];
-        let palette = if self.palette.is_empty() { &empty[..] } else { self.palette };
-        let last = palette.len() - 1;
-        let mut start = 0;
-        while start < n {
-            let len = BLOCK.min(n - start);
-            for i in 0..len {
-                let v = start + i;
-                let (mut c0, mut c1, mut c2, mut c3) = (Vec4::ZERO, Vec4::ZERO, Vec4::ZERO, Vec4::ZERO);
-                let (joints, weights) = (&self.joints[v], &self.weights[v]);
-                // JOINTS_0 without branches: a zero weight adds nothing, so its joint only has
-                // to be a valid index (clamped; an out-of-range joint with a weight is an error).
-                for k in 0..4 {
-                    let (j, w) = (joints[k] as usize, weights[k]);
-                    if j >= self.palette.len() && w != 0.0 {
-                        return Err(out_of_range(j, self.palette.len()));
-                    }
-                    let m = &palette[j.min(last)];
-                    c0 += m.x_axis * w;
-                    c1 += m.y_axis * w;
-                    c2 += m.z_axis * w;
-                    c3 += m.w_axis * w;
-                }
-                // Most vertices have at most four influences: JOINTS_1 in one test.
-                if weights[4..] != [0.0; 4] {
-                    for k in 4..8 {
-                        let w = weights[k];
-                        if w != 0.0 {
-                            let m = joint_at(self.palette, joints[k])?;
-                            c0 += m.x_axis * w;
-                            c1 += m.y_axis * w;
-                            c2 += m.z_axis * w;
-                            c3 += m.w_axis * w;
-                        }
-                    }
-                }
-                block.set_matrix(i, c0, c1, c2, c3);
-                let p = self.positions[v];
-                block.p[0][i] = p[0];
-                block.p[1][i] = p[1];
-                block.p[2][i] = p[2];
-                if with_normals {
-                    let q = self.normals[v];
-                    block.n[0][i] = q[0];
-                    block.n[1][i] = q[1];
-                    block.n[2][i] = q[2];
-                }
-            }
-            block.transform_points();
-            for (i, out) in self.out_positions[start..start + len].iter_mut().enumerate() {
-                *out = [block.o[0][i], block.o[1][i], block.o[2][i]];
-            }
-            if with_normals {
-                block.transform_normals();
-                for (i, out) in self.out_normals[start..start + len].iter_mut().enumerate() {
-                    *out = [block.o[0][i], block.o[1][i], block.o[2][i]];
-                }
-            }
-            start += len;
+        let streams = Streams {
+            positions: self.positions,
+            normals: self.normals,
+            joints: self.joints,
+            weights: self.weights,
+            out_positions: &mut self.out_positions[..n],
+            out_normals: &mut self.out_normals[..self.normals.len()],
+        };
+        if self.palette.len() <= ROW_TABLE {
+            let table: [Rows; ROW_TABLE] =
+                std::array::from_fn(|j| self.palette.get(j).map_or([Vec4::ZERO; 3], affine_rows));
+            lbs_dispatch(&RowTable(&table), self.palette.len(), streams)
+        } else {
+            lbs_dispatch(&RowsOnTheFly(self.palette), self.palette.len(), streams)
         }
-        Ok(())
     }
 }
 
@@ -162,73 +117,285 @@ fn out_of_range(index: usize, len: usize) -> JobError {
 /// Vertices per block of [`LbsJob::run`].
 pub const BLOCK: usize = 16;
 
-/// Structure-of-arrays scratch of one block: blended matrices (`m[row * 4 + col]`, affine
-/// rows only), inputs and outputs.
-struct Block {
-    m: [[f32; BLOCK]; 12],
-    p: [[f32; BLOCK]; 3],
-    n: [[f32; BLOCK]; 3],
-    o: [[f32; BLOCK]; 3],
+/// Palettes with at most this many joints are copied into a row table on the stack, indexed
+/// without bounds checks (12 KiB); larger ones are read in place.
+pub const ROW_TABLE: usize = 256;
+
+/// The affine rows of a skinning matrix: `row[r] = (m[r][0], m[r][1], m[r][2], m[r][3])`.
+type Rows = [Vec4; 3];
+
+fn affine_rows(m: &Mat4) -> Rows {
+    let t = m.transpose();
+    [t.x_axis, t.y_axis, t.z_axis]
 }
 
-impl Default for Block {
-    fn default() -> Self {
-        Self { m: [[0.0; BLOCK]; 12], p: [[0.0; BLOCK]; 3], n: [[0.0; BLOCK]; 3], o: [[0.0; BLOCK]; 3] }
+/// Where the skinning kernel reads a joint's rows.
+trait RowSource {
+    /// The rows of joint `j`; `j` is in range or carries no weight (checked per block).
+    fn rows(&self, j: u16) -> Rows;
+}
+
+/// A palette of at most [`ROW_TABLE`] joints, zero-padded: any `u8` index is in bounds.
+struct RowTable<'a>(&'a [Rows; ROW_TABLE]);
+
+impl RowSource for RowTable<'_> {
+    #[inline(always)]
+    fn rows(&self, j: u16) -> Rows {
+        // Indices at or past the palette's length carry no weight (checked before); they read
+        // zero rows or, past 255, any row: times a zero weight either adds nothing.
+        self.0[usize::from(j as u8)]
     }
 }
 
-impl Block {
-    /// Stores the matrix with columns `c0..c3` as lane `i`.
-    #[inline]
-    fn set_matrix(&mut self, i: usize, c0: Vec4, c1: Vec4, c2: Vec4, c3: Vec4) {
-        for (r, col) in [(0, c0), (1, c1), (2, c2), (3, c3)] {
-            self.m[r][i] = col.x;
-            self.m[4 + r][i] = col.y;
-            self.m[8 + r][i] = col.z;
+/// A palette of more than [`ROW_TABLE`] joints, transposed as read.
+struct RowsOnTheFly<'a>(&'a [Mat4]);
+
+impl RowSource for RowsOnTheFly<'_> {
+    #[inline(always)]
+    fn rows(&self, j: u16) -> Rows {
+        affine_rows(&self.0[usize::from(j).min(self.0.len().saturating_sub(1))])
+    }
+}
+
+/// The vertex streams of one [`LbsJob::run`], outputs cut to the inputs' lengths.
+struct Streams<'a, 'b> {
+    positions: &'a [[f32; 3]],
+    normals: &'a [[f32; 3]],
+    joints: &'a [[u16; 8]],
+    weights: &'a [[f32; 8]],
+    out_positions: &'b mut [[f32; 3]],
+    out_normals: &'b mut [[f32; 3]],
+}
+
+/// Runs [`lbs_blocks`] compiled for AVX2 where the CPU has it, else for the baseline.
+fn lbs_dispatch<S: RowSource>(source: &S, joints: usize, streams: Streams<'_, '_>) -> Result<(), JobError> {
+    #[cfg(target_arch = "x86_64")]
+    if simd::has_avx2() {
+        return simd::lbs_blocks_avx2(source, joints, streams);
+    }
+    lbs_blocks(source, joints, streams)
+}
+
+/// Skins all vertices, block by block; the remainder goes through a zero-padded block.
+#[inline(always)]
+fn lbs_blocks<S: RowSource>(source: &S, joints: usize, streams: Streams<'_, '_>) -> Result<(), JobError> {
+    let Streams { positions, normals, joints: joint_ids, weights, out_positions, out_normals } = streams;
+    let with_normals = !normals.is_empty();
+    let (p, p_rest) = positions.as_chunks::<BLOCK>();
+    let (j, j_rest) = joint_ids.as_chunks::<BLOCK>();
+    let (w, w_rest) = weights.as_chunks::<BLOCK>();
+    let (op, op_rest) = out_positions.as_chunks_mut::<BLOCK>();
+    let (nrm, nrm_rest) = normals.as_chunks::<BLOCK>();
+    let (on, on_rest) = out_normals.as_chunks_mut::<BLOCK>();
+    let mut no_normals = [[0.0; 3]; BLOCK];
+    for b in 0..p.len() {
+        #[cfg(target_arch = "x86_64")]
+        simd::prefetch_ahead(&p[b], nrm.get(b).unwrap_or(&p[b]), &j[b], &w[b]);
+        let upper = check_block(&j[b], &w[b], joints)?;
+        let block = BlockIn { p: &p[b], n: nrm.get(b).unwrap_or(&p[b]), j: &j[b], w: &w[b] };
+        match on.get_mut(b) {
+            Some(out_n) if with_normals => lbs_block::<S, true>(source, &block, upper, &mut op[b], out_n),
+            _ => lbs_block::<S, false>(source, &block, upper, &mut op[b], &mut no_normals),
         }
     }
+    let rest = p_rest.len();
+    if rest > 0 {
+        let mut pad = PaddedBlock::default();
+        pad.p[..rest].copy_from_slice(p_rest);
+        pad.j[..rest].copy_from_slice(j_rest);
+        pad.w[..rest].copy_from_slice(w_rest);
+        if with_normals {
+            pad.n[..rest].copy_from_slice(nrm_rest);
+        }
+        let upper = check_block(&pad.j, &pad.w, joints)?;
+        let block = BlockIn { p: &pad.p, n: &pad.n, j: &pad.j, w: &pad.w };
+        let (mut out_p, mut out_n) = ([[0.0; 3]; BLOCK], [[0.0; 3]; BLOCK]);
+        if with_normals {
+            lbs_block::<S, true>(source, &block, upper, &mut out_p, &mut out_n);
+            on_rest.copy_from_slice(&out_n[..rest]);
+        } else {
+            lbs_block::<S, false>(source, &block, upper, &mut out_p, &mut out_n);
+        }
+        op_rest.copy_from_slice(&out_p[..rest]);
+    }
+    Ok(())
+}
 
-    /// `o = M · p` (as `Mat4::transform_point3`: `x·c0 + y·c1 + z·c2 + c3`).
-    #[inline]
-    fn transform_points(&mut self) {
-        let m = &self.m;
-        let [x, y, z] = &self.p;
-        for row in 0..3 {
-            let (a, b, c, d) = (&m[row * 4], &m[row * 4 + 1], &m[row * 4 + 2], &m[row * 4 + 3]);
-            let out = &mut self.o[row];
-            for i in 0..BLOCK {
-                out[i] = a[i] * x[i] + b[i] * y[i] + c[i] * z[i] + d[i];
+/// One block's inputs.
+struct BlockIn<'a> {
+    p: &'a [[f32; 3]; BLOCK],
+    n: &'a [[f32; 3]; BLOCK],
+    j: &'a [[u16; 8]; BLOCK],
+    w: &'a [[f32; 8]; BLOCK],
+}
+
+/// The last, partial block, padded with weightless vertices.
+#[derive(Default)]
+struct PaddedBlock {
+    p: [[f32; 3]; BLOCK],
+    n: [[f32; 3]; BLOCK],
+    j: [[u16; 8]; BLOCK],
+    w: [[f32; 8]; BLOCK],
+}
+
+/// Checks a block's joint indices against a palette of `len` joints (`IndexOutOfRange` for
+/// the first weighted one outside) and says whether any vertex weights JOINTS_1.
+#[inline(always)]
+fn check_block(j: &[[u16; 8]; BLOCK], w: &[[f32; 8]; BLOCK], len: usize) -> Result<bool, JobError> {
+    // Lane-wise maxima and ORs: the compiler turns both into a few vector instructions.
+    let mut max = [0u16; 8];
+    let mut upper = [0u32; 4];
+    for v in 0..BLOCK {
+        for k in 0..8 {
+            max[k] = max[k].max(j[v][k]);
+        }
+        for k in 0..4 {
+            upper[k] |= w[v][4 + k].to_bits();
+        }
+    }
+    if max.into_iter().any(|m| usize::from(m) >= len) {
+        // Some index is out of range: an error only where it carries weight.
+        for (joints, weights) in j.iter().zip(w) {
+            for (&joint, &weight) in joints.iter().zip(weights) {
+                if usize::from(joint) >= len && weight != 0.0 {
+                    return Err(out_of_range(usize::from(joint), len));
+                }
             }
         }
     }
+    Ok(upper != [0; 4])
+}
 
-    /// `o = normalize(cofactor(M₃) · n · sign(det M₃))`, zero for a zero result (as
-    /// [`transform_normal`]).
-    #[inline]
-    fn transform_normals(&mut self) {
-        let m = &self.m;
-        let [nx, ny, nz] = &self.n;
-        let [ox, oy, oz] = &mut self.o;
-        for i in 0..BLOCK {
-            // Columns of the 3×3 part.
-            let (c0x, c0y, c0z) = (m[0][i], m[4][i], m[8][i]);
-            let (c1x, c1y, c1z) = (m[1][i], m[5][i], m[9][i]);
-            let (c2x, c2y, c2z) = (m[2][i], m[6][i], m[10][i]);
-            // c1 × c2, c2 × c0, c0 × c1.
-            let (ax, ay, az) = (c1y * c2z - c1z * c2y, c1z * c2x - c1x * c2z, c1x * c2y - c1y * c2x);
-            let (bx, by, bz) = (c2y * c0z - c2z * c0y, c2z * c0x - c2x * c0z, c2x * c0y - c2y * c0x);
-            let (cx, cy, cz) = (c0y * c1z - c0z * c1y, c0z * c1x - c0x * c1z, c0x * c1y - c0y * c1x);
-            let det = c0x * ax + c0y * ay + c0z * az;
-            let sign = if det < 0.0 { -1.0 } else { 1.0 };
-            let x = (ax * nx[i] + bx * ny[i] + cx * nz[i]) * sign;
-            let y = (ay * nx[i] + by * ny[i] + cy * nz[i]) * sign;
-            let z = (az * nx[i] + bz * ny[i] + cz * nz[i]) * sign;
-            let len2 = x * x + y * y + z * z;
-            let inv = if len2 > 0.0 && len2.is_finite() { 1.0 / len2.sqrt() } else { 0.0 };
-            ox[i] = x * inv;
-            oy[i] = y * inv;
-            oz[i] = z * inv;
+/// Blends the rows of one vertex's influences (JOINTS_1 only when `upper`).
+#[inline(always)]
+fn blend_rows<S: RowSource>(source: &S, j: &[u16; 8], w: &[f32; 8], upper: bool) -> Rows {
+    let (m0, m1, m2, m3) = (source.rows(j[0]), source.rows(j[1]), source.rows(j[2]), source.rows(j[3]));
+    let mut rows = [Vec4::ZERO; 3];
+    // Summed in slot order (no reassociation, no fused multiply-add), so every CPU and the
+    // wasm build round the same way: a ragdoll fitted to skinned vertices is the same everywhere.
+    for (r, row) in rows.iter_mut().enumerate() {
+        *row = m0[r] * w[0] + m1[r] * w[1] + m2[r] * w[2] + m3[r] * w[3];
+    }
+    if upper {
+        for k in 4..8 {
+            if w[k] != 0.0 {
+                let m = source.rows(j[k]);
+                for (r, row) in rows.iter_mut().enumerate() {
+                    *row += m[r] * w[k];
+                }
+            }
         }
+    }
+    rows
+}
+
+/// Four vertices' `[x, y, z]` (12 floats) as lanes `(x₀..x₃), (y₀..y₃), (z₀..z₃)`.
+#[inline(always)]
+fn to_lanes(f: &[[f32; 3]]) -> [Vec4; 3] {
+    let v = |i: usize| f.get(i).copied().unwrap_or_default();
+    let (a, b, c, d) = (v(0), v(1), v(2), v(3));
+    [Vec4::new(a[0], b[0], c[0], d[0]), Vec4::new(a[1], b[1], c[1], d[1]), Vec4::new(a[2], b[2], c[2], d[2])]
+}
+
+/// The inverse of [`to_lanes`].
+#[inline(always)]
+fn from_lanes([x, y, z]: [Vec4; 3], out: &mut [[f32; 3]]) {
+    for (i, o) in out.iter_mut().take(4).enumerate() {
+        *o = [x[i], y[i], z[i]];
+    }
+}
+
+/// Linear blend skinning of one block: blended rows per vertex, then positions and normals
+/// (the cofactor of the blended 3×3, signed by its determinant, as the GPU paths do) four
+/// vertices per lane.
+#[inline(always)]
+fn lbs_block<S: RowSource, const NORMALS: bool>(
+    source: &S,
+    block: &BlockIn<'_>,
+    upper: bool,
+    out_p: &mut [[f32; 3]; BLOCK],
+    out_n: &mut [[f32; 3]; BLOCK],
+) {
+    for g in (0..BLOCK).step_by(4) {
+        let blend = |v: usize| blend_rows::<S>(source, &block.j[g + v], &block.w[g + v], upper);
+        let (a, b, c, d) = (blend(0), blend(1), blend(2), blend(3));
+        // m[r][c] holds element (r, c) of the four blended matrices.
+        let lanes = |r: usize| {
+            let t = Mat4::from_cols(a[r], b[r], c[r], d[r]).transpose();
+            [t.x_axis, t.y_axis, t.z_axis, t.w_axis]
+        };
+        let m = [lanes(0), lanes(1), lanes(2)];
+        let [px, py, pz] = to_lanes(&block.p[g..]);
+        let position = |r: usize| m[r][0] * px + m[r][1] * py + m[r][2] * pz + m[r][3];
+        from_lanes([position(0), position(1), position(2)], &mut out_p[g..]);
+        if NORMALS {
+            // Columns c0, c1, c2 of the 3×3 part; the cofactor's columns are c1×c2, c2×c0, c0×c1.
+            let col = |c: usize| [m[0][c], m[1][c], m[2][c]];
+            let cross = |u: [Vec4; 3], v: [Vec4; 3]| {
+                [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]]
+            };
+            let (c0, c1, c2) = (col(0), col(1), col(2));
+            let (ca, cb, cc) = (cross(c1, c2), cross(c2, c0), cross(c0, c1));
+            let det = c0[0] * ca[0] + c0[1] * ca[1] + c0[2] * ca[2];
+            let [nx, ny, nz] = to_lanes(&block.n[g..]);
+            let normal = |r: usize| ca[r] * nx + cb[r] * ny + cc[r] * nz;
+            let (x, y, z) = (normal(0), normal(1), normal(2));
+            let len2 = x * x + y * y + z * z;
+            let valid = len2.cmpgt(Vec4::ZERO) & len2.is_finite_mask();
+            let inv = Vec4::select(valid, len2.sqrt().recip(), Vec4::ZERO);
+            let inv = Vec4::select(det.cmplt(Vec4::ZERO), -inv, inv);
+            from_lanes([x * inv, y * inv, z * inv], &mut out_n[g..]);
+        }
+    }
+}
+
+/// x86-64 only: the AVX2 build of the kernel (three-operand instructions: fewer register
+/// copies; the same arithmetic, so the same results), chosen at run time, and prefetching.
+#[cfg(target_arch = "x86_64")]
+#[allow(unsafe_code)]
+mod simd {
+    use super::{BLOCK, JobError, RowSource, Streams, lbs_blocks};
+    use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+
+    /// Whether this CPU runs [`lbs_blocks_avx2`] (detected once, then cached by std).
+    pub(super) fn has_avx2() -> bool {
+        std::arch::is_x86_feature_detected!("avx2")
+    }
+
+    /// [`lbs_blocks`] compiled for AVX2.
+    pub(super) fn lbs_blocks_avx2<S: RowSource>(
+        source: &S,
+        joints: usize,
+        streams: Streams<'_, '_>,
+    ) -> Result<(), JobError> {
+        #[target_feature(enable = "avx2")]
+        fn run<S: RowSource>(source: &S, joints: usize, streams: Streams<'_, '_>) -> Result<(), JobError> {
+            lbs_blocks(source, joints, streams)
+        }
+        // SAFETY: callers check `has_avx2()` first, so the CPU has the feature.
+        unsafe { run(source, joints, streams) }
+    }
+
+    /// Asks for the streams four blocks ahead of this one (a hint; it never faults).
+    #[inline(always)]
+    pub(super) fn prefetch_ahead(
+        p: &[[f32; 3]; BLOCK],
+        n: &[[f32; 3]; BLOCK],
+        j: &[[u16; 8]; BLOCK],
+        w: &[[f32; 8]; BLOCK],
+    ) {
+        fn lines<T>(block: &[T; BLOCK]) {
+            let bytes = size_of::<[T; BLOCK]>();
+            let ahead = block.as_ptr().cast::<i8>().wrapping_add(4 * bytes);
+            for line in (0..bytes).step_by(64) {
+                // SAFETY: a prefetch is a hint: it does not fault, any address is fine.
+                unsafe { _mm_prefetch::<_MM_HINT_T0>(ahead.wrapping_add(line)) }
+            }
+        }
+        lines(p);
+        lines(n);
+        lines(j);
+        lines(w);
     }
 }
 
@@ -416,6 +583,89 @@ mod tests {
         assert!(close(out_n[0], [0.0, 1.0, 0.0]), "{:?}", out_n[0]);
         let h = std::f32::consts::FRAC_1_SQRT_2;
         assert!(close(out_n[1], [h, h, 0.0]), "{:?}", out_n[1]);
+    }
+
+    /// The block kernel against a per-vertex reference (blend the matrices, transform the
+    /// point, cofactor the normal) on every path: the stack row table and the in-place palette
+    /// (> `ROW_TABLE` joints), a partial last block, JOINTS_1 in some blocks only, unweighted
+    /// out-of-range joints, and no normals.
+    #[test]
+    fn lbs_blocks_match_per_vertex_reference() {
+        let mut rng = crate::testutil::xorshift(7);
+        let mut unit = move || rng() * 2.0 - 1.0;
+        for (joints, n) in [(19usize, 3 * BLOCK + 5), (300, 2 * BLOCK + 1), (1, 3), (19, BLOCK)] {
+            let palette: Vec<Mat4> = (0..joints)
+                .map(|_| {
+                    let axis = Vec3::new(unit(), unit(), unit() + 2.0).normalize();
+                    Mat4::from_scale_rotation_translation(
+                        Vec3::new(1.0 + 0.3 * unit(), 1.0, 1.0 - 0.2 * unit()),
+                        Quat::from_axis_angle(axis, 3.0 * unit()),
+                        Vec3::new(unit(), unit(), unit()),
+                    )
+                })
+                .collect();
+            let positions: Vec<[f32; 3]> = (0..n).map(|_| [unit(), unit(), unit()]).collect();
+            let normals: Vec<[f32; 3]> =
+                (0..n).map(|_| Vec3::new(unit(), unit(), unit() + 2.0).normalize().to_array()).collect();
+            let mut ids = Vec::new();
+            let mut weights = Vec::new();
+            for v in 0..n {
+                let mut j = [0u16; 8];
+                let mut w = [0.0f32; 8];
+                // JOINTS_1 only in the second block; an unweighted slot may point anywhere.
+                let slots = if v / BLOCK == 1 { 8 } else { 4 };
+                for k in 0..slots {
+                    j[k] = ((unit() * 0.5 + 0.5) * (joints as f32 - 1.0)).round() as u16;
+                    w[k] = unit() * 0.5 + 0.5;
+                }
+                j[slots - 1] = if v % 3 == 0 { 9999 } else { j[slots - 1] };
+                if v % 3 == 0 {
+                    w[slots - 1] = 0.0;
+                }
+                let sum: f32 = w.iter().sum();
+                w.iter_mut().for_each(|x| *x /= sum.max(1e-6));
+                ids.push(j);
+                weights.push(w);
+            }
+            for with_normals in [true, false] {
+                let normals = if with_normals { &normals[..] } else { &[] };
+                let mut out_p = vec![[0.0; 3]; n];
+                let mut out_n = vec![[0.0; 3]; normals.len()];
+                LbsJob {
+                    positions: &positions,
+                    normals,
+                    joints: &ids,
+                    weights: &weights,
+                    palette: &palette,
+                    out_positions: &mut out_p,
+                    out_normals: &mut out_n,
+                }
+                .run()
+                .expect("valid");
+                for v in 0..n {
+                    let mut m = Mat4::ZERO;
+                    for k in 0..8 {
+                        if weights[v][k] != 0.0 {
+                            m += palette[ids[v][k] as usize] * weights[v][k];
+                        }
+                    }
+                    let p = m.transform_point3(Vec3::from(positions[v]));
+                    assert!(
+                        Vec3::from(out_p[v]).abs_diff_eq(p, 1e-5),
+                        "{joints} joints, vertex {v}: {:?} vs {p}",
+                        out_p[v]
+                    );
+                    if with_normals {
+                        let q = transform_normal(&m, Vec3::from(normals[v]));
+                        assert!(
+                            Vec3::from(out_n[v]).abs_diff_eq(q, 1e-5),
+                            "{joints} joints, normal {v}: {:?} vs {q}",
+                            out_n[v]
+                        );
+                    }
+                }
+            }
+        }
     }
 
     #[test]
