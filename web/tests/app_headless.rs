@@ -661,6 +661,14 @@ fn a_two_bone_pole_bends_the_elbow_and_is_dragged_in_the_viewport() {
     let [shoulder, elbow, hand] =
         ["arm_joint_L_1", "arm_joint_L_2", "arm_joint_L_3"].map(|n| controls.node_index(n).expect("a joint"));
     let world = |h: &Harness, n: u32| h.app.model().expect("a model").instance.worlds()[n as usize].w_axis.truncate();
+    let set_solver = |solver, pole: Option<glam::Vec3>| Command::SetIkSolver {
+        effector: hand,
+        solver,
+        pole: pole.map(|p| p.to_array()),
+        softness: None,
+        accelerate: None,
+        iterations: None,
+    };
     let target = world(&h, hand) + glam::Vec3::new(0.0, 0.04, 0.03);
     controls.send(Command::SetIk { effector: Some(hand), depth: 2, target: Some(target.to_array()) });
     h.step(0.016, Vec::new());
@@ -674,14 +682,7 @@ fn a_two_bone_pole_bends_the_elbow_and_is_dragged_in_the_viewport() {
     let pole = s + line * (world(&h, elbow) - s).dot(line) + side * 0.3;
     let facing = |h: &Harness, pole: glam::Vec3| off(world(h, elbow)).normalize().dot(off(pole).normalize());
     assert!(facing(&h, pole) < 0.8, "the elbow already faces the pole");
-    controls.send(Command::SetIkSolver {
-        effector: hand,
-        solver: IkSolver::TwoBone,
-        pole: Some(pole.to_array()),
-        softness: None,
-        accelerate: None,
-        iterations: None,
-    });
+    controls.send(set_solver(IkSolver::TwoBone, Some(pole)));
     h.step(0.016, Vec::new());
     let before = h.step(0.016, Vec::new());
     assert!(facing(&h, pole) > 0.9, "the elbow does not bend towards the pole: {}", facing(&h, pole));
@@ -706,26 +707,12 @@ fn a_two_bone_pole_bends_the_elbow_and_is_dragged_in_the_viewport() {
     h.step(0.016, Vec::new());
     assert_eq!(h.app.model().and_then(|m| m.ik.first()).and_then(|ik| ik.pole), Some(moved), "the pole was dropped");
     assert_ne!(h.get(Key::IkPole), "");
-    controls.send(Command::SetIkSolver {
-        effector: hand,
-        solver: IkSolver::Ccd,
-        pole: Some(moved.to_array()),
-        softness: None,
-        accelerate: None,
-        iterations: None,
-    });
+    controls.send(set_solver(IkSolver::Ccd, Some(moved)));
     h.step(0.016, Vec::new());
     assert_eq!(h.get(Key::IkPole), "", "CCD has no pole to show");
     // Two-bone needs exactly two joints above the effector.
     controls.send(Command::SetIk { effector: Some(hand), depth: 1, target: None });
-    controls.send(Command::SetIkSolver {
-        effector: hand,
-        solver: IkSolver::TwoBone,
-        pole: None,
-        softness: None,
-        accelerate: None,
-        iterations: None,
-    });
+    controls.send(set_solver(IkSolver::TwoBone, None));
     h.step(0.016, Vec::new());
     assert!(h.get(Key::Error).contains("two-bone needs 2"), "error: {}", h.get(Key::Error));
 }

@@ -930,6 +930,11 @@ mod tests {
         solve_together(parents, rest, locals, &[goal], settings)[0]
     }
 
+    /// Default settings with the two-bone solver.
+    fn two_bone_settings() -> IkSettings {
+        IkSettings { solver: IkSolver::TwoBone, ..IkSettings::default() }
+    }
+
     /// Solves `goals` in one job (at most two here).
     fn solve_together(
         parents: &[Option<NodeIndex>],
@@ -1027,7 +1032,7 @@ mod tests {
             let mut locals = rest.clone();
             let target = Vec3::new(1.2, 0.8, 0.0);
             let goal = IkGoal { chain: &chain, target, stiffness: &[], limits: &[], pole: Some(pole) };
-            let settings = IkSettings { solver: IkSolver::TwoBone, ..IkSettings::default() };
+            let settings = two_bone_settings();
             let report = solve(&parents, &rest, &mut locals, goal, settings);
             assert!(report.error < 1e-4, "{report:?}");
             let elbow = tip(&parents, &locals, 1);
@@ -1069,13 +1074,7 @@ mod tests {
         let mut locals = rest.clone();
         let target = root + Vec3::new(0.6, 0.0, 0.8) * 1.9;
         let goal = IkGoal { chain: &chain, target, stiffness: &[], limits: &[], pole: Some(root + Vec3::X) };
-        let report = solve(
-            &parents,
-            &rest,
-            &mut locals,
-            goal,
-            IkSettings { solver: IkSolver::TwoBone, ..IkSettings::default() },
-        );
+        let report = solve(&parents, &rest, &mut locals, goal, two_bone_settings());
         assert!(report.error < 1e-4);
     }
 
@@ -1266,7 +1265,7 @@ mod tests {
             let target = tip(&parents, &posed, hand);
             let mut locals = rest.clone();
             let goal = IkGoal { chain: &chain, target, stiffness: &[], limits: &chain_limits, pole: None };
-            let settings = IkSettings { solver: IkSolver::TwoBone, ..IkSettings::default() };
+            let settings = two_bone_settings();
             let report = solve(&parents, &rest, &mut locals, goal, settings);
             assert!(
                 chain_limits[1].allows(rest[elbow].rotation, locals[elbow].rotation, 1e-4),
@@ -1291,13 +1290,7 @@ mod tests {
             let target = root + target;
             let mut locals = rest.clone();
             let goal = IkGoal { chain: &chain, target, stiffness: &[], limits: &[JointLimit::Free, hinge], pole: None };
-            let report = solve(
-                &parents,
-                &rest,
-                &mut locals,
-                goal,
-                IkSettings { solver: IkSolver::TwoBone, ..IkSettings::default() },
-            );
+            let report = solve(&parents, &rest, &mut locals, goal, two_bone_settings());
             assert!(report.error < 1e-4, "{target}: error {}", report.error);
             assert!(hinge.allows(rest[2].rotation, locals[2].rotation, 1e-4), "{target}: the hinge bent the wrong way");
             let bend = twist_angle(rest[2].rotation.conjugate() * locals[2].rotation, Vec3::X);
@@ -1350,7 +1343,7 @@ mod tests {
         assert!(run(IkGoal { stiffness: &[2.0, 1.0], ..good }, IkSettings::default(), &mut locals).is_err());
         assert!(run(IkGoal { limits: &[JointLimit::Free; 3], ..good }, IkSettings::default(), &mut locals).is_err());
         let three = IkChain::new(&parents, 3, 3).expect("chain");
-        let twobone = IkSettings { solver: IkSolver::TwoBone, ..IkSettings::default() };
+        let twobone = two_bone_settings();
         assert!(run(IkGoal { chain: &three, ..good }, twobone, &mut locals).is_err(), "two-bone needs depth 2");
         assert!(run(good, IkSettings { tolerance: f32::NAN, ..IkSettings::default() }, &mut locals).is_err());
         assert!(run(good, IkSettings { softness: 1.0, ..IkSettings::default() }, &mut locals).is_err());

@@ -180,48 +180,54 @@ fn lbs_dispatch<S: RowSource>(source: &S, joints: usize, streams: Streams<'_, '_
 #[inline(always)]
 fn lbs_blocks<S: RowSource>(source: &S, joints: usize, streams: Streams<'_, '_>) -> Result<(), JobError> {
     let Streams { positions, normals, joints: joint_ids, weights, out_positions, out_normals } = streams;
-    let with_normals = !normals.is_empty();
     let (p, p_rest) = positions.as_chunks::<BLOCK>();
     let (j, j_rest) = joint_ids.as_chunks::<BLOCK>();
     let (w, w_rest) = weights.as_chunks::<BLOCK>();
     let (op, op_rest) = out_positions.as_chunks_mut::<BLOCK>();
+    // Without normals both normal streams are empty: no chunks, `get` is `None`.
     let (nrm, nrm_rest) = normals.as_chunks::<BLOCK>();
     let (on, on_rest) = out_normals.as_chunks_mut::<BLOCK>();
-    let mut no_normals = [[0.0; 3]; BLOCK];
     for b in 0..p.len() {
-        #[cfg(target_arch = "x86_64")]
-        simd::prefetch_ahead(&p[b], nrm.get(b).unwrap_or(&p[b]), &j[b], &w[b]);
-        let upper = check_block(&j[b], &w[b], joints)?;
         let block = BlockIn { p: &p[b], n: nrm.get(b).unwrap_or(&p[b]), j: &j[b], w: &w[b] };
-        match on.get_mut(b) {
-            Some(out_n) if with_normals => lbs_block::<S, true>(source, &block, upper, &mut op[b], out_n),
-            _ => lbs_block::<S, false>(source, &block, upper, &mut op[b], &mut no_normals),
-        }
+        #[cfg(target_arch = "x86_64")]
+        simd::prefetch_ahead(&block);
+        skin_block(source, joints, &block, &mut op[b], on.get_mut(b))?;
     }
     let rest = p_rest.len();
     if rest > 0 {
         let mut pad = PaddedBlock::default();
         pad.p[..rest].copy_from_slice(p_rest);
+        pad.n[..nrm_rest.len()].copy_from_slice(nrm_rest);
         pad.j[..rest].copy_from_slice(j_rest);
         pad.w[..rest].copy_from_slice(w_rest);
-        if with_normals {
-            pad.n[..rest].copy_from_slice(nrm_rest);
-        }
-        let upper = check_block(&pad.j, &pad.w, joints)?;
         let block = BlockIn { p: &pad.p, n: &pad.n, j: &pad.j, w: &pad.w };
         let (mut out_p, mut out_n) = ([[0.0; 3]; BLOCK], [[0.0; 3]; BLOCK]);
-        if with_normals {
-            lbs_block::<S, true>(source, &block, upper, &mut out_p, &mut out_n);
-            on_rest.copy_from_slice(&out_n[..rest]);
-        } else {
-            lbs_block::<S, false>(source, &block, upper, &mut out_p, &mut out_n);
-        }
+        skin_block(source, joints, &block, &mut out_p, (!normals.is_empty()).then_some(&mut out_n))?;
         op_rest.copy_from_slice(&out_p[..rest]);
+        on_rest.copy_from_slice(&out_n[..on_rest.len()]);
     }
     Ok(())
 }
 
-/// One block's inputs.
+/// Checks one block against a palette of `joints` joints, then skins it; normals only into
+/// `out_n`.
+#[inline(always)]
+fn skin_block<S: RowSource>(
+    source: &S,
+    joints: usize,
+    block: &BlockIn<'_>,
+    out_p: &mut [[f32; 3]; BLOCK],
+    out_n: Option<&mut [[f32; 3]; BLOCK]>,
+) -> Result<(), JobError> {
+    let upper = check_block(block.j, block.w, joints)?;
+    match out_n {
+        Some(out_n) => lbs_block::<S, true>(source, block, upper, out_p, out_n),
+        None => lbs_block::<S, false>(source, block, upper, out_p, &mut [[0.0; 3]; BLOCK]),
+    }
+    Ok(())
+}
+
+/// One block's inputs (`n` is any stream of the right size when there are no normals).
 struct BlockIn<'a> {
     p: &'a [[f32; 3]; BLOCK],
     n: &'a [[f32; 3]; BLOCK],
@@ -354,7 +360,7 @@ fn lbs_block<S: RowSource, const NORMALS: bool>(
 #[cfg(target_arch = "x86_64")]
 #[allow(unsafe_code)]
 mod simd {
-    use super::{BLOCK, JobError, RowSource, Streams, lbs_blocks};
+    use super::{BLOCK, BlockIn, JobError, RowSource, Streams, lbs_blocks};
     use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
 
     /// Whether this CPU runs [`lbs_blocks_avx2`] (detected once, then cached by std).
@@ -378,12 +384,7 @@ mod simd {
 
     /// Asks for the streams four blocks ahead of this one (a hint; it never faults).
     #[inline(always)]
-    pub(super) fn prefetch_ahead(
-        p: &[[f32; 3]; BLOCK],
-        n: &[[f32; 3]; BLOCK],
-        j: &[[u16; 8]; BLOCK],
-        w: &[[f32; 8]; BLOCK],
-    ) {
+    pub(super) fn prefetch_ahead(block: &BlockIn<'_>) {
         fn lines<T>(block: &[T; BLOCK]) {
             let bytes = size_of::<[T; BLOCK]>();
             let ahead = block.as_ptr().cast::<i8>().wrapping_add(4 * bytes);
@@ -392,10 +393,10 @@ mod simd {
                 unsafe { _mm_prefetch::<_MM_HINT_T0>(ahead.wrapping_add(line)) }
             }
         }
-        lines(p);
-        lines(n);
-        lines(j);
-        lines(w);
+        lines(block.p);
+        lines(block.n);
+        lines(block.j);
+        lines(block.w);
     }
 }
 
@@ -507,6 +508,22 @@ mod tests {
     use super::*;
     use crate::math::{Quat, Transform};
 
+    /// Runs [`LbsJob`] on valid streams; returns skinned positions and normals.
+    fn lbs(
+        positions: &[[f32; 3]],
+        normals: &[[f32; 3]],
+        joints: &[[u16; 8]],
+        weights: &[[f32; 8]],
+        palette: &[Mat4],
+    ) -> (Vec<[f32; 3]>, Vec<[f32; 3]>) {
+        let mut out_p = vec![[0.0; 3]; positions.len()];
+        let mut out_n = vec![[0.0; 3]; normals.len()];
+        LbsJob { positions, normals, joints, weights, palette, out_positions: &mut out_p, out_normals: &mut out_n }
+            .run()
+            .expect("valid");
+        (out_p, out_n)
+    }
+
     #[test]
     fn palette_multiplies_world_by_inverse_bind() {
         let worlds = [Mat4::from_translation(Vec3::X), Mat4::from_rotation_z(1.0)];
@@ -564,19 +581,7 @@ mod tests {
         let normals = [[1.0, 0.0, 0.0], [1.0, 0.0, 0.0]];
         let joints = [[1, 0, 0, 0, 0, 0, 0, 0], [0, 1, 0, 0, 0, 0, 0, 0]];
         let weights = [[1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], [0.5, 0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]];
-        let mut out_p = [[0.0; 3]; 2];
-        let mut out_n = [[0.0; 3]; 2];
-        LbsJob {
-            positions: &positions,
-            normals: &normals,
-            joints: &joints,
-            weights: &weights,
-            palette: &palette,
-            out_positions: &mut out_p,
-            out_normals: &mut out_n,
-        }
-        .run()
-        .expect("valid");
+        let (out_p, out_n) = lbs(&positions, &normals, &joints, &weights, &palette);
         let close = |a: [f32; 3], b: [f32; 3]| Vec3::from(a).abs_diff_eq(Vec3::from(b), 1e-5);
         assert!(close(out_p[0], [-1.0, 2.0, 0.0]), "{:?}", out_p[0]);
         assert!(close(out_p[1], [0.0, 2.0, 0.0]), "{:?}", out_p[1]);
@@ -629,19 +634,7 @@ mod tests {
             }
             for with_normals in [true, false] {
                 let normals = if with_normals { &normals[..] } else { &[] };
-                let mut out_p = vec![[0.0; 3]; n];
-                let mut out_n = vec![[0.0; 3]; normals.len()];
-                LbsJob {
-                    positions: &positions,
-                    normals,
-                    joints: &ids,
-                    weights: &weights,
-                    palette: &palette,
-                    out_positions: &mut out_p,
-                    out_normals: &mut out_n,
-                }
-                .run()
-                .expect("valid");
+                let (out_p, out_n) = lbs(&positions, normals, &ids, &weights, &palette);
                 for v in 0..n {
                     let mut m = Mat4::ZERO;
                     for k in 0..8 {
