@@ -128,7 +128,7 @@ struct Sampler {
 impl Sampler {
     /// Buffers for `asset`, with cursors for its widest clip (switching clips then never allocates).
     fn new(asset: &Asset) -> Self {
-        let widest = asset.clips.iter().max_by_key(|c| c.channels.len());
+        let widest = asset.clips.iter().max_by_key(|c| c.channels().len());
         let mut context = widest.map(SampleContext::new).unwrap_or_default();
         // `pose` is written by this sampler alone, and reset with the context on a clip change.
         context.set_skip_constant(true);
@@ -869,7 +869,7 @@ mod tests {
     fn morph_weights_blend_like_the_other_channels() {
         let asset = load("khronos/MorphStressTest/glTF-Binary/MorphStressTest.glb");
         let animated: Vec<usize> = (0..asset.clips.len())
-            .filter(|&c| asset.clips[c].channels.iter().any(|ch| ch.target == crate::clip::ChannelTarget::Weights))
+            .filter(|&c| asset.clips[c].channels().iter().any(|ch| ch.target == crate::clip::ChannelTarget::Weights))
             .collect();
         let (a, b) = animated
             .iter()

@@ -160,7 +160,7 @@ fn swing(name: &str, axis: Vec3, degrees: f32) -> Clip {
         values,
         width: 4,
     };
-    Clip { name: Some(name.to_owned()), duration: 3.0, channels: vec![channel] }
+    Clip::from_channels(Some(name.to_owned()), vec![channel])
 }
 
 /// The striped, capped cylinder: [`RINGS`] × [`SEGMENTS`] side vertices (ring-major), then

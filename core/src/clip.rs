@@ -50,6 +50,9 @@ pub struct Channel {
 }
 
 /// An animation clip.
+///
+/// Its channels are fixed at construction: the clip keeps, beside them, the layout the
+/// four-lane sampler reads ([`LaneGroup`]) and which channels never change.
 #[derive(Clone, Debug, Default)]
 pub struct Clip {
     /// `name` from the file.
@@ -57,8 +60,121 @@ pub struct Clip {
     /// Largest key time of any channel, in seconds; 0 for a single-pose clip.
     /// All channels share one clock from 0 (glTF), whatever their own key range.
     pub duration: f32,
-    /// Channels.
-    pub channels: Vec<Channel>,
+    channels: Vec<Channel>,
+    /// Per channel: it samples to the same value at every time (and no other channel of the
+    /// clip targets the same property, so writing it once is enough).
+    constant: Vec<bool>,
+    groups: Vec<LaneGroup>,
+    /// Channels not in a group, in clip order.
+    singles: Vec<u32>,
+}
+
+/// LINEAR translation, rotation or scale channels of one clip that share one key-time array
+/// and change over time, packed four to a block (one channel per SIMD lane) for
+/// [`crate::job::sample::SampleJob`].
+#[derive(Clone, Debug)]
+pub(crate) struct LaneGroup {
+    /// Translation, rotation (width 4) or scale (width 3).
+    pub target: ChannelTarget,
+    /// The channel whose key times all members share.
+    pub times_of: u32,
+    /// Target node per member, in clip order; the last block's lanes past the end are padding.
+    pub nodes: Vec<NodeIndex>,
+    /// Per key, per block of four members: `width` vectors, component-major (the x of four
+    /// members, then their y, ...): `values[(key * blocks + block) * width + component]`.
+    pub values: Vec<glam::Vec4>,
+}
+
+impl LaneGroup {
+    /// Floats per element: 4 for rotations, else 3.
+    pub fn width(&self) -> usize {
+        if self.target == ChannelTarget::Rotation { 4 } else { 3 }
+    }
+
+    /// Blocks of four members.
+    pub fn blocks(&self) -> usize {
+        self.nodes.len().div_ceil(4)
+    }
+}
+
+/// Whether `channel` samples to the same value at every time.
+pub(crate) fn is_constant(channel: &Channel) -> bool {
+    let w = channel.width as usize;
+    let values = &channel.values;
+    if w == 0 || values.is_empty() {
+        return true;
+    }
+    if channel.interpolation == Interpolation::CubicSpline {
+        let Some(first) = values.get(w..2 * w) else { return false };
+        values.chunks_exact(3 * w).all(|k| k[..w].iter().chain(&k[2 * w..]).all(|&x| x == 0.0) && &k[w..2 * w] == first)
+    } else {
+        let first = &values[..w.min(values.len())];
+        values.chunks_exact(w).all(|e| e == first)
+    }
+}
+
+/// Whether `channel` goes into a [`LaneGroup`]: a well-formed, changing LINEAR channel of a
+/// node's translation, rotation or scale (anything else is sampled one channel at a time,
+/// which also reports malformed channels).
+fn packable(channel: &Channel, constant: bool) -> bool {
+    let width = match channel.target {
+        ChannelTarget::Translation | ChannelTarget::Scale => 3,
+        ChannelTarget::Rotation => 4,
+        ChannelTarget::Weights => return false,
+    };
+    channel.interpolation == Interpolation::Linear
+        && !constant
+        && channel.width == width
+        && channel.times.len() >= 2
+        && channel.values.len() == channel.times.len() * width as usize
+}
+
+/// Groups the packable channels by (target, key times) and lays their values out in lanes.
+fn pack(channels: &[Channel], constant: &[bool]) -> (Vec<LaneGroup>, Vec<u32>) {
+    use std::collections::HashMap;
+    use std::hash::{Hash, Hasher};
+    // (target, hash of the times) → groups with those; members as channel indices.
+    let mut by_key: HashMap<(u8, u64), Vec<usize>> = HashMap::new();
+    let mut members: Vec<(ChannelTarget, Vec<u32>)> = Vec::new();
+    let mut singles = Vec::new();
+    for (i, c) in channels.iter().enumerate() {
+        if !packable(c, constant[i]) {
+            singles.push(i as u32);
+            continue;
+        }
+        let mut hasher = std::collections::hash_map::DefaultHasher::new();
+        c.times.iter().for_each(|t| t.to_bits().hash(&mut hasher));
+        let candidates = by_key.entry((c.target as u8, hasher.finish())).or_default();
+        let same = |&&g: &&usize| channels[members[g].1[0] as usize].times == c.times && members[g].0 == c.target;
+        match candidates.iter().find(same) {
+            Some(&g) => members[g].1.push(i as u32),
+            None => {
+                candidates.push(members.len());
+                members.push((c.target, vec![i as u32]));
+            }
+        }
+    }
+    let groups = members
+        .into_iter()
+        .map(|(target, list)| {
+            let first = &channels[list[0] as usize];
+            let width = first.width as usize;
+            let keys = first.times.len();
+            let blocks = list.len().div_ceil(4);
+            let mut values = vec![glam::Vec4::ZERO; keys * blocks * width];
+            for (m, &c) in list.iter().enumerate() {
+                let (block, lane) = (m / 4, m % 4);
+                for (k, element) in channels[c as usize].values.chunks_exact(width).enumerate() {
+                    for (component, &x) in element.iter().enumerate() {
+                        values[(k * blocks + block) * width + component][lane] = x;
+                    }
+                }
+            }
+            let nodes = list.iter().map(|&c| channels[c as usize].node).collect();
+            LaneGroup { target, times_of: list[0], nodes, values }
+        })
+        .collect();
+    (groups, singles)
 }
 
 impl Clip {
@@ -89,8 +205,43 @@ impl Clip {
                 return invalid(i, "rotations must be unit quaternions");
             }
         }
+        Ok(Self::from_channels(name, channels))
+    }
+
+    /// A clip from channels the caller has already checked (the importer repairs what
+    /// [`Clip::new`] would refuse); `duration` is computed. A malformed channel is still
+    /// memory-safe: the sampling job reports it.
+    pub(crate) fn from_channels(name: Option<String>, channels: Vec<Channel>) -> Self {
         let duration = channels.iter().filter_map(|c| c.times.last().copied()).fold(0.0f32, f32::max);
-        Ok(Self { name, duration, channels })
+        let mut targets = std::collections::HashMap::new();
+        for c in &channels {
+            *targets.entry((c.node, c.target as u8)).or_insert(0u32) += 1;
+        }
+        let constant: Vec<bool> =
+            channels.iter().map(|c| targets.get(&(c.node, c.target as u8)) == Some(&1) && is_constant(c)).collect();
+        let (groups, singles) = pack(&channels, &constant);
+        Self { name, duration, channels, constant, groups, singles }
+    }
+
+    /// The channels, in the file's order.
+    pub fn channels(&self) -> &[Channel] {
+        &self.channels
+    }
+
+    /// Whether channel `i` has the same value at every time and is the only channel of its
+    /// target property (false for an unknown index).
+    pub fn is_constant(&self, i: usize) -> bool {
+        self.constant.get(i).copied().unwrap_or(false)
+    }
+
+    /// The four-lane groups (see [`LaneGroup`]).
+    pub(crate) fn groups(&self) -> &[LaneGroup] {
+        &self.groups
+    }
+
+    /// Channels sampled one at a time: not LINEAR, constant, morph weights, or malformed.
+    pub(crate) fn singles(&self) -> &[u32] {
+        &self.singles
     }
 
     /// Display name: the file's name, or `"clip <index>"`.

@@ -402,10 +402,9 @@ mod tests {
         };
         let rigid = Primitive { vertex_count: 1, positions: vec![[0.0; 3]], indices: vec![0], ..Primitive::default() };
         let rotation = |q: Quat| q.to_array();
-        let clip = Clip {
-            name: Some("bend".into()),
-            duration: 1.0,
-            channels: vec![
+        let clip = Clip::from_channels(
+            Some("bend".into()),
+            vec![
                 Channel {
                     node: 1,
                     target: ChannelTarget::Rotation,
@@ -423,7 +422,7 @@ mod tests {
                     width: 1,
                 },
             ],
-        };
+        );
         Asset {
             nodes,
             order: vec![0, 2, 1, 3],

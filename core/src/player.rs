@@ -168,7 +168,14 @@ mod tests {
 
     fn asset(durations: &[f32]) -> Asset {
         Asset {
-            clips: durations.iter().map(|&d| Clip { duration: d, ..Clip::default() }).collect(),
+            clips: durations
+                .iter()
+                .map(|&d| {
+                    let mut clip = Clip::default();
+                    clip.duration = d;
+                    clip
+                })
+                .collect(),
             ..Asset::default()
         }
     }

@@ -39,7 +39,7 @@ pub const STEP_HZ: f32 = 60.0;
 const PERSON_HEIGHT: f32 = 1.75;
 
 /// Bones shorter than this fraction of the skeleton's size get no body.
-const MIN_BONE: f32 = 0.04;
+const MIN_BONE: f32 = 0.08;
 
 /// Most wall time one [`Ragdoll::step`] simulates (a stalled tab does not run a second of
 /// steps at once).
@@ -47,6 +47,10 @@ const MAX_FRAME: f32 = 0.25;
 
 /// Speed under which a body counts as at rest, in skeleton sizes per second.
 const REST_SPEED: f32 = 0.03;
+/// A ragdoll whose every point moves slower than this (fraction of the skeleton's size per
+/// second) for [`SLEEP_AFTER`] seconds is put to sleep.
+const SLEEP_SPEED: f32 = 0.1;
+const SLEEP_AFTER: f32 = 1.0;
 
 /// Range of a joint without a limit of its own: swing and twist, radians.
 const FREE_SWING: f32 = 0.7;
@@ -305,6 +309,11 @@ impl Ragdoll {
             }
             let collider = ColliderBuilder::capsule_y(half_height, radius).density(1.0).collision_groups(bones);
             let (handle, _) = world.insert(builder, collider);
+            if let Some(rb) = world.bodies.get_mut(handle) {
+                let activation = rb.activation_mut();
+                activation.normalized_linear_threshold = SLEEP_SPEED * PERSON_HEIGHT;
+                activation.time_until_sleep = SLEEP_AFTER;
+            }
             let (scale_j, rot_j, trans_j) = rigid(&worlds[j]);
             let body_from_joint = (rotation.conjugate() * rot_j, rotation.conjugate() * (trans_j - center));
 
@@ -445,7 +454,9 @@ impl Ragdoll {
     }
 
     /// Whether every body has come to rest: slower than 3% of the skeleton's size per second,
-    /// after at least half a second (a body dropped from stillness is not yet at rest).
+    /// after at least half a second (a body dropped from stillness is not yet at rest). A
+    /// ragdoll whose every point has moved slower than [`SLEEP_SPEED`] for [`SLEEP_AFTER`]
+    /// seconds is put to sleep (velocities zero) until pushed.
     pub fn is_resting(&self) -> bool {
         self.steps as f32 >= STEP_HZ * 0.5 && self.max_speed() < REST_SPEED * self.size
     }
@@ -608,8 +619,8 @@ mod tests {
     fn every_model_falls_and_settles_deterministically_keeping_bones_and_limits() {
         for path in MODELS {
             let asset = load(path);
-            let (a, start, ragdoll, instance) = simulate(&asset, 6.0);
-            let (b, _, _, _) = simulate(&asset, 6.0);
+            let (a, start, ragdoll, instance) = simulate(&asset, 12.0);
+            let (b, _, _, _) = simulate(&asset, 12.0);
             assert!(a == b, "{path}: two runs differ");
             let size = ragdoll.size();
             // Bone lengths: each joint to its parent joint.
@@ -657,9 +668,15 @@ mod tests {
                     );
                 }
             }
+            // Asleep, a push still wakes it.
+            let mut pushed = ragdoll;
+            let (_, center) = pushed.body_pose(0).expect("a body");
+            pushed.push(0, Vec3::Y * size, center);
+            pushed.step_once();
+            assert!(pushed.max_speed() > REST_SPEED * size, "{path}: a push does not wake the ragdoll");
             eprintln!(
                 "{path}: {} bodies, size {size:.3}, bones within {:.3}%, speed {speed:.4}",
-                ragdoll.bodies().len(),
+                pushed.bodies().len(),
                 worst * 100.0
             );
         }

@@ -248,9 +248,9 @@ pub fn describe(asset_name: &str, asset: &Asset, warnings: &[Warning]) -> Inspec
                 index,
                 name: c.name.clone(),
                 duration: f64::from(c.duration),
-                channel_count: c.channels.len(),
+                channel_count: c.channels().len(),
                 channels: c
-                    .channels
+                    .channels()
                     .iter()
                     .map(|ch| ChannelOut {
                         node: ch.node,

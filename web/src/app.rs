@@ -627,7 +627,7 @@ fn node_bounds(worlds: &[glam::Mat4]) -> Option<(Vec3, Vec3)> {
 /// Sorted distinct key times of `clip`.
 fn key_times(clip: &Clip) -> Vec<f32> {
     let mut times: Vec<f32> =
-        clip.channels.iter().flat_map(|c| c.times.iter().copied()).filter(|t| t.is_finite()).collect();
+        clip.channels().iter().flat_map(|c| c.times.iter().copied()).filter(|t| t.is_finite()).collect();
     times.sort_by(f32::total_cmp);
     times.dedup_by(|a, b| (*a - *b).abs() < KEY_EPSILON);
     times

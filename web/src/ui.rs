@@ -493,7 +493,7 @@ fn joint_panel(ui: &mut egui::Ui, model: &Model, memory: &mut PanelMemory, actio
             let clip = main.clip.and_then(|c| model.asset.clips.get(c));
             let channels: Vec<_> = clip
                 .map(|c| {
-                    c.channels.iter().filter(|ch| ch.node == joint && ch.target != ChannelTarget::Weights).collect()
+                    c.channels().iter().filter(|ch| ch.node == joint && ch.target != ChannelTarget::Weights).collect()
                 })
                 .unwrap_or_default();
             if channels.is_empty() {

@@ -44,8 +44,7 @@ pub(crate) fn clips(cx: &mut Cx<'_>, nodes: &[Node]) -> Result<Vec<Clip>, Import
                 channels.push(c);
             }
         }
-        let duration = channels.iter().filter_map(|c| c.times.last().copied()).fold(0.0f32, f32::max);
-        clips.push(Clip { name: super::json::name(anim), duration, channels });
+        clips.push(Clip::from_channels(super::json::name(anim), channels));
     }
     Ok(clips)
 }

@@ -136,7 +136,7 @@ fn interpolation_test_has_every_mode() {
     let a = asset("khronos/InterpolationTest/glTF-Binary/InterpolationTest.glb").asset;
     assert_eq!(a.clips.len(), 9);
     for mode in [Interpolation::Step, Interpolation::Linear, Interpolation::CubicSpline] {
-        assert!(a.clips.iter().flat_map(|c| &c.channels).any(|c| c.interpolation == mode));
+        assert!(a.clips.iter().flat_map(|c| c.channels()).any(|c| c.interpolation == mode));
     }
 }
 
@@ -150,7 +150,7 @@ fn interpolation_test_samples_its_keys_exactly() {
     let mut pose = crate::pose::Pose::rest(&a);
     for clip in &a.clips {
         let mut context = SampleContext::new(clip);
-        for channel in &clip.channels {
+        for channel in clip.channels() {
             let w = channel.width as usize;
             let per_key = if channel.interpolation == Interpolation::CubicSpline { 3 } else { 1 };
             for (k, &t) in channel.times.iter().enumerate() {
@@ -184,7 +184,7 @@ fn interpolation_test_samples_its_keys_exactly() {
 #[test]
 fn quantized_morph_weights_are_normalized_integers() {
     let a = asset("khronos/AnimatedMorphCube/glTF-Quantized/AnimatedMorphCube.gltf").asset;
-    let weights = a.clips[0].channels.iter().find(|c| c.target == ChannelTarget::Weights).expect("weights channel");
+    let weights = a.clips[0].channels().iter().find(|c| c.target == ChannelTarget::Weights).expect("weights channel");
     assert!(weights.values.iter().all(|&v| (0.0..=1.0).contains(&v)));
     assert!(weights.values.iter().any(|&v| v > 0.5));
 }
@@ -278,7 +278,7 @@ fn base_document_imports() {
     assert_eq!(a.meshes[0].primitives[0].indices, [0, 1, 2]);
     assert_eq!(a.meshes[0].primitives[0].bounds, ([0.0; 3], [1.0, 1.0, 0.0]));
     assert_eq!(a.clips[0].duration, 1.0);
-    assert_eq!(a.clips[0].channels[0].values, [0.0, 0.0, 0.0, 2.0, 4.0, 6.0]);
+    assert_eq!(a.clips[0].channels()[0].values, [0.0, 0.0, 0.0, 2.0, 4.0, 6.0]);
     assert_eq!(a.default_scene, Some(0));
     assert_eq!(a.find_clip("move"), Some(0));
 }
@@ -610,7 +610,7 @@ fn nan_and_non_increasing_keys_are_dropped_with_a_warning() {
     let (doc, mut bin) = base();
     bin[48..52].copy_from_slice(&f32::NAN.to_le_bytes());
     let imported = run(&doc, &bin).expect("repaired");
-    let c = &imported.asset.clips[0].channels[0];
+    let c = &imported.asset.clips[0].channels()[0];
     assert_eq!(c.times, [0.0]);
     assert_eq!(c.values, [0.0, 0.0, 0.0]);
     assert_eq!(imported.asset.clips[0].duration, 0.0);
@@ -634,7 +634,7 @@ fn nan_and_non_increasing_keys_are_dropped_with_a_warning() {
     let v = add_accessor(&mut doc, json!({"bufferView": vv, "componentType": 5126, "count": 4, "type": "VEC3"}));
     doc["animations"][0]["samplers"][0] = json!({"input": t, "output": v, "interpolation": "STEP"});
     let imported = run(&doc, &bin).expect("repaired");
-    let c = &imported.asset.clips[0].channels[0];
+    let c = &imported.asset.clips[0].channels()[0];
     assert_eq!(c.times, [0.0, 2.0]);
     assert_eq!(c.values, [0.0, 0.0, 0.0, 1.0, 1.0, 1.0]);
     assert_eq!(c.interpolation, Interpolation::Step);
@@ -657,7 +657,7 @@ fn infinite_key_times_and_nan_values_are_dropped_with_a_warning() {
     let v = add_accessor(&mut doc, json!({"bufferView": vv, "componentType": 5126, "count": 6, "type": "VEC3"}));
     doc["animations"][0]["samplers"][0] = json!({"input": t, "output": v});
     let imported = run(&doc, &bin).expect("repaired");
-    let c = &imported.asset.clips[0].channels[0];
+    let c = &imported.asset.clips[0].channels()[0];
     assert_eq!(c.times, [0.0, 1.0]);
     assert_eq!(c.values, [1.0, 1.0, 1.0, 3.0, 3.0, 3.0]);
     assert_eq!(imported.asset.clips[0].duration, 1.0);
@@ -670,7 +670,7 @@ fn infinite_key_times_and_nan_values_are_dropped_with_a_warning() {
     let t = add_accessor(&mut doc, json!({"bufferView": tv, "componentType": 5126, "count": 2, "type": "SCALAR"}));
     doc["animations"][0]["samplers"][0]["input"] = json!(t);
     let imported = run(&doc, &bin).expect("repaired");
-    assert!(imported.asset.clips[0].channels.is_empty());
+    assert!(imported.asset.clips[0].channels().is_empty());
     assert!(imported.warnings.iter().any(|w| w.message.contains("no usable keyframes")), "{:?}", imported.warnings);
 }
 

@@ -15,6 +15,7 @@
 pub mod blend;
 pub mod dqs;
 pub mod ik;
+pub(crate) mod lanes;
 pub mod morph;
 pub mod sample;
 pub mod sjb;

@@ -8,10 +8,12 @@
 //! to normalized lerp ([`RotationLerp::Nlerp`]), which is cheaper and within ~0.2° of slerp for
 //! the key spacings of typical clips (and at most ~8° for keys 180° apart).
 
+use super::lanes::{Quat4, nlerp4, slerp_angle, slerp_finish, slerp4};
 use super::{check_eq, check_index, check_len};
-use crate::clip::{Channel, ChannelTarget, Clip, Interpolation};
+use crate::asset::NodeIndex;
+use crate::clip::{Channel, ChannelTarget, Clip, Interpolation, LaneGroup};
 use crate::error::JobError;
-use crate::math::{Quat, QuatExt, Transform, Vec3, Vec4};
+use crate::math::{Mat4, Quat, QuatExt, Transform, Vec3, Vec4};
 
 /// How LINEAR rotation keys are interpolated.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -26,29 +28,14 @@ pub enum RotationLerp {
 /// Per-channel key cursors of one clip, reused from frame to frame, and sampling options.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct SampleContext {
+    /// Per channel (used by the channels sampled one at a time).
     cursors: Vec<u32>,
-    /// Per channel: every key holds the same value (and, for cubic splines, zero tangents).
-    constant: Vec<bool>,
+    /// Per four-lane group of the clip.
+    group_cursors: Vec<u32>,
     rotation: RotationLerp,
     skip_constant: bool,
     /// A run completed since `new`/`reset`: constant channels have been written once.
     primed: bool,
-}
-
-/// Whether `channel` samples to the same value at every time.
-fn is_constant(channel: &Channel) -> bool {
-    let w = channel.width as usize;
-    let values = &channel.values;
-    if w == 0 || values.is_empty() {
-        return true;
-    }
-    if channel.interpolation == Interpolation::CubicSpline {
-        let Some(first) = values.get(w..2 * w) else { return false };
-        values.chunks_exact(3 * w).all(|k| k[..w].iter().chain(&k[2 * w..]).all(|&x| x == 0.0) && &k[w..2 * w] == first)
-    } else {
-        let first = &values[..w.min(values.len())];
-        values.chunks_exact(w).all(|e| e == first)
-    }
 }
 
 impl SampleContext {
@@ -78,18 +65,27 @@ impl SampleContext {
     }
 
     /// Rewinds all cursors and sets up for `clip`: allocates only when `clip` has more
-    /// channels than any clip this context served before, reads every key once.
+    /// channels than any clip this context served before.
     pub fn reset(&mut self, clip: &Clip) {
         self.cursors.clear();
-        self.cursors.resize(clip.channels.len(), 0);
-        self.constant.clear();
-        self.constant.extend(clip.channels.iter().map(is_constant));
+        self.cursors.resize(clip.channels().len(), 0);
+        self.group_cursors.clear();
+        // A clip has at most as many groups as channels: room for the widest clip's channels
+        // means no allocation when switching to any clip with fewer.
+        self.group_cursors.reserve(clip.channels().len());
+        self.group_cursors.resize(clip.groups().len(), 0);
         self.primed = false;
     }
 
     /// Number of channels this context serves.
     pub fn channel_count(&self) -> usize {
         self.cursors.len()
+    }
+
+    /// `Err` unless this context was set up for a clip shaped like `clip`.
+    fn check(&self, clip: &Clip) -> Result<(), JobError> {
+        check_eq("context cursors", clip.channels().len(), self.cursors.len())?;
+        check_eq("context groups", clip.groups().len(), self.group_cursors.len())
     }
 }
 
@@ -121,9 +117,13 @@ impl SampleJob<'_> {
         if !self.time.is_finite() {
             return Err(not_finite(self.time));
         }
-        check_eq("context cursors", self.clip.channels.len(), self.context.cursors.len())?;
-        check_eq("context channels", self.clip.channels.len(), self.context.constant.len())?;
-        for channel in &self.clip.channels {
+        self.context.check(self.clip)?;
+        for group in self.clip.groups() {
+            for &node in &group.nodes {
+                check_index("channel node", node as usize, self.locals.len())?;
+            }
+        }
+        for channel in self.clip.channels() {
             let node = channel.node as usize;
             let width = channel.width as usize;
             let expected_width = match channel.target {
@@ -154,17 +154,25 @@ impl SampleJob<'_> {
             return Err(not_finite(self.time));
         }
         let context = &mut *self.context;
-        check_eq("context cursors", self.clip.channels.len(), context.cursors.len())?;
-        check_eq("context channels", self.clip.channels.len(), context.constant.len())?;
+        context.check(self.clip)?;
         let skip = context.skip_constant && context.primed;
         let duration = self.clip.duration.max(0.0);
         let time = self.time.max(0.0).min(duration);
         let lerp = context.rotation;
-        let channels = self.clip.channels.iter().zip(context.cursors.iter_mut()).zip(&context.constant);
-        for ((channel, cursor), &constant) in channels {
-            if skip && constant {
+        let channels = self.clip.channels();
+        for (group, cursor) in self.clip.groups().iter().zip(context.group_cursors.iter_mut()) {
+            let times = channels.get(group.times_of as usize).map_or(&[][..], |c| &c.times[..]);
+            let at = locate(times, time, cursor);
+            sample_group(group, at, lerp, self.locals)?;
+        }
+        for &i in self.clip.singles() {
+            let i = i as usize;
+            if skip && self.clip.is_constant(i) {
                 continue;
             }
+            let (Some(channel), Some(cursor)) = (channels.get(i), context.cursors.get_mut(i)) else {
+                return Err(JobError::IndexOutOfRange { what: "clip channel", index: i, len: channels.len() });
+            };
             let at = locate(&channel.times, time, cursor);
             let node = channel.node as usize;
             let len = self.locals.len();
@@ -206,6 +214,87 @@ impl SampleJob<'_> {
         context.primed = true;
         Ok(())
     }
+}
+
+/// One block of a rotation group: the x, y, z and w of four members.
+#[inline]
+fn quat4(v: &[Vec4]) -> Quat4 {
+    match v {
+        [x, y, z, w, ..] => Quat4 { x: *x, y: *y, z: *z, w: *w },
+        _ => Quat4::splat(Quat::IDENTITY),
+    }
+}
+
+/// The local transform of `node`, or `Err` for a node outside `locals`.
+#[inline]
+fn local_mut(locals: &mut [Transform], node: NodeIndex) -> Result<&mut Transform, JobError> {
+    let len = locals.len();
+    locals.get_mut(node as usize).ok_or(JobError::IndexOutOfRange { what: "channel node", index: node as usize, len })
+}
+
+/// Samples the members of one four-lane group at `at` (their shared keys) into `locals`.
+fn sample_group(group: &LaneGroup, at: At, lerp: RotationLerp, locals: &mut [Transform]) -> Result<(), JobError> {
+    let (k0, k1, u) = match at {
+        At::Key(k) => (k, k, 0.0),
+        At::Between { index, u, .. } => (index, index + 1, u),
+    };
+    let stride = group.blocks() * group.width();
+    let row = |k: usize| {
+        let needed = (k + 1) * stride;
+        group.values.get(k * stride..needed).ok_or(JobError::BufferTooSmall {
+            what: "group values",
+            needed,
+            got: group.values.len(),
+        })
+    };
+    let (from, to) = (row(k0)?, row(k1)?);
+    let u = Vec4::splat(u);
+    let width = group.width();
+    let blocks = from.chunks_exact(width).zip(to.chunks_exact(width)).zip(group.nodes.chunks(4));
+    match group.target {
+        ChannelTarget::Rotation if lerp == RotationLerp::Nlerp => {
+            for ((a, b), nodes) in blocks {
+                let q = nlerp4(&quat4(a), &quat4(b), u);
+                for (&node, q) in nodes.iter().zip(q.to_quats()) {
+                    local_mut(locals, node)?.rotation = q;
+                }
+            }
+        }
+        ChannelTarget::Rotation => {
+            // Up to BATCH blocks: all their angles first, then all their weights (see slerp4).
+            const BATCH: usize = 8;
+            let mut angles = [(Vec4::ZERO, Vec4::ONE); BATCH];
+            let mut blocks = blocks.peekable();
+            while blocks.peek().is_some() {
+                let batch = blocks.clone().take(BATCH);
+                for (angle, ((a, b), _)) in angles.iter_mut().zip(batch) {
+                    *angle = slerp_angle(&quat4(a), &quat4(b));
+                }
+                for (&(theta, sign), ((a, b), nodes)) in angles.iter().zip(blocks.by_ref().take(BATCH)) {
+                    let q = slerp_finish(&quat4(a), &quat4(b), u, theta, sign);
+                    for (&node, q) in nodes.iter().zip(q.to_quats()) {
+                        local_mut(locals, node)?.rotation = q;
+                    }
+                }
+            }
+        }
+        target => {
+            let scale = target == ChannelTarget::Scale;
+            for ((a, b), nodes) in blocks {
+                let l = |c: usize| a[c] + (b[c] - a[c]) * u;
+                let m = Mat4::from_cols(l(0), l(1), l(2), Vec4::ZERO).transpose();
+                for (&node, v) in nodes.iter().zip([m.x_axis, m.y_axis, m.z_axis, m.w_axis]) {
+                    let local = local_mut(locals, node)?;
+                    if scale {
+                        local.scale = v.truncate();
+                    } else {
+                        local.translation = v.truncate();
+                    }
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 /// One channel's value at `time` (clamped to its keys), exactly as [`SampleJob`] computes it:
@@ -374,41 +463,17 @@ fn sample_rotation(channel: &Channel, at: At, lerp: RotationLerp) -> Result<Opti
     }
 }
 
-/// Spherical linear interpolation along the shortest arc; exact at `u == 0`.
+/// Spherical linear interpolation along the shortest arc; exact at `u == 0`. The same
+/// arithmetic as one lane of [`SampleJob`]'s four-lane sampling (within 5e-7 of the exact
+/// slerp of unit inputs; nlerp for keys closer than ~3.6°).
 pub fn slerp(a: Quat, b: Quat, u: f32) -> Quat {
-    let (va, mut vb) = (Vec4::from(a), Vec4::from(b));
-    let mut d = va.dot(vb);
-    if d < 0.0 {
-        vb = -vb;
-        d = -d;
-    }
-    if u == 0.0 {
-        return a;
-    }
-    if d > 0.9995 {
-        // Nearly parallel: nlerp is accurate and avoids dividing by sin(θ) ≈ 0.
-        return Quat::from_vec4(va.lerp(vb, u).normalize());
-    }
-    let theta = d.acos();
-    // sin θ from cos θ = d (θ ≤ π/2 here): one transcendental fewer. Factored as (1 − d)(1 + d):
-    // 1 − d is exact in f32 for d in [0.5, 1], whereas 1 − d² loses most of its digits as d nears
-    // the nlerp cut-over, which left the result ~3e-5 off unit length (a false joint scale).
-    let s = ((1.0 - d) * (1.0 + d)).sqrt();
-    Quat::from_vec4(va * (((1.0 - u) * theta).sin() / s) + vb * ((u * theta).sin() / s))
+    slerp4(&Quat4::splat(a), &Quat4::splat(b), Vec4::splat(u)).first()
 }
 
-/// Normalized linear interpolation along the shortest arc; exact at `u == 0`.
+/// Normalized linear interpolation along the shortest arc; exact at `u == 0`; `a` when the
+/// inputs lerp through zero (possible only when they were not unit).
 pub fn nlerp(a: Quat, b: Quat, u: f32) -> Quat {
-    if u == 0.0 {
-        return a;
-    }
-    let (va, mut vb) = (Vec4::from(a), Vec4::from(b));
-    if va.dot(vb) < 0.0 {
-        vb = -vb;
-    }
-    let v = va.lerp(vb, u);
-    // Unit inputs on the same hemisphere never lerp through zero; keep `a` if they were not unit.
-    Quat::from_vec4(v).try_normalize_quat().unwrap_or(a)
+    nlerp4(&Quat4::splat(a), &Quat4::splat(b), Vec4::splat(u)).first()
 }
 
 #[cfg(test)]
@@ -477,8 +542,7 @@ mod tests {
     }
 
     fn clip(channels: Vec<Channel>) -> Clip {
-        let duration = channels.iter().filter_map(|c| c.times.last().copied()).fold(0.0, f32::max);
-        Clip { name: None, duration, channels }
+        Clip::from_channels(None, channels)
     }
 
     /// Samples a one-node clip at `t` with a fresh context.
@@ -640,8 +704,8 @@ mod tests {
             channel(ChannelTarget::Weights, Interpolation::CubicSpline, &[0.0, 1.0], &[0.0, 5.0, 0.0, 0.0, 5.0, 0.0]);
         let bent =
             channel(ChannelTarget::Weights, Interpolation::CubicSpline, &[0.0, 1.0], &[0.0, 5.0, 1.0, 0.0, 5.0, 0.0]);
-        assert!(is_constant(&c.channels[0]) && !is_constant(&c.channels[1]));
-        assert!(is_constant(&cubic) && !is_constant(&bent), "a tangent moves the value");
+        assert!(c.is_constant(0) && !c.is_constant(1));
+        assert!(crate::clip::is_constant(&cubic) && !crate::clip::is_constant(&bent), "a tangent moves the value");
         for skip in [false, true] {
             let mut context = SampleContext::new(&c);
             context.set_skip_constant(skip);
@@ -718,8 +782,9 @@ mod tests {
             weights: &mut [],
         };
         assert!(job.run().is_err(), "NaN time");
-        let mut bad = c.clone();
-        bad.channels[0].node = 4;
+        let mut channels = c.channels().to_vec();
+        channels[0].node = 4;
+        let bad = clip(channels);
         let mut job = SampleJob {
             clip: &bad,
             time: 0.0,
@@ -729,7 +794,7 @@ mod tests {
             weights: &mut [],
         };
         assert!(matches!(job.run(), Err(JobError::IndexOutOfRange { .. })));
-        bad.channels[0] = channel(ChannelTarget::Weights, Interpolation::Linear, &[0.0], &[1.0, 2.0]);
+        let bad = clip(vec![channel(ChannelTarget::Weights, Interpolation::Linear, &[0.0], &[1.0, 2.0])]);
         let mut job = SampleJob {
             clip: &bad,
             time: 0.0,

@@ -35,30 +35,72 @@ impl WorldJob<'_> {
 
     /// Writes `worlds`, checking what [`WorldJob::validate`] checks as it goes (one pass):
     /// on an error, nodes earlier in `order` were written.
+    ///
+    /// Nodes go four at a time: their local matrices are built side by side (one node per SIMD
+    /// lane, [`local_matrices`]), then each is multiplied by its parent's world matrix in order.
     pub fn run(&mut self) -> Result<(), JobError> {
         let n = self.locals.len();
         check_eq("parents", n, self.parents.len())?;
         check_eq("order", n, self.order.len())?;
         check_len("worlds", n, self.worlds.len())?;
-        for &node in self.order {
-            let i = node as usize;
-            let local = self.locals.get(i).ok_or(JobError::IndexOutOfRange { what: "order", index: i, len: n })?;
-            let local = local.to_mat4();
-            self.worlds[i] = match self.parents[i] {
-                Some(p) => {
-                    let p = p as usize;
-                    let parent = self.worlds.get(p).filter(|_| p < n).ok_or(JobError::IndexOutOfRange {
-                        what: "parents",
-                        index: p,
-                        len: n,
-                    })?;
-                    affine_mul(parent, &local)
-                }
-                None => local,
-            };
+        for chunk in self.order.chunks(4) {
+            // A short last chunk repeats its last node (computed, not written twice).
+            let last = chunk.last().copied().unwrap_or(0);
+            let nodes: [usize; 4] = std::array::from_fn(|k| chunk.get(k).copied().unwrap_or(last) as usize);
+            let mut locals = [&Transform::IDENTITY; 4];
+            for (local, &i) in locals.iter_mut().zip(&nodes) {
+                *local = self.locals.get(i).ok_or(JobError::IndexOutOfRange { what: "order", index: i, len: n })?;
+            }
+            let matrices = local_matrices(locals);
+            for (&i, local) in nodes.iter().zip(&matrices).take(chunk.len()) {
+                self.worlds[i] = match self.parents[i] {
+                    Some(p) => {
+                        let p = p as usize;
+                        let parent = self.worlds.get(p).filter(|_| p < n).ok_or(JobError::IndexOutOfRange {
+                            what: "parents",
+                            index: p,
+                            len: n,
+                        })?;
+                        affine_mul(parent, local)
+                    }
+                    None => *local,
+                };
+            }
         }
         Ok(())
     }
+}
+
+/// `T * R * S` of four transforms, computed in lanes (the quaternions and scales transposed
+/// so that each lane holds one node): the same operations, in the same order, as
+/// [`Transform::to_mat4`], so the same bits.
+#[inline]
+fn local_matrices(t: [&Transform; 4]) -> [Mat4; 4] {
+    let q = Mat4::from_cols(
+        Vec4::from(t[0].rotation),
+        Vec4::from(t[1].rotation),
+        Vec4::from(t[2].rotation),
+        Vec4::from(t[3].rotation),
+    )
+    .transpose();
+    let s =
+        Mat4::from_cols(t[0].scale.extend(0.0), t[1].scale.extend(0.0), t[2].scale.extend(0.0), t[3].scale.extend(0.0))
+            .transpose();
+    let (x, y, z, w) = (q.x_axis, q.y_axis, q.z_axis, q.w_axis);
+    let (x2, y2, z2) = (x + x, y + y, z + z);
+    let (xx, xy, xz) = (x * x2, x * y2, x * z2);
+    let (yy, yz, zz) = (y * y2, y * z2, z * z2);
+    let (wx, wy, wz) = (w * x2, w * y2, w * z2);
+    let one = Vec4::ONE;
+    // Column c of all four matrices, one row per vector, then transposed back to one column per node.
+    let column = |r0: Vec4, r1: Vec4, r2: Vec4, scale: Vec4| {
+        Mat4::from_cols(r0 * scale, r1 * scale, r2 * scale, Vec4::ZERO).transpose()
+    };
+    let cx = column(one - (yy + zz), xy + wz, xz - wy, s.x_axis);
+    let cy = column(xy - wz, one - (xx + zz), yz + wx, s.y_axis);
+    let cz = column(xz + wy, yz - wx, one - (xx + yy), s.z_axis);
+    let col = |m: &Mat4, k: usize| m.col(k);
+    std::array::from_fn(|k| Mat4::from_cols(col(&cx, k), col(&cy, k), col(&cz, k), t[k].translation.extend(1.0)))
 }
 
 /// `a * b` where `b` is affine (bottom row `0 0 0 1`, as every TRS transform is): its first three
@@ -111,6 +153,20 @@ mod tests {
         }
         .to_mat4();
         assert!(affine_mul(&a, &b).abs_diff_eq(a * b, 1e-6));
+    }
+
+    #[test]
+    fn four_lane_local_matrices_equal_to_mat4() {
+        let t = |i: f32| Transform {
+            translation: Vec3::new(i, -2.0 * i, 0.5),
+            rotation: Quat::from_euler(glam::EulerRot::XYZ, 0.3 * i, -1.2 + i, 2.0 - i).normalize(),
+            scale: Vec3::new(1.0 + i, 0.5, -1.0 - 0.1 * i),
+        };
+        let ts = [t(0.0), t(1.0), t(2.5), t(-3.0)];
+        let got = local_matrices([&ts[0], &ts[1], &ts[2], &ts[3]]);
+        for (m, t) in got.iter().zip(&ts) {
+            assert_eq!(*m, t.to_mat4(), "bit for bit");
+        }
     }
 
     #[test]
