@@ -76,7 +76,8 @@ pub struct Clip {
 pub(crate) struct LaneGroup {
     /// Translation, rotation (width 4) or scale (width 3).
     pub target: ChannelTarget,
-    /// The channel whose key times all members share.
+    /// The channel whose key times all members share: the same for every group with those
+    /// times (groups are sorted by it, so those are neighbours).
     pub times_of: u32,
     /// Target node per member, in clip order; the last block's lanes past the end are padding.
     pub nodes: Vec<NodeIndex>,
@@ -154,10 +155,23 @@ fn pack(channels: &[Channel], constant: &[bool]) -> (Vec<LaneGroup>, Vec<u32>) {
             }
         }
     }
-    let groups = members
+    // Groups of different targets with the same key times share one representative channel
+    // (their `times_of`) and sit side by side, so the sampler finds the key once for them all.
+    let mut reps: HashMap<u64, Vec<u32>> = HashMap::new();
+    let mut groups: Vec<LaneGroup> = members
         .into_iter()
         .map(|(target, list)| {
             let first = &channels[list[0] as usize];
+            let mut hasher = std::collections::hash_map::DefaultHasher::new();
+            first.times.iter().for_each(|t| t.to_bits().hash(&mut hasher));
+            let candidates = reps.entry(hasher.finish()).or_default();
+            let times_of = match candidates.iter().find(|&&r| channels[r as usize].times == first.times) {
+                Some(&r) => r,
+                None => {
+                    candidates.push(list[0]);
+                    list[0]
+                }
+            };
             let width = first.width as usize;
             let keys = first.times.len();
             let blocks = list.len().div_ceil(4);
@@ -171,9 +185,10 @@ fn pack(channels: &[Channel], constant: &[bool]) -> (Vec<LaneGroup>, Vec<u32>) {
                 }
             }
             let nodes = list.iter().map(|&c| channels[c as usize].node).collect();
-            LaneGroup { target, times_of: list[0], nodes, values }
+            LaneGroup { target, times_of, nodes, values }
         })
         .collect();
+    groups.sort_by_key(|g| g.times_of);
     (groups, singles)
 }
 

@@ -160,9 +160,17 @@ impl SampleJob<'_> {
         let time = self.time.max(0.0).min(duration);
         let lerp = context.rotation;
         let channels = self.clip.channels();
+        let mut found: Option<(u32, At)> = None;
         for (group, cursor) in self.clip.groups().iter().zip(context.group_cursors.iter_mut()) {
-            let times = channels.get(group.times_of as usize).map_or(&[][..], |c| &c.times[..]);
-            let at = locate(times, time, cursor);
+            // Neighbouring groups with the same key times share the key found for the first.
+            let at = match found {
+                Some((times_of, at)) if times_of == group.times_of => at,
+                _ => {
+                    let times = channels.get(group.times_of as usize).map_or(&[][..], |c| &c.times[..]);
+                    locate(times, time, cursor)
+                }
+            };
+            found = Some((group.times_of, at));
             sample_group(group, at, lerp, self.locals)?;
         }
         for &i in self.clip.singles() {

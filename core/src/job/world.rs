@@ -3,6 +3,7 @@
 use super::{check_eq, check_index, check_len};
 use crate::error::JobError;
 use crate::math::{Mat4, Transform, Vec4};
+use glam::Vec4Swizzles;
 
 /// Computes world matrices of all nodes from their local transforms.
 #[derive(Debug)]
@@ -51,56 +52,115 @@ impl WorldJob<'_> {
             for (local, &i) in locals.iter_mut().zip(&nodes) {
                 *local = self.locals.get(i).ok_or(JobError::IndexOutOfRange { what: "order", index: i, len: n })?;
             }
-            let matrices = local_matrices(locals);
-            for (&i, local) in nodes.iter().zip(&matrices).take(chunk.len()) {
-                self.worlds[i] = match self.parents[i] {
-                    Some(p) => {
-                        let p = p as usize;
-                        let parent = self.worlds.get(p).filter(|_| p < n).ok_or(JobError::IndexOutOfRange {
-                            what: "parents",
-                            index: p,
-                            len: n,
-                        })?;
-                        affine_mul(parent, local)
-                    }
-                    None => *local,
-                };
+            let lanes = Lanes::new(locals);
+            // One lane at a time, in order: a node may be the parent of a later one in the chunk.
+            self.node::<0>(&lanes, nodes[0])?;
+            if chunk.len() > 1 {
+                self.node::<1>(&lanes, nodes[1])?;
+            }
+            if chunk.len() > 2 {
+                self.node::<2>(&lanes, nodes[2])?;
+            }
+            if chunk.len() > 3 {
+                self.node::<3>(&lanes, nodes[3])?;
             }
         }
         Ok(())
     }
+
+    /// The world matrix of `node`, whose local matrix is lane `K` of `lanes`.
+    #[inline(always)]
+    fn node<const K: usize>(&mut self, lanes: &Lanes<'_>, node: usize) -> Result<(), JobError> {
+        let n = self.locals.len();
+        let parent = match self.parents.get(node).copied().flatten() {
+            Some(p) => {
+                let p = p as usize;
+                Some(*self.worlds.get(p).filter(|_| p < n).ok_or(JobError::IndexOutOfRange {
+                    what: "parents",
+                    index: p,
+                    len: n,
+                })?)
+            }
+            None => None,
+        };
+        let world = lanes.world::<K>(parent.as_ref());
+        let out = self.worlds.get_mut(node).ok_or(JobError::IndexOutOfRange { what: "order", index: node, len: n })?;
+        *out = world;
+        Ok(())
+    }
 }
 
-/// `T * R * S` of four transforms, computed in lanes (the quaternions and scales transposed
-/// so that each lane holds one node): the same operations, in the same order, as
-/// [`Transform::to_mat4`], so the same bits.
-#[inline]
+/// The local matrices `T * R * S` of four transforms, one per SIMD lane: the upper 3×3 as
+/// nine vectors (`m[c][r]`: column `c`, row `r`, of the four nodes), computed with the same
+/// operations, in the same order, as [`Transform::to_mat4`] (so the same bits).
+struct Lanes<'a> {
+    m: [[Vec4; 3]; 3],
+    locals: [&'a Transform; 4],
+}
+
+impl<'a> Lanes<'a> {
+    #[inline(always)]
+    fn new(t: [&'a Transform; 4]) -> Self {
+        let q = Mat4::from_cols(
+            Vec4::from(t[0].rotation),
+            Vec4::from(t[1].rotation),
+            Vec4::from(t[2].rotation),
+            Vec4::from(t[3].rotation),
+        )
+        .transpose();
+        let s = Mat4::from_cols(
+            t[0].scale.extend(0.0),
+            t[1].scale.extend(0.0),
+            t[2].scale.extend(0.0),
+            t[3].scale.extend(0.0),
+        )
+        .transpose();
+        let (x, y, z, w) = (q.x_axis, q.y_axis, q.z_axis, q.w_axis);
+        let (x2, y2, z2) = (x + x, y + y, z + z);
+        let (xx, xy, xz) = (x * x2, x * y2, x * z2);
+        let (yy, yz, zz) = (y * y2, y * z2, z * z2);
+        let (wx, wy, wz) = (w * x2, w * y2, w * z2);
+        let one = Vec4::ONE;
+        let (sx, sy, sz) = (s.x_axis, s.y_axis, s.z_axis);
+        let m = [
+            [(one - (yy + zz)) * sx, (xy + wz) * sx, (xz - wy) * sx],
+            [(xy - wz) * sy, (one - (xx + zz)) * sy, (yz + wx) * sy],
+            [(xz + wy) * sz, (yz - wx) * sz, (one - (xx + yy)) * sz],
+        ];
+        Self { m, locals: t }
+    }
+
+    /// Lane `K`'s local matrix, or `parent` times it ([`affine_mul`]'s arithmetic), with each
+    /// entry broadcast straight from its lane.
+    #[inline(always)]
+    fn world<const K: usize>(&self, parent: Option<&Mat4>) -> Mat4 {
+        let lane = |v: Vec4| match K {
+            0 => v.xxxx(),
+            1 => v.yyyy(),
+            2 => v.zzzz(),
+            _ => v.wwww(),
+        };
+        let t = self.locals[K].translation;
+        let m = &self.m;
+        match parent {
+            Some(a) => {
+                let column = |c: [Vec4; 3]| a.x_axis * lane(c[0]) + a.y_axis * lane(c[1]) + a.z_axis * lane(c[2]);
+                let point = a.x_axis * t.x + a.y_axis * t.y + a.z_axis * t.z + a.w_axis;
+                Mat4::from_cols(column(m[0]), column(m[1]), column(m[2]), point)
+            }
+            None => {
+                let column = |c: [Vec4; 3]| Vec4::new(c[0][K], c[1][K], c[2][K], 0.0);
+                Mat4::from_cols(column(m[0]), column(m[1]), column(m[2]), t.extend(1.0))
+            }
+        }
+    }
+}
+
+/// `T * R * S` of four transforms through [`Lanes`] (the tests' view of the lanes).
+#[cfg(test)]
 fn local_matrices(t: [&Transform; 4]) -> [Mat4; 4] {
-    let q = Mat4::from_cols(
-        Vec4::from(t[0].rotation),
-        Vec4::from(t[1].rotation),
-        Vec4::from(t[2].rotation),
-        Vec4::from(t[3].rotation),
-    )
-    .transpose();
-    let s =
-        Mat4::from_cols(t[0].scale.extend(0.0), t[1].scale.extend(0.0), t[2].scale.extend(0.0), t[3].scale.extend(0.0))
-            .transpose();
-    let (x, y, z, w) = (q.x_axis, q.y_axis, q.z_axis, q.w_axis);
-    let (x2, y2, z2) = (x + x, y + y, z + z);
-    let (xx, xy, xz) = (x * x2, x * y2, x * z2);
-    let (yy, yz, zz) = (y * y2, y * z2, z * z2);
-    let (wx, wy, wz) = (w * x2, w * y2, w * z2);
-    let one = Vec4::ONE;
-    // Column c of all four matrices, one row per vector, then transposed back to one column per node.
-    let column = |r0: Vec4, r1: Vec4, r2: Vec4, scale: Vec4| {
-        Mat4::from_cols(r0 * scale, r1 * scale, r2 * scale, Vec4::ZERO).transpose()
-    };
-    let cx = column(one - (yy + zz), xy + wz, xz - wy, s.x_axis);
-    let cy = column(xy - wz, one - (xx + zz), yz + wx, s.y_axis);
-    let cz = column(xz + wy, yz - wx, one - (xx + yy), s.z_axis);
-    let col = |m: &Mat4, k: usize| m.col(k);
-    std::array::from_fn(|k| Mat4::from_cols(col(&cx, k), col(&cy, k), col(&cz, k), t[k].translation.extend(1.0)))
+    let lanes = Lanes::new(t);
+    [lanes.world::<0>(None), lanes.world::<1>(None), lanes.world::<2>(None), lanes.world::<3>(None)]
 }
 
 /// `a * b` where `b` is affine (bottom row `0 0 0 1`, as every TRS transform is): its first three
