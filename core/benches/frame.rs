@@ -7,6 +7,9 @@
 //! Samples come from `../shared/assets` beside the checkout, or `$KLOUB_SHARED_ASSETS`.
 //!
 //! - `jobs`: one clip, raw jobs (SampleJob into a pose, WorldJob), no palettes;
+//! - `pose`: an [`Animator`] playing one clip: advance + sample + blend + world transforms of all
+//!   nodes — the work the issue compares with three.js (its `mixer.update` and
+//!   `updateMatrixWorld`); palettes are not part of it;
 //! - `single`: an [`Animator`] playing one clip: advance + sample + blend + worlds + palettes;
 //! - `single_nlerp`: the same with nlerp instead of slerp for LINEAR rotation keys;
 //! - `crossfade_layer`: a crossfade half way between two playing clips plus an override layer
@@ -79,6 +82,19 @@ fn frame(c: &mut Criterion) {
                 }
                 .run()
                 .expect("valid");
+                WorldJob { parents: &parents, order: &asset.order, locals: &pose.locals, worlds: &mut worlds }
+                    .run()
+                    .expect("valid");
+                black_box(&worlds);
+            })
+        });
+
+        let mut animator = Animator::new(&asset);
+        animator.play(&asset, Some(base)).expect("valid");
+        c.bench_function(&format!("pose/{name}"), |b| {
+            b.iter(|| {
+                animator.advance(&asset, DT);
+                animator.evaluate_pose(&asset, &mut pose).expect("valid");
                 WorldJob { parents: &parents, order: &asset.order, locals: &pose.locals, worlds: &mut worlds }
                     .run()
                     .expect("valid");

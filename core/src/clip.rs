@@ -84,6 +84,10 @@ pub(crate) struct LaneGroup {
     /// Per key, per block of four members: `width` vectors, component-major (the x of four
     /// members, then their y, ...): `values[(key * blocks + block) * width + component]`.
     pub values: Vec<glam::Vec4>,
+    /// Rotations only: per pair of neighbouring keys `(k, k + 1)`, per block, the two vectors
+    /// of [`crate::job::lanes::slerp_angle`] (θ, then ±1/sinc θ): `angles[(k * blocks + block) * 2]`.
+    /// Empty for translations and scales.
+    pub angles: Vec<glam::Vec4>,
 }
 
 impl LaneGroup {
@@ -185,11 +189,27 @@ fn pack(channels: &[Channel], constant: &[bool]) -> (Vec<LaneGroup>, Vec<u32>) {
                 }
             }
             let nodes = list.iter().map(|&c| channels[c as usize].node).collect();
-            LaneGroup { target, times_of, nodes, values }
+            let angles = if target == ChannelTarget::Rotation { segment_angles(&values, blocks) } else { Vec::new() };
+            LaneGroup { target, times_of, nodes, values, angles }
         })
         .collect();
     groups.sort_by_key(|g| g.times_of);
     (groups, singles)
+}
+
+/// [`LaneGroup::angles`] of rotation values laid out as in [`LaneGroup::values`].
+fn segment_angles(values: &[glam::Vec4], blocks: usize) -> Vec<glam::Vec4> {
+    use crate::job::lanes::{Quat4, slerp_angle};
+    let quat = |v: &[glam::Vec4]| Quat4 { x: v[0], y: v[1], z: v[2], w: v[3] };
+    let keys: Vec<&[glam::Vec4]> = values.chunks_exact(blocks * 4).collect();
+    let mut angles = Vec::with_capacity(keys.len().saturating_sub(1) * blocks * 2);
+    for pair in keys.windows(2) {
+        for (a, b) in pair[0].chunks_exact(4).zip(pair[1].chunks_exact(4)) {
+            let (theta, inv_signed) = slerp_angle(&quat(a), &quat(b));
+            angles.extend([theta, inv_signed]);
+        }
+    }
+    angles
 }
 
 impl Clip {

@@ -121,23 +121,24 @@ fn normalize_or(q: &Quat4, fallback: &Quat4) -> Quat4 {
     Quat4::select(ok, &q.scale(inv), fallback)
 }
 
-/// The first half of [`slerp4`]: the angle θ between `a` and `b` on the shortest arc, and
-/// the sign (±1) that puts `b` on `a`'s hemisphere.
+/// What [`slerp4`] needs of a pair of keys besides the keys and `u`: the angle θ between `a`
+/// and `b` on the shortest arc, and `±1/sinc θ`, negative where `b` must be negated to be on
+/// `a`'s hemisphere. A clip computes it once per pair of keys ([`crate::clip::LaneGroup`]).
 #[inline]
 pub(crate) fn slerp_angle(a: &Quat4, b: &Quat4) -> (Vec4, Vec4) {
     let d = a.dot(b);
     let flip = d.cmplt(Vec4::ZERO);
-    let sign = Vec4::select(flip, Vec4::NEG_ONE, Vec4::ONE);
-    (acos_unit((d * sign).min(Vec4::ONE)), sign)
+    let theta = acos_unit((-d).max(d).min(Vec4::ONE));
+    let inv = Vec4::ONE / sinc(theta);
+    (theta, Vec4::select(flip, -inv, inv))
 }
 
-/// The second half of [`slerp4`], from [`slerp_angle`]'s `(theta, sign)`.
+/// [`slerp4`] from [`slerp_angle`]'s `(theta, inv_signed)` for the same `a` and `b`.
 #[inline]
-pub(crate) fn slerp_finish(a: &Quat4, b: &Quat4, u: Vec4, theta: Vec4, sign: Vec4) -> Quat4 {
-    let inv = Vec4::ONE / sinc(theta);
+pub(crate) fn slerp_finish(a: &Quat4, b: &Quat4, u: Vec4, theta: Vec4, inv_signed: Vec4) -> Quat4 {
     let v = Vec4::ONE - u;
-    let wa = v * sinc(v * theta) * inv;
-    let wb = u * sinc(u * theta) * inv * sign;
+    let wa = v * sinc(v * theta) * inv_signed.abs();
+    let wb = u * sinc(u * theta) * inv_signed;
     let out = a.scale(wa).add(&b.scale(wb));
     Quat4::select(u.cmpeq(Vec4::ZERO), a, &out)
 }
@@ -151,12 +152,11 @@ pub(crate) fn slerp_finish(a: &Quat4, b: &Quat4, u: Vec4, theta: Vec4, sign: Vec
 /// fallback; and there the weights hardly depend on θ, so the rounding of the dot product
 /// (which θ amplifies near zero) does not reach the result.
 ///
-/// Split in two ([`slerp_angle`], [`slerp_finish`]) so that a caller with many blocks can run
-/// the first half of several before the second: each half is a long dependency chain, and
-/// independent blocks side by side keep the CPU busy.
+/// Split in two: [`slerp_angle`] depends on the keys only (a clip computes it at load) and
+/// [`slerp_finish`] on `u`.
 pub(crate) fn slerp4(a: &Quat4, b: &Quat4, u: Vec4) -> Quat4 {
-    let (theta, sign) = slerp_angle(a, b);
-    slerp_finish(a, b, u, theta, sign)
+    let (theta, inv_signed) = slerp_angle(a, b);
+    slerp_finish(a, b, u, theta, inv_signed)
 }
 
 /// Normalized linear interpolation along the shortest arc, per lane; exactly `a` where

@@ -8,7 +8,7 @@
 //! to normalized lerp ([`RotationLerp::Nlerp`]), which is cheaper and within ~0.2° of slerp for
 //! the key spacings of typical clips (and at most ~8° for keys 180° apart).
 
-use super::lanes::{Quat4, nlerp4, slerp_angle, slerp_finish, slerp4};
+use super::lanes::{Quat4, nlerp4, slerp_finish, slerp4};
 use super::{check_eq, check_index, check_len};
 use crate::asset::NodeIndex;
 use crate::clip::{Channel, ChannelTarget, Clip, Interpolation, LaneGroup};
@@ -175,13 +175,15 @@ impl SampleJob<'_> {
         }
         for &i in self.clip.singles() {
             let i = i as usize;
-            if skip && self.clip.is_constant(i) {
+            let constant = self.clip.is_constant(i);
+            if skip && constant {
                 continue;
             }
             let (Some(channel), Some(cursor)) = (channels.get(i), context.cursors.get_mut(i)) else {
                 return Err(JobError::IndexOutOfRange { what: "clip channel", index: i, len: channels.len() });
             };
-            let at = locate(&channel.times, time, cursor);
+            // A constant channel's value at any time is its first key's (nothing to interpolate).
+            let at = if constant { At::Key(0) } else { locate(&channel.times, time, cursor) };
             let node = channel.node as usize;
             let len = self.locals.len();
             let local = || JobError::IndexOutOfRange { what: "channel node", index: node, len };
@@ -258,6 +260,7 @@ fn sample_group(group: &LaneGroup, at: At, lerp: RotationLerp, locals: &mut [Tra
     let (from, to) = (row(k0)?, row(k1)?);
     let u = Vec4::splat(u);
     let width = group.width();
+    let blocks_len = group.blocks();
     let blocks = from.chunks_exact(width).zip(to.chunks_exact(width)).zip(group.nodes.chunks(4));
     match group.target {
         ChannelTarget::Rotation if lerp == RotationLerp::Nlerp => {
@@ -269,19 +272,25 @@ fn sample_group(group: &LaneGroup, at: At, lerp: RotationLerp, locals: &mut [Tra
             }
         }
         ChannelTarget::Rotation => {
-            // Up to BATCH blocks: all their angles first, then all their weights (see slerp4).
-            const BATCH: usize = 8;
-            let mut angles = [(Vec4::ZERO, Vec4::ONE); BATCH];
-            let mut blocks = blocks.peekable();
-            while blocks.peek().is_some() {
-                let batch = blocks.clone().take(BATCH);
-                for (angle, ((a, b), _)) in angles.iter_mut().zip(batch) {
-                    *angle = slerp_angle(&quat4(a), &quat4(b));
+            // The keys' angles were computed with the clip; at a key there is nothing to blend.
+            let angles = match at {
+                At::Between { index, .. } => group.angles.get(index * 2 * blocks_len..(index + 1) * 2 * blocks_len),
+                At::Key(_) => None,
+            };
+            match angles {
+                Some(angles) => {
+                    for (((a, b), nodes), angle) in blocks.zip(angles.chunks_exact(2)) {
+                        let q = slerp_finish(&quat4(a), &quat4(b), u, angle[0], angle[1]);
+                        for (&node, q) in nodes.iter().zip(q.to_quats()) {
+                            local_mut(locals, node)?.rotation = q;
+                        }
+                    }
                 }
-                for (&(theta, sign), ((a, b), nodes)) in angles.iter().zip(blocks.by_ref().take(BATCH)) {
-                    let q = slerp_finish(&quat4(a), &quat4(b), u, theta, sign);
-                    for (&node, q) in nodes.iter().zip(q.to_quats()) {
-                        local_mut(locals, node)?.rotation = q;
+                None => {
+                    for ((a, _), nodes) in blocks {
+                        for (&node, q) in nodes.iter().zip(quat4(a).to_quats()) {
+                            local_mut(locals, node)?.rotation = q;
+                        }
                     }
                 }
             }
