@@ -135,7 +135,7 @@ fn packable(channel: &Channel, constant: bool) -> bool {
 }
 
 /// Groups the packable channels by (target, key times) and lays their values out in lanes.
-fn pack(channels: &[Channel], constant: &[bool]) -> (Vec<LaneGroup>, Vec<u32>) {
+fn pack(channels: &[Channel], packable: &[bool]) -> (Vec<LaneGroup>, Vec<u32>) {
     use std::collections::HashMap;
     use std::hash::{Hash, Hasher};
     // (target, hash of the times) → groups with those; members as channel indices.
@@ -143,7 +143,7 @@ fn pack(channels: &[Channel], constant: &[bool]) -> (Vec<LaneGroup>, Vec<u32>) {
     let mut members: Vec<(ChannelTarget, Vec<u32>)> = Vec::new();
     let mut singles = Vec::new();
     for (i, c) in channels.iter().enumerate() {
-        if !packable(c, constant[i]) {
+        if !packable[i] {
             singles.push(i as u32);
             continue;
         }
@@ -252,9 +252,13 @@ impl Clip {
         for c in &channels {
             *targets.entry((c.node, c.target as u8)).or_insert(0u32) += 1;
         }
-        let constant: Vec<bool> =
-            channels.iter().map(|c| targets.get(&(c.node, c.target as u8)) == Some(&1) && is_constant(c)).collect();
-        let (groups, singles) = pack(&channels, &constant);
+        // A property animated by several channels (the spec forbids it; files do it): the last
+        // one wins, as in the file's order, so those are sampled one at a time, in that order.
+        let alone: Vec<bool> = channels.iter().map(|c| targets.get(&(c.node, c.target as u8)) == Some(&1)).collect();
+        let constant: Vec<bool> = channels.iter().zip(&alone).map(|(c, &alone)| alone && is_constant(c)).collect();
+        let packable: Vec<bool> =
+            channels.iter().zip(constant.iter().zip(&alone)).map(|(c, (&k, &alone))| alone && packable(c, k)).collect();
+        let (groups, singles) = pack(&channels, &packable);
         Self { name, duration, channels, constant, groups, singles }
     }
 

@@ -314,9 +314,11 @@ fn sample_group(group: &LaneGroup, at: At, lerp: RotationLerp, locals: &mut [Tra
     Ok(())
 }
 
-/// One channel's value at `time` (clamped to its keys), exactly as [`SampleJob`] computes it:
-/// `channel.width` floats into `out` (a rotation as `[x, y, z, w]`, unit length). For a
-/// plot or a probe of one property; [`SampleJob`] is the per-frame path for whole clips.
+/// One channel's value at `time` (clamped to its keys), exactly as [`SampleJob`] computes it
+/// (for a channel that is the only one of its property in its clip): `channel.width` floats
+/// into `out` (a rotation as `[x, y, z, w]`, unit length); a channel whose keys are all equal
+/// gives its first key. For a plot or a probe of one property; [`SampleJob`] is the per-frame
+/// path for whole clips.
 ///
 /// # Errors
 /// `out` is not `channel.width` long, a non-finite `time`, or values shorter than the keys.
@@ -325,7 +327,7 @@ pub fn sample_channel(channel: &Channel, time: f32, rotation: RotationLerp, out:
         return Err(not_finite(time));
     }
     check_eq("output width", channel.width as usize, out.len())?;
-    let at = locate(&channel.times, time, &mut 0);
+    let at = if crate::clip::is_constant(channel) { At::Key(0) } else { locate(&channel.times, time, &mut 0) };
     match channel.target {
         ChannelTarget::Rotation => {
             let q = sample_rotation(channel, at, rotation)?.unwrap_or(Quat::IDENTITY);
@@ -681,6 +683,99 @@ mod tests {
         let r = sample(&c, 0.3).0.rotation;
         assert!((r.length() - 1.0).abs() < 1e-6);
         assert_eq!(sample(&c, 1.0).0.rotation, Quat::from_array(q1));
+    }
+
+    /// Samples `clip` the reference way: each channel alone through [`sample_channel`], in clip
+    /// order (a later channel of the same property wins), over the rest pose `base`.
+    fn one_at_a_time(clip: &Clip, t: f32, lerp: RotationLerp, base: &[Transform]) -> Vec<Transform> {
+        let mut out = base.to_vec();
+        for c in clip.channels() {
+            let mut v = vec![0.0; c.width as usize];
+            sample_channel(c, t, lerp, &mut v).expect("valid channel");
+            let local = &mut out[c.node as usize];
+            match c.target {
+                ChannelTarget::Translation => local.translation = Vec3::from_slice(&v),
+                ChannelTarget::Scale => local.scale = Vec3::from_slice(&v),
+                ChannelTarget::Rotation => local.rotation = Quat::from_slice(&v),
+                ChannelTarget::Weights => {}
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn lane_groups_sample_exactly_like_one_channel_at_a_time() {
+        // 12 nodes; rotations on two key sets (one group of 8 rotations: two full blocks, one
+        // of 1), translations sharing the first key set, a scale with its own keys, and sampled
+        // one at a time: a STEP, a constant rotation, and node 3's rotation animated twice.
+        let mut seed = 3u32;
+        let mut next = move || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 8) as f32 / (1u32 << 24) as f32 * 2.0 - 1.0
+        };
+        let times_a: Vec<f32> = (0..12).map(|k| k as f32 * 0.1 + if k % 3 == 0 { 0.02 } else { 0.0 }).collect();
+        let times_b = [0.0, 0.4, 0.45, 1.3];
+        let mut rotation = |node: u32, times: &[f32], interpolation| {
+            let values = times
+                .iter()
+                .flat_map(|_| {
+                    let q = Quat::from_xyzw(next(), next(), next(), next()).normalize();
+                    // Some keys on the far hemisphere, to exercise the shortest-arc sign.
+                    let q = if next() > 0.0 { -q } else { q };
+                    q.to_array()
+                })
+                .collect();
+            Channel { node, target: ChannelTarget::Rotation, interpolation, times: times.to_vec(), values, width: 4 }
+        };
+        let mut channels: Vec<Channel> = (0..9).map(|n| rotation(n, &times_a, Interpolation::Linear)).collect();
+        channels.push(rotation(9, &times_b, Interpolation::Linear));
+        channels.push(rotation(3, &times_b, Interpolation::Linear));
+        channels.push(rotation(10, &times_b, Interpolation::Step));
+        let still = Quat::from_rotation_x(0.4).to_array().repeat(2);
+        channels.push(channel(ChannelTarget::Rotation, Interpolation::Linear, &[0.0, 1.0], &still));
+        channels.last_mut().expect("pushed").node = 11;
+        for node in [0, 4, 5] {
+            let values = times_a.iter().flat_map(|&t| [t, -2.0 * t, (node as f32 + t).sin()]).collect::<Vec<_>>();
+            channels.push(Channel {
+                node,
+                ..channel(ChannelTarget::Translation, Interpolation::Linear, &times_a, &values)
+            });
+        }
+        channels.push(Channel {
+            node: 7,
+            ..channel(
+                ChannelTarget::Scale,
+                Interpolation::Linear,
+                &times_b,
+                &[1.0, 1.0, 1.0, 2.0, 1.0, 0.5, 2.0, 3.0, 1.0, 1.0, 1.0, 1.0],
+            )
+        });
+        let c = clip(channels);
+        assert_eq!(c.groups().len(), 4, "rotations ×2 key sets, translations, scale");
+        assert_eq!(c.singles(), [3, 10, 11, 12], "node 3's two, the STEP, the constant one");
+        assert!(!c.is_constant(10) && c.is_constant(12), "node 3 twice is not constant; the still one is");
+
+        let base: Vec<Transform> =
+            (0..12).map(|i| Transform { translation: Vec3::splat(i as f32), ..Transform::IDENTITY }).collect();
+        for lerp in [RotationLerp::Slerp, RotationLerp::Nlerp] {
+            let mut context = SampleContext::new(&c);
+            context.set_rotation_lerp(lerp);
+            let times = (0..200).map(|i| i as f32 * 0.0071).chain([0.0, 0.3, 0.45, 1.1, 5.0, 0.02, 0.4]);
+            for t in times {
+                let mut locals = base.clone();
+                SampleJob {
+                    clip: &c,
+                    time: t,
+                    context: &mut context,
+                    weight_offsets: &[0; 12],
+                    locals: &mut locals,
+                    weights: &mut [],
+                }
+                .run()
+                .expect("valid clip");
+                assert_eq!(locals, one_at_a_time(&c, t, lerp, &base), "{lerp:?} at {t}");
+            }
+        }
     }
 
     #[test]
