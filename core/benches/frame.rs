@@ -15,47 +15,17 @@
 //! - `crossfade_layer`: a crossfade half way between two playing clips plus an override layer
 //!   on the upper body: three clips sampled and blended per frame.
 
+mod common;
+
+use common::{CHARACTERS, DT, Posed, clip, instance_frame, load, node};
 use criterion::{Criterion, criterion_group, criterion_main};
 use kloub_core::animator::{Crossfade, Easing, Layer, Outgoing};
-use kloub_core::asset::Asset;
 use kloub_core::job::sample::{RotationLerp, SampleContext, SampleJob};
 use kloub_core::job::world::WorldJob;
 use kloub_core::math::Mat4;
 use kloub_core::pose::Pose;
-use kloub_core::{Animator, Instance, NoResolver};
+use kloub_core::{Animator, Instance};
 use std::hint::black_box;
-use std::path::PathBuf;
-
-/// (name, file, base clip, crossfade target, layer clip, layer root joint)
-const CHARACTERS: [(&str, &str, &str, &str, &str, &str); 4] = [
-    ("Fox", "khronos/Fox/glTF-Binary/Fox.glb", "Walk", "Run", "Survey", "b_Spine01_02"),
-    ("CesiumMan", "khronos/CesiumMan/glTF-Binary/CesiumMan.glb", "0", "0", "0", "Skeleton_torso_joint_2"),
-    ("RobotExpressive", "threejs/RobotExpressive/RobotExpressive.glb", "Walking", "Running", "Wave", "Abdomen"),
-    ("Knight", "kaykit/Knight/Knight.glb", "Walking_A", "Running_A", "Cheer", "chest"),
-];
-
-const DT: f32 = 1.0 / 60.0;
-
-fn shared_assets() -> PathBuf {
-    std::env::var_os("KLOUB_SHARED_ASSETS")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/assets"))
-}
-
-fn load(file: &str) -> Asset {
-    let path = shared_assets().join(file);
-    let bytes = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    kloub_core::import(&bytes, &NoResolver, &Default::default()).unwrap_or_else(|e| panic!("{file}: {e}")).asset
-}
-
-fn clip(asset: &Asset, name: &str) -> usize {
-    asset.find_clip(name).unwrap_or_else(|| panic!("no clip {name}"))
-}
-
-fn node(asset: &Asset, name: &str) -> u32 {
-    let index = asset.nodes.iter().position(|n| n.name.as_deref() == Some(name));
-    index.unwrap_or_else(|| panic!("no node {name}")) as u32
-}
 
 fn frame(c: &mut Criterion) {
     for (name, file, base, target, over, root) in CHARACTERS {
@@ -91,16 +61,8 @@ fn frame(c: &mut Criterion) {
 
         let mut animator = Animator::new(&asset);
         animator.play(&asset, Some(base)).expect("valid");
-        c.bench_function(&format!("pose/{name}"), |b| {
-            b.iter(|| {
-                animator.advance(&asset, DT);
-                animator.evaluate_pose(&asset, &mut pose).expect("valid");
-                WorldJob { parents: &parents, order: &asset.order, locals: &pose.locals, worlds: &mut worlds }
-                    .run()
-                    .expect("valid");
-                black_box(&worlds);
-            })
-        });
+        let mut posed = Posed::new(&asset);
+        c.bench_function(&format!("pose/{name}"), |b| b.iter(|| posed.frame(&asset, &mut animator)));
 
         let mut instance = Instance::new(&asset);
         for (label, lerp) in [("single", RotationLerp::Slerp), ("single_nlerp", RotationLerp::Nlerp)] {
@@ -108,11 +70,7 @@ fn frame(c: &mut Criterion) {
             animator.set_rotation_lerp(lerp);
             animator.play(&asset, Some(base)).expect("valid");
             c.bench_function(&format!("{label}/{name}"), |b| {
-                b.iter(|| {
-                    animator.advance(&asset, DT);
-                    animator.evaluate(&asset, &mut instance).expect("valid");
-                    black_box(instance.worlds());
-                })
+                b.iter(|| instance_frame(&asset, &mut animator, &mut instance))
             });
         }
 
@@ -127,11 +85,7 @@ fn frame(c: &mut Criterion) {
         animator.crossfade_to(&asset, Some(target), fade).expect("valid");
         animator.advance(&asset, 1.0e7);
         c.bench_function(&format!("crossfade_layer/{name}"), |b| {
-            b.iter(|| {
-                animator.advance(&asset, DT);
-                animator.evaluate(&asset, &mut instance).expect("valid");
-                black_box(instance.worlds());
-            })
+            b.iter(|| instance_frame(&asset, &mut animator, &mut instance))
         });
         let weight = animator.crossfade().map(|s| s.weight);
         assert!(weight.is_some_and(|w| (w - 0.5).abs() < 0.01), "{weight:?}");

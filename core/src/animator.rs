@@ -126,10 +126,13 @@ struct Sampler {
 }
 
 impl Sampler {
-    /// Buffers for `asset`, with cursors for its widest clip (switching clips then never allocates).
+    /// Buffers for `asset`, with room for the cursors of any of its clips (switching clips then
+    /// never allocates).
     fn new(asset: &Asset) -> Self {
-        let widest = asset.clips.iter().max_by_key(|c| c.channels().len());
-        let mut context = widest.map(SampleContext::new).unwrap_or_default();
+        let mut context = SampleContext::default();
+        for clip in &asset.clips {
+            context.reserve_for(clip);
+        }
         // `pose` is written by this sampler alone, and reset with the context on a clip change.
         context.set_skip_constant(true);
         Self { context, clip: None, pose: Pose::rest(asset) }

@@ -1,4 +1,4 @@
-//! The per-frame benchmark of `benches/frame.rs` (`single` and `crossfade_layer`), compiled to
+//! The per-frame benchmark of `benches/frame.rs` (`pose`, `single` and `crossfade_layer`), compiled to
 //! wasm32 and run in Node, where a web page would run it. Not a test: it prints figures.
 //!
 //! ```text
@@ -10,6 +10,9 @@
 
 use kloub_core::animator::{Crossfade, Easing, Layer, Outgoing};
 use kloub_core::asset::Asset;
+use kloub_core::job::world::WorldJob;
+use kloub_core::math::Mat4;
+use kloub_core::pose::Pose;
 use kloub_core::{Animator, Instance, NoResolver};
 use std::hint::black_box;
 use wasm_bindgen::prelude::wasm_bindgen;
@@ -75,13 +78,17 @@ fn node(asset: &Asset, name: &str) -> u32 {
     index.unwrap_or_else(|| panic!("no node {name}")) as u32
 }
 
-/// Median microseconds per frame of `advance` + `evaluate`.
+/// Median microseconds per frame of `advance` + `evaluate` (into an instance: worlds and palettes).
 fn measure(asset: &Asset, animator: &mut Animator, instance: &mut Instance) -> f64 {
-    let mut frame = || {
+    time(|| {
         animator.advance(asset, DT);
         animator.evaluate(asset, instance).expect("valid");
         black_box(instance.worlds());
-    };
+    })
+}
+
+/// Median microseconds per call of `frame`.
+fn time(mut frame: impl FnMut()) -> f64 {
     // Warm up and size a batch to about BATCH_MS.
     let mut n = 64u32;
     loop {
@@ -111,13 +118,28 @@ fn measure(asset: &Asset, animator: &mut Animator, instance: &mut Instance) -> f
 
 #[wasm_bindgen_test]
 fn frame_cost_per_character_in_node() {
-    console_log!("| Character | `single` (wasm, Node) | `crossfade_layer` (wasm, Node) |");
-    console_log!("|---|---:|---:|");
+    console_log!("| Character | `pose` (wasm, Node) | `single` (wasm, Node) | `crossfade_layer` (wasm, Node) |");
+    console_log!("|---|---:|---:|---:|");
     for (name, bytes, base, target, over, root) in CHARACTERS {
         let asset = kloub_core::import(bytes, &NoResolver, &Default::default()).expect("imports").asset;
         let (base, target, over, root) =
             (clip(&asset, base), clip(&asset, target), clip(&asset, over), node(&asset, root));
         let mut instance = Instance::new(&asset);
+
+        // `pose`: advance + sample + blend + world transforms (no palettes), as benches/frame.rs.
+        let mut animator = Animator::new(&asset);
+        animator.play(&asset, Some(base)).expect("valid");
+        let parents: Vec<Option<u32>> = asset.nodes.iter().map(|n| n.parent).collect();
+        let mut pose = Pose::rest(&asset);
+        let mut worlds = vec![Mat4::IDENTITY; asset.nodes.len()];
+        let posed = time(|| {
+            animator.advance(&asset, DT);
+            animator.evaluate_pose(&asset, &mut pose).expect("valid");
+            WorldJob { parents: &parents, order: &asset.order, locals: &pose.locals, worlds: &mut worlds }
+                .run()
+                .expect("valid");
+            black_box(&worlds);
+        });
 
         let mut animator = Animator::new(&asset);
         animator.play(&asset, Some(base)).expect("valid");
@@ -133,6 +155,6 @@ fn frame_cost_per_character_in_node() {
         animator.crossfade_to(&asset, Some(target), fade).expect("valid");
         animator.advance(&asset, 1.0e7);
         let layered = measure(&asset, &mut animator, &mut instance);
-        console_log!("| {name} | {single:.2} µs | {layered:.2} µs |");
+        console_log!("| {name} | {posed:.2} µs | {single:.2} µs | {layered:.2} µs |");
     }
 }

@@ -65,16 +65,21 @@ impl SampleContext {
     }
 
     /// Rewinds all cursors and sets up for `clip`: allocates only when `clip` has more
-    /// channels than any clip this context served before.
+    /// channels or lane groups than this context has room for.
     pub fn reset(&mut self, clip: &Clip) {
         self.cursors.clear();
         self.cursors.resize(clip.channels().len(), 0);
         self.group_cursors.clear();
-        // A clip has at most as many groups as channels: room for the widest clip's channels
-        // means no allocation when switching to any clip with fewer.
-        self.group_cursors.reserve(clip.channels().len());
         self.group_cursors.resize(clip.groups().len(), 0);
         self.primed = false;
+    }
+
+    /// Makes room for `clip` (without switching to it), so that a later
+    /// [`SampleContext::reset`] to it does not allocate.
+    pub(crate) fn reserve_for(&mut self, clip: &Clip) {
+        let reserve = |v: &mut Vec<u32>, n: usize| v.reserve(n.saturating_sub(v.len()));
+        reserve(&mut self.cursors, clip.channels().len());
+        reserve(&mut self.group_cursors, clip.groups().len());
     }
 
     /// Number of channels this context serves.
