@@ -134,8 +134,51 @@ fn packable(channel: &Channel, constant: bool) -> bool {
         && channel.values.len() == channel.times.len() * width as usize
 }
 
-/// Groups the packable channels by (target, key times) and lays their values out in lanes.
-fn pack(channels: &[Channel], packable: &[bool]) -> (Vec<LaneGroup>, Vec<u32>) {
+/// How a clip's channels are sampled, before any lane memory exists: which are constant,
+/// which groups the packable ones form (target and member channels, in clip order), and the
+/// channels sampled one at a time.
+struct Plan {
+    constant: Vec<bool>,
+    members: Vec<(ChannelTarget, Vec<u32>)>,
+    singles: Vec<u32>,
+}
+
+impl Plan {
+    fn new(channels: &[Channel]) -> Self {
+        let mut targets = std::collections::HashMap::new();
+        for c in channels {
+            *targets.entry((c.node, c.target as u8)).or_insert(0u32) += 1;
+        }
+        // A property animated by several channels (the spec forbids it; files do it): the last
+        // one wins, as in the file's order, so those are sampled one at a time, in that order.
+        let alone: Vec<bool> = channels.iter().map(|c| targets.get(&(c.node, c.target as u8)) == Some(&1)).collect();
+        let constant: Vec<bool> = channels.iter().zip(&alone).map(|(c, &alone)| alone && is_constant(c)).collect();
+        let packable: Vec<bool> =
+            channels.iter().zip(constant.iter().zip(&alone)).map(|(c, (&k, &alone))| alone && packable(c, k)).collect();
+        let (members, singles) = group(channels, &packable);
+        Self { constant, members, singles }
+    }
+
+    /// Bytes the lane groups will take ([`LaneGroup::values`] and [`LaneGroup::angles`]).
+    fn lane_bytes(&self, channels: &[Channel]) -> u64 {
+        let vec4 = size_of::<glam::Vec4>() as u64;
+        self.members
+            .iter()
+            .map(|(target, list)| {
+                let keys = list.first().map_or(0, |&c| channels[c as usize].times.len()) as u64;
+                let blocks = list.len().div_ceil(4) as u64;
+                let width = if *target == ChannelTarget::Rotation { 4 } else { 3 };
+                let angles = if *target == ChannelTarget::Rotation { keys.saturating_sub(1) * 2 } else { 0 };
+                (keys * width + angles) * blocks * vec4
+            })
+            .sum()
+    }
+}
+
+/// Groups the packable channels by (target, key times): each group's target and members, and
+/// the channels left to sample one at a time.
+#[allow(clippy::type_complexity)]
+fn group(channels: &[Channel], packable: &[bool]) -> (Vec<(ChannelTarget, Vec<u32>)>, Vec<u32>) {
     use std::collections::HashMap;
     use std::hash::{Hash, Hasher};
     // (target, hash of the times) → groups with those; members as channel indices.
@@ -159,6 +202,13 @@ fn pack(channels: &[Channel], packable: &[bool]) -> (Vec<LaneGroup>, Vec<u32>) {
             }
         }
     }
+    (members, singles)
+}
+
+/// Lays the values of each group of `members` out in lanes ([`LaneGroup`]).
+fn pack(channels: &[Channel], members: Vec<(ChannelTarget, Vec<u32>)>) -> Vec<LaneGroup> {
+    use std::collections::HashMap;
+    use std::hash::{Hash, Hasher};
     // Groups of different targets with the same key times share one representative channel
     // (their `times_of`) and sit side by side, so the sampler finds the key once for them all.
     let mut reps: HashMap<u64, Vec<u32>> = HashMap::new();
@@ -194,7 +244,7 @@ fn pack(channels: &[Channel], packable: &[bool]) -> (Vec<LaneGroup>, Vec<u32>) {
         })
         .collect();
     groups.sort_by_key(|g| g.times_of);
-    (groups, singles)
+    groups
 }
 
 /// [`LaneGroup::angles`] of rotation values laid out as in [`LaneGroup::values`].
@@ -247,18 +297,21 @@ impl Clip {
     /// [`Clip::new`] would refuse); `duration` is computed. A malformed channel is still
     /// memory-safe: the sampling job reports it.
     pub(crate) fn from_channels(name: Option<String>, channels: Vec<Channel>) -> Self {
+        let plan = Plan::new(&channels);
+        Self::from_plan(name, channels, plan)
+    }
+
+    /// Bytes [`Clip::from_channels`] will allocate for the sampling layout of `channels`, beyond
+    /// the channels themselves (for the importer's budget, checked before allocating).
+    pub(crate) fn layout_bytes(channels: &[Channel]) -> u64 {
+        let plan = Plan::new(channels);
+        plan.lane_bytes(channels).saturating_add(channels.len() as u64 * 8)
+    }
+
+    fn from_plan(name: Option<String>, channels: Vec<Channel>, plan: Plan) -> Self {
         let duration = channels.iter().filter_map(|c| c.times.last().copied()).fold(0.0f32, f32::max);
-        let mut targets = std::collections::HashMap::new();
-        for c in &channels {
-            *targets.entry((c.node, c.target as u8)).or_insert(0u32) += 1;
-        }
-        // A property animated by several channels (the spec forbids it; files do it): the last
-        // one wins, as in the file's order, so those are sampled one at a time, in that order.
-        let alone: Vec<bool> = channels.iter().map(|c| targets.get(&(c.node, c.target as u8)) == Some(&1)).collect();
-        let constant: Vec<bool> = channels.iter().zip(&alone).map(|(c, &alone)| alone && is_constant(c)).collect();
-        let packable: Vec<bool> =
-            channels.iter().zip(constant.iter().zip(&alone)).map(|(c, (&k, &alone))| alone && packable(c, k)).collect();
-        let (groups, singles) = pack(&channels, &packable);
+        let Plan { constant, members, singles } = plan;
+        let groups = pack(&channels, members);
         Self { name, duration, channels, constant, groups, singles }
     }
 

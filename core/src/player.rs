@@ -126,6 +126,11 @@ impl Player {
         }
         let now = if self.time.is_finite() { self.time.clamp(0.0, duration) } else { 0.0 };
         match self.loop_mode {
+            LoopMode::Repeat if (0.0..duration).contains(&(now + step)) => {
+                // Inside the clip (most frames): no wrap, no division.
+                self.time = now + step;
+                self.reversed = false;
+            }
             LoopMode::Repeat => {
                 let t = now + step;
                 events.looped = count((t / duration).floor());

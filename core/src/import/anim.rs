@@ -44,6 +44,8 @@ pub(crate) fn clips(cx: &mut Cx<'_>, nodes: &[Node]) -> Result<Vec<Clip>, Import
                 channels.push(c);
             }
         }
+        // The clip's sampling layout (channels packed in SIMD lanes) is charged before it exists.
+        cx.budget.take(Some(Clip::layout_bytes(&channels)), &ptr, "animation sampling layout")?;
         clips.push(Clip::from_channels(super::json::name(anim), channels));
     }
     Ok(clips)

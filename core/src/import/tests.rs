@@ -497,6 +497,43 @@ fn byte_length_bombs_are_refused_before_allocating() {
 
 #[cfg_attr(not(target_arch = "wasm32"), test)]
 #[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+fn the_sampling_layout_of_clips_is_charged_to_the_budget() {
+    // 64 nodes, each rotated by one channel of 2,000 keys through the same two accessors:
+    // 64 decoded copies (~2.6 MB) plus their four-lane layout (~3.1 MB).
+    let (mut doc, mut bin) = base();
+    let keys = 2000;
+    let times: Vec<f32> = (0..keys).map(|k| k as f32 / 30.0).collect();
+    let quats: Vec<f32> =
+        (0..keys).flat_map(|k| crate::math::Quat::from_rotation_z(k as f32 * 1e-3).to_array()).collect();
+    let tv = add_view(&mut doc, &mut bin, &f32s(&times), None);
+    let qv = add_view(&mut doc, &mut bin, &f32s(&quats), None);
+    let t = add_accessor(&mut doc, json!({"bufferView": tv, "componentType": 5126, "count": keys, "type": "SCALAR"}));
+    let q = add_accessor(&mut doc, json!({"bufferView": qv, "componentType": 5126, "count": keys, "type": "VEC4"}));
+    let root = json!({"mesh": 0, "children": (1..=64).collect::<Vec<_>>()});
+    let nodes: Vec<Value> = std::iter::once(root).chain((0..64).map(|i| json!({"name": format!("n{i}")}))).collect();
+    doc["nodes"] = json!(nodes);
+    let channels: Vec<Value> =
+        (1..=64).map(|n| json!({"sampler": 0, "target": {"node": n, "path": "rotation"}})).collect();
+    doc["animations"] = json!([{"samplers": [{"input": t, "output": q}], "channels": channels}]);
+    let file = glb_of(&doc, &bin);
+    let layout = {
+        let imported = import(&file, &NoResolver, &ImportOptions::default()).expect("imports");
+        let clip = &imported.asset.clips[0];
+        assert_eq!(clip.channels().len(), 64);
+        crate::clip::Clip::layout_bytes(clip.channels())
+    };
+    assert!(layout > 3_000_000, "{layout}");
+    // Enough for the file and its decoded accessors, not for the layout as well.
+    let tight = ImportOptions { budget_bytes: 5 << 20, ..ImportOptions::default() };
+    let e = import(&file, &NoResolver, &tight).expect_err("over the budget");
+    assert_eq!(e.pointer, "/animations/0");
+    assert!(e.message.contains("animation sampling layout"), "{e}");
+    let roomy = ImportOptions { budget_bytes: 8 << 20, ..ImportOptions::default() };
+    assert!(import(&file, &NoResolver, &roomy).is_ok());
+}
+
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
 fn bad_data_uris_are_refused() {
     let doc = |uri: &str, len: u64| json!({"asset": {"version": "2.0"}, "buffers": [{"byteLength": len, "uri": uri}]});
     let go = |d: Value| import(d.to_string().as_bytes(), &NoResolver, &ImportOptions::default());

@@ -759,6 +759,12 @@ mod tests {
         assert_eq!(c.groups().len(), 4, "rotations ×2 key sets, translations, scale");
         assert_eq!(c.singles(), [3, 10, 11, 12], "node 3's two, the STEP, the constant one");
         assert!(!c.is_constant(10) && c.is_constant(12), "node 3 twice is not constant; the still one is");
+        let lanes: usize = c.groups().iter().map(|g| (g.values.len() + g.angles.len()) * size_of::<Vec4>()).sum();
+        assert_eq!(
+            Clip::layout_bytes(c.channels()),
+            (lanes + 8 * c.channels().len()) as u64,
+            "what the budget is charged"
+        );
 
         let base: Vec<Transform> =
             (0..12).map(|i| Transform { translation: Vec3::splat(i as f32), ..Transform::IDENTITY }).collect();
