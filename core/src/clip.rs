@@ -118,6 +118,18 @@ pub(crate) fn is_constant(channel: &Channel) -> bool {
     }
 }
 
+/// Whether `channel` has the width of its target and `width` values per element of every key.
+fn well_formed(channel: &Channel) -> bool {
+    let width = channel.width as usize;
+    let expected = match channel.target {
+        ChannelTarget::Translation | ChannelTarget::Scale => 3,
+        ChannelTarget::Rotation => 4,
+        ChannelTarget::Weights => width.max(1),
+    };
+    let per_key = if channel.interpolation == Interpolation::CubicSpline { 3 } else { 1 };
+    width == expected && !channel.times.is_empty() && channel.values.len() == channel.times.len() * width * per_key
+}
+
 /// Whether `channel` goes into a [`LaneGroup`]: a well-formed, changing LINEAR channel of a
 /// node's translation, rotation or scale (anything else is sampled one channel at a time,
 /// which also reports malformed channels).
@@ -152,14 +164,22 @@ impl Plan {
         // A property animated by several channels (the spec forbids it; files do it): the last
         // one wins, as in the file's order, so those are sampled one at a time, in that order.
         let alone: Vec<bool> = channels.iter().map(|c| targets.get(&(c.node, c.target as u8)) == Some(&1)).collect();
-        let constant: Vec<bool> = channels.iter().zip(&alone).map(|(c, &alone)| alone && is_constant(c)).collect();
+        // A malformed channel is never "constant": sampling it must report it.
+        let constant: Vec<bool> =
+            channels.iter().zip(&alone).map(|(c, &alone)| alone && well_formed(c) && is_constant(c)).collect();
         let packable: Vec<bool> =
             channels.iter().zip(constant.iter().zip(&alone)).map(|(c, (&k, &alone))| alone && packable(c, k)).collect();
         let (members, singles) = group(channels, &packable);
         Self { constant, members, singles }
     }
 
-    /// Bytes the lane groups will take ([`LaneGroup::values`] and [`LaneGroup::angles`]).
+    /// Bytes the clip will keep besides its channels: the lane groups ([`LaneGroup::values`] and
+    /// [`LaneGroup::angles`]) and the per-channel lists (at most 8 bytes a channel).
+    fn layout_bytes(&self, channels: &[Channel]) -> u64 {
+        self.lane_bytes(channels).saturating_add(channels.len() as u64 * 8)
+    }
+
+    /// Bytes of the lane groups.
     fn lane_bytes(&self, channels: &[Channel]) -> u64 {
         let vec4 = size_of::<glam::Vec4>() as u64;
         self.members
@@ -302,10 +322,22 @@ impl Clip {
     }
 
     /// Bytes [`Clip::from_channels`] will allocate for the sampling layout of `channels`, beyond
-    /// the channels themselves (for the importer's budget, checked before allocating).
+    /// the channels themselves.
+    #[cfg(test)]
     pub(crate) fn layout_bytes(channels: &[Channel]) -> u64 {
-        let plan = Plan::new(channels);
-        plan.lane_bytes(channels).saturating_add(channels.len() as u64 * 8)
+        Plan::new(channels).layout_bytes(channels)
+    }
+
+    /// [`Clip::from_channels`], after `charge` accepted [`Clip::layout_bytes`] (the importer's
+    /// budget, checked before the layout is allocated).
+    pub(crate) fn from_channels_charged<E>(
+        name: Option<String>,
+        channels: Vec<Channel>,
+        charge: impl FnOnce(u64) -> Result<(), E>,
+    ) -> Result<Self, E> {
+        let plan = Plan::new(&channels);
+        charge(plan.layout_bytes(&channels))?;
+        Ok(Self::from_plan(name, channels, plan))
     }
 
     fn from_plan(name: Option<String>, channels: Vec<Channel>, plan: Plan) -> Self {

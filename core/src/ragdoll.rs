@@ -48,8 +48,10 @@ const MAX_FRAME: f32 = 0.25;
 /// Speed under which a body counts as at rest, in skeleton sizes per second.
 const REST_SPEED: f32 = 0.03;
 /// A ragdoll whose every point moves slower than this (fraction of the skeleton's size per
-/// second) for [`SLEEP_AFTER`] seconds is put to sleep.
-const SLEEP_SPEED: f32 = 0.1;
+/// second; rapier also asks for less than 90°/s of turn) for [`SLEEP_AFTER`] seconds is put
+/// to sleep.
+const SLEEP_SPEED: f32 = 0.2;
+/// Seconds below [`SLEEP_SPEED`] before sleeping.
 const SLEEP_AFTER: f32 = 1.0;
 
 /// Range of a joint without a limit of its own: swing and twist, radians.
@@ -311,7 +313,9 @@ impl Ragdoll {
             let (handle, _) = world.insert(builder, collider);
             if let Some(rb) = world.bodies.get_mut(handle) {
                 let activation = rb.activation_mut();
-                activation.normalized_linear_threshold = SLEEP_SPEED * PERSON_HEIGHT;
+                // rapier lets a body sleep when its farthest point moves less than twice this
+                // threshold (times `length_unit`, the skeleton's size over PERSON_HEIGHT) per second.
+                activation.normalized_linear_threshold = SLEEP_SPEED * PERSON_HEIGHT * 0.5;
                 activation.time_until_sleep = SLEEP_AFTER;
             }
             let (scale_j, rot_j, trans_j) = rigid(&worlds[j]);
@@ -437,6 +441,8 @@ impl Ragdoll {
             if let Some(rb) = self.world.bodies.get_mut(b.handle) {
                 rb.set_linear_damping(options.damping);
                 rb.set_angular_damping(options.damping);
+                // A sleeping ragdoll would not feel the new gravity.
+                rb.wake_up(true);
             }
         }
     }
@@ -455,8 +461,8 @@ impl Ragdoll {
 
     /// Whether every body has come to rest: slower than 3% of the skeleton's size per second,
     /// after at least half a second (a body dropped from stillness is not yet at rest). A
-    /// ragdoll whose every point has moved slower than [`SLEEP_SPEED`] for [`SLEEP_AFTER`]
-    /// seconds is put to sleep (velocities zero) until pushed.
+    /// ragdoll whose every point has moved slower than 20 % of its size per second for a second
+    /// is put to sleep (velocities zero) until pushed or its options change.
     pub fn is_resting(&self) -> bool {
         self.steps as f32 >= STEP_HZ * 0.5 && self.max_speed() < REST_SPEED * self.size
     }

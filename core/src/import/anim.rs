@@ -45,8 +45,9 @@ pub(crate) fn clips(cx: &mut Cx<'_>, nodes: &[Node]) -> Result<Vec<Clip>, Import
             }
         }
         // The clip's sampling layout (channels packed in SIMD lanes) is charged before it exists.
-        cx.budget.take(Some(Clip::layout_bytes(&channels)), &ptr, "animation sampling layout")?;
-        clips.push(Clip::from_channels(super::json::name(anim), channels));
+        let budget = &mut cx.budget;
+        let charge = |bytes| budget.take(Some(bytes), &ptr, "animation sampling layout");
+        clips.push(Clip::from_channels_charged(super::json::name(anim), channels, charge)?);
     }
     Ok(clips)
 }

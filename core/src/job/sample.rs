@@ -1,8 +1,10 @@
 //! Sampling a clip at a time into node-local transforms and morph weights.
 //!
-//! Each channel keeps a key cursor in [`SampleContext`]: playback that moves forward (or
-//! backward) by less than a key per frame finds its key in O(1); any other seek falls
-//! back to a binary search, O(log keys).
+//! LINEAR translation, rotation and scale channels that share key times are sampled four at a
+//! time, one per SIMD lane ([`crate::clip::LaneGroup`]); the rest one channel at a time. Each
+//! key-time array keeps a key cursor in [`SampleContext`]: playback that moves forward (or
+//! backward) by less than a key per frame finds its key in O(1); any other seek falls back to a
+//! binary search, O(log keys).
 //!
 //! LINEAR rotations use shortest-arc slerp by default (the glTF spec); a context can switch
 //! to normalized lerp ([`RotationLerp::Nlerp`]), which is cheaper and within ~0.2° of slerp for
@@ -303,7 +305,9 @@ fn sample_group(group: &LaneGroup, at: At, lerp: RotationLerp, locals: &mut [Tra
         target => {
             let scale = target == ChannelTarget::Scale;
             for ((a, b), nodes) in blocks {
-                let l = |c: usize| a[c] + (b[c] - a[c]) * u;
+                // Exactly `a` at a key, as one channel at a time gives (even where b − a overflows).
+                let at_key = u.cmpeq(Vec4::ZERO);
+                let l = |c: usize| Vec4::select(at_key, a[c], a[c] + (b[c] - a[c]) * u);
                 let m = Mat4::from_cols(l(0), l(1), l(2), Vec4::ZERO).transpose();
                 for (&node, v) in nodes.iter().zip([m.x_axis, m.y_axis, m.z_axis, m.w_axis]) {
                     let local = local_mut(locals, node)?;
@@ -489,7 +493,7 @@ fn sample_rotation(channel: &Channel, at: At, lerp: RotationLerp) -> Result<Opti
 
 /// Spherical linear interpolation along the shortest arc; exact at `u == 0`. The same
 /// arithmetic as one lane of [`SampleJob`]'s four-lane sampling (within 5e-7 of the exact
-/// slerp of unit inputs; nlerp for keys closer than ~3.6°).
+/// slerp of unit inputs).
 pub fn slerp(a: Quat, b: Quat, u: f32) -> Quat {
     slerp4(&Quat4::splat(a), &Quat4::splat(b), Vec4::splat(u)).first()
 }
@@ -790,6 +794,15 @@ mod tests {
     }
 
     #[test]
+    fn grouped_translations_are_exact_at_keys_even_where_the_difference_overflows() {
+        let values = [f32::MAX, 0.0, 1.0, -f32::MAX, 0.0, 2.0, f32::MAX, 1.0, 3.0];
+        let c = clip(vec![channel(ChannelTarget::Translation, Interpolation::Linear, &[0.0, 1.0, 2.0], &values)]);
+        assert_eq!(c.groups().len(), 1);
+        assert_eq!(sample(&c, 1.0).0.translation, Vec3::new(-f32::MAX, 0.0, 2.0));
+        assert_eq!(sample(&c, 0.0).0.translation, Vec3::new(f32::MAX, 0.0, 1.0));
+    }
+
+    #[test]
     fn cursor_seeking_matches_binary_search() {
         let times: Vec<f32> = (0..50).map(|i| i as f32 * 0.1 + (i % 3) as f32 * 0.01).collect();
         let mut cursor = 0;
@@ -864,6 +877,20 @@ mod tests {
             ("weights node", Channel { target: ChannelTarget::Weights, node: 3, width: 3, ..good.clone() }),
             ("weights buffer", Channel { target: ChannelTarget::Weights, width: 3, ..good.clone() }),
         ];
+        // Alone on its property, a short channel whose few values are all equal is still refused
+        // (it is not "constant").
+        let alone = clip(vec![Channel { node: 1, values: vec![0.0; 4], ..good.clone() }]);
+        let mut context = SampleContext::new(&alone);
+        let (mut locals, mut weights) = ([Transform::IDENTITY; 2], [0.0; 2]);
+        let mut job = SampleJob {
+            clip: &alone,
+            time: 0.5,
+            context: &mut context,
+            weight_offsets: &[0, 0],
+            locals: &mut locals,
+            weights: &mut weights,
+        };
+        assert!(job.validate().is_err() && job.run().is_err(), "short values alone");
         for (what, bad) in cases {
             let c = clip(vec![good.clone(), bad]);
             let mut context = SampleContext::new(&c);
