@@ -49,6 +49,35 @@ pub struct Channel {
     pub width: u32,
 }
 
+impl Channel {
+    /// Floats per element its target takes: 3 for translation and scale, 4 for rotation; a
+    /// weights channel takes its own `width` (one per morph target).
+    pub(crate) fn target_width(&self) -> usize {
+        match self.target {
+            ChannelTarget::Translation | ChannelTarget::Scale => 3,
+            ChannelTarget::Rotation => 4,
+            ChannelTarget::Weights => self.width as usize,
+        }
+    }
+
+    /// Elements stored per key: 3 for CUBICSPLINE (in-tangent, value, out-tangent), else 1.
+    pub(crate) fn elements_per_key(&self) -> usize {
+        if self.interpolation == Interpolation::CubicSpline { 3 } else { 1 }
+    }
+
+    /// Whether `width` is its target's (and not 0) and the values hold one element per key
+    /// (times `elements_per_key`).
+    pub(crate) fn width_fits(&self) -> bool {
+        self.width > 0 && self.width as usize == self.target_width()
+    }
+
+    /// [`Channel::width_fits`], at least one key, and `width` floats per element of every key.
+    pub(crate) fn is_well_formed(&self) -> bool {
+        let per_key = self.width as usize * self.elements_per_key();
+        self.width_fits() && !self.times.is_empty() && self.values.len() == self.times.len() * per_key
+    }
+}
+
 /// An animation clip.
 ///
 /// Its channels are fixed at construction: the clip keeps, beside them, the layout the
@@ -93,13 +122,18 @@ pub(crate) struct LaneGroup {
 impl LaneGroup {
     /// Floats per element: 4 for rotations, else 3.
     pub fn width(&self) -> usize {
-        if self.target == ChannelTarget::Rotation { 4 } else { 3 }
+        lane_width(self.target)
     }
 
     /// Blocks of four members.
     pub fn blocks(&self) -> usize {
         self.nodes.len().div_ceil(4)
     }
+}
+
+/// Floats per element of a group of `target`: 4 for rotations, else 3.
+fn lane_width(target: ChannelTarget) -> usize {
+    if target == ChannelTarget::Rotation { 4 } else { 3 }
 }
 
 /// Whether `channel` samples to the same value at every time.
@@ -118,40 +152,30 @@ pub(crate) fn is_constant(channel: &Channel) -> bool {
     }
 }
 
-/// Whether `channel` has the width of its target and `width` values per element of every key.
-fn well_formed(channel: &Channel) -> bool {
-    let width = channel.width as usize;
-    let expected = match channel.target {
-        ChannelTarget::Translation | ChannelTarget::Scale => 3,
-        ChannelTarget::Rotation => 4,
-        ChannelTarget::Weights => width.max(1),
-    };
-    let per_key = if channel.interpolation == Interpolation::CubicSpline { 3 } else { 1 };
-    width == expected && !channel.times.is_empty() && channel.values.len() == channel.times.len() * width * per_key
-}
-
 /// Whether `channel` goes into a [`LaneGroup`]: a well-formed, changing LINEAR channel of a
 /// node's translation, rotation or scale (anything else is sampled one channel at a time,
 /// which also reports malformed channels).
 fn packable(channel: &Channel, constant: bool) -> bool {
-    let width = match channel.target {
-        ChannelTarget::Translation | ChannelTarget::Scale => 3,
-        ChannelTarget::Rotation => 4,
-        ChannelTarget::Weights => return false,
-    };
-    channel.interpolation == Interpolation::Linear
+    channel.target != ChannelTarget::Weights
+        && channel.interpolation == Interpolation::Linear
         && !constant
-        && channel.width == width
         && channel.times.len() >= 2
-        && channel.values.len() == channel.times.len() * width as usize
+        && channel.is_well_formed()
+}
+
+/// A group before its values are laid out: the target, the channel whose key times all its
+/// members share (see [`LaneGroup::times_of`]), and the members in clip order.
+struct Members {
+    target: ChannelTarget,
+    times_of: u32,
+    list: Vec<u32>,
 }
 
 /// How a clip's channels are sampled, before any lane memory exists: which are constant,
-/// which groups the packable ones form (target and member channels, in clip order), and the
-/// channels sampled one at a time.
+/// which groups the packable ones form, and the channels sampled one at a time.
 struct Plan {
     constant: Vec<bool>,
-    members: Vec<(ChannelTarget, Vec<u32>)>,
+    groups: Vec<Members>,
     singles: Vec<u32>,
 }
 
@@ -166,88 +190,76 @@ impl Plan {
         let alone: Vec<bool> = channels.iter().map(|c| targets.get(&(c.node, c.target as u8)) == Some(&1)).collect();
         // A malformed channel is never "constant": sampling it must report it.
         let constant: Vec<bool> =
-            channels.iter().zip(&alone).map(|(c, &alone)| alone && well_formed(c) && is_constant(c)).collect();
+            channels.iter().zip(&alone).map(|(c, &alone)| alone && c.is_well_formed() && is_constant(c)).collect();
         let packable: Vec<bool> =
             channels.iter().zip(constant.iter().zip(&alone)).map(|(c, (&k, &alone))| alone && packable(c, k)).collect();
-        let (members, singles) = group(channels, &packable);
-        Self { constant, members, singles }
+        let (groups, singles) = group(channels, &packable);
+        Self { constant, groups, singles }
     }
 
     /// Bytes the clip will keep besides its channels: the lane groups ([`LaneGroup::values`] and
     /// [`LaneGroup::angles`]) and the per-channel lists (at most 8 bytes a channel).
     fn layout_bytes(&self, channels: &[Channel]) -> u64 {
-        self.lane_bytes(channels).saturating_add(channels.len() as u64 * 8)
-    }
-
-    /// Bytes of the lane groups.
-    fn lane_bytes(&self, channels: &[Channel]) -> u64 {
         let vec4 = size_of::<glam::Vec4>() as u64;
-        self.members
+        let lanes: u64 = self
+            .groups
             .iter()
-            .map(|(target, list)| {
-                let keys = list.first().map_or(0, |&c| channels[c as usize].times.len()) as u64;
-                let blocks = list.len().div_ceil(4) as u64;
-                let width = if *target == ChannelTarget::Rotation { 4 } else { 3 };
-                let angles = if *target == ChannelTarget::Rotation { keys.saturating_sub(1) * 2 } else { 0 };
-                (keys * width + angles) * blocks * vec4
+            .map(|g| {
+                let keys = channels[g.times_of as usize].times.len() as u64;
+                let blocks = g.list.len().div_ceil(4) as u64;
+                let angles = if g.target == ChannelTarget::Rotation { keys.saturating_sub(1) * 2 } else { 0 };
+                (keys * lane_width(g.target) as u64 + angles) * blocks * vec4
             })
-            .sum()
+            .sum();
+        lanes.saturating_add(channels.len() as u64 * 8)
     }
 }
 
-/// Groups the packable channels by (target, key times): each group's target and members, and
-/// the channels left to sample one at a time.
-#[allow(clippy::type_complexity)]
-fn group(channels: &[Channel], packable: &[bool]) -> (Vec<(ChannelTarget, Vec<u32>)>, Vec<u32>) {
+/// Groups the packable channels by (target, key times), and lists the channels left to sample
+/// one at a time. Channels with equal key times (compared exactly, found through a hash) share
+/// the first of them as their `times_of`.
+fn group(channels: &[Channel], packable: &[bool]) -> (Vec<Members>, Vec<u32>) {
     use std::collections::HashMap;
+    use std::collections::hash_map::Entry;
     use std::hash::{Hash, Hasher};
-    // (target, hash of the times) → groups with those; members as channel indices.
-    let mut by_key: HashMap<(u8, u64), Vec<usize>> = HashMap::new();
-    let mut members: Vec<(ChannelTarget, Vec<u32>)> = Vec::new();
-    let mut singles = Vec::new();
+    let mut reps: HashMap<u64, Vec<u32>> = HashMap::new();
+    let mut index: HashMap<(u8, u32), usize> = HashMap::new();
+    let (mut groups, mut singles): (Vec<Members>, Vec<u32>) = (Vec::new(), Vec::new());
     for (i, c) in channels.iter().enumerate() {
-        if !packable[i] {
-            singles.push(i as u32);
+        let i = i as u32;
+        if !packable[i as usize] {
+            singles.push(i);
             continue;
         }
         let mut hasher = std::collections::hash_map::DefaultHasher::new();
         c.times.iter().for_each(|t| t.to_bits().hash(&mut hasher));
-        let candidates = by_key.entry((c.target as u8, hasher.finish())).or_default();
-        let same = |&&g: &&usize| channels[members[g].1[0] as usize].times == c.times && members[g].0 == c.target;
-        match candidates.iter().find(same) {
-            Some(&g) => members[g].1.push(i as u32),
+        let candidates = reps.entry(hasher.finish()).or_default();
+        let times_of = match candidates.iter().find(|&&r| channels[r as usize].times == c.times) {
+            Some(&r) => r,
             None => {
-                candidates.push(members.len());
-                members.push((c.target, vec![i as u32]));
+                candidates.push(i);
+                i
+            }
+        };
+        match index.entry((c.target as u8, times_of)) {
+            Entry::Occupied(g) => groups[*g.get()].list.push(i),
+            Entry::Vacant(slot) => {
+                slot.insert(groups.len());
+                groups.push(Members { target: c.target, times_of, list: vec![i] });
             }
         }
     }
-    (members, singles)
+    (groups, singles)
 }
 
-/// Lays the values of each group of `members` out in lanes ([`LaneGroup`]).
-fn pack(channels: &[Channel], members: Vec<(ChannelTarget, Vec<u32>)>) -> Vec<LaneGroup> {
-    use std::collections::HashMap;
-    use std::hash::{Hash, Hasher};
-    // Groups of different targets with the same key times share one representative channel
-    // (their `times_of`) and sit side by side, so the sampler finds the key once for them all.
-    let mut reps: HashMap<u64, Vec<u32>> = HashMap::new();
+/// Lays the values of each group out in lanes ([`LaneGroup`]), groups with the same key times
+/// side by side (so the sampler finds the key once for them all).
+fn pack(channels: &[Channel], members: Vec<Members>) -> Vec<LaneGroup> {
     let mut groups: Vec<LaneGroup> = members
         .into_iter()
-        .map(|(target, list)| {
-            let first = &channels[list[0] as usize];
-            let mut hasher = std::collections::hash_map::DefaultHasher::new();
-            first.times.iter().for_each(|t| t.to_bits().hash(&mut hasher));
-            let candidates = reps.entry(hasher.finish()).or_default();
-            let times_of = match candidates.iter().find(|&&r| channels[r as usize].times == first.times) {
-                Some(&r) => r,
-                None => {
-                    candidates.push(list[0]);
-                    list[0]
-                }
-            };
-            let width = first.width as usize;
-            let keys = first.times.len();
+        .map(|Members { target, times_of, list }| {
+            let width = lane_width(target);
+            let keys = channels[times_of as usize].times.len();
             let blocks = list.len().div_ceil(4);
             let mut values = vec![glam::Vec4::ZERO; keys * blocks * width];
             for (m, &c) in list.iter().enumerate() {
@@ -270,12 +282,11 @@ fn pack(channels: &[Channel], members: Vec<(ChannelTarget, Vec<u32>)>) -> Vec<La
 /// [`LaneGroup::angles`] of rotation values laid out as in [`LaneGroup::values`].
 fn segment_angles(values: &[glam::Vec4], blocks: usize) -> Vec<glam::Vec4> {
     use crate::job::lanes::{Quat4, slerp_angle};
-    let quat = |v: &[glam::Vec4]| Quat4 { x: v[0], y: v[1], z: v[2], w: v[3] };
     let keys: Vec<&[glam::Vec4]> = values.chunks_exact(blocks * 4).collect();
     let mut angles = Vec::with_capacity(keys.len().saturating_sub(1) * blocks * 2);
     for pair in keys.windows(2) {
         for (a, b) in pair[0].chunks_exact(4).zip(pair[1].chunks_exact(4)) {
-            let (theta, inv_signed) = slerp_angle(&quat(a), &quat(b));
+            let (theta, inv_signed) = slerp_angle(&Quat4::from_block(a), &Quat4::from_block(b));
             angles.extend([theta, inv_signed]);
         }
     }
@@ -287,17 +298,10 @@ impl Clip {
     pub fn new(name: Option<String>, channels: Vec<Channel>) -> Result<Self, crate::error::JobError> {
         let invalid = |i: usize, what: &str| Err(crate::error::JobError::InvalidInput(format!("channel {i}: {what}")));
         for (i, c) in channels.iter().enumerate() {
-            let width = c.width as usize;
-            let expected = match c.target {
-                ChannelTarget::Translation | ChannelTarget::Scale => 3,
-                ChannelTarget::Rotation => 4,
-                ChannelTarget::Weights => width.max(1),
-            };
-            let per_key = if c.interpolation == Interpolation::CubicSpline { 3 } else { 1 };
-            if width != expected {
+            if !c.width_fits() {
                 return invalid(i, "width does not match its target");
             }
-            if c.times.is_empty() || c.times.len() * width * per_key != c.values.len() {
+            if !c.is_well_formed() {
                 return invalid(i, "needs at least one key and width values per element");
             }
             if !c.times.iter().chain(&c.values).all(|x| x.is_finite()) || c.times.windows(2).any(|w| w[0] >= w[1]) {
@@ -342,8 +346,8 @@ impl Clip {
 
     fn from_plan(name: Option<String>, channels: Vec<Channel>, plan: Plan) -> Self {
         let duration = channels.iter().filter_map(|c| c.times.last().copied()).fold(0.0f32, f32::max);
-        let Plan { constant, members, singles } = plan;
-        let groups = pack(&channels, members);
+        let Plan { constant, groups, singles } = plan;
+        let groups = pack(&channels, groups);
         Self { name, duration, channels, constant, groups, singles }
     }
 

@@ -24,6 +24,15 @@ impl Quat4 {
         Self { x: Vec4::splat(q.x), y: Vec4::splat(q.y), z: Vec4::splat(q.z), w: Vec4::splat(q.w) }
     }
 
+    /// One block of a rotation [`crate::clip::LaneGroup`]: the x, y, z and w of four members
+    /// (the identity in every lane if the block is short, which a group's layout never is).
+    pub fn from_block(v: &[Vec4]) -> Self {
+        match v {
+            [x, y, z, w, ..] => Self { x: *x, y: *y, z: *z, w: *w },
+            _ => Self::splat(Quat::IDENTITY),
+        }
+    }
+
     /// Lane 0 as a quaternion.
     pub fn first(&self) -> Quat {
         Quat::from_xyzw(self.x.x, self.y.x, self.z.x, self.w.x)
@@ -72,12 +81,6 @@ impl Quat4 {
     }
 }
 
-/// Lane-wise square root (correctly rounded, as IEEE requires, on every path).
-#[inline]
-pub(crate) fn sqrt(v: Vec4) -> Vec4 {
-    v.sqrt()
-}
-
 /// `asin(x)` for `x` in `[0, 0.5]`, with `z = x²`: Cephes' minimax polynomial (relative error
 /// below 3e-7 there), evaluated in Estrin's scheme (a shorter dependency chain than Horner's).
 #[inline]
@@ -95,7 +98,7 @@ fn asin_small(x: Vec4, z: Vec4) -> Vec4 {
 pub(crate) fn acos_unit(d: Vec4) -> Vec4 {
     let big = d.cmpge(Vec4::splat(0.5));
     let half_gap = (Vec4::ONE - d) * Vec4::splat(0.5);
-    let x = Vec4::select(big, sqrt(half_gap), d);
+    let x = Vec4::select(big, half_gap.sqrt(), d);
     let z = Vec4::select(big, half_gap, d * d);
     let a = asin_small(x, z);
     Vec4::select(big, a + a, Vec4::splat(std::f32::consts::FRAC_PI_2) - a)
@@ -116,7 +119,7 @@ pub(crate) fn sinc(x: Vec4) -> Vec4 {
 /// Unit length per lane; lanes of zero or non-finite length take `fallback`.
 fn normalize_or(q: &Quat4, fallback: &Quat4) -> Quat4 {
     let len2 = q.dot(q);
-    let inv = Vec4::ONE / sqrt(len2);
+    let inv = Vec4::ONE / len2.sqrt();
     let ok = len2.cmpgt(Vec4::ZERO) & inv.cmplt(Vec4::INFINITY);
     Quat4::select(ok, &q.scale(inv), fallback)
 }
