@@ -3,7 +3,7 @@
 # .wasm (brotli, as a browser asks for it) and a ~500 KB GLB of the sample library, 64 connections for
 # KLOUB_BENCH_SECONDS (default 30) each, and the server's RSS before and after. Prints a Markdown table.
 #
-#   scripts/bench-serve.sh            # needs web/dist (scripts/build-web.sh) and ../shared/assets
+#   scripts/bench-serve.sh            # needs web/dist (scripts/build-web.sh) and tests/assets
 #
 # Installs wrk with apt when it is missing (root only). Not part of the test suite: the figures go to BENCHMARKS.md.
 set -euo pipefail
@@ -13,7 +13,7 @@ SECONDS_EACH=${KLOUB_BENCH_SECONDS:-30}
 CONNECTIONS=${KLOUB_BENCH_CONNECTIONS:-64}
 THREADS=${KLOUB_BENCH_THREADS:-2}
 ADDR=127.0.0.1:${KLOUB_BENCH_PORT:-18089}
-ASSETS=${KLOUB_BENCH_ASSETS:-../shared/assets}
+ASSETS=${KLOUB_BENCH_ASSETS:-tests/assets}
 GLB=${KLOUB_BENCH_GLB:-/assets/threejs/RobotExpressive/RobotExpressive.glb}
 
 if ! command -v wrk >/dev/null; then

@@ -2,7 +2,7 @@
 # The per-frame animation benchmark compiled to wasm32 (release) and run in Node through
 # wasm-bindgen-test-runner: core/tests/wasm_frame.rs (µs per character per frame) and
 # core/tests/wasm_skin.rs (CPU skinning vertices/s per method). Prints Markdown tables.
-# Needs ../shared/assets beside the checkout (compiled in) and the runner from scripts/setup.sh.
+# Needs tests/assets (compiled in) and the runner from scripts/setup.sh.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUSTFLAGS="${CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUSTFLAGS:--C target-feature=+simd128}" \

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The core's unit tests on wasm32-unknown-unknown under Node: the import suite's hand-made
-# broken documents (the tests reading ../shared/assets from disk are native-only), through
+# broken documents (the tests reading tests/assets from disk are native-only), through
 # wasm-bindgen-test-runner from wasm-bindgen-cli 0.2.130 (scripts/setup.sh installs it).
 # Prints the runner's libtest-style "test result:" line, which scripts/test.sh counts.
 # Extra arguments go to cargo test, e.g. a test-name filter after `--`.

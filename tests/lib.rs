@@ -7,7 +7,7 @@ pub fn repo_root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
 }
 
-/// `../shared/assets` beside the checkout (the test asset library), overridable with `KLOUB_SHARED_ASSETS`.
+/// `tests/assets` in the repository (the test asset library), overridable with `KLOUB_SHARED_ASSETS`.
 pub fn shared_assets() -> PathBuf {
-    std::env::var_os("KLOUB_SHARED_ASSETS").map(PathBuf::from).unwrap_or_else(|| repo_root().join("../shared/assets"))
+    std::env::var_os("KLOUB_SHARED_ASSETS").map(PathBuf::from).unwrap_or_else(|| repo_root().join("tests/assets"))
 }

@@ -1,4 +1,4 @@
-//! `kloub pose` against an independent reference, on every model of `../shared/assets`.
+//! `kloub pose` against an independent reference, on every model of `tests/assets`.
 //!
 //! The reference below reads the glTF files itself (serde_json, a GLB chunk reader, `data:`
 //! URIs, a little-endian accessor reader with every component type, normalized integers,
@@ -1105,7 +1105,7 @@ fn unknown_clip_lists_the_available_ones() {
 
 // ---------------------------------------------------------------- the sweep
 
-/// Every model of the asset library, one variant each (relative to `../shared/assets`):
+/// Every model of the asset library, one variant each (relative to `tests/assets`):
 /// glTF-Binary where there is one. RiggedSimple's Draco variant is readable by neither the
 /// reference nor kloub (which refuses its required extension); the embedded variants are in
 /// [`embedded_data_uri_variants_match_the_reference`]. The quantized AnimatedMorphCube is here

@@ -23,6 +23,25 @@ export type SkinningPath = 'gpu' | 'compute' | 'cpu';
 export type LoopMode = 'once' | 'repeat' | 'pingpong';
 export type Backend = 'auto' | 'webgpu' | 'webgl2';
 
+/** One model of the Samples menu's library: the shape of `kloub serve`'s `/api/assets` entries. */
+export interface KloubSample {
+  /** The name in the menu and for `loadSample`. */
+  name: string;
+  /** Where the model is fetched from. */
+  url: string;
+  /** One line crediting the model, shown under its name while it is on screen. */
+  attribution?: string | null;
+  /** The licence text (the credit's hover text). */
+  licence?: string | null;
+  /** Clip names, or their count. */
+  clips?: string[] | number;
+  joints?: number;
+  /** Download size in bytes. */
+  size?: number;
+  /** The model the page opens with (`/models/default.glb`). */
+  default?: boolean;
+}
+
 /**
  * The viewer state mirrored into the element's data-* attributes (also `viewer.state`).
  * Values are strings, as in `HTMLElement.dataset`.
@@ -32,6 +51,8 @@ export interface KloubViewerState {
   error?: string;
   backend?: 'webgpu' | 'webgl2';
   model?: string;
+  /** The URL the shown model was fetched from; empty for dropped files and built-in samples. */
+  src?: string;
   /** JSON array of clip names. */
   clips?: string;
   clip?: string;
@@ -151,7 +172,10 @@ export declare class KloubViewer extends HTMLElement {
   setGrid(on: boolean): void;
   /** Shows 1 to 100 characters in a grid, each 0.37 s behind the previous. */
   setCopies(n: number): void;
-  loadSample(name: 'candy-wrapper'): void;
+  /** A model of `samples` by name, or the built-in `'candy-wrapper'`; unknown names throw a RangeError. */
+  loadSample(name: string): void;
+  /** The Samples menu's library (the app page sets it from `/api/assets`). */
+  samples: KloubSample[];
   setCandyPose(twistDegrees: number, bendDegrees: number): void;
   /** `[yaw, pitch, distance, targetX, targetY, targetZ]`. */
   camera: number[];

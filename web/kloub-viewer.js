@@ -27,6 +27,61 @@ canvas { display: block; width: 100%; height: 100%; outline: none; touch-action:
 `;
 
 const LOOP_MODES = new Set(['once', 'repeat', 'pingpong']);
+const SKINNING = ['rigid', 'lbs', 'dqs', 'sjb'];
+const SKINNING_PATHS = ['gpu', 'compute', 'cpu'];
+const IK_SOLVERS = ['ccd', 'twobone', 'fabrik', 'dls'];
+const LIGHTING = ['studio', 'outdoor', 'flat', 'rim'];
+const BACKGROUNDS = ['dark', 'grey', 'light'];
+/** Argument bounds of the page API (README, "Embedding"). */
+const MAX_SPEED = 100;
+const MAX_SECONDS = 3600;
+const MAX_COPIES = 100;
+const MAX_NAME = 4096;
+const MAX_URL = 65536;
+const MAX_LIST = 1024;
+
+// Every method checks its arguments here before anything reaches wasm: a wrong type is a TypeError, a value out of
+// range or not among the accepted names a RangeError, each message naming the method, the argument and what is
+// accepted. (wasm-bindgen's glue does not check types: a number where a string is expected traps inside wasm.)
+function describe(value) {
+  if (value === null) return 'null';
+  if (Array.isArray(value)) return 'an array';
+  if (typeof value === 'string') return value.length > 40 ? `a string of ${value.length} characters` : JSON.stringify(value);
+  if (typeof value === 'number' || typeof value === 'boolean' || typeof value === 'bigint') return String(value);
+  return typeof value === 'object' ? 'an object' : typeof value;
+}
+function str(method, arg, value) {
+  if (typeof value !== 'string') throw new TypeError(`${method}: ${arg} must be a string, got ${describe(value)}`);
+  if (value.length > MAX_NAME) throw new RangeError(`${method}: ${arg} is ${value.length} characters long: at most ${MAX_NAME}`);
+  return value;
+}
+function optStr(method, arg, value) { return value === null || value === undefined ? null : str(method, arg, value); }
+function url(method, arg, value) {
+  if (typeof value !== 'string') throw new TypeError(`${method}: ${arg} must be a URL string, got ${describe(value)}`);
+  if (value.length > MAX_URL) throw new RangeError(`${method}: ${arg} is ${value.length} characters long: at most ${MAX_URL}`);
+  return value;
+}
+function oneOf(method, arg, value, accepted) {
+  if (typeof value !== 'string') throw new TypeError(`${method}: ${arg} must be one of ${accepted.map((a) => `"${a}"`).join(', ')}; got ${describe(value)}`);
+  if (!accepted.includes(value)) throw new RangeError(`${method}: ${arg} ${describe(value)}: expected ${accepted.map((a) => `"${a}"`).join(', ')}`);
+  return value;
+}
+function num(method, arg, value, { min = -1e9, max = 1e9, integer = false } = {}) {
+  if (typeof value !== 'number') throw new TypeError(`${method}: ${arg} must be a number, got ${describe(value)}`);
+  if (!Number.isFinite(value)) throw new RangeError(`${method}: ${arg} ${value}: expected a finite number`);
+  if (integer && !Number.isInteger(value)) throw new RangeError(`${method}: ${arg} ${value}: expected an integer`);
+  if (value < min || value > max) throw new RangeError(`${method}: ${arg} ${value}: expected ${integer ? 'an integer' : 'a number'} from ${min} to ${max}`);
+  return value;
+}
+function bool(method, arg, value) {
+  if (typeof value !== 'boolean') throw new TypeError(`${method}: ${arg} must be true or false, got ${describe(value)}`);
+  return value;
+}
+function vec3(method, arg, value) {
+  if (!Array.isArray(value) && !ArrayBuffer.isView(value)) throw new TypeError(`${method}: ${arg} must be [x, y, z], got ${describe(value)}`);
+  if (value.length !== 3) throw new RangeError(`${method}: ${arg} has ${value.length} numbers: expected [x, y, z]`);
+  return Array.from(value, (v, i) => num(method, `${arg}[${i}]`, v));
+}
 
 /** The loop attribute's mode: absent or "" repeats, "false" plays once. */
 function loopMode(value) {
@@ -76,6 +131,7 @@ export class KloubViewer extends HTMLElement {
   #pendingTime = null;
   #teardown = null;
   #pickers = [];
+  #samples = [];
 
   constructor() {
     super();
@@ -193,6 +249,7 @@ export class KloubViewer extends HTMLElement {
         this.#mounting = null;
         return;
       }
+      if (this.#samples.length > 0) viewer.setSamples(JSON.stringify(this.#samples));
       if (this.hasAttribute('crossfade-duration')) viewer.setCrossfadeDuration(this.#crossfadeSeconds());
       if (this.hasAttribute('skinning')) viewer.setSkinning(this.getAttribute('skinning'));
     } catch (e) {
@@ -246,6 +303,20 @@ export class KloubViewer extends HTMLElement {
     return this.#viewer;
   }
 
+  /** Calls the viewer; what it throws reaches the page as an Error whose message starts with `method`. */
+  #call(method, fn) {
+    const viewer = this.#require();
+    try {
+      return fn(viewer);
+    } catch (e) {
+      if (e instanceof Error) {
+        if (!e.message.startsWith(`${method}:`)) e.message = `${method}: ${e.message}`;
+        throw e;
+      }
+      throw new RangeError(`${method}: ${String(e)}`);
+    }
+  }
+
   async #loadFiles(entries) {
     const names = entries.map((e) => e.name);
     const contents = await Promise.all(entries.map(async (e) => new Uint8Array(await e.file.arrayBuffer())));
@@ -255,20 +326,20 @@ export class KloubViewer extends HTMLElement {
   // ---- attributes as properties ----
 
   get src() { return this.getAttribute('src') ?? ''; }
-  set src(value) { this.setAttribute('src', value); }
+  set src(value) { this.setAttribute('src', url('src', 'value', value)); }
   get autoplay() { return this.hasAttribute('autoplay'); }
   set autoplay(on) { this.toggleAttribute('autoplay', Boolean(on)); }
   get animationName() { return this.dataset.clip ?? ''; }
-  set animationName(value) { this.setAttribute('animation-name', value); }
+  set animationName(value) { this.setAttribute('animation-name', str('animationName', 'value', value)); }
   get speed() {
     const s = Number(this.getAttribute('speed') ?? 1);
-    return Number.isFinite(s) ? s : 1;
+    return Number.isFinite(s) && Math.abs(s) <= MAX_SPEED ? s : 1;
   }
-  set speed(value) { this.setAttribute('speed', String(value)); }
+  set speed(value) { this.setAttribute('speed', String(num('speed', 'value', value, { min: -MAX_SPEED, max: MAX_SPEED }))); }
   get loop() { return loopMode(this.getAttribute('loop')); }
-  set loop(mode) { this.setAttribute('loop', mode); }
+  set loop(mode) { this.setAttribute('loop', oneOf('loop', 'mode', mode, [...LOOP_MODES])); }
   get skinning() { return this.dataset.skinning ?? this.getAttribute('skinning') ?? 'lbs'; }
-  set skinning(method) { this.setAttribute('skinning', method); }
+  set skinning(method) { this.setAttribute('skinning', oneOf('skinning', 'method', method, SKINNING)); }
   get backend() { return this.dataset.backend ?? ''; }
   get controls() { return this.hasAttribute('controls'); }
   set controls(on) { this.toggleAttribute('controls', Boolean(on)); }
@@ -276,15 +347,16 @@ export class KloubViewer extends HTMLElement {
   // ---- media-element vocabulary ----
 
   /** Runs every clock. */
-  play() { this.#require().play(); }
+  play() { this.#call('play', (v) => v.play()); }
   /** Stops every clock. */
-  pause() { this.#require().pause(); }
+  pause() { this.#call('pause', (v) => v.pause()); }
   get paused() { return this.dataset.playing !== 'true'; }
   get currentTime() { return this.#pendingTime ?? Number(this.dataset.time ?? 0); }
   set currentTime(seconds) {
-    this.#require().seek(Number(seconds));
+    num('currentTime', 'seconds', seconds);
+    this.#call('currentTime', (v) => v.seek(seconds));
     const d = this.duration;
-    this.#pendingTime = Math.min(Math.max(Number(seconds), 0), d > 0 ? d : Number(seconds));
+    this.#pendingTime = Math.min(Math.max(seconds, 0), d > 0 ? d : seconds);
   }
   get duration() { return Number(this.dataset.duration ?? 0) || 0; }
   get availableAnimations() { return JSON.parse(this.dataset.clips ?? '[]'); }
@@ -292,22 +364,46 @@ export class KloubViewer extends HTMLElement {
   get loaded() { return (this.dataset.model ?? '') !== '' && this.dataset.status !== 'loading'; }
 
   /** Crossfades to the clip `name` over `seconds` (default: crossfade-duration). */
-  crossfadeTo(name, seconds = this.#crossfadeSeconds()) { this.#require().crossfadeTo(name, seconds); }
+  crossfadeTo(name, seconds = this.#crossfadeSeconds()) {
+    const m = 'crossfadeTo';
+    str(m, 'name', name);
+    num(m, 'seconds', seconds, { min: 0, max: MAX_SECONDS });
+    this.#call(m, (v) => v.crossfadeTo(name, seconds));
+  }
   /** Plays `clip` on the subtree under the joint `rootJoint` with `weight` in [0, 1]; a null clip removes it. */
-  setLayer(clip, rootJoint, weight = 1) { this.#require().setLayer(clip, rootJoint, weight); }
+  setLayer(clip, rootJoint, weight = 1) {
+    const m = 'setLayer';
+    optStr(m, 'clip', clip);
+    if (clip === null || clip === undefined) optStr(m, 'rootJoint', rootJoint);
+    else str(m, 'rootJoint', rootJoint);
+    num(m, 'weight', weight, { min: 0, max: 1 });
+    this.#call(m, (v) => v.setLayer(clip ?? null, rootJoint ?? null, weight));
+  }
   /** Drags `joint` to the world point `[x, y, z]` by IK (`depth` joints above it turn); null clears every goal. */
   setIkTarget(joint, target, depth) {
-    const [x, y, z] = target ?? [];
-    this.#require().setIkTarget(joint ?? null, x, y, z, depth);
+    const m = 'setIkTarget';
+    optStr(m, 'joint', joint);
+    const point = target === null || target === undefined ? [] : vec3(m, 'target', target);
+    if (depth !== undefined && depth !== null) num(m, 'depth', depth, { min: 1, max: 31, integer: true });
+    const [x, y, z] = point;
+    this.#call(m, (v) => v.setIkTarget(joint ?? null, x, y, z, depth ?? undefined));
   }
   /**
    * The solver of `joint`'s IK goal ('ccd' | 'twobone' | 'fabrik' | 'dls') and its options:
    * `{ pole: [x, y, z] | null, softness, patternMove, iterations }` (left out: unchanged; no pole: none).
    */
   setIkSolver(joint, solver, options) {
+    const m = 'setIkSolver';
+    str(m, 'joint', joint);
+    oneOf(m, 'solver', solver, IK_SOLVERS);
     options ??= {};
-    const [x, y, z] = options.pole ?? [];
-    this.#require().setIkSolver(joint, solver, x, y, z, options.softness, options.patternMove, options.iterations);
+    if (typeof options !== 'object' || Array.isArray(options)) throw new TypeError(`${m}: options must be an object, got ${describe(options)}`);
+    const { pole, softness, patternMove, iterations } = options;
+    const [x, y, z] = pole === null || pole === undefined ? [] : vec3(m, 'options.pole', pole);
+    if (softness !== undefined) num(m, 'options.softness', softness, { min: 0, max: 0.5 });
+    if (patternMove !== undefined) bool(m, 'options.patternMove', patternMove);
+    if (iterations !== undefined) num(m, 'options.iterations', iterations, { min: 1, max: 128, integer: true });
+    this.#call(m, (v) => v.setIkSolver(joint, solver, x, y, z, softness, patternMove, iterations));
   }
 
   /**
@@ -315,6 +411,19 @@ export class KloubViewer extends HTMLElement {
    * Resolves with the model's name after its first painted frame; rejects with its error.
    */
   load(urlOrFiles) {
+    const m = 'load';
+    let files = null;
+    if (typeof urlOrFiles === 'string' || urlOrFiles instanceof URL) {
+      url(m, 'urlOrFiles', String(urlOrFiles));
+    } else if (urlOrFiles !== null && typeof urlOrFiles === 'object' && typeof urlOrFiles.length === 'number') {
+      files = Array.from(urlOrFiles);
+      if (files.length === 0) throw new RangeError(`${m}: urlOrFiles is empty: expected a URL or at least one File`);
+      if (!files.every((f) => f instanceof Blob && typeof f.name === 'string')) {
+        throw new TypeError(`${m}: urlOrFiles must be a URL string, a URL, a FileList or an array of File`);
+      }
+    } else {
+      throw new TypeError(`${m}: urlOrFiles must be a URL string, a URL, a FileList or an array of File, got ${describe(urlOrFiles)}`);
+    }
     const viewer = this.#require();
     const done = new Promise((resolve, reject) => {
       const ok = (e) => { off(); resolve(e.detail.name); };
@@ -323,52 +432,166 @@ export class KloubViewer extends HTMLElement {
       this.addEventListener('load', ok);
       this.addEventListener('error', bad);
     });
-    if (typeof urlOrFiles === 'string' || urlOrFiles instanceof URL) {
+    if (files === null) {
       viewer.loadUrl(String(urlOrFiles));
     } else {
-      const files = [...urlOrFiles].map((file) => ({ name: file.webkitRelativePath || file.name, file }));
-      this.#loadFiles(files).catch((e) => this.#fail(String(e)));
+      const entries = files.map((file) => ({ name: file.webkitRelativePath || file.name, file }));
+      this.#loadFiles(entries).catch((e) => this.#fail(String(e)));
     }
     return done;
   }
 
   // ---- the rest of the viewer ----
 
-  playClip(name) { this.#require().playClip(name); }
-  seek(seconds) { this.currentTime = seconds; }
-  setSpeed(speed) { this.speed = speed; }
-  setLoop(mode) { this.#require().setLoop(mode); }
-  setBlend(names, weights) { this.#require().setBlend(names, Float32Array.from(weights)); }
-  setSkinning(method) { this.#require().setSkinning(method); }
-  setSkinningPath(path) { this.#require().setSkinningPath(path); }
-  setHeatmap(on) { this.#require().setHeatmap(Boolean(on)); }
-  setGrid(on) { this.#require().setGrid(Boolean(on)); }
+  playClip(name) {
+    optStr('playClip', 'name', name);
+    this.#call('playClip', (v) => v.playClip(name ?? null));
+  }
+  seek(seconds) {
+    num('seek', 'seconds', seconds);
+    this.currentTime = seconds;
+  }
+  setSpeed(speed) {
+    num('setSpeed', 'speed', speed, { min: -MAX_SPEED, max: MAX_SPEED });
+    this.speed = speed;
+  }
+  setLoop(mode) {
+    oneOf('setLoop', 'mode', mode, [...LOOP_MODES]);
+    this.#call('setLoop', (v) => v.setLoop(mode));
+  }
+  setBlend(names, weights) {
+    const m = 'setBlend';
+    if (!Array.isArray(names)) throw new TypeError(`${m}: names must be an array of clip names, got ${describe(names)}`);
+    if (!Array.isArray(weights) && !ArrayBuffer.isView(weights)) throw new TypeError(`${m}: weights must be an array of numbers, got ${describe(weights)}`);
+    if (names.length !== weights.length) throw new RangeError(`${m}: ${names.length} names but ${weights.length} weights`);
+    if (names.length > MAX_LIST) throw new RangeError(`${m}: ${names.length} clips: at most ${MAX_LIST}`);
+    names.forEach((n, i) => str(m, `names[${i}]`, n));
+    const w = Array.from(weights, (x, i) => num(m, `weights[${i}]`, x, { min: 0, max: 1e6 }));
+    this.#call(m, (v) => v.setBlend(names, Float32Array.from(w)));
+  }
+  setSkinning(method) {
+    oneOf('setSkinning', 'method', method, SKINNING);
+    this.#call('setSkinning', (v) => v.setSkinning(method));
+  }
+  setSkinningPath(path) {
+    oneOf('setSkinningPath', 'path', path, SKINNING_PATHS);
+    this.#call('setSkinningPath', (v) => v.setSkinningPath(path));
+  }
+  setHeatmap(on) {
+    bool('setHeatmap', 'on', on);
+    this.#call('setHeatmap', (v) => v.setHeatmap(on));
+  }
+  setGrid(on) {
+    bool('setGrid', 'on', on);
+    this.#call('setGrid', (v) => v.setGrid(on));
+  }
   /** Overlays: `{ skeleton, bounds, wireframe, normals, bodies }` (missing keys: off). */
-  setOverlays({ skeleton = false, bounds = false, wireframe = false, normals = false, bodies = false } = {}) {
-    this.#require().setOverlays(Boolean(skeleton), Boolean(bounds), Boolean(wireframe), Boolean(normals), Boolean(bodies));
+  setOverlays(overlays = {}) {
+    const m = 'setOverlays';
+    if (overlays === null || typeof overlays !== 'object' || Array.isArray(overlays)) {
+      throw new TypeError(`${m}: expected an object such as { skeleton: true }, got ${describe(overlays)}`);
+    }
+    const keys = ['skeleton', 'bounds', 'wireframe', 'normals', 'bodies'];
+    const on = keys.map((k) => (overlays[k] === undefined ? false : bool(m, k, overlays[k])));
+    this.#call(m, (v) => v.setOverlays(...on));
   }
   /** Drops the character as a ragdoll from the pose on screen. */
-  startRagdoll() { this.#require().startRagdoll(); }
+  startRagdoll() { this.#call('startRagdoll', (v) => v.startRagdoll()); }
   /** Ends the ragdoll: at once, or blending back to the animation over `seconds`. */
-  stopRagdoll(seconds) { this.#require().stopRagdoll(seconds ?? undefined); }
+  stopRagdoll(seconds) {
+    if (seconds !== undefined && seconds !== null) num('stopRagdoll', 'seconds', seconds, { min: 0, max: MAX_SECONDS });
+    this.#call('stopRagdoll', (v) => v.stopRagdoll(seconds ?? undefined));
+  }
   /** Ragdoll gravity (m/s² for a person-sized body) and damping. */
-  setRagdollOptions({ gravity = 9.81, damping = 0.5 } = {}) { this.#require().setRagdollOptions(gravity, damping); }
+  setRagdollOptions(options = {}) {
+    const m = 'setRagdollOptions';
+    if (options === null || typeof options !== 'object' || Array.isArray(options)) {
+      throw new TypeError(`${m}: expected { gravity, damping }, got ${describe(options)}`);
+    }
+    const { gravity = 9.81, damping = 0.5 } = options;
+    num(m, 'gravity', gravity, { min: -1000, max: 1000 });
+    num(m, 'damping', damping, { min: 0, max: 1000 });
+    this.#call(m, (v) => v.setRagdollOptions(gravity, damping));
+  }
   /** Selects a joint by name (axes drawn, channels plotted in the panel); null clears. */
-  selectJoint(name) { this.#require().selectJoint(name ?? null); }
+  selectJoint(name) {
+    optStr('selectJoint', 'name', name);
+    this.#call('selectJoint', (v) => v.selectJoint(name ?? null));
+  }
   /** Holds morph target `target` (index or name) of the mesh on `node` at `weight`; null lets the clip drive it. */
-  setMorphWeight(node, target, weight) { this.#require().setMorphWeight(node, target, weight ?? undefined); }
+  setMorphWeight(node, target, weight) {
+    const m = 'setMorphWeight';
+    str(m, 'node', node);
+    if (typeof target === 'number') num(m, 'target', target, { min: 0, max: 65535, integer: true });
+    else if (typeof target !== 'string') throw new TypeError(`${m}: target must be an index or a name, got ${describe(target)}`);
+    else str(m, 'target', target);
+    if (weight !== undefined && weight !== null) num(m, 'weight', weight, { min: -10, max: 10 });
+    this.#call(m, (v) => v.setMorphWeight(node, target, weight ?? undefined));
+  }
   /** Lighting preset: studio, outdoor, flat or rim. */
-  setLighting(name) { this.#require().setLighting(name); }
+  setLighting(name) {
+    oneOf('setLighting', 'name', name, LIGHTING);
+    this.#call('setLighting', (v) => v.setLighting(name));
+  }
   /** Background: dark, grey or light. */
-  setBackground(name) { this.#require().setBackground(name); }
+  setBackground(name) {
+    oneOf('setBackground', 'name', name, BACKGROUNDS);
+    this.#call('setBackground', (v) => v.setBackground(name));
+  }
   /** Downloads the view as `<model>.png`. */
-  screenshot() { this.#require().screenshot(); }
-  setCopies(n) { this.#require().setCopies(n); }
-  loadSample(name) { this.#require().loadSample(name); }
-  setCandyPose(twist, bend) { this.#require().setCandyPose(twist, bend); }
+  screenshot() { this.#call('screenshot', (v) => v.screenshot()); }
+  setCopies(n) {
+    num('setCopies', 'n', n, { min: 1, max: MAX_COPIES, integer: true });
+    this.#call('setCopies', (v) => v.setCopies(n));
+  }
+  /**
+   * Shows a sample: a model of the `samples` library by name (fetched from its URL), or a built-in one
+   * (`'candy-wrapper'`). Unknown names throw a RangeError listing the names there are.
+   */
+  loadSample(name) {
+    str('loadSample', 'name', name);
+    const viewer = this.#require();
+    const entry = this.#samples.find((s) => s.name === name);
+    if (entry) {
+      viewer.loadUrl(entry.url);
+      return;
+    }
+    try {
+      viewer.loadSample(name);
+    } catch (e) {
+      const library = this.#samples.map((s) => s.name);
+      throw new RangeError(`loadSample: ${e instanceof Error ? e.message : e}${library.length > 0 ? `, ${library.join(', ')}` : ''}`);
+    }
+  }
+  /**
+   * The Samples menu's library: `[{name, url, attribution?, licence?, clips?, joints?, size?, default?}]`, the
+   * shape of `kloub serve`'s `/api/assets` (the app page sets it from there). Entries without a name or URL are
+   * left out; setting anything but an array throws a TypeError.
+   */
+  get samples() { return this.#samples.map((s) => ({ ...s })); }
+  set samples(list) {
+    if (!Array.isArray(list)) throw new TypeError('samples: expected an array of {name, url, …}');
+    this.#samples = list
+      .filter((s) => s && typeof s === 'object' && typeof s.name === 'string' && s.name !== '' && typeof s.url === 'string' && s.url !== '' && !s.error)
+      .map((s) => ({ ...s }));
+    if (this.#samples.length > MAX_LIST) throw new RangeError(`samples: ${this.#samples.length} entries: at most ${MAX_LIST}`);
+    this.#viewer?.setSamples(JSON.stringify(this.#samples));
+  }
+  setCandyPose(twist, bend) {
+    num('setCandyPose', 'twist', twist, { min: -720, max: 720 });
+    num('setCandyPose', 'bend', bend, { min: -720, max: 720 });
+    this.#call('setCandyPose', (v) => v.setCandyPose(twist, bend));
+  }
   /** The camera as [yaw, pitch, distance, targetX, targetY, targetZ] (radians, model units). */
   get camera() { return (this.dataset.camera ?? '').split(',').filter((v) => v !== '').map(Number); }
-  set camera(values) { this.#require().setCamera(...values); }
+  set camera(values) {
+    const m = 'camera';
+    if (!Array.isArray(values) && !ArrayBuffer.isView(values)) throw new TypeError(`${m}: expected [yaw, pitch, distance, x, y, z], got ${describe(values)}`);
+    if (values.length !== 6) throw new RangeError(`${m}: ${values.length} numbers: expected 6 ([yaw, pitch, distance, x, y, z])`);
+    const [yaw, pitch, distance, x, y, z] = Array.from(values, (v, i) => num(m, `[${i}]`, v));
+    if (!(distance > 0)) throw new RangeError(`${m}: distance ${distance}: expected a positive number`);
+    this.#call(m, (v) => v.setCamera(yaw, pitch, distance, x, y, z));
+  }
   /** Every mirrored state value (a copy of the data-* attributes). */
   get state() { return { ...this.dataset }; }
 }

@@ -4,7 +4,7 @@
 //! ```text
 //! cargo bench -p kloub-core --bench frame -- --warm-up-time 1 --measurement-time 3
 //! ```
-//! Samples come from `../shared/assets` beside the checkout, or `$KLOUB_SHARED_ASSETS`.
+//! Samples come from `tests/assets` in the repository, or `$KLOUB_SHARED_ASSETS`.
 //!
 //! - `jobs`: one clip, raw jobs (SampleJob into a pose, WorldJob), no palettes;
 //! - `pose`: an [`Animator`] playing one clip: advance + sample + blend + world transforms of all

@@ -50,7 +50,7 @@ fn targets(parents: &[Option<NodeIndex>], rest: &[Transform], chain: &IkChain) -
 fn ik(c: &mut Criterion) {
     let dir = std::env::var_os("KLOUB_SHARED_ASSETS")
         .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/assets"));
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../tests/assets"));
     let bytes = std::fs::read(dir.join("khronos/RiggedFigure/glTF-Binary/RiggedFigure.glb")).expect("RiggedFigure.glb");
     let asset = kloub_core::import(&bytes, &NoResolver, &Default::default()).expect("imports").asset;
     let figure_parents: Vec<Option<NodeIndex>> = asset.nodes.iter().map(|n| n.parent).collect();

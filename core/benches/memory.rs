@@ -66,7 +66,7 @@ fn main() {
     // `cargo bench` passes `--bench`; this binary takes no options.
     let root = std::env::var_os("KLOUB_SHARED_ASSETS")
         .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/assets"));
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../tests/assets"));
     println!(
         "| Sample | File | Peak during import | Asset kept | + Instance | + Animator (1 clip) | + Animator (crossfade + layer) |"
     );

@@ -27,7 +27,7 @@ const INTO_FALL: u32 = 20;
 
 fn load(rel: &str) -> Asset {
     let root = std::env::var_os("KLOUB_SHARED_ASSETS")
-        .map_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/assets"), PathBuf::from);
+        .map_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../tests/assets"), PathBuf::from);
     let bytes = std::fs::read(root.join(rel)).unwrap_or_else(|e| panic!("{rel}: {e}"));
     kloub_core::import(&bytes, &NoResolver, &Default::default()).unwrap_or_else(|e| panic!("{rel}: {e}")).asset
 }

@@ -21,7 +21,7 @@ use skin_workload::{VERTICES, Workload};
 fn skin(c: &mut Criterion) {
     let dir = std::env::var_os("KLOUB_SHARED_ASSETS")
         .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/assets"));
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../tests/assets"));
     let bytes = std::fs::read(dir.join("khronos/CesiumMan/glTF-Binary/CesiumMan.glb")).expect("CesiumMan.glb");
     let asset = kloub_core::import(&bytes, &NoResolver, &Default::default()).expect("imports").asset;
     let mut work = Workload::new(&asset);

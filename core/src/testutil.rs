@@ -6,11 +6,11 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 use std::path::PathBuf;
 
-/// `../shared/assets` beside the checkout, or `$KLOUB_SHARED_ASSETS`.
+/// `tests/assets` in the repository, or `$KLOUB_SHARED_ASSETS`.
 pub fn shared_assets() -> PathBuf {
     std::env::var_os("KLOUB_SHARED_ASSETS")
         .map(PathBuf::from)
-        .unwrap_or_else(|| std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/assets"))
+        .unwrap_or_else(|| std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/assets"))
 }
 
 /// Imports a shared sample (path relative to [`shared_assets`]) without external files.

@@ -42,7 +42,7 @@ fn median_ms(mut run: impl FnMut()) -> f64 {
 
 #[wasm_bindgen_test]
 fn skinning_vertices_per_second_in_node() {
-    let bytes = include_bytes!("../../../shared/assets/khronos/CesiumMan/glTF-Binary/CesiumMan.glb");
+    let bytes = include_bytes!("../../tests/assets/khronos/CesiumMan/glTF-Binary/CesiumMan.glb");
     let asset = kloub_core::import(bytes, &NoResolver, &Default::default()).expect("imports").asset;
     let mut work = Workload::new(&asset);
     let rate = |ms: f64| VERTICES as f64 / (ms / 1000.0) / 1e6;

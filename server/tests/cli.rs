@@ -10,11 +10,11 @@ fn kloub() -> Command {
     Command::new(env!("CARGO_BIN_EXE_kloub"))
 }
 
-/// `../shared/assets` beside the checkout, overridable with `KLOUB_SHARED_ASSETS`.
+/// `tests/assets` in the repository, overridable with `KLOUB_SHARED_ASSETS`.
 fn shared_assets() -> PathBuf {
     std::env::var_os("KLOUB_SHARED_ASSETS")
         .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/assets"))
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../tests/assets"))
 }
 
 fn rigged_simple() -> PathBuf {

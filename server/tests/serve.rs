@@ -309,6 +309,8 @@ fn api_assets_lists_models_with_files_licences_clips_and_errors() {
         assert_eq!(fox["url"], "/assets/Fox.glb");
         assert_eq!(fox["files"], serde_json::json!(["/assets/Fox.glb"]));
         assert_eq!(fox["licence"], "CC0 fox");
+        assert_eq!(fox["attribution"], "CC0 fox");
+        assert_eq!(fox["default"], true, "{mode}: Fox.glb is what /models/default.glb serves");
         assert_eq!(fox["clips"], serde_json::json!(["Survey", "Walk", "Run"]));
         assert_eq!(fox["joints"], 24);
         assert!(fox.get("error").is_none(), "{mode}: {fox}");
@@ -334,6 +336,7 @@ fn api_assets_lists_models_with_files_licences_clips_and_errors() {
         assert_eq!(cesium_entry["clips"].as_array().map(Vec::len), Some(1));
         let licence = cesium_entry["licence"].as_str().unwrap_or_default();
         assert!(licence.contains("Cesium Man"), "{mode}: the folder above's LICENSE.md");
+        assert_eq!(cesium_entry["default"], false);
 
         let broken = &entries[2];
         assert_eq!(broken["url"], "/assets/sub/Man.gltf");
@@ -431,4 +434,27 @@ fn the_default_configuration_serves_the_embedded_bundle_and_samples() {
         let body = if r.header("content-encoding") == Some("gzip") { gunzip(&r.body) } else { r.body };
         assert_eq!(&body[..], &wasm[..]);
     }
+}
+
+/// The sample library a fresh clone serves (the Samples menu lists it): each model imports, has
+/// its licence and a one-line attribution, and Fox is the default.
+#[test]
+fn the_bundled_sample_library_lists_every_sample_with_its_licence() {
+    let index = kloub_server::serve::index::build(&files::Root::Memory(embedded::assets()));
+    let names: Vec<&str> = index.iter().map(|e| e.name.as_str()).collect();
+    for want in ["Fox", "CesiumMan", "RiggedFigure", "RobotExpressive", "Knight", "AnimatedMorphSphere"] {
+        assert!(names.contains(&want), "{want} missing from the library: {names:?}");
+    }
+    for entry in &index {
+        assert_eq!(entry.error, None, "{}", entry.name);
+        assert!(!entry.clips.is_empty(), "{}: every sample animates", entry.name);
+        let licence = entry.licence.as_deref().unwrap_or_default();
+        assert!(licence.contains("CC0") || licence.contains("CC BY 4.0"), "{}: {licence}", entry.name);
+        let attribution = entry.attribution.as_deref().unwrap_or_default();
+        assert!(attribution.len() > 20 && !attribution.starts_with('#'), "{}: {attribution:?}", entry.name);
+    }
+    let defaults: Vec<&str> = index.iter().filter(|e| e.default).map(|e| e.name.as_str()).collect();
+    assert_eq!(defaults, ["Fox"]);
+    let knight = index.iter().find(|e| e.name == "Knight").map(|e| e.clips.len());
+    assert_eq!(knight, Some(76));
 }

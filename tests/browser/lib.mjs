@@ -6,7 +6,7 @@ import { chromium } from 'playwright-core';
 import { PNG } from 'pngjs';
 
 export const ROOT = resolve(import.meta.dirname, '../..');
-export const SHARED = process.env.KLOUB_SHARED_ASSETS ?? resolve(ROOT, '../shared/assets');
+export const SHARED = process.env.KLOUB_SHARED_ASSETS ?? resolve(ROOT, 'tests/assets');
 
 const BASE_FLAGS = [
   '--headless', '--no-sandbox', '--disable-quic', '--no-first-run', '--disable-background-networking',
@@ -15,10 +15,10 @@ const BASE_FLAGS = [
 // All four are needed for WebGPU on SwiftShader (see TOOLCHAIN.md).
 const WEBGPU_FLAGS = ['--enable-unsafe-webgpu', '--use-angle=swiftshader', '--enable-features=Vulkan', '--use-vulkan=swiftshader'];
 
-/** Starts `kloub serve` on a free loopback port; resolves to { url, stop() }. */
-export async function startServer() {
+/** Starts `kloub serve` on a free loopback port (the sample library, or `assets`); resolves to { url, stop() }. */
+export async function startServer({ assets = join(ROOT, 'web/assets') } = {}) {
   const bin = join(ROOT, 'target/debug/kloub');
-  const child = spawn(bin, ['serve', '--addr', '127.0.0.1:0', '--dist', join(ROOT, 'web/dist'), '--assets', join(ROOT, 'web/assets')], {
+  const child = spawn(bin, ['serve', '--addr', '127.0.0.1:0', '--dist', join(ROOT, 'web/dist'), '--assets', assets], {
     stdio: ['ignore', 'pipe', 'pipe'],
   });
   const url = await new Promise((ok, fail) => {

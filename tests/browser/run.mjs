@@ -1,6 +1,7 @@
 // Kloub browser tests: drive the real page served by `kloub serve` in Debian chromium, on WebGPU and WebGL2.
 // Prints one line per test and closes with "browser: N passed, M failed"; exits 1 on any failure.
-import { readFileSync } from 'node:fs';
+import { copyFileSync, mkdirSync, mkdtempSync, readFileSync, rmSync, writeFileSync } from 'node:fs';
+import { tmpdir } from 'node:os';
 import { join } from 'node:path';
 import {
   SHARED, control, dataset, diffFraction, dropFiles, nonBackgroundFraction, openBrowser, pageUrl, recordEvents, savePng,
@@ -57,7 +58,10 @@ function assert(cond, msg) { if (!cond) throw new Error(msg); }
 /** Opens the app for `backend` and waits for the default model. */
 async function openApp(ctx, backend) {
   await ctx.page.goto(pageUrl(ctx.url, backend));
-  await waitForDataset(ctx.page, () => document.querySelector('kloub-viewer').dataset.status === 'ready', 'the default model to be ready');
+  await waitForDataset(ctx.page, () => {
+    const d = document.querySelector('kloub-viewer').dataset;
+    return d.status === 'ready' && (d.model ?? '') !== '';
+  }, 'the default model to be ready');
   const ds = await dataset(ctx.page);
   assert(ds.backend === backend, `expected backend ${backend}, page reports ${ds.backend}`);
   return ds;
@@ -392,6 +396,115 @@ for (const backend of BACKENDS) {
     await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.model === 'CesiumMan.gltf' && document.querySelector('kloub-viewer').dataset.status === 'ready', 'CesiumMan from the file chooser');
   });
 
+  test(`${backend}: the Samples menu lists the server's library with credits; a sample loads and the link keeps it`, async (ctx) => {
+    const { page } = ctx;
+    await openApp(ctx, backend);
+    // app.js hands /api/assets to the element: every bundled sample, each with its credit.
+    await page.waitForFunction(() => document.querySelector('kloub-viewer').samples.length > 0, null, { timeout: 10000 });
+    const samples = await page.evaluate(() => document.querySelector('kloub-viewer').samples);
+    const names = samples.map((s) => s.name);
+    for (const want of ['AnimatedMorphSphere', 'CesiumMan', 'Fox', 'Knight', 'RiggedFigure', 'RobotExpressive']) {
+      assert(names.includes(want), `${want} missing from the library: ${names}`);
+    }
+    assert(samples.every((s) => (s.attribution ?? '').length > 20), 'every sample has a credit line');
+    // The menu as a user opens it: "Samples" left of "Open" in the panel's header row, its first entry below.
+    const ds = await dataset(page);
+    const panelRight = Number(ds.viewport.split(',')[0]);
+    await page.mouse.click(panelRight - 80, 18);
+    await waitFrames(page, 3);
+    await page.waitForTimeout(200);
+    const menu = await viewportShot(page, 'body');
+    await page.mouse.click(panelRight - 80, 46);
+    await waitForDataset(page, () => {
+      const d = document.querySelector('kloub-viewer').dataset;
+      return d.model === 'AnimatedMorphSphere.glb' && d.status === 'ready';
+    }, 'the first sample from the Samples menu').catch((e) => {
+      savePng(menu, `${backend}-samples-menu.png`);
+      throw e;
+    });
+    assert((await dataset(page)).src === '/assets/AnimatedMorphSphere/AnimatedMorphSphere.glb', 'data-src is the sample URL');
+    // From a page script, by name; the link carries it.
+    await control(page, 'loadSample', 'CesiumMan');
+    await waitForDataset(page, () => {
+      const d = document.querySelector('kloub-viewer').dataset;
+      return d.model === 'CesiumMan.glb' && d.status === 'ready' && d.src === '/assets/CesiumMan/CesiumMan.glb';
+    }, 'CesiumMan by loadSample');
+    await page.waitForFunction(() => decodeURIComponent(location.hash).includes('src=/assets/CesiumMan/CesiumMan.glb'), null, { timeout: 10000 });
+    const thrown = await page.evaluate(() => {
+      try { document.querySelector('kloub-viewer').loadSample('Nobody'); return null; } catch (e) { return `${e.name}: ${e.message}`; }
+    });
+    assert(thrown?.startsWith('RangeError') && thrown.includes('candy-wrapper') && thrown.includes('RobotExpressive'), `unknown sample: ${thrown}`);
+    const link = await page.evaluate(() => location.href);
+    await page.goto('about:blank');
+    await page.goto(link);
+    await waitForDataset(page, () => {
+      const d = document.querySelector('kloub-viewer').dataset;
+      return d.model === 'CesiumMan.glb' && d.status === 'ready';
+    }, 'CesiumMan again from the link');
+  });
+
+  test(`${backend}: hostile arguments to every method: no wasm trap, every throw a TypeError/RangeError naming its method`, async (ctx) => {
+    const { page } = ctx;
+    const before = await openApp(ctx, backend);
+    const report = await page.evaluate(async () => {
+      const el = document.querySelector('kloub-viewer');
+      const hostile = [NaN, Infinity, -Infinity, 1e308, -1e308, 2 ** 53, 1.5, 'x'.repeat(100000), 'no such name', {}, [], [1, 2], null, undefined, true, 10n, Symbol('s'), () => 0];
+      // Each method with a valid argument list; every position gets every hostile value, the others staying valid.
+      const valid = {
+        crossfadeTo: ['Run', 0.2], setLayer: ['Survey', 'b_Neck_04', 0.5], setIkTarget: ['b_Head_05', [0, 1, 0], 2],
+        setIkSolver: ['b_Head_05', 'ccd', { iterations: 8 }], playClip: ['Walk'], seek: [0.2], setSpeed: [1],
+        setLoop: ['repeat'], setBlend: [['Walk'], [1]], setSkinning: ['lbs'], setSkinningPath: ['gpu'], setHeatmap: [false],
+        setGrid: [true], setOverlays: [{ skeleton: false }], stopRagdoll: [0], setRagdollOptions: [{ gravity: 9.81 }],
+        selectJoint: ['b_Head_05'], setMorphWeight: ['fox', 0, 0.5], setLighting: ['studio'], setBackground: ['dark'],
+        setCopies: [1], loadSample: ['Fox'], setCandyPose: [0, 0], load: [[]],
+      };
+      const setters = { currentTime: 0.1, speed: 1, camera: [0.5, 0.3, 200, 0, 30, 0], loop: 'repeat', skinning: 'lbs', animationName: 'Walk', src: '/models/default.glb' };
+      const calls = [];
+      for (const [method, args] of Object.entries(valid)) {
+        for (let pos = 0; pos < args.length; pos++) {
+          for (const h of hostile) {
+            const a = args.slice();
+            a[pos] = h;
+            calls.push([method, () => el[method](...a)]);
+          }
+        }
+      }
+      for (const [prop] of Object.entries(setters)) for (const h of hostile) calls.push([prop, () => { el[prop] = h; }]);
+      let traps = [];
+      let bad = [];
+      let thrown = 0;
+      const check = (method, e) => {
+        if (e instanceof WebAssembly.RuntimeError || String(e?.message ?? e).includes('memory access out of bounds') || String(e?.message ?? e).includes('unreachable')) traps.push(`${method}: ${e}`);
+        else if (!(e instanceof TypeError || e instanceof RangeError) || !e.message.startsWith(`${method}:`)) bad.push(`${method}: ${e?.constructor?.name} ${String(e?.message ?? e).slice(0, 120)}`);
+        else thrown++;
+      };
+      const pending = [];
+      for (const [method, call] of calls) {
+        try {
+          const r = call();
+          if (r instanceof Promise) pending.push(r.catch((e) => { if (!(e instanceof Error)) bad.push(`${method}: rejected with ${typeof e}`); }));
+        } catch (e) {
+          check(method, e);
+        }
+      }
+      await Promise.race([Promise.all(pending), new Promise((r) => setTimeout(r, 5000))]);
+      return { calls: calls.length, thrown, traps, bad };
+    });
+    assert(report.traps.length === 0, `wasm traps: ${report.traps.slice(0, 5).join('; ')}`);
+    assert(report.bad.length === 0, `${report.bad.length} throws that are not TypeError/RangeError naming the method: ${report.bad.slice(0, 8).join('; ')}`);
+    assert(report.thrown > report.calls / 2, `only ${report.thrown} of ${report.calls} hostile calls were refused`);
+    // The model stays and the viewer still animates.
+    await control(page, 'setSpeed', 1);
+    await control(page, 'play');
+    await waitFrames(page, 3);
+    const after = await dataset(page);
+    assert(after.model === before.model, `the model changed: ${before.model} -> ${after.model}`);
+    const t0 = Number(after.time);
+    await page.waitForFunction((t) => Number(document.querySelector('kloub-viewer').dataset.time) !== t, t0, { timeout: 10000 });
+    const errors = ctx.logs.filter((l) => l.startsWith('[pageerror]'));
+    assert(errors.length === 0, `page errors: ${errors.slice(0, 3).join('; ')}`);
+  });
+
   test(`${backend}: Open → Folder… takes a whole folder; the .gltf's files resolve inside it`, async (ctx) => {
     const { page } = ctx;
     await openApp(ctx, backend);
@@ -457,12 +570,22 @@ for (const backend of BACKENDS) {
     await control(page, 'setSkinning', 'dqs');
     await control(page, 'setLayer', 'Survey', 'b_Neck_04', 0.6);
     await page.evaluate(() => { document.querySelector('kloub-viewer').camera = [0.9, 0.35, 260, 5, 40, -10]; });
+    await control(page, 'setLoop', 'pingpong');
+    await control(page, 'setOverlays', { skeleton: true, bounds: true });
+    await control(page, 'setBackground', 'light');
+    await control(page, 'setLighting', 'rim');
+    await control(page, 'setGrid', false);
+    await control(page, 'setHeatmap', true);
+    await control(page, 'setCopies', 2);
+    await control(page, 'setSkinningPath', 'cpu');
     await control(page, 'seek', 0.3);
     await waitForDataset(page, () => {
       const d = document.querySelector('kloub-viewer').dataset;
-      return d.clip === 'Run' && d.time === '0.300' && d.playing === 'false' && d.speed === '1.500' && d.skinning === 'dqs' && d.layer.startsWith('Survey@') && d.camera.startsWith('0.90000,');
+      return d.clip === 'Run' && d.time === '0.300' && d.playing === 'false' && d.speed === '1.500' && d.skinning === 'dqs' && d.layer.startsWith('Survey@') && d.camera.startsWith('0.90000,')
+        && d.loop === 'pingpong' && d.overlays === 'skeleton,bounds' && d.background === 'light' && d.lighting === 'rim' && d.grid === 'false'
+        && d.heatmap === 'true' && d.copies === '2' && d.skinningPath === 'cpu';
     }, 'the view to be set');
-    await page.waitForFunction(() => location.hash.includes('camera=0.90000') && location.hash.includes('t=0.300'), null, { timeout: 10000 });
+    await page.waitForFunction(() => location.hash.includes('camera=0.90000') && location.hash.includes('t=0.300') && location.hash.includes('copies=2') && location.hash.includes('path=cpu'), null, { timeout: 10000 });
     const hash = await page.evaluate(() => location.hash);
     const before = await dataset(page);
     const shotBefore = await viewportShot(page);
@@ -471,12 +594,12 @@ for (const backend of BACKENDS) {
     await page.goto(`${pageUrl(ctx.url, backend)}${hash}`);
     await waitForDataset(page, (t) => {
       const d = document.querySelector('kloub-viewer').dataset;
-      return d.model === 'Fox.glb' && d.status === 'ready' && d.time === t && d.camera.startsWith('0.90000,');
+      return d.model === 'Fox.glb' && d.status === 'ready' && d.time === t && d.camera.startsWith('0.90000,') && d.copies === '2';
     }, 'the view from the hash', 60000, before.time);
     // Paused: the frame that published this state is the last one; two animation frames later it is on screen.
     await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
     const after = await dataset(page);
-    for (const key of ['model', 'clip', 'time', 'playing', 'speed', 'layer', 'skinning', 'camera']) {
+    for (const key of ['model', 'src', 'clip', 'time', 'playing', 'speed', 'layer', 'skinning', 'skinningPath', 'camera', 'loop', 'overlays', 'background', 'lighting', 'grid', 'heatmap', 'copies']) {
       assert(after[key] === before[key], `${key}: ${before[key]} before, ${after[key]} from the hash (${hash})`);
     }
     const shotAfter = await viewportShot(page);
@@ -540,15 +663,51 @@ test('<kloub-viewer>: changing backend remounts on the other renderer; a removed
   assert(errors.length === 0, `page errors: ${errors.join('; ')}`);
 });
 
+test('kloub serve --assets: a library without Fox opens its first model; an empty one shows the empty state, no error', async (ctx) => {
+  const { page } = ctx;
+  const base = mkdtempSync(join(tmpdir(), 'kloub-first-'));
+  const [one, empty] = [join(base, 'one'), join(base, 'empty')];
+  mkdirSync(join(one, 'figures'), { recursive: true });
+  mkdirSync(empty);
+  copyFileSync(RIGGED_FIGURE, join(one, 'figures/RiggedFigure.glb'));
+  writeFileSync(join(one, 'broken.glb'), 'not a model');
+  for (const [dir, want] of [[one, 'RiggedFigure.glb'], [empty, '']]) {
+    const server = await startServer({ assets: dir });
+    try {
+      await page.goto(`${server.url}/`);
+      await waitForDataset(page, () => {
+        const d = document.querySelector('kloub-viewer').dataset;
+        return d.status === 'ready' && Number(d.frames) > 3;
+      }, `the page on ${dir} to settle`);
+      await page.waitForTimeout(500);
+      const d = await dataset(page);
+      assert(d.status === 'ready' && (d.error ?? '') === '', `${dir}: status ${d.status}, error ${d.error}`);
+      assert((d.model ?? '') === want, `${dir}: shows ${JSON.stringify(d.model)}, expected ${JSON.stringify(want)}`);
+      if (want) assert(d.src === '/assets/figures/RiggedFigure.glb', `data-src ${d.src}`);
+    } finally {
+      server.stop();
+    }
+  }
+  rmSync(base, { recursive: true, force: true });
+});
+
 test('hash-state.js: a view round-trips through the hash; malformed keys are dropped', async () => {
   const { viewToHash, hashToView } = await import('../../web/hash-state.js');
   const state = { clip: 'Run', time: '0.300', playing: 'false', speed: '1.500', layer: 'Survey@b_Neck_04:0.60', skinning: 'dqs', camera: '0.9,0.35,260,5,40,-10' };
-  const view = hashToView(viewToHash(state, '/assets/Fox.glb'));
+  const hash = viewToHash(state, '/assets/Fox.glb');
+  assert(hash.startsWith('#v=1&'), `versioned: ${hash}`);
+  const view = hashToView(hash);
   const want = { src: '/assets/Fox.glb', clip: 'Run', time: 0.3, paused: true, speed: 1.5, layer: { clip: 'Survey', root: 'b_Neck_04', weight: 0.6 }, skinning: 'dqs', camera: [0.9, 0.35, 260, 5, 40, -10] };
   assert(JSON.stringify(view) === JSON.stringify(want), `round trip: ${JSON.stringify(view)}`);
   assert(viewToHash({ playing: 'true', speed: '1.000', skinning: 'lbs' }, null) === '', 'defaults make no hash');
-  const bad = hashToView('#t=abc&speed=&camera=1,2,3&layer=nothing&clip=');
+  const warnings = [];
+  const bad = hashToView('#t=abc&speed=&camera=1,2,3&layer=nothing&clip=&loop=sideways&overlays=skeleton,x&bg=red&grid=2&copies=1000&future=1', (w) => warnings.push(w));
   assert(JSON.stringify(bad) === '{}', `malformed keys kept: ${JSON.stringify(bad)}`);
+  assert(warnings.length === 10, `one warning per dropped or unknown key: ${JSON.stringify(warnings)}`);
+  const full = { loop: 'once', overlays: 'skeleton,normals', background: 'grey', lighting: 'flat', grid: 'false', heatmap: 'true', copies: '7', skinningPath: 'compute', playing: 'true' };
+  const back = hashToView(viewToHash(full, null), () => { throw new Error('no warning expected'); });
+  const wantFull = { skinningPath: 'compute', loop: 'once', overlays: { skeleton: true, normals: true }, background: 'grey', lighting: 'flat', grid: false, heatmap: true, copies: 7 };
+  assert(JSON.stringify(back) === JSON.stringify(wantFull), `every setting round-trips: ${JSON.stringify(back)}`);
   const zero = hashToView('#camera=0,0,0,0,0,0');
   assert(zero.camera === undefined, 'a zero camera distance is refused');
 });

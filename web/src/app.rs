@@ -747,6 +747,10 @@ pub struct App {
     last_screenshot: Option<Vec<u8>>,
     /// Files dropped together holding several models, and which one is shown.
     library: Option<Library>,
+    /// The Samples menu's library (from the page: `kloub serve`'s `/api/assets`).
+    samples: Vec<crate::samples::SampleEntry>,
+    /// The URL the shown model was fetched from (`None`: dropped files or a built-in sample).
+    shown_url: Option<String>,
     /// The page says files are dragged over the viewer.
     drop_hint: bool,
     /// A model was installed and its first frame has not been reported (`load` event).
@@ -946,6 +950,8 @@ impl App {
             ik_pole_markers: Vec::new(),
             panels: config.panels,
             library: None,
+            samples: Vec::new(),
+            shown_url: None,
             overlays: Overlays::default(),
             overlay_scratch: overlay::OverlayScratch::default(),
             help: false,
@@ -1023,6 +1029,7 @@ impl App {
                     let result = load::import_model(&files, None).and_then(|m| self.install(m, None));
                     if result.is_ok() {
                         self.library = (models.len() > 1).then_some(Library { files, models, shown: Some(0) });
+                        self.shown_url = delivery.url;
                     }
                     result
                 }
@@ -1055,6 +1062,8 @@ impl App {
         });
         let clip = if loaded.asset.clips.is_empty() || candy.is_some() { None } else { Some(named.unwrap_or(0)) };
         let mut model = Model::new(loaded, clip)?;
+        // Set again by the caller when the model came from a URL.
+        self.shown_url = None;
         model.instance.set_skinning(&model.asset, self.skinning);
         if candy.is_none() {
             model.set_speed(prefs.speed);
@@ -1206,6 +1215,10 @@ impl App {
                 self.scene.set_look(crate::render::uniforms::Look { background, ..self.scene.look() });
                 return Ok(());
             }
+            Command::SetSamples(samples) => {
+                self.samples = samples;
+                return Ok(());
+            }
             Command::LoadUrl(url) => {
                 self.pending += 1;
                 self.status = Status::Loading;
@@ -1259,6 +1272,7 @@ impl App {
             | Command::SetTransitionDuration(_)
             | Command::SetDropHint(_)
             | Command::LoadUrl(_)
+            | Command::SetSamples(_)
             | Command::SetGrid(_)
             | Command::SetOverlays(_)
             | Command::Screenshot
@@ -1566,10 +1580,15 @@ impl App {
 
         let Some(model) = &mut self.model else {
             ui.painter().rect_filled(rect, 0.0, ui.visuals().extreme_bg_color);
+            let invitation = if self.panels {
+                "Drop a .glb or .gltf file here,\nor open one from Samples or Open (top of the panel)"
+            } else {
+                "Drop a .glb or .gltf file here"
+            };
             ui.painter().text(
                 rect.center(),
                 egui::Align2::CENTER_CENTER,
-                "Drop a .glb or .gltf file here",
+                invitation,
                 egui::FontId::proportional(18.0),
                 ui.visuals().weak_text_color(),
             );
@@ -1942,6 +1961,7 @@ impl App {
         d.set(Key::Error, &self.last_error);
         let model = self.model.as_ref();
         d.set(Key::Model, model.map_or("", |m| m.name.as_str()));
+        d.set(Key::Src, self.shown_url.as_deref().unwrap_or_default());
         d.set(Key::Clips, model.map_or("[]", |m| m.clips_json.as_str()));
         d.set(Key::Clip, model.map_or("", |m| m.clip_name(m.animator.main().clip)));
         let time_moved = d.set(Key::Time, &model.map_or(String::new(), |m| format!("{:.3}", m.animator.main().time)));
@@ -2055,6 +2075,8 @@ impl eframe::App for App {
             overlays: self.overlays,
             look: self.scene.look(),
             library_shown: self.library.as_ref().and_then(|l| l.shown),
+            samples: &self.samples,
+            shown_sample: self.shown_url.as_deref().and_then(|url| self.samples.iter().position(|s| s.is_shown_from(url))),
         };
         let actions = if self.panels {
             egui::Panel::left("controls")

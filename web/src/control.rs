@@ -109,6 +109,8 @@ pub enum Command {
     SetTransitionDuration(f32),
     /// Fetches and shows the model at a URL.
     LoadUrl(String),
+    /// The Samples menu's library (replaces the previous list).
+    SetSamples(Vec<crate::samples::SampleEntry>),
     /// Places the camera: yaw and pitch (radians), distance, then the target point.
     SetCamera([f32; 6]),
     /// Shows or hides the ground grid (kept across models).

@@ -71,11 +71,13 @@ pub enum Key {
     Background,
     /// The ragdoll: `"simulating"` | `"resting"` | `"blending"` (back to the animation); `""` off.
     Ragdoll,
+    /// The URL the shown model was fetched from (`""` for dropped files and built-in samples).
+    Src,
 }
 
 impl Key {
     /// Every key, in a fixed order.
-    pub const ALL: [Key; 31] = [
+    pub const ALL: [Key; 32] = [
         Key::Backend,
         Key::Status,
         Key::Model,
@@ -107,6 +109,7 @@ impl Key {
         Key::Lighting,
         Key::Background,
         Key::Ragdoll,
+        Key::Src,
     ];
 
     /// The dataset property name (`dataset.<name>` in JS).
@@ -143,6 +146,7 @@ impl Key {
             Key::Lighting => "lighting",
             Key::Background => "background",
             Key::Ragdoll => "ragdoll",
+            Key::Src => "src",
         }
     }
 }

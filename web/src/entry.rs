@@ -66,7 +66,7 @@ impl Viewer {
         let mounted = self.mounted.clone();
         wasm_bindgen_futures::future_to_promise(async move {
             if mounted.borrow().is_some() {
-                return Err(JsValue::from_str("this viewer is already mounted"));
+                return Err(js_sys::Error::new("mount: this viewer is already mounted").into());
             }
             host.write(dom::Key::Status.name(), "loading");
             let choice = BackendChoice::from_query(backend.as_deref());
@@ -88,7 +88,7 @@ impl Viewer {
                 let message = format!("Kloub could not start: {}", dom::js_error_text(&error));
                 host.show_fatal(&message);
                 dom::unregister(&host);
-                return Err(JsValue::from_str(&message));
+                return Err(js_sys::Error::new(&message).into());
             }
             *mounted.borrow_mut() = Some((runner, host));
             Ok(JsValue::UNDEFINED)
@@ -116,9 +116,9 @@ impl Viewer {
         layer_root: Option<String>,
     ) -> Result<(), JsValue> {
         if !speed.is_finite() {
-            return Err(JsValue::from_str("speed must be a finite number"));
+            return Err(range_error("speed must be a finite number"));
         }
-        let loop_mode = parse_loop_mode(loop_mode).map_err(|e| JsValue::from_str(&e))?;
+        let loop_mode = parse_loop_mode(loop_mode).map_err(range_error)?;
         let layer = match (layer_clip.filter(|s| !s.is_empty()), layer_root.filter(|s| !s.is_empty())) {
             (Some(clip), Some(root)) => Some((clip, root, 1.0)),
             _ => None,
@@ -134,16 +134,26 @@ impl Viewer {
         self.controls.send_global(Command::LoadUrl(url));
     }
 
+    /// The Samples menu's library: a JSON array shaped like `kloub serve`'s `/api/assets`
+    /// (`[{name, url, attribution, licence, clips, joints, size, default}]`). Replaces the
+    /// previous list; throws when `json` is not such an array.
+    #[wasm_bindgen(js_name = setSamples)]
+    pub fn set_samples(&self, json: &str) -> Result<(), JsValue> {
+        let samples = crate::samples::parse(json).map_err(range_error)?;
+        self.controls.send_global(Command::SetSamples(samples));
+        Ok(())
+    }
+
     /// Shows the model among `files` (names with relative folders, e.g. `CesiumMan/CesiumMan.gltf`,
     /// and their bytes): a `.glb`/`.gltf`; the other files resolve its URIs. Several models
     /// are listed in the side panel to switch between.
     #[wasm_bindgen(js_name = loadFiles)]
     pub fn load_files(&self, names: Vec<String>, contents: Vec<js_sys::Uint8Array>) -> Result<(), JsValue> {
         if names.len() != contents.len() {
-            return Err(JsValue::from_str("loadFiles: names and contents differ in length"));
+            return Err(range_error("loadFiles: names and contents differ in length"));
         }
         let files = names.into_iter().zip(contents).map(|(name, bytes)| SourceFile { name, bytes: bytes.to_vec() });
-        self.inbox.push(Delivery { origin: "dropped files".to_owned(), files: Ok(files.collect()) });
+        self.inbox.push(Delivery { origin: "dropped files".to_owned(), url: None, files: Ok(files.collect()) });
         self.controls.wake();
         Ok(())
     }
@@ -168,7 +178,7 @@ impl Viewer {
     pub fn select_joint(&self, name: Option<String>) -> Result<(), JsValue> {
         let node = match name.as_deref() {
             None | Some("") => None,
-            Some(name) => Some(self.controls.node_index(name).map_err(|e| JsValue::from_str(&e))?),
+            Some(name) => Some(self.controls.node_index(name).map_err(range_error)?),
         };
         self.controls.send(Command::SelectJoint(node));
         Ok(())
@@ -178,13 +188,13 @@ impl Viewer {
     /// the mesh on node `node` at `weight`; `null` weight lets the clip drive it again.
     #[wasm_bindgen(js_name = setMorphWeight)]
     pub fn set_morph_weight(&self, node: String, target: JsValue, weight: Option<f32>) -> Result<(), JsValue> {
-        let node_index = self.controls.node_index(&node).map_err(|e| JsValue::from_str(&e))?;
+        let node_index = self.controls.node_index(&node).map_err(range_error)?;
         let target = match (target.as_f64(), target.as_string()) {
             (Some(i), _) if i >= 0.0 && i.fract() == 0.0 => i as usize,
             (_, Some(name)) => {
-                self.controls.morph_target_index(node_index, &name).map_err(|e| JsValue::from_str(&e))?
+                self.controls.morph_target_index(node_index, &name).map_err(range_error)?
             }
-            _ => return Err(JsValue::from_str("setMorphWeight: target is an index or a name")),
+            _ => return Err(range_error("setMorphWeight: target is an index or a name")),
         };
         self.controls.send(Command::SetMorph { node: node_index, target, weight });
         Ok(())
@@ -193,7 +203,7 @@ impl Viewer {
     /// Lighting preset: `"studio"`, `"outdoor"`, `"flat"` or `"rim"`.
     #[wasm_bindgen(js_name = setLighting)]
     pub fn set_lighting(&self, name: &str) -> Result<(), JsValue> {
-        let lighting = crate::render::uniforms::Lighting::from_name(name).map_err(|e| JsValue::from_str(&e))?;
+        let lighting = crate::render::uniforms::Lighting::from_name(name).map_err(range_error)?;
         self.controls.send_global(Command::SetLighting(lighting));
         Ok(())
     }
@@ -201,7 +211,7 @@ impl Viewer {
     /// Background: `"dark"`, `"grey"` or `"light"`.
     #[wasm_bindgen(js_name = setBackground)]
     pub fn set_background(&self, name: &str) -> Result<(), JsValue> {
-        let background = crate::render::uniforms::Background::from_name(name).map_err(|e| JsValue::from_str(&e))?;
+        let background = crate::render::uniforms::Background::from_name(name).map_err(range_error)?;
         self.controls.send_global(Command::SetBackground(background));
         Ok(())
     }
@@ -219,7 +229,7 @@ impl Viewer {
         match seconds {
             None => self.controls.send(Command::StopRagdoll),
             Some(s) if s.is_finite() && s >= 0.0 => self.controls.send(Command::RagdollToAnimation(s)),
-            Some(s) => return Err(JsValue::from_str(&format!("stopRagdoll: {s} seconds: expected >= 0"))),
+            Some(s) => return Err(range_error(format!("stopRagdoll: {s} seconds: expected >= 0"))),
         }
         Ok(())
     }
@@ -228,7 +238,7 @@ impl Viewer {
     #[wasm_bindgen(js_name = setRagdollOptions)]
     pub fn set_ragdoll_options(&self, gravity: f32, damping: f32) -> Result<(), JsValue> {
         if !(gravity.is_finite() && damping.is_finite() && damping >= 0.0) {
-            return Err(JsValue::from_str("setRagdollOptions: finite gravity and damping >= 0 expected"));
+            return Err(range_error("setRagdollOptions: finite gravity and damping >= 0 expected"));
         }
         self.controls.send(Command::SetRagdollOptions { gravity, damping });
         Ok(())
@@ -255,7 +265,7 @@ impl Viewer {
     #[wasm_bindgen(js_name = setCrossfadeDuration)]
     pub fn set_crossfade_duration(&self, seconds: f32) -> Result<(), JsValue> {
         if !(seconds.is_finite() && seconds >= 0.0) {
-            return Err(JsValue::from_str(&format!("crossfade duration {seconds}: expected seconds >= 0")));
+            return Err(range_error(format!("crossfade duration {seconds}: expected seconds >= 0")));
         }
         self.controls.send_global(Command::SetTransitionDuration(seconds));
         Ok(())
@@ -267,7 +277,7 @@ impl Viewer {
     pub fn set_camera(&self, yaw: f32, pitch: f32, distance: f32, x: f32, y: f32, z: f32) -> Result<(), JsValue> {
         let values = [yaw, pitch, distance, x, y, z];
         if values.iter().any(|v| !v.is_finite()) || distance <= 0.0 {
-            return Err(JsValue::from_str("setCamera: finite numbers and a positive distance expected"));
+            return Err(range_error("setCamera: finite numbers and a positive distance expected"));
         }
         self.controls.send(Command::SetCamera(values));
         Ok(())
@@ -296,7 +306,7 @@ impl Viewer {
     #[wasm_bindgen(js_name = crossfadeTo)]
     pub fn crossfade_to(&self, name: Option<String>, seconds: f32) -> Result<(), JsValue> {
         if !(seconds.is_finite() && seconds >= 0.0) {
-            return Err(JsValue::from_str(&format!("crossfade duration {seconds}: expected seconds >= 0")));
+            return Err(range_error(format!("crossfade duration {seconds}: expected seconds >= 0")));
         }
         let clip = self.clip(name)?;
         self.controls.send(Command::CrossfadeTo { clip, seconds });
@@ -310,11 +320,11 @@ impl Viewer {
         let clip = self.clip(clip)?;
         let root = match (clip, root.as_deref()) {
             (None, _) => 0,
-            (Some(_), Some(name)) => self.controls.node_index(name).map_err(|e| JsValue::from_str(&e))?,
-            (Some(_), None) => return Err(JsValue::from_str("setLayer: a root joint name is required")),
+            (Some(_), Some(name)) => self.controls.node_index(name).map_err(range_error)?,
+            (Some(_), None) => return Err(range_error("setLayer: a root joint name is required")),
         };
         if !(weight.is_finite() && (0.0..=1.0).contains(&weight)) {
-            return Err(JsValue::from_str(&format!("layer weight {weight}: expected a number in [0, 1]")));
+            return Err(range_error(format!("layer weight {weight}: expected a number in [0, 1]")));
         }
         self.controls.send(Command::SetLayer { clip, root, weight });
         Ok(())
@@ -323,7 +333,7 @@ impl Viewer {
     /// Moves the main clock to `seconds` (clamped to the clip).
     pub fn seek(&self, seconds: f32) -> Result<(), JsValue> {
         if !seconds.is_finite() {
-            return Err(JsValue::from_str("seek: time must be a finite number"));
+            return Err(range_error("seek: time must be a finite number"));
         }
         self.controls.send(Command::Seek(seconds));
         Ok(())
@@ -333,7 +343,7 @@ impl Viewer {
     #[wasm_bindgen(js_name = setSpeed)]
     pub fn set_speed(&self, speed: f32) -> Result<(), JsValue> {
         if !speed.is_finite() {
-            return Err(JsValue::from_str("setSpeed: speed must be a finite number"));
+            return Err(range_error("setSpeed: speed must be a finite number"));
         }
         self.controls.send(Command::SetSpeed(speed));
         Ok(())
@@ -342,7 +352,7 @@ impl Viewer {
     /// Loop mode of the base clips: `"once"`, `"repeat"` or `"pingpong"`.
     #[wasm_bindgen(js_name = setLoop)]
     pub fn set_loop(&self, mode: &str) -> Result<(), JsValue> {
-        let mode = parse_loop_mode(mode).map_err(|e| JsValue::from_str(&e))?;
+        let mode = parse_loop_mode(mode).map_err(range_error)?;
         self.controls.send(Command::SetLoop(mode));
         Ok(())
     }
@@ -351,14 +361,14 @@ impl Viewer {
     #[wasm_bindgen(js_name = setBlend)]
     pub fn set_blend(&self, names: Vec<String>, weights: Vec<f32>) -> Result<(), JsValue> {
         if names.len() != weights.len() {
-            return Err(JsValue::from_str("setBlend: names and weights differ in length"));
+            return Err(range_error("setBlend: names and weights differ in length"));
         }
         let mut blend = Vec::with_capacity(names.len());
         for (name, weight) in names.iter().zip(weights) {
             if !(weight.is_finite() && weight >= 0.0) {
-                return Err(JsValue::from_str(&format!("setBlend: weight {weight} of {name:?} must be >= 0")));
+                return Err(range_error(format!("setBlend: weight {weight} of {name:?} must be >= 0")));
             }
-            blend.push((self.controls.clip_index(name).map_err(|e| JsValue::from_str(&e))?, weight));
+            blend.push((self.controls.clip_index(name).map_err(range_error)?, weight));
         }
         self.controls.send(Command::SetBlend(blend));
         Ok(())
@@ -369,7 +379,7 @@ impl Viewer {
     #[wasm_bindgen(js_name = setSkinning)]
     pub fn set_skinning(&self, method: &str) -> Result<(), JsValue> {
         let method = SkinningMethod::from_name(method).ok_or_else(|| {
-            JsValue::from_str(&format!("skinning {method:?}: expected \"rigid\", \"lbs\", \"dqs\" or \"sjb\""))
+            range_error(format!("skinning {method:?}: expected \"rigid\", \"lbs\", \"dqs\" or \"sjb\""))
         })?;
         self.controls.send_global(Command::SetSkinning(method));
         Ok(())
@@ -380,9 +390,9 @@ impl Viewer {
     /// models.
     #[wasm_bindgen(js_name = setSkinningPath)]
     pub fn set_skinning_path(&self, path: &str) -> Result<(), JsValue> {
-        let path = SkinningPath::from_name(path).map_err(|e| JsValue::from_str(&e))?;
+        let path = SkinningPath::from_name(path).map_err(range_error)?;
         if path == SkinningPath::Compute && !self.controls.supports_compute() {
-            return Err(JsValue::from_str("setSkinningPath: \"compute\" needs WebGPU; this page runs on WebGL2"));
+            return Err(range_error("setSkinningPath: \"compute\" needs WebGPU; this page runs on WebGL2"));
         }
         self.controls.send_global(Command::SetSkinningPath(path));
         Ok(())
@@ -393,7 +403,7 @@ impl Viewer {
     #[wasm_bindgen(js_name = setCopies)]
     pub fn set_copies(&self, n: u32) -> Result<(), JsValue> {
         if !(1..=crate::app::MAX_COPIES as u32).contains(&n) {
-            return Err(JsValue::from_str(&format!("setCopies: {n} copies: expected 1 to {}", crate::app::MAX_COPIES)));
+            return Err(range_error(format!("setCopies: {n} copies: expected 1 to {}", crate::app::MAX_COPIES)));
         }
         self.controls.send(Command::SetCopies(n as usize));
         Ok(())
@@ -427,12 +437,12 @@ impl Viewer {
         let target = match (x, y, z) {
             (None, None, None) => None,
             (Some(x), Some(y), Some(z)) if x.is_finite() && y.is_finite() && z.is_finite() => Some([x, y, z]),
-            _ => return Err(JsValue::from_str("setIkTarget: give x, y and z as finite numbers, or none of them")),
+            _ => return Err(range_error("setIkTarget: give x, y and z as finite numbers, or none of them")),
         };
-        let effector = self.controls.node_index(&name).map_err(|e| JsValue::from_str(&e))?;
+        let effector = self.controls.node_index(&name).map_err(range_error)?;
         let depth = depth.unwrap_or(2) as usize;
         if !(1..32).contains(&depth) {
-            return Err(JsValue::from_str(&format!("setIkTarget: depth {depth}: expected 1 to 31")));
+            return Err(range_error(format!("setIkTarget: depth {depth}: expected 1 to 31")));
         }
         self.controls.send(Command::SetIk { effector: Some(effector), depth, target });
         Ok(())
@@ -458,20 +468,20 @@ impl Viewer {
         iterations: Option<u32>,
     ) -> Result<(), JsValue> {
         let solver = kloub_core::job::ik::IkSolver::ALL.into_iter().find(|s| s.name() == solver).ok_or_else(|| {
-            JsValue::from_str(&format!("setIkSolver: solver {solver:?}: expected ccd, twobone, fabrik or dls"))
+            range_error(format!("setIkSolver: solver {solver:?}: expected ccd, twobone, fabrik or dls"))
         })?;
         let pole = match (pole_x, pole_y, pole_z) {
             (None, None, None) => None,
             (Some(x), Some(y), Some(z)) if x.is_finite() && y.is_finite() && z.is_finite() => Some([x, y, z]),
-            _ => return Err(JsValue::from_str("setIkSolver: give the pole's x, y and z as finite numbers, or none")),
+            _ => return Err(range_error("setIkSolver: give the pole's x, y and z as finite numbers, or none")),
         };
         if softness.is_some_and(|s| !(0.0..=0.5).contains(&s)) {
-            return Err(JsValue::from_str("setIkSolver: softness: expected 0 to 0.5"));
+            return Err(range_error("setIkSolver: softness: expected 0 to 0.5"));
         }
         if iterations.is_some_and(|n| !(1..=128).contains(&n)) {
-            return Err(JsValue::from_str("setIkSolver: iterations: expected 1 to 128"));
+            return Err(range_error("setIkSolver: iterations: expected 1 to 128"));
         }
-        let effector = self.controls.node_index(effector).map_err(|e| JsValue::from_str(&e))?;
+        let effector = self.controls.node_index(effector).map_err(range_error)?;
         self.controls.send(Command::SetIkSolver {
             effector,
             solver,
@@ -486,7 +496,7 @@ impl Viewer {
     /// Shows a built-in sample: `"candy-wrapper"`.
     #[wasm_bindgen(js_name = loadSample)]
     pub fn load_sample(&self, name: &str) -> Result<(), JsValue> {
-        let sample = Sample::from_name(name).map_err(|e| JsValue::from_str(&e))?;
+        let sample = Sample::from_name(name).map_err(range_error)?;
         self.controls.send_global(Command::LoadSample(sample));
         Ok(())
     }
@@ -495,7 +505,7 @@ impl Viewer {
     #[wasm_bindgen(js_name = setCandyPose)]
     pub fn set_candy_pose(&self, twist: f32, bend: f32) -> Result<(), JsValue> {
         if !(twist.is_finite() && bend.is_finite()) {
-            return Err(JsValue::from_str("setCandyPose: angles must be finite numbers"));
+            return Err(range_error("setCandyPose: angles must be finite numbers"));
         }
         self.controls.send(Command::SetCandyPose { twist, bend });
         Ok(())
@@ -510,9 +520,15 @@ impl Viewer {
     fn clip(&self, name: Option<String>) -> Result<Option<usize>, JsValue> {
         match name.as_deref() {
             None | Some("") => Ok(None),
-            Some(name) => self.controls.clip_index(name).map(Some).map_err(|e| JsValue::from_str(&e)),
+            Some(name) => self.controls.clip_index(name).map(Some).map_err(range_error),
         }
     }
+}
+
+/// A refused argument as JavaScript sees it: a `RangeError` (an `Error`, with a stack), never a
+/// bare string.
+fn range_error(message: impl AsRef<str>) -> JsValue {
+    js_sys::RangeError::new(message.as_ref()).into()
 }
 
 fn install_panic_hook() {

@@ -8,7 +8,8 @@
 //! Modules: [`app`] (frame loop, model state), [`ui`] (side panel), [`control`] (commands
 //! from the page), [`load`] (fetch, drop,
 //! import), [`dom`] (`document.body.dataset` mirror and error overlay; no-ops natively),
-//! [`backend`] (`?backend=` choice), [`render`] (GPU renderer and camera).
+//! [`backend`] (`?backend=` choice), [`render`] (GPU renderer and camera), [`samples`] (the
+//! Samples menu's library and its credits).
 
 pub mod app;
 pub mod backend;
@@ -22,6 +23,7 @@ pub mod load;
 pub mod overlay;
 pub mod ragdoll;
 pub mod render;
+pub mod samples;
 pub mod ui;
 
 #[cfg(target_arch = "wasm32")]

@@ -24,6 +24,8 @@ pub struct SourceFile {
 pub struct Delivery {
     /// Where the files came from, for messages (a URL or "dropped files").
     pub origin: String,
+    /// The URL the files were fetched from (`None` for files from the user's disk).
+    pub url: Option<String>,
     /// The files, or the read error.
     pub files: Result<Vec<SourceFile>, String>,
 }
@@ -183,7 +185,7 @@ pub fn fetch_into(url: String, inbox: Inbox, ctx: egui::Context) {
     wasm_bindgen_futures::spawn_local(async move {
         let name = file_name_of_url(&url).to_owned();
         let files = fetch_bytes(&url, &name, &inbox, &ctx).await.map(|bytes| vec![SourceFile { name, bytes }]);
-        inbox.push(Delivery { origin: url, files });
+        inbox.push(Delivery { url: Some(url.clone()), origin: url, files });
         ctx.request_repaint();
     });
 }
@@ -191,7 +193,8 @@ pub fn fetch_into(url: String, inbox: Inbox, ctx: egui::Context) {
 /// Fetching needs a browser; natively the delivery is an error.
 #[cfg(not(target_arch = "wasm32"))]
 pub fn fetch_into(url: String, inbox: Inbox, ctx: egui::Context) {
-    inbox.push(Delivery { files: Err(format!("{url}: fetching URLs is only available in the browser")), origin: url });
+    let files = Err(format!("{url}: fetching URLs is only available in the browser"));
+    inbox.push(Delivery { url: Some(url.clone()), origin: url, files });
     ctx.request_repaint();
 }
 
@@ -257,7 +260,7 @@ pub fn read_dropped_into(dropped: Vec<egui::DroppedFileHandle>, inbox: Inbox, ct
                 }
             }
         }
-        inbox.push(Delivery { origin, files: error.map_or(Ok(files), Err) });
+        inbox.push(Delivery { origin, url: None, files: error.map_or(Ok(files), Err) });
         ctx.request_repaint();
     });
     #[cfg(not(target_arch = "wasm32"))]
@@ -269,7 +272,7 @@ pub fn read_dropped_into(dropped: Vec<egui::DroppedFileHandle>, inbox: Inbox, ct
                 file.bytes().map(|bytes| SourceFile { name: name.clone(), bytes }).map_err(|e| format!("{name}: {e}"))
             })
             .collect();
-        inbox.push(Delivery { origin, files });
+        inbox.push(Delivery { origin, url: None, files });
         ctx.request_repaint();
     }
 }
@@ -317,7 +320,7 @@ mod tests {
     }
 
     fn shared(path: &str) -> SourceFile {
-        let full = format!("{}/../../shared/assets/khronos/{path}", env!("CARGO_MANIFEST_DIR"));
+        let full = format!("{}/../tests/assets/khronos/{path}", env!("CARGO_MANIFEST_DIR"));
         let bytes = std::fs::read(&full).unwrap_or_else(|e| panic!("{full}: {e}"));
         let name = path.rsplit('/').next().unwrap_or(path).to_owned();
         SourceFile { name, bytes }
@@ -368,8 +371,8 @@ mod tests {
     #[test]
     fn inbox_is_fifo() {
         let inbox = Inbox::default();
-        inbox.push(Delivery { origin: "a".into(), files: Ok(Vec::new()) });
-        inbox.push(Delivery { origin: "b".into(), files: Err("x".into()) });
+        inbox.push(Delivery { origin: "a".into(), url: None, files: Ok(Vec::new()) });
+        inbox.push(Delivery { origin: "b".into(), url: None, files: Err("x".into()) });
         let got: Vec<String> = inbox.take().into_iter().map(|d| d.origin).collect();
         assert_eq!(got, ["a", "b"]);
         assert!(inbox.take().is_empty());

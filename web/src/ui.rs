@@ -51,6 +51,10 @@ pub struct PanelState<'a> {
     pub overlays: crate::overlay::Overlays,
     /// Lighting and background.
     pub look: crate::render::uniforms::Look,
+    /// The sample library of the Samples menu.
+    pub samples: &'a [crate::samples::SampleEntry],
+    /// Which of [`PanelState::samples`] is shown (its credit is drawn under the model's name).
+    pub shown_sample: Option<usize>,
 }
 
 /// Smoothed CPU milliseconds per frame of each stage (the GPU's own time is not included).
@@ -123,6 +127,16 @@ pub fn side_panel(
                 }
             });
             ui.menu_button("Samples", |ui| {
+                for (i, sample) in state.samples.iter().enumerate() {
+                    let shown = state.shown_sample == Some(i);
+                    if ui.selectable_label(shown, &sample.name).on_hover_text(sample.summary()).clicked() {
+                        actions.commands.push(Command::LoadUrl(sample.url.clone()));
+                        ui.close();
+                    }
+                }
+                if !state.samples.is_empty() {
+                    ui.separator();
+                }
                 for sample in Sample::ALL {
                     if ui.button(sample.label()).clicked() {
                         actions.commands.push(Command::LoadSample(sample));
@@ -141,6 +155,14 @@ pub fn side_panel(
             ui.spinner();
         }
     });
+    if let Some(sample) = state.shown_sample.and_then(|i| state.samples.get(i))
+        && !sample.attribution.is_empty()
+    {
+        let credit = ui.add(egui::Label::new(egui::RichText::new(&sample.attribution).small().weak()).wrap());
+        if !sample.licence.is_empty() {
+            credit.on_hover_text(&sample.licence);
+        }
+    }
     if state.library.len() > 1 {
         egui::CollapsingHeader::new(format!("Models ({})", state.library.len()))
             .id_salt("library")

@@ -291,7 +291,7 @@ fn main_time(h: &Harness) -> f32 {
 }
 
 fn shared_asset(rel: &str) -> Vec<u8> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/assets").join(rel);
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/assets").join(rel);
     std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e} (the shared test assets)", path.display()))
 }
 

@@ -26,7 +26,7 @@ pub const DT: f32 = 1.0 / 60.0;
 fn shared_assets() -> PathBuf {
     std::env::var_os("KLOUB_SHARED_ASSETS")
         .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/assets"))
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../tests/assets"))
 }
 
 pub fn load(file: &str) -> Asset {

@@ -1,7 +1,7 @@
 //! Import tests: real sample files, and one hand-made broken document per defect class.
 //!
 //! The hand-made documents also run on wasm32 under Node (`scripts/test-wasm.sh`, through
-//! wasm-bindgen-test); the tests reading `../shared/assets` from disk are native-only.
+//! wasm-bindgen-test); the tests reading `tests/assets` from disk are native-only.
 
 use super::*;
 #[cfg(not(target_arch = "wasm32"))]
@@ -11,12 +11,12 @@ use serde_json::{Value, json};
 #[cfg(not(target_arch = "wasm32"))]
 use std::path::{Path, PathBuf};
 
-/// `../shared/assets`, or `$KLOUB_SHARED_ASSETS`.
+/// `tests/assets`, or `$KLOUB_SHARED_ASSETS`.
 #[cfg(not(target_arch = "wasm32"))]
 fn shared_assets() -> PathBuf {
     std::env::var_os("KLOUB_SHARED_ASSETS")
         .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/assets"))
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/assets"))
 }
 
 /// Imports a file with its sibling files available through a [`MapResolver`].
@@ -52,7 +52,7 @@ fn asset(relative: &str) -> Imported {
     import_file(&path).unwrap_or_else(|e| panic!("{relative}: {e}"))
 }
 
-#[cfg(not(target_arch = "wasm32"))] // reads ../shared/assets from disk
+#[cfg(not(target_arch = "wasm32"))] // reads tests/assets from disk
 #[test]
 fn every_shared_asset_imports_except_draco() {
     let mut files = Vec::new();
@@ -77,7 +77,7 @@ fn every_shared_asset_imports_except_draco() {
     }
 }
 
-#[cfg(not(target_arch = "wasm32"))] // reads ../shared/assets from disk
+#[cfg(not(target_arch = "wasm32"))] // reads tests/assets from disk
 #[test]
 fn fox_has_its_three_clips() {
     let fox = asset("khronos/Fox/glTF-Binary/Fox.glb").asset;
@@ -94,7 +94,7 @@ fn fox_has_its_three_clips() {
     assert_eq!(split.meshes[0].primitives[0].positions, fox.meshes[0].primitives[0].positions);
 }
 
-#[cfg(not(target_arch = "wasm32"))] // reads ../shared/assets from disk
+#[cfg(not(target_arch = "wasm32"))] // reads tests/assets from disk
 #[test]
 fn robot_expressive_weights_are_renormalized_with_a_warning() {
     let robot = asset("threejs/RobotExpressive/RobotExpressive.glb");
@@ -115,7 +115,7 @@ fn robot_expressive_weights_are_renormalized_with_a_warning() {
     assert_eq!(head.target_names, ["Angry", "Surprised", "Sad"]);
 }
 
-#[cfg(not(target_arch = "wasm32"))] // reads ../shared/assets from disk
+#[cfg(not(target_arch = "wasm32"))] // reads tests/assets from disk
 #[test]
 fn clean_samples_load_without_warnings() {
     for file in [
@@ -130,7 +130,7 @@ fn clean_samples_load_without_warnings() {
     }
 }
 
-#[cfg(not(target_arch = "wasm32"))] // reads ../shared/assets from disk
+#[cfg(not(target_arch = "wasm32"))] // reads tests/assets from disk
 #[test]
 fn interpolation_test_has_every_mode() {
     let a = asset("khronos/InterpolationTest/glTF-Binary/InterpolationTest.glb").asset;
@@ -142,7 +142,7 @@ fn interpolation_test_has_every_mode() {
 
 /// Sampling every channel of InterpolationTest at each of its key times, in order and
 /// with the cursor cache, returns exactly that key's value (for every interpolation).
-#[cfg(not(target_arch = "wasm32"))] // reads ../shared/assets from disk
+#[cfg(not(target_arch = "wasm32"))] // reads tests/assets from disk
 #[test]
 fn interpolation_test_samples_its_keys_exactly() {
     use crate::job::sample::{SampleContext, SampleJob};
@@ -180,7 +180,7 @@ fn interpolation_test_samples_its_keys_exactly() {
     }
 }
 
-#[cfg(not(target_arch = "wasm32"))] // reads ../shared/assets from disk
+#[cfg(not(target_arch = "wasm32"))] // reads tests/assets from disk
 #[test]
 fn quantized_morph_weights_are_normalized_integers() {
     let a = asset("khronos/AnimatedMorphCube/glTF-Quantized/AnimatedMorphCube.gltf").asset;

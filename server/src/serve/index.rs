@@ -30,6 +30,11 @@ pub struct AssetEntry {
     /// in the model's folder or a folder above it (within the library), else the first line of
     /// a `README.md` there that mentions a licence or copyright; `null` when none.
     pub licence: Option<String>,
+    /// One line to credit the model with, shown next to it in the app: the first paragraph of
+    /// `licence` that is not a Markdown heading, its lines joined; `null` without a licence.
+    pub attribution: Option<String>,
+    /// Whether this is the model the page opens with (`/models/default.glb`).
+    pub default: bool,
     /// Clip names (`clip N` for unnamed clips), in file order.
     pub clips: Vec<String>,
     /// Number of distinct nodes used as joints by the model's skins.
@@ -67,8 +72,11 @@ fn entry(root: &Root, all: &[String], path: &str) -> AssetEntry {
     let options = ImportOptions::default();
     let resolver =
         LibraryResolver { root, folder: folder(path), budget: options.budget_bytes, loaded: RefCell::new(Vec::new()) };
+    let licence = licence(root, all, path, &stem);
     let mut entry = AssetEntry {
-        licence: licence(root, all, path, &stem),
+        attribution: licence.as_deref().and_then(attribution),
+        licence,
+        default: path == super::DEFAULT_MODEL,
         name: stem,
         url: url_of(path),
         files: Vec::new(),
@@ -162,6 +170,25 @@ fn licence(root: &Root, all: &[String], path: &str, stem: &str) -> Option<String
     }
 }
 
+/// Longest attribution line, in bytes (cut at a character boundary beyond it).
+const MAX_ATTRIBUTION_BYTES: usize = 400;
+
+/// The first paragraph of a licence text that is not a Markdown heading, as one line.
+fn attribution(licence: &str) -> Option<String> {
+    let paragraph = licence
+        .split("\n\n")
+        .map(|p| p.lines().map(str::trim).filter(|l| !l.is_empty()).collect::<Vec<_>>().join(" "))
+        .find(|p| !p.is_empty() && !p.starts_with('#'))?;
+    if paragraph.len() <= MAX_ATTRIBUTION_BYTES {
+        return Some(paragraph);
+    }
+    let mut end = MAX_ATTRIBUTION_BYTES;
+    while !paragraph.is_char_boundary(end) {
+        end -= 1;
+    }
+    Some(format!("{}…", &paragraph[..end]))
+}
+
 fn truncate(text: &str) -> String {
     if text.len() <= MAX_LICENCE_BYTES {
         return text.to_owned();
@@ -220,6 +247,9 @@ mod tests {
         assert_eq!(fox.files, vec!["/assets/Fox.glb"]);
         assert_eq!(fox.size, 15);
         assert_eq!(fox.licence.as_deref(), Some("CC0"));
+        assert_eq!(fox.attribution.as_deref(), Some("CC0"));
+        assert!(fox.default, "Fox.glb at the library's root is what /models/default.glb serves");
+        assert!(!index[1].default);
         assert!(fox.error.is_some(), "a broken model is listed with its error");
         assert!(fox.clips.is_empty());
 
@@ -252,6 +282,24 @@ mod tests {
         assert!(error.contains("/buffers/0/uri") && error.contains("outside the folder"), "{error}");
         assert_eq!(index[0].files, vec!["/assets/men/Man.gltf"]);
         assert_eq!(index[0].licence, None);
+    }
+
+    #[test]
+    fn attribution_is_the_first_paragraph_after_the_headings() {
+        let text = "# Fox.glb — licence\n\n## Credits\n\nLow-poly fox by A (CC0).\n  Rigging by B.\n\nMore text.";
+        assert_eq!(attribution(text).as_deref(), Some("Low-poly fox by A (CC0). Rigging by B."));
+        assert_eq!(attribution("# only a heading\n"), None);
+        assert_eq!(attribution("one line"), Some("one line".to_owned()));
+        let long = attribution(&"é".repeat(MAX_ATTRIBUTION_BYTES)).unwrap_or_default();
+        assert!(long.ends_with('…') && long.len() <= MAX_ATTRIBUTION_BYTES + '…'.len_utf8());
+    }
+
+    #[test]
+    fn the_default_model_is_marked() {
+        let root = library(&[("Fox.glb", b"x"), ("men/Fox.glb", b"x")]);
+        let index = build(&root);
+        let defaults: Vec<&str> = index.iter().filter(|e| e.default).map(|e| e.url.as_str()).collect();
+        assert_eq!(defaults, ["/assets/Fox.glb"]);
     }
 
     #[test]

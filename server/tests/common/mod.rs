@@ -213,9 +213,9 @@ pub fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).parent().expect("the server crate is in the repository").to_path_buf()
 }
 
-/// `../shared/assets` beside the checkout, overridable with `KLOUB_SHARED_ASSETS`.
+/// `tests/assets` in the repository, overridable with `KLOUB_SHARED_ASSETS`.
 pub fn shared_assets() -> PathBuf {
-    std::env::var_os("KLOUB_SHARED_ASSETS").map(PathBuf::from).unwrap_or_else(|| repo().join("../shared/assets"))
+    std::env::var_os("KLOUB_SHARED_ASSETS").map(PathBuf::from).unwrap_or_else(|| repo().join("tests/assets"))
 }
 
 /// A test site: a bundle folder, a library folder, and a secret beside them.
