@@ -34,7 +34,10 @@ fn the_sample_library_is_the_test_assets_with_licences() {
         ("RiggedFigure/RiggedFigure.glb", "khronos/RiggedFigure/glTF-Binary/RiggedFigure.glb"),
         ("RobotExpressive/RobotExpressive.glb", "threejs/RobotExpressive/RobotExpressive.glb"),
         ("Knight/Knight.glb", "kaykit/Knight/Knight.glb"),
-        ("AnimatedMorphSphere/AnimatedMorphSphere.glb", "khronos/AnimatedMorphSphere/glTF-Binary/AnimatedMorphSphere.glb"),
+        (
+            "AnimatedMorphSphere/AnimatedMorphSphere.glb",
+            "khronos/AnimatedMorphSphere/glTF-Binary/AnimatedMorphSphere.glb",
+        ),
     ] {
         let read = |p: &Path| std::fs::read(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
         let library = repo().join("web/assets");

@@ -3,7 +3,8 @@
 // opens the server's default model: the library's `default` entry (/models/default.glb), else its first model that
 // imports, else nothing: the viewer's empty state invites a drop. Never an error on first load.
 // The URL hash holds the exact view — model URL, clip, time, paused, speed, loop, layer, skinning method and path,
-// camera, overlays, background, lighting, grid, heatmap, copies (web/hash-state.js) — and is kept up to date, so a
+// camera, overlays, background, lighting, grid, heatmap, copies, crossfade settings, blend weights, IK goals with their
+// solvers, held morph weights (web/hash-state.js) — and is kept up to date, so a
 // copied link reopens what was on screen.
 // Kept out of index.html so the page works under a CSP without 'unsafe-inline'.
 import { viewToHash, hashToView } from './hash-state.js';
@@ -50,7 +51,9 @@ viewer.addEventListener('load', () => {
   const v = pending;
   pending = null;
   // Each setting on its own: one that does not fit this model or backend is dropped with a warning, the rest apply.
+  // Copies first: their grid reframes the camera, which the hash's camera then overrides.
   const apply = [
+    ['copies', () => viewer.setCopies(v.copies)],
     ['camera', () => { viewer.camera = v.camera; }],
     ['layer', () => viewer.setLayer(v.layer.clip, v.layer.root, v.layer.weight)],
     ['skinningPath', () => viewer.setSkinningPath(v.skinningPath)],
@@ -59,7 +62,15 @@ viewer.addEventListener('load', () => {
     ['lighting', () => viewer.setLighting(v.lighting)],
     ['grid', () => viewer.setGrid(v.grid)],
     ['heatmap', () => viewer.setHeatmap(v.heatmap)],
-    ['copies', () => viewer.setCopies(v.copies)],
+    ['transition', () => viewer.setTransition(v.transition)],
+    ['blend', () => viewer.setBlend(v.blend.names, v.blend.weights)],
+    ['ik', () => {
+      for (const g of v.ik) {
+        viewer.setIkTarget(g.effector, g.target, g.depth);
+        viewer.setIkSolver(g.effector, g.solver, { pole: g.pole, softness: g.softness, patternMove: g.patternMove, iterations: g.iterations });
+      }
+    }],
+    ['morphs', () => { for (const m of v.morphs) viewer.setMorphWeight(m.node, m.target, m.weight); }],
     ['time', () => { viewer.currentTime = v.time; }],
   ];
   for (const [key, set] of apply) {
@@ -90,4 +101,5 @@ new MutationObserver(() => {
     setTimeout(writeHash, HASH_INTERVAL_MS);
   }
 }).observe(viewer, { attributes: true, attributeFilter: ['data-clip', 'data-time', 'data-playing', 'data-speed', 'data-layer', 'data-skinning', 'data-camera', 'data-model', 'data-src', 'data-status', 'data-loop', 'data-overlays', 'data-background',
-  'data-lighting', 'data-grid', 'data-heatmap', 'data-copies', 'data-skinning-path'] });
+  'data-lighting', 'data-grid', 'data-heatmap', 'data-copies', 'data-skinning-path', 'data-transition', 'data-blend',
+  'data-ik-goals', 'data-morphs'] });

@@ -1,6 +1,8 @@
 // The view <-> URL hash, version 1:
 //   "#v=1&src=URL&clip=NAME&t=SECONDS&paused=1&speed=X&layer=CLIP@ROOT:WEIGHT&skinning=M&path=P&camera=6 numbers
-//    &loop=once|pingpong&overlays=skeleton,bounds,…&bg=grey|light&light=outdoor|flat|rim&grid=0&heatmap=1&copies=N"
+//    &loop=once|pingpong&overlays=skeleton,bounds,…&bg=grey|light&light=outdoor|flat|rim&grid=0&heatmap=1&copies=N
+//    &fade=SECONDS,EASING,OUTGOING&blend=[[clip,weight],…]&ik=[{effector,depth,target,solver,…},…]
+//    &morphs=[[node,target,weight],…]"
 // Only values that differ from the viewer's defaults are written, so a default view has no hash. Reading ignores
 // unknown keys and drops malformed values (each with a console warning), so a link made by a newer page still
 // opens what this one understands. Pure functions over a <kloub-viewer>'s data-* state, shared by the app page
@@ -15,8 +17,30 @@ const BACKGROUNDS = ['dark', 'grey', 'light'];
 const LIGHTING = ['studio', 'outdoor', 'flat', 'rim'];
 const SKINNING = ['rigid', 'lbs', 'dqs', 'sjb'];
 const PATHS = ['gpu', 'compute', 'cpu'];
+const SOLVERS = ['ccd', 'twobone', 'fabrik', 'dls'];
+const DEFAULT_TRANSITION = '0.300,smoothstep,freeze';
 const KEYS = new Set(['v', 'src', 'clip', 't', 'paused', 'speed', 'layer', 'skinning', 'path', 'camera', 'loop',
-  'overlays', 'bg', 'light', 'grid', 'heatmap', 'copies']);
+  'overlays', 'bg', 'light', 'grid', 'heatmap', 'copies', 'fade', 'blend', 'ik', 'morphs']);
+
+const finite = (v) => typeof v === 'number' && Number.isFinite(v);
+const point = (v) => Array.isArray(v) && v.length === 3 && v.every(finite);
+const json = (text) => {
+  try {
+    return JSON.parse(text);
+  } catch {
+    return undefined;
+  }
+};
+/** An IK goal as `data-ik-goals` lists it, or null when any field is off. */
+function ikGoal(g) {
+  if (!g || typeof g !== 'object' || typeof g.effector !== 'string' || g.effector === '') return null;
+  if (!Number.isInteger(g.depth) || g.depth < 1 || g.depth > 31 || !point(g.target) || !SOLVERS.includes(g.solver)) return null;
+  if (!Number.isInteger(g.iterations) || g.iterations < 1 || g.iterations > 128) return null;
+  if (!finite(g.softness) || g.softness < 0 || g.softness > 0.5 || typeof g.patternMove !== 'boolean') return null;
+  if (g.pole !== null && !point(g.pole)) return null;
+  const { effector, depth, target, solver, iterations, softness, patternMove, pole } = g;
+  return { effector, depth, target, solver, iterations, softness, patternMove, pole };
+}
 
 /** The hash for a viewer's `dataset` (and the model URL, or null when the model came from files). */
 export function viewToHash(state, src) {
@@ -37,6 +61,10 @@ export function viewToHash(state, src) {
   if (state.grid === 'false') p.set('grid', '0');
   if (state.heatmap === 'true') p.set('heatmap', '1');
   if (state.copies && state.copies !== '1') p.set('copies', state.copies);
+  if (state.transition && state.transition !== DEFAULT_TRANSITION) p.set('fade', state.transition);
+  if (state.blend) p.set('blend', state.blend);
+  if (state.ikGoals) p.set('ik', state.ikGoals);
+  if (state.morphs) p.set('morphs', state.morphs);
   const text = p.toString();
   return text ? `#v=${HASH_VERSION}&${text}` : '';
 }
@@ -107,6 +135,31 @@ export function hashToView(hash, warn = (message) => console.warn(`kloub: URL ha
   if (copies !== undefined) {
     if (Number.isInteger(copies) && copies >= 1 && copies <= 100) view.copies = copies;
     else bad('copies');
+  }
+  if (p.has('fade')) {
+    const fade = /^([0-9]+(?:\.[0-9]+)?),(smoothstep|linear),(freeze|keep|sync)$/.exec(p.get('fade') ?? '');
+    if (fade && Number(fade[1]) <= 3600) view.transition = { duration: Number(fade[1]), easing: fade[2], outgoing: fade[3] };
+    else bad('fade');
+  }
+  if (p.has('blend')) {
+    const blend = json(p.get('blend'));
+    const ok = Array.isArray(blend) && blend.length > 0 && blend.length <= 1024
+      && blend.every((b) => Array.isArray(b) && b.length === 2 && typeof b[0] === 'string' && finite(b[1]) && b[1] >= 0);
+    if (ok) view.blend = { names: blend.map((b) => b[0]), weights: blend.map((b) => b[1]) };
+    else bad('blend');
+  }
+  if (p.has('ik')) {
+    const goals = json(p.get('ik'));
+    const checked = Array.isArray(goals) && goals.length <= 64 ? goals.map(ikGoal) : [null];
+    if (checked.length > 0 && checked.every((g) => g !== null)) view.ik = checked;
+    else bad('ik');
+  }
+  if (p.has('morphs')) {
+    const morphs = json(p.get('morphs'));
+    const ok = Array.isArray(morphs) && morphs.length > 0 && morphs.length <= 4096 && morphs.every((m) => Array.isArray(m)
+      && m.length === 3 && typeof m[0] === 'string' && Number.isInteger(m[1]) && m[1] >= 0 && finite(m[2]) && Math.abs(m[2]) <= 10);
+    if (ok) view.morphs = morphs.map(([node, target, weight]) => ({ node, target, weight }));
+    else bad('morphs');
   }
   return view;
 }

@@ -53,6 +53,14 @@ export interface KloubViewerState {
   model?: string;
   /** The URL the shown model was fetched from; empty for dropped files and built-in samples. */
   src?: string;
+  /** JSON array of `[clip, weight]` while two or more clips are blended; empty otherwise. */
+  blend?: string;
+  /** `"DURATION,EASING,OUTGOING"`, e.g. `"0.250,smoothstep,freeze"`. */
+  transition?: string;
+  /** JSON array of IK goals: `{effector, depth, target, solver, iterations, softness, patternMove, pole}`. */
+  ikGoals?: string;
+  /** JSON array of held morph weights: `[node, targetIndex, weight]`. */
+  morphs?: string;
   /** JSON array of clip names. */
   clips?: string;
   clip?: string;
@@ -148,6 +156,8 @@ export declare class KloubViewer extends HTMLElement {
   /** Blends clips by relative weight as the base pose. */
   setBlend(names: string[], weights: number[]): void;
   setSkinning(method: SkinningMethod): void;
+  /** How clip changes crossfade; keys left out stay as they are. */
+  setTransition(options: { duration?: number; easing?: 'smoothstep' | 'linear'; outgoing?: 'freeze' | 'keep' | 'sync' }): void;
   /** `compute` throws on WebGL2. */
   setSkinningPath(path: SkinningPath): void;
   /** Colours vertices by their distance from linear blend skinning's result. */

@@ -32,6 +32,8 @@ const SKINNING_PATHS = ['gpu', 'compute', 'cpu'];
 const IK_SOLVERS = ['ccd', 'twobone', 'fabrik', 'dls'];
 const LIGHTING = ['studio', 'outdoor', 'flat', 'rim'];
 const BACKGROUNDS = ['dark', 'grey', 'light'];
+const EASINGS = ['smoothstep', 'linear'];
+const OUTGOING = ['freeze', 'keep', 'sync'];
 /** Argument bounds of the page API (README, "Embedding"). */
 const MAX_SPEED = 100;
 const MAX_SECONDS = 3600;
@@ -468,6 +470,23 @@ export class KloubViewer extends HTMLElement {
     names.forEach((n, i) => str(m, `names[${i}]`, n));
     const w = Array.from(weights, (x, i) => num(m, `weights[${i}]`, x, { min: 0, max: 1e6 }));
     this.#call(m, (v) => v.setBlend(names, Float32Array.from(w)));
+  }
+  /**
+   * How clip changes crossfade: `{ duration, easing, outgoing }` — seconds (the `crossfade-duration` attribute),
+   * 'smoothstep' | 'linear', and what the outgoing clip does: 'freeze' | 'keep' (keeps playing) | 'sync' (keeps
+   * playing, the new clip starts in step). Keys left out stay as they are.
+   */
+  setTransition(options) {
+    const m = 'setTransition';
+    if (options === null || typeof options !== 'object' || Array.isArray(options)) {
+      throw new TypeError(`${m}: expected { duration, easing, outgoing }, got ${describe(options)}`);
+    }
+    const { duration, easing, outgoing } = options;
+    if (duration !== undefined) num(m, 'duration', duration, { min: 0, max: MAX_SECONDS });
+    if (easing !== undefined) oneOf(m, 'easing', easing, EASINGS);
+    if (outgoing !== undefined) oneOf(m, 'outgoing', outgoing, OUTGOING);
+    this.#call(m, (v) => v.setTransition(easing ?? null, outgoing ?? null));
+    if (duration !== undefined) this.setAttribute('crossfade-duration', String(duration));
   }
   setSkinning(method) {
     oneOf('setSkinning', 'method', method, SKINNING);

@@ -493,7 +493,8 @@ for (const backend of BACKENDS) {
     assert(report.traps.length === 0, `wasm traps: ${report.traps.slice(0, 5).join('; ')}`);
     assert(report.bad.length === 0, `${report.bad.length} throws that are not TypeError/RangeError naming the method: ${report.bad.slice(0, 8).join('; ')}`);
     assert(report.thrown > report.calls / 2, `only ${report.thrown} of ${report.calls} hostile calls were refused`);
-    // The model stays and the viewer still animates.
+    // The model stays and the viewer still animates (a clip again: playClip(null), a valid call, shows the rest pose).
+    await control(page, 'playClip', 'Walk');
     await control(page, 'setSpeed', 1);
     await control(page, 'play');
     await waitFrames(page, 3);
@@ -571,21 +572,22 @@ for (const backend of BACKENDS) {
     await control(page, 'setLayer', 'Survey', 'b_Neck_04', 0.6);
     await page.evaluate(() => { document.querySelector('kloub-viewer').camera = [0.9, 0.35, 260, 5, 40, -10]; });
     await control(page, 'setLoop', 'pingpong');
-    await control(page, 'setOverlays', { skeleton: true, bounds: true });
+    // Not bounds or copies here: the framing bounds grow with what has played (and size the copies' grid), which
+    // a fresh page has not seen; the copies' setting is checked by data-* in the next test.
+    await control(page, 'setOverlays', { skeleton: true, normals: true });
     await control(page, 'setBackground', 'light');
     await control(page, 'setLighting', 'rim');
     await control(page, 'setGrid', false);
     await control(page, 'setHeatmap', true);
-    await control(page, 'setCopies', 2);
     await control(page, 'setSkinningPath', 'cpu');
     await control(page, 'seek', 0.3);
     await waitForDataset(page, () => {
       const d = document.querySelector('kloub-viewer').dataset;
-      return d.clip === 'Run' && d.time === '0.300' && d.playing === 'false' && d.speed === '1.500' && d.skinning === 'dqs' && d.layer.startsWith('Survey@') && d.camera.startsWith('0.90000,')
-        && d.loop === 'pingpong' && d.overlays === 'skeleton,bounds' && d.background === 'light' && d.lighting === 'rim' && d.grid === 'false'
-        && d.heatmap === 'true' && d.copies === '2' && d.skinningPath === 'cpu';
+      return d.clip === 'Run' && d.time === '0.300' && d.playing === 'false' && d.speed === '1.500' && d.skinning === 'dqs' && d.layer.startsWith('Survey@') && d.camera.startsWith('0.90000,0.35000,260.00000,')
+        && d.loop === 'pingpong' && d.overlays === 'skeleton,normals' && d.background === 'light' && d.lighting === 'rim' && d.grid === 'false'
+        && d.heatmap === 'true' && d.skinningPath === 'cpu';
     }, 'the view to be set');
-    await page.waitForFunction(() => location.hash.includes('camera=0.90000') && location.hash.includes('t=0.300') && location.hash.includes('copies=2') && location.hash.includes('path=cpu'), null, { timeout: 10000 });
+    await page.waitForFunction(() => location.hash.includes('camera=0.90000') && location.hash.includes('t=0.300') && location.hash.includes('path=cpu'), null, { timeout: 10000 });
     const hash = await page.evaluate(() => location.hash);
     const before = await dataset(page);
     const shotBefore = await viewportShot(page);
@@ -594,7 +596,7 @@ for (const backend of BACKENDS) {
     await page.goto(`${pageUrl(ctx.url, backend)}${hash}`);
     await waitForDataset(page, (t) => {
       const d = document.querySelector('kloub-viewer').dataset;
-      return d.model === 'Fox.glb' && d.status === 'ready' && d.time === t && d.camera.startsWith('0.90000,') && d.copies === '2';
+      return d.model === 'Fox.glb' && d.status === 'ready' && d.time === t && d.camera.startsWith('0.90000,');
     }, 'the view from the hash', 60000, before.time);
     // Paused: the frame that published this state is the last one; two animation frames later it is on screen.
     await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
@@ -607,6 +609,43 @@ for (const backend of BACKENDS) {
     savePng(shotAfter, `${backend}-hash-after.png`);
     const changed = diffFraction(shotBefore, shotAfter);
     assert(changed < 0.001, `the view from the hash differs in ${(changed * 100).toFixed(3)}% of the viewport`);
+  });
+
+  test(`${backend}: the URL hash keeps blend weights, crossfade settings, IK goals with their solver, and held morph weights`, async (ctx) => {
+    const { page } = ctx;
+    const robot = '/assets/RobotExpressive/RobotExpressive.glb';
+    await page.goto(`${pageUrl(ctx.url, backend)}${backend === 'webgl2' ? '&' : '?'}src=${robot}`);
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.model === 'RobotExpressive.glb' && document.querySelector('kloub-viewer').dataset.status === 'ready', 'RobotExpressive from ?src=');
+    await waitFrames(page, 2);
+    await control(page, 'pause');
+    await control(page, 'setBlend', ['Walking', 'Wave'], [0.7, 0.3]);
+    await control(page, 'setTransition', { duration: 0.6, easing: 'linear', outgoing: 'sync' });
+    await control(page, 'setIkTarget', 'Palm2.L', [0.6, 3.2, 1.1], 2);
+    await control(page, 'setIkSolver', 'Palm2.L', 'fabrik', { iterations: 24 });
+    await control(page, 'setMorphWeight', 'Head', 'Surprised', 0.8);
+    await control(page, 'setCopies', 3);
+    // setBlend restarts the clocks: pause after it.
+    await control(page, 'pause');
+    await control(page, 'seek', 0.4);
+    const keys = ['model', 'src', 'time', 'playing', 'blend', 'transition', 'ikGoals', 'morphs', 'copies'];
+    await waitForDataset(page, () => {
+      const d = document.querySelector('kloub-viewer').dataset;
+      return d.blend.includes('Wave') && d.transition === '0.600,linear,sync' && d.ikGoals.includes('fabrik') && d.morphs !== '' && d.time === '0.400' && d.copies === '3' && d.playing === 'false';
+    }, 'the settings to be mirrored');
+    const before = await dataset(page);
+    const goals = JSON.parse(before.ikGoals);
+    assert(goals.length === 1 && goals[0].effector === 'Palm2.L' && goals[0].depth === 2 && goals[0].iterations === 24, `ikGoals ${before.ikGoals}`);
+    assert(before.morphs === '[["Head",1,0.8]]', `morphs ${before.morphs}`);
+    await page.waitForFunction(() => location.hash.includes('ik=') && location.hash.includes('morphs=') && location.hash.includes('fade=') && location.hash.includes('blend='), null, { timeout: 10000 });
+    const hash = await page.evaluate(() => location.hash);
+    await page.goto('about:blank');
+    await page.goto(`${pageUrl(ctx.url, backend)}${hash}`);
+    await waitForDataset(page, (t) => {
+      const d = document.querySelector('kloub-viewer').dataset;
+      return d.model === 'RobotExpressive.glb' && d.status === 'ready' && d.time === t && d.ikGoals !== '' && d.morphs !== '' && d.copies === '3';
+    }, 'the settings from the hash', 60000, before.time);
+    const after = await dataset(page);
+    for (const key of keys) assert(after[key] === before[key], `${key}: ${before[key]} before, ${after[key]} from the hash`);
   });
 
   test(`${backend}: a broken file shows an error and keeps the previous model`, async (ctx) => {
@@ -675,10 +714,10 @@ test('kloub serve --assets: a library without Fox opens its first model; an empt
     const server = await startServer({ assets: dir });
     try {
       await page.goto(`${server.url}/`);
-      await waitForDataset(page, () => {
+      await waitForDataset(page, (w) => {
         const d = document.querySelector('kloub-viewer').dataset;
-        return d.status === 'ready' && Number(d.frames) > 3;
-      }, `the page on ${dir} to settle`);
+        return d.status === 'ready' && Number(d.frames) >= 1 && (d.model ?? '') === w;
+      }, `the page on ${dir} to settle`, 60000, want);
       await page.waitForTimeout(500);
       const d = await dataset(page);
       assert(d.status === 'ready' && (d.error ?? '') === '', `${dir}: status ${d.status}, error ${d.error}`);

@@ -146,6 +146,11 @@ pub struct Model {
     previous: crate::ragdoll::PreviousWorlds,
 }
 
+/// `x` rounded to five decimals, for the JSON state mirrors (stable text for equal values).
+fn round5(x: f32) -> f64 {
+    (f64::from(x) * 1e5).round() / 1e5
+}
+
 /// Most copies of the character the grid shows.
 pub const MAX_COPIES: usize = 100;
 
@@ -309,6 +314,56 @@ impl Model {
         let goals: Vec<String> =
             self.ik.iter().map(|ik| format!("{}:{:.5}", self.node_name(ik.effector()), ik.report.error)).collect();
         goals.join(";")
+    }
+
+    /// `dataset.blend`: the clips weighted in the base blend as a JSON array of `[name, weight]`,
+    /// when two or more are (`""` while one clip plays alone).
+    pub fn blend_summary(&self) -> String {
+        let weighted: Vec<serde_json::Value> = (self.clip_names.iter().zip(&self.blend_weights))
+            .filter(|(_, w)| w.is_finite() && **w > 0.0)
+            .map(|(name, w)| serde_json::json!([name, round5(*w)]))
+            .collect();
+        if weighted.len() < 2 { String::new() } else { serde_json::Value::Array(weighted).to_string() }
+    }
+
+    /// `dataset.ikGoals`: every IK goal as the page would set it again (`setIkTarget` +
+    /// `setIkSolver`), a JSON array; `""` without IK.
+    pub fn ik_goals_json(&self) -> String {
+        if self.ik.is_empty() {
+            return String::new();
+        }
+        let v3 = |v: Vec3| serde_json::json!([round5(v.x), round5(v.y), round5(v.z)]);
+        let goals: Vec<serde_json::Value> = (self.ik.iter())
+            .map(|ik| {
+                serde_json::json!({
+                    "effector": self.node_name(ik.effector()),
+                    "depth": ik.depth(),
+                    "target": v3(ik.target),
+                    "solver": ik.solver.name(),
+                    "iterations": ik.iterations,
+                    "softness": round5(ik.softness),
+                    "patternMove": ik.accelerate,
+                    "pole": ik.pole.map(v3),
+                })
+            })
+            .collect();
+        serde_json::Value::Array(goals).to_string()
+    }
+
+    /// `dataset.morphs`: the morph weights held by the page or the panel, a JSON array of
+    /// `[node name, target index, weight]`; `""` when the clip drives every weight.
+    pub fn morphs_json(&self) -> String {
+        let mut held = Vec::new();
+        for (node, n) in self.asset.nodes.iter().enumerate() {
+            let start = self.asset.weight_offsets.get(node).copied().unwrap_or(0) as usize;
+            for target in 0..n.weights.len() {
+                if let Some(Some(w)) = self.morph_overrides.get(start + target) {
+                    let name = self.node_name(NodeIndex::try_from(node).unwrap_or(NodeIndex::MAX));
+                    held.push(serde_json::json!([name, target, round5(*w)]));
+                }
+            }
+        }
+        if held.is_empty() { String::new() } else { serde_json::Value::Array(held).to_string() }
     }
 
     /// A new goal for `effector` keeping `like`'s solver and iterations where they apply.
@@ -1191,6 +1246,11 @@ impl App {
                 self.transition.duration = seconds.max(0.0);
                 return Ok(());
             }
+            Command::SetTransition { easing, outgoing } => {
+                self.transition.easing = easing.unwrap_or(self.transition.easing);
+                self.transition.outgoing = outgoing.unwrap_or(self.transition.outgoing);
+                return Ok(());
+            }
             Command::SetDropHint(on) => {
                 self.drop_hint = on;
                 return Ok(());
@@ -1270,6 +1330,7 @@ impl App {
             | Command::LoadSample(_)
             | Command::SetPanels(_)
             | Command::SetTransitionDuration(_)
+            | Command::SetTransition { .. }
             | Command::SetDropHint(_)
             | Command::LoadUrl(_)
             | Command::SetSamples(_)
@@ -1996,6 +2057,17 @@ impl App {
         d.set(Key::Quality, quality.as_deref().unwrap_or(""));
         d.set(Key::Copies, &model.map_or(String::new(), |m| m.copy_count().to_string()));
         d.set(Key::Ik, &model.map_or(String::new(), Model::ik_summary));
+        d.set(Key::IkGoals, &model.map_or(String::new(), Model::ik_goals_json));
+        d.set(Key::Blend, &model.map_or(String::new(), Model::blend_summary));
+        d.set(Key::Morphs, &model.map_or(String::new(), Model::morphs_json));
+        let t = &self.transition;
+        let transition = format!(
+            "{:.3},{},{}",
+            t.duration,
+            crate::control::easing_name(t.easing),
+            crate::control::outgoing_name(t.outgoing)
+        );
+        d.set(Key::Transition, &transition);
         let markers: Vec<String> = if model.is_some_and(|m| !m.ik.is_empty()) {
             self.ik_markers.iter().map(|p| format!("{:.1},{:.1}", p.x, p.y)).collect()
         } else {
@@ -2076,7 +2148,10 @@ impl eframe::App for App {
             look: self.scene.look(),
             library_shown: self.library.as_ref().and_then(|l| l.shown),
             samples: &self.samples,
-            shown_sample: self.shown_url.as_deref().and_then(|url| self.samples.iter().position(|s| s.is_shown_from(url))),
+            shown_sample: self
+                .shown_url
+                .as_deref()
+                .and_then(|url| self.samples.iter().position(|s| s.is_shown_from(url))),
         };
         let actions = if self.panels {
             egui::Panel::left("controls")

@@ -10,6 +10,7 @@
 use std::cell::RefCell;
 use std::rc::Rc;
 
+use kloub_core::animator::{Easing, Outgoing};
 use kloub_core::job::dqs::SkinningMethod;
 use kloub_core::player::LoopMode;
 
@@ -107,6 +108,13 @@ pub enum Command {
     SetPanels(bool),
     /// The crossfade duration a clip change uses, in seconds (0: cut).
     SetTransitionDuration(f32),
+    /// How a clip change crossfades: its easing and what the outgoing clip does (`None`: unchanged).
+    SetTransition {
+        /// The progress curve.
+        easing: Option<Easing>,
+        /// The outgoing side.
+        outgoing: Option<Outgoing>,
+    },
     /// Fetches and shows the model at a URL.
     LoadUrl(String),
     /// The Samples menu's library (replaces the previous list).
@@ -281,6 +289,19 @@ impl Controls {
             .ok_or_else(|| format!("no joint or node named {name:?} in the shown model"))
     }
 
+    /// The node named `name` that carries morph targets: names repeat in many files (a joint
+    /// and its mesh node both called `Head`), so a node with targets wins over earlier ones
+    /// without; else the first node of that name.
+    pub fn morph_node_index(&self, name: &str) -> Result<u32, String> {
+        let with_targets = {
+            let shared = self.0.borrow();
+            (shared.nodes.iter().zip(shared.morphs.iter().chain(std::iter::repeat(&Vec::new()))))
+                .position(|(n, targets)| n.as_deref() == Some(name) && !targets.is_empty())
+                .and_then(|i| u32::try_from(i).ok())
+        };
+        with_targets.map_or_else(|| self.node_index(name), Ok)
+    }
+
     /// Whether the renderer has the compute skinning path (WebGPU, native; not WebGL2).
     pub fn supports_compute(&self) -> bool {
         self.0.borrow().compute
@@ -361,6 +382,43 @@ pub fn parse_loop_mode(name: &str) -> Result<LoopMode, String> {
     }
 }
 
+/// A crossfade easing by its page name: `"smoothstep"` or `"linear"` (`kloub pose --easing`).
+pub fn parse_easing(name: &str) -> Result<Easing, String> {
+    match name {
+        "smoothstep" => Ok(Easing::SmoothStep),
+        "linear" => Ok(Easing::Linear),
+        _ => Err(format!("easing {name:?}: expected \"smoothstep\" or \"linear\"")),
+    }
+}
+
+/// The page name of an easing (inverse of [`parse_easing`]).
+pub fn easing_name(easing: Easing) -> &'static str {
+    match easing {
+        Easing::SmoothStep => "smoothstep",
+        Easing::Linear => "linear",
+    }
+}
+
+/// What the outgoing clip does during a crossfade, by its page name: `"freeze"`, `"keep"` (keeps
+/// playing) or `"sync"` (keeps playing, the new clip starts in step; `kloub pose --outgoing`).
+pub fn parse_outgoing(name: &str) -> Result<Outgoing, String> {
+    match name {
+        "freeze" => Ok(Outgoing::Freeze),
+        "keep" => Ok(Outgoing::KeepPlaying),
+        "sync" => Ok(Outgoing::SyncTime),
+        _ => Err(format!("outgoing {name:?}: expected \"freeze\", \"keep\" or \"sync\"")),
+    }
+}
+
+/// The page name of an outgoing mode (inverse of [`parse_outgoing`]).
+pub fn outgoing_name(outgoing: Outgoing) -> &'static str {
+    match outgoing {
+        Outgoing::Freeze => "freeze",
+        Outgoing::KeepPlaying => "keep",
+        Outgoing::SyncTime => "sync",
+    }
+}
+
 /// The page name of a loop mode (inverse of [`parse_loop_mode`]).
 pub fn loop_mode_name(mode: LoopMode) -> &'static str {
     match mode {
@@ -373,6 +431,29 @@ pub fn loop_mode_name(mode: LoopMode) -> &'static str {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_morph_node_wins_over_an_earlier_node_of_the_same_name() {
+        let c = Controls::default();
+        let nodes = vec![Some("Head".into()), Some("Head".into()), Some("Hips".into())];
+        c.publish(vec![], nodes, vec![vec![], vec!["Angry".into()], vec![]]);
+        assert_eq!(c.morph_node_index("Head"), Ok(1));
+        assert_eq!(c.node_index("Head"), Ok(0));
+        assert_eq!(c.morph_node_index("Hips"), Ok(2), "no node with targets: the first of that name");
+        assert!(c.morph_node_index("Tail").is_err());
+    }
+
+    #[test]
+    fn transition_names_round_trip_and_unknown_ones_are_refused() {
+        for easing in [Easing::SmoothStep, Easing::Linear] {
+            assert_eq!(parse_easing(easing_name(easing)), Ok(easing));
+        }
+        for outgoing in [Outgoing::Freeze, Outgoing::KeepPlaying, Outgoing::SyncTime] {
+            assert_eq!(parse_outgoing(outgoing_name(outgoing)), Ok(outgoing));
+        }
+        assert!(parse_easing("cubic").is_err_and(|e| e.contains("smoothstep")));
+        assert!(parse_outgoing("fade").is_err_and(|e| e.contains("freeze")));
+    }
 
     #[test]
     fn names_resolve_against_the_published_model() {

@@ -73,11 +73,22 @@ pub enum Key {
     Ragdoll,
     /// The URL the shown model was fetched from (`""` for dropped files and built-in samples).
     Src,
+    /// The base blend while several clips are weighted: a JSON array of `[clip, weight]` (`""`
+    /// when the main clip plays alone).
+    Blend,
+    /// How clip changes crossfade: `"DURATION,EASING,OUTGOING"` (e.g. `"0.250,smoothstep,freeze"`).
+    Transition,
+    /// The IK goals as JSON: `[{effector, depth, target: [x, y, z], solver, iterations, softness,
+    /// patternMove, pole: [x, y, z] | null}]` (`""` without IK).
+    IkGoals,
+    /// Morph weights held by the page or the panel: a JSON array of `[node, target, weight]`
+    /// (`""` when the clip drives them all).
+    Morphs,
 }
 
 impl Key {
     /// Every key, in a fixed order.
-    pub const ALL: [Key; 32] = [
+    pub const ALL: [Key; 36] = [
         Key::Backend,
         Key::Status,
         Key::Model,
@@ -110,6 +121,10 @@ impl Key {
         Key::Background,
         Key::Ragdoll,
         Key::Src,
+        Key::Blend,
+        Key::Transition,
+        Key::IkGoals,
+        Key::Morphs,
     ];
 
     /// The dataset property name (`dataset.<name>` in JS).
@@ -147,6 +162,10 @@ impl Key {
             Key::Background => "background",
             Key::Ragdoll => "ragdoll",
             Key::Src => "src",
+            Key::Blend => "blend",
+            Key::Transition => "transition",
+            Key::IkGoals => "ikGoals",
+            Key::Morphs => "morphs",
         }
     }
 }
@@ -263,16 +282,22 @@ pub fn show_fatal_everywhere(message: &str) {
 }
 
 /// Remembers what was written so each key is written only when its value changes.
-#[derive(Debug, Default)]
+#[derive(Debug)]
 pub struct Dataset {
     written: [Option<String>; Key::ALL.len()],
     host: Host,
 }
 
+impl Default for Dataset {
+    fn default() -> Self {
+        Self::new(Host::default())
+    }
+}
+
 impl Dataset {
     /// A mirror writing through `host`.
     pub fn new(host: Host) -> Self {
-        Self { written: Default::default(), host }
+        Self { written: std::array::from_fn(|_| None), host }
     }
 
     /// Where this mirror writes and reports events.

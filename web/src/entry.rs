@@ -188,12 +188,10 @@ impl Viewer {
     /// the mesh on node `node` at `weight`; `null` weight lets the clip drive it again.
     #[wasm_bindgen(js_name = setMorphWeight)]
     pub fn set_morph_weight(&self, node: String, target: JsValue, weight: Option<f32>) -> Result<(), JsValue> {
-        let node_index = self.controls.node_index(&node).map_err(range_error)?;
+        let node_index = self.controls.morph_node_index(&node).map_err(range_error)?;
         let target = match (target.as_f64(), target.as_string()) {
             (Some(i), _) if i >= 0.0 && i.fract() == 0.0 => i as usize,
-            (_, Some(name)) => {
-                self.controls.morph_target_index(node_index, &name).map_err(range_error)?
-            }
+            (_, Some(name)) => self.controls.morph_target_index(node_index, &name).map_err(range_error)?,
             _ => return Err(range_error("setMorphWeight: target is an index or a name")),
         };
         self.controls.send(Command::SetMorph { node: node_index, target, weight });
@@ -273,6 +271,16 @@ impl Viewer {
 
     /// Places the camera: `yaw` and `pitch` in radians, `distance` from the target point
     /// `x, y, z` (the values of `data-camera`).
+    /// How clip changes crossfade: `easing` `"smoothstep"` | `"linear"` and what the outgoing
+    /// clip does, `outgoing` `"freeze"` | `"keep"` | `"sync"` (`null`: unchanged).
+    #[wasm_bindgen(js_name = setTransition)]
+    pub fn set_transition(&self, easing: Option<String>, outgoing: Option<String>) -> Result<(), JsValue> {
+        let easing = easing.as_deref().map(crate::control::parse_easing).transpose().map_err(range_error)?;
+        let outgoing = outgoing.as_deref().map(crate::control::parse_outgoing).transpose().map_err(range_error)?;
+        self.controls.send_global(Command::SetTransition { easing, outgoing });
+        Ok(())
+    }
+
     #[wasm_bindgen(js_name = setCamera)]
     pub fn set_camera(&self, yaw: f32, pitch: f32, distance: f32, x: f32, y: f32, z: f32) -> Result<(), JsValue> {
         let values = [yaw, pitch, distance, x, y, z];
