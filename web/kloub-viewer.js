@@ -153,7 +153,7 @@ export class KloubViewer extends HTMLElement {
       input.multiple = true;
       input.hidden = true;
       if (kind === 'folder') input.webkitdirectory = true;
-      else input.accept = '.glb,.gltf,.bin,.png,.jpg,.jpeg,.webp,.ktx2,.json';
+      else input.accept = '.glb,.gltf,.zip,.bin,.png,.jpg,.jpeg,.webp,.ktx2,.json';
       input.addEventListener('change', () => {
         const files = [...input.files].map((file) => ({ name: file.webkitRelativePath || file.name, file }));
         input.value = '';

@@ -20,6 +20,7 @@
 //! ([`job::blend::BlendJob`]), again without allocating per frame.
 
 pub mod animator;
+pub mod archive;
 pub mod asset;
 pub mod candy;
 pub mod clip;

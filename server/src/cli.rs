@@ -201,6 +201,16 @@ pub struct ServeArgs {
     #[arg(long, env = "KLOUB_MAX_CONNECTIONS", default_value_t = DEFAULT_MAX_CONNECTIONS,
           value_parser = clap::value_parser!(u32).range(1..=1_048_576))]
     pub max_connections: u32,
+    /// Origins the page may open models from besides this server: CSP `connect-src` sources,
+    /// space-separated (e.g. "https://cdn.example.com"; "" for this server only)
+    /// [default: "https: http://127.0.0.1:* http://localhost:*"].
+    #[arg(long, env = "KLOUB_CONNECT_SRC", value_name = "SOURCES", value_parser = parse_connect_src)]
+    pub connect_src: Option<String>,
+}
+
+/// Checks `--connect-src` (see [`crate::serve::csp`]).
+fn parse_connect_src(sources: &str) -> Result<String, String> {
+    crate::serve::csp(sources).map(|_| sources.to_owned())
 }
 
 /// Options of `kloub pose`.
@@ -381,6 +391,7 @@ fn run_serve(args: ServeArgs) -> ExitCode {
         dist: args.dist.map_or(defaults.dist, Source::Dir),
         assets: args.assets.map_or(defaults.assets, Source::Dir),
         limits: Limits { max_connections: args.max_connections as usize, ..defaults.limits },
+        connect_src: args.connect_src,
     };
     log::info!("web bundle: {}; samples: {}", describe(&config.dist), describe(&config.assets));
     let app = App::new(&config);

@@ -284,11 +284,17 @@ fn read_limited(path: &Path, max_bytes: u64) -> Result<Vec<u8>, String> {
 }
 
 /// Reads and imports the file at `path` (external files from its folder); returns its file
-/// name and the import result.
+/// name and the import result. A zip archive (`.zip`, by its contents) is read in memory by
+/// [`kloub_core::archive`]: its first `.glb`/`.gltf` is imported, resolving URIs among the
+/// archive's files; what the archive left out, and its other models, become warnings.
 pub fn import_file(path: &Path) -> Result<(String, Imported), PoseError> {
     let options = ImportOptions::default();
     let bytes =
         read_limited(path, options.budget_bytes).map_err(|e| PoseError::new(None, format!("cannot read: {e}")))?;
+    if kloub_core::archive::is_zip(&bytes) {
+        let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        return import_archive(&name, &bytes, &options);
+    }
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
@@ -298,6 +304,48 @@ pub fn import_file(path: &Path) -> Result<(String, Imported), PoseError> {
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     let imported = import_bytes(&bytes, &resolver, &options)?;
     Ok((name, imported))
+}
+
+/// Imports the first model of the zip archive `bytes` (named `archive_name`); its name is
+/// `ARCHIVE/PATH/MODEL`.
+///
+/// # Errors
+/// An unreadable or over-budget archive, one without a model, or the model's import error.
+pub fn import_archive(
+    archive_name: &str,
+    bytes: &[u8],
+    options: &ImportOptions,
+) -> Result<(String, Imported), PoseError> {
+    let limits = kloub_core::archive::ArchiveLimits { max_bytes: options.budget_bytes, ..Default::default() };
+    let archive = kloub_core::archive::read_zip(bytes, &limits)
+        .map_err(|e| PoseError::new(None, format!("{archive_name}: {e}")))?;
+    let models: Vec<String> = archive.models().into_iter().map(str::to_owned).collect();
+    let Some(first) = models.first().map(String::as_str) else {
+        return Err(PoseError::new(None, format!("{archive_name}: the archive holds no .glb or .gltf model")));
+    };
+    let folder = first.rsplit_once('/').map_or("", |(dir, _)| dir);
+    let mut resolver = kloub_core::MapResolver::new();
+    let mut model = None;
+    for entry in &archive.entries {
+        if entry.path == first {
+            model = Some(&entry.bytes);
+        } else if folder.is_empty() {
+            resolver.insert(entry.path.clone(), entry.bytes.clone());
+        } else if let Some(rel) = entry.path.strip_prefix(folder).and_then(|r| r.strip_prefix('/')) {
+            resolver.insert(rel.to_owned(), entry.bytes.clone());
+        }
+    }
+    let model = model.ok_or_else(|| PoseError::new(None, format!("{archive_name}: {first} vanished")))?;
+    let mut imported = import_bytes(model, &resolver, options)?;
+    let mut notes: Vec<Warning> = archive.skipped.iter().map(|m| Warning::new("", m.as_str())).collect();
+    if models.len() > 1 {
+        notes.push(Warning::new(
+            "",
+            format!("the archive holds {} models ({}); this is {first}", models.len(), models.join(", ")),
+        ));
+    }
+    imported.warnings.splice(0..0, notes);
+    Ok((format!("{archive_name}/{first}"), imported))
 }
 
 /// Imports `bytes` (GLB or .gltf), turning an import error into a [`PoseError`].

@@ -530,3 +530,67 @@ fn ragdoll_prints_every_frame_falls_and_repeats_itself() {
     assert_eq!(none.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&none.stderr).contains("no skin"), "{}", String::from_utf8_lossy(&none.stderr));
 }
+
+/// Zips `files` (archive path, file on disk) with deflate into `dir/name`.
+fn zip_files(dir: &std::path::Path, name: &str, files: &[(&str, PathBuf)]) -> PathBuf {
+    use std::io::Write;
+    let mut out = zip::ZipWriter::new(std::io::Cursor::new(Vec::new()));
+    let options = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Deflated);
+    for (inner, path) in files {
+        out.start_file(*inner, options).expect("start");
+        out.write_all(&std::fs::read(path).expect("read")).expect("write");
+    }
+    let path = dir.join(name);
+    std::fs::write(&path, out.finish().expect("finish").into_inner()).expect("write zip");
+    path
+}
+
+/// `kloub inspect` and `kloub pose` read a zipped glTF folder in memory, the same as the folder itself.
+#[test]
+fn inspect_and_pose_read_a_zipped_gltf_folder() {
+    let dir = std::env::temp_dir().join(format!("kloub-cli-zip-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("mkdir");
+    let cesium = shared_assets().join("khronos/CesiumMan/glTF");
+    let files: Vec<(&str, PathBuf)> = [
+        ("CesiumMan/glTF/CesiumMan.gltf", "CesiumMan.gltf"),
+        ("CesiumMan/glTF/CesiumMan_data.bin", "CesiumMan_data.bin"),
+        ("CesiumMan/glTF/CesiumMan_img0.jpg", "CesiumMan_img0.jpg"),
+        ("../escape.bin", "CesiumMan_data.bin"),
+    ]
+    .into_iter()
+    .map(|(inner, file)| (inner, cesium.join(file)))
+    .collect();
+    let archive = zip_files(&dir, "CesiumMan.zip", &files);
+
+    let out = kloub().arg("inspect").arg(&archive).arg("--json").output().expect("runs");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    assert_eq!(doc["asset"], "CesiumMan.zip/CesiumMan/glTF/CesiumMan.gltf");
+    assert_eq!(doc["skins"][0]["joints"].as_array().map(Vec::len), Some(19));
+    let warnings = doc["warnings"].to_string();
+    assert!(warnings.contains("../escape.bin"), "the climbing name is reported: {warnings}");
+
+    let pose = |file: &std::path::Path| {
+        let out = kloub().arg("pose").arg(file).args(["--time", "0.5"]).output().expect("runs");
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let doc: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+        doc["frames"].clone()
+    };
+    assert_eq!(pose(&archive), pose(&cesium.join("CesiumMan.gltf")), "the same frames from the zip as from the folder");
+
+    // Two models: the first is shown, the others named in a warning; no model: an error.
+    let two = zip_files(
+        &dir,
+        "two.zip",
+        &[("a/Fox.glb", shared_assets().join("khronos/Fox/glTF-Binary/Fox.glb")), ("b/Simple.glb", rigged_simple())],
+    );
+    let out = kloub().arg("inspect").arg(&two).arg("--json").output().expect("runs");
+    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    assert_eq!(doc["asset"], "two.zip/a/Fox.glb");
+    assert!(doc["warnings"].to_string().contains("holds 2 models"), "{}", doc["warnings"]);
+    let none = zip_files(&dir, "none.zip", &[("readme.txt", cesium.join("CesiumMan.gltf"))]);
+    let out = kloub().arg("pose").arg(&none).output().expect("runs");
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("holds no .glb or .gltf model"));
+    std::fs::remove_dir_all(&dir).expect("cleanup");
+}

@@ -366,11 +366,13 @@ fn without_a_bundle_the_page_says_how_to_build_it() {
             dist: Source::Dir(base.join("no-dist")),
             assets: Source::Dir(base.join("no-assets")),
             limits: Default::default(),
+            connect_src: None,
         },
         ServeConfig {
             dist: Source::Memory(MemoryDir::default()),
             assets: Source::Memory(MemoryDir::default()),
             limits: Default::default(),
+            connect_src: None,
         },
     ] {
         let server = start(&config);

@@ -125,6 +125,7 @@ fn limited(limits: Limits) -> ServeConfig {
         ])),
         assets: Source::Memory(MemoryDir::default()),
         limits,
+        connect_src: None,
     }
 }
 

@@ -1,6 +1,8 @@
 // Shared helpers for Kloub's browser tests: the real `kloub serve`, Debian chromium via playwright-core.
 import { spawn } from 'node:child_process';
-import { mkdirSync, readFileSync, writeFileSync } from 'node:fs';
+import { createServer } from 'node:http';
+import { mkdirSync, readFileSync, statSync, writeFileSync } from 'node:fs';
+import { crc32, deflateRawSync } from 'node:zlib';
 import { basename, join, resolve } from 'node:path';
 import { chromium } from 'playwright-core';
 import { PNG } from 'pngjs';
@@ -16,9 +18,9 @@ const BASE_FLAGS = [
 const WEBGPU_FLAGS = ['--enable-unsafe-webgpu', '--use-angle=swiftshader', '--enable-features=Vulkan', '--use-vulkan=swiftshader'];
 
 /** Starts `kloub serve` on a free loopback port (the sample library, or `assets`); resolves to { url, stop() }. */
-export async function startServer({ assets = join(ROOT, 'web/assets') } = {}) {
+export async function startServer({ assets = join(ROOT, 'web/assets'), args = [] } = {}) {
   const bin = join(ROOT, 'target/debug/kloub');
-  const child = spawn(bin, ['serve', '--addr', '127.0.0.1:0', '--dist', join(ROOT, 'web/dist'), '--assets', assets], {
+  const child = spawn(bin, ['serve', '--addr', '127.0.0.1:0', '--dist', join(ROOT, 'web/dist'), '--assets', assets, ...args], {
     stdio: ['ignore', 'pipe', 'pipe'],
   });
   const url = await new Promise((ok, fail) => {
@@ -34,6 +36,60 @@ export async function startServer({ assets = join(ROOT, 'web/assets') } = {}) {
     child.on('exit', (code) => fail(new Error(`kloub serve exited with ${code}: ${out}`)));
   });
   return { url, stop: () => child.kill('SIGINT') };
+}
+
+/**
+ * A plain static file server for `dir` on a free loopback port, with `Access-Control-Allow-Origin: *` when `cors`
+ * (another site's server, or one that forgot CORS); resolves to { url, stop() }. Only GET of files under `dir`.
+ */
+export async function startStatic(dir, { cors = false } = {}) {
+  const server = createServer((req, res) => {
+    const path = decodeURIComponent(new URL(req.url, 'http://x').pathname);
+    const file = join(dir, path);
+    const headers = cors ? { 'access-control-allow-origin': '*' } : {};
+    if (path.includes('..') || !file.startsWith(dir)) { res.writeHead(403, headers).end(); return; }
+    try {
+      if (!statSync(file).isFile()) throw new Error('not a file');
+      res.writeHead(200, { ...headers, 'content-type': 'application/octet-stream' }).end(readFileSync(file));
+    } catch {
+      res.writeHead(404, headers).end('not found');
+    }
+  });
+  await new Promise((ok) => server.listen(0, '127.0.0.1', ok));
+  return { url: `http://127.0.0.1:${server.address().port}`, stop: () => server.close() };
+}
+
+/**
+ * A zip archive of `entries` ([{ name, bytes }]), deflated; `declare` overrides an entry's declared uncompressed size
+ * (a zip bomb's lie) in both of its headers.
+ */
+export function makeZip(entries) {
+  const locals = [];
+  const centrals = [];
+  let offset = 0;
+  for (const { name, bytes, declare } of entries) {
+    const data = deflateRawSync(bytes);
+    const nameBytes = Buffer.from(name, 'utf8');
+    const size = declare ?? bytes.length;
+    const head = Buffer.alloc(30);
+    head.writeUInt32LE(0x04034b50, 0); head.writeUInt16LE(20, 4); head.writeUInt16LE(0, 6); head.writeUInt16LE(8, 8);
+    head.writeUInt16LE(0, 10); head.writeUInt16LE(0x21, 12); head.writeUInt32LE(crc32(bytes), 14);
+    head.writeUInt32LE(data.length, 18); head.writeUInt32LE(size, 22); head.writeUInt16LE(nameBytes.length, 26);
+    head.writeUInt16LE(0, 28);
+    const central = Buffer.alloc(46);
+    central.writeUInt32LE(0x02014b50, 0); central.writeUInt16LE(20, 4); central.writeUInt16LE(20, 6);
+    central.writeUInt16LE(0, 8); central.writeUInt16LE(8, 10); central.writeUInt16LE(0, 12); central.writeUInt16LE(0x21, 14);
+    central.writeUInt32LE(crc32(bytes), 16); central.writeUInt32LE(data.length, 20); central.writeUInt32LE(size, 24);
+    central.writeUInt16LE(nameBytes.length, 28); central.writeUInt32LE(offset, 42);
+    locals.push(head, nameBytes, data);
+    centrals.push(central, nameBytes);
+    offset += head.length + nameBytes.length + data.length;
+  }
+  const cd = Buffer.concat(centrals);
+  const end = Buffer.alloc(22);
+  end.writeUInt32LE(0x06054b50, 0); end.writeUInt16LE(entries.length, 8); end.writeUInt16LE(entries.length, 10);
+  end.writeUInt32LE(cd.length, 12); end.writeUInt32LE(offset, 16);
+  return Buffer.concat([...locals, cd, end]);
 }
 
 /** Launches chromium for one backend ('webgpu' | 'webgl2'); returns { browser, page, close() }. */

@@ -2,10 +2,10 @@
 // Prints one line per test and closes with "browser: N passed, M failed"; exits 1 on any failure.
 import { copyFileSync, mkdirSync, mkdtempSync, readFileSync, rmSync, writeFileSync } from 'node:fs';
 import { tmpdir } from 'node:os';
-import { join } from 'node:path';
+import { basename, join } from 'node:path';
 import {
-  SHARED, control, dataset, diffFraction, dropFiles, nonBackgroundFraction, openBrowser, pageUrl, recordEvents, savePng,
-  startServer, viewerEvents, viewportShot, waitForDataset, waitFrames,
+  ROOT, SHARED, control, dataset, diffFraction, dropFiles, makeZip, nonBackgroundFraction, openBrowser, pageUrl, recordEvents,
+  savePng, startServer, startStatic, viewerEvents, viewportShot, waitForDataset, waitFrames,
 } from './lib.mjs';
 
 const BACKENDS = (process.env.KLOUB_BACKENDS ?? 'webgpu,webgl2').split(',');
@@ -470,6 +470,13 @@ for (const backend of BACKENDS) {
         }
       }
       for (const [prop] of Object.entries(setters)) for (const h of hostile) calls.push([prop, () => { el[prop] = h; }]);
+      // Attributes are strings, so they cannot trap; a bad one reaches the page as an error event (the model stays).
+      // Not backend or src: changing them remounts or loads by design.
+      const strings = ['NaN', 'Infinity', '-1', '1e308', '', 'x'.repeat(100000), '{}', 'null', 'bogus'];
+      for (const name of ['animation-name', 'speed', 'loop', 'crossfade-duration', 'layer-clip', 'layer-root', 'skinning']) {
+        for (const h of strings) calls.push([name, () => el.setAttribute(name, h)]);
+        calls.push([name, () => el.removeAttribute(name)]);
+      }
       let traps = [];
       let bad = [];
       let thrown = 0;
@@ -646,6 +653,113 @@ for (const backend of BACKENDS) {
     }, 'the settings from the hash', 60000, before.time);
     const after = await dataset(page);
     for (const key of keys) assert(after[key] === before[key], `${key}: ${before[key]} before, ${after[key]} from the hash`);
+  });
+
+  test(`${backend}: models from other origins: a .glb by ?src=, a multi-file .gltf by src; CORS, 404 and CSP failures say so`, async (ctx) => {
+    const { page } = ctx;
+    const sep = backend === 'webgl2' ? '&' : '?';
+    const other = await startServer({ assets: join(ROOT, 'tests/assets') });
+    const dir = mkdtempSync(join(tmpdir(), 'kloub-nocors-'));
+    copyFileSync(FOX, join(dir, 'Fox.glb'));
+    const plain = await startStatic(dir);
+    const narrow = await startServer({ args: ['--connect-src', 'https://cdn.example.com'] });
+    const ready = (name) => waitForDataset(page, (n) => {
+      const d = document.querySelector('kloub-viewer').dataset;
+      return d.model === n && d.status === 'ready';
+    }, name, 60000, name);
+    const failedLoad = (url) => page.evaluate((u) => document.querySelector('kloub-viewer').load(u).then(() => 'resolved', (e) => e.message), url);
+    try {
+      const fox = `${other.url}/assets/khronos/Fox/glTF-Binary/Fox.glb`;
+      await page.goto(`${pageUrl(ctx.url, backend)}${sep}src=${encodeURIComponent(fox)}`);
+      await ready('Fox.glb');
+      assert((await dataset(page)).src === fox, 'data-src is the other origin\'s URL');
+      // A .gltf fetches its .bin and texture relative to its own URL.
+      const gltf = `${other.url}/assets/khronos/CesiumMan/glTF/CesiumMan.gltf`;
+      await page.evaluate((u) => { document.querySelector('kloub-viewer').src = u; }, gltf);
+      await ready('CesiumMan.gltf');
+      await waitFrames(page, 3);
+      const colour = saturatedFraction(await viewportShot(page));
+      assert(colour > 0.005, `CesiumMan's texture from the other origin: ${(colour * 100).toFixed(2)}% coloured pixels`);
+      // A server without CORS headers.
+      const noCors = `${plain.url}/Fox.glb`;
+      const cors = await failedLoad(noCors);
+      assert(cors.includes('CORS') && cors.includes('Access-Control-Allow-Origin') && cors.includes(noCors), `no CORS: ${cors}`);
+      assert((await dataset(page)).model === 'CesiumMan.gltf', 'the previous model stays after the CORS failure');
+      const missing = await failedLoad(`${other.url}/assets/nope.glb`);
+      assert(missing.includes('404') && missing.includes('/assets/nope.glb'), `404: ${missing}`);
+      assert((await dataset(page)).model === 'CesiumMan.gltf', 'the previous model stays after the 404');
+      // The same links the other way round: ?src= to the .gltf, src to the .glb.
+      await page.goto(`${pageUrl(ctx.url, backend)}${sep}src=${encodeURIComponent(gltf)}`);
+      await ready('CesiumMan.gltf');
+      await page.evaluate((u) => { document.querySelector('kloub-viewer').src = u; }, fox);
+      await ready('Fox.glb');
+      // Open → URL in the panel, typed as a user would.
+      const panelRight = Number((await dataset(page)).viewport.split(',')[0]);
+      await page.mouse.click(panelRight - 28, 18);
+      await waitFrames(page, 3);
+      await page.waitForTimeout(200);
+      await page.mouse.click(panelRight - 10, 117);
+      await page.waitForTimeout(200);
+      await page.keyboard.type(`${other.url}/assets/khronos/RiggedSimple/glTF-Binary/RiggedSimple.glb`);
+      await page.keyboard.press('Enter');
+      await ready('RiggedSimple.glb').catch(async (e) => {
+        savePng(await viewportShot(page, 'body'), `${backend}-open-url.png`);
+        throw e;
+      });
+      // A deployment that narrowed connect-src: its page refuses the other origin, and says so.
+      await page.goto(`${pageUrl(narrow.url, backend)}${sep}src=${encodeURIComponent(fox)}`);
+      await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.status === 'error', 'the CSP refusal');
+      const csp = (await dataset(page)).error;
+      assert(csp.includes('Content-Security-Policy') && csp.includes(other.url), `CSP: ${csp}`);
+    } finally {
+      other.stop();
+      plain.stop();
+      narrow.stop();
+      rmSync(dir, { recursive: true, force: true });
+    }
+  });
+
+  test(`${backend}: zip archives: a zipped glTF folder animates, dropped and by URL; two models are listed; a bomb is refused`, async (ctx) => {
+    const { page } = ctx;
+    await openApp(ctx, backend);
+    // A name climbing out of the archive is left out (with a warning); the rest opens.
+    const cesium = makeZip([
+      ...CESIUM_MAN.map((path) => ({ name: `CesiumMan/glTF/${basename(path)}`, bytes: readFileSync(path) })),
+      { name: '../../escape.bin', bytes: Buffer.from('outside') },
+    ]);
+    await dropFiles(page, [{ name: 'CesiumMan.zip', bytes: cesium }]);
+    await waitForDataset(page, () => {
+      const d = document.querySelector('kloub-viewer').dataset;
+      return d.model === 'CesiumMan.gltf' && d.status === 'ready';
+    }, 'CesiumMan from the dropped zip');
+    const t0 = Number((await dataset(page)).time);
+    await page.waitForFunction((t) => Number(document.querySelector('kloub-viewer').dataset.time) !== t, t0, { timeout: 10000 });
+    // Two models: the first is shown, both are listed to switch between.
+    const two = makeZip([{ name: 'a/Fox.glb', bytes: readFileSync(FOX) }, { name: 'b/RiggedSimple.glb', bytes: readFileSync(RIGGED_SIMPLE) }]);
+    await dropFiles(page, [{ name: 'two.zip', bytes: two }]);
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.models === '["Fox.glb","RiggedSimple.glb"]', 'both models listed');
+    // A bomb: a kilobyte declaring 4 GB. Refused before inflating; Fox stays.
+    const bomb = makeZip([{ name: 'huge.glb', bytes: Buffer.alloc(1024), declare: 0xfffffff0 }]);
+    assert(bomb.length < 2048, `the bomb is ${bomb.length} bytes`);
+    await dropFiles(page, [{ name: 'bomb.zip', bytes: bomb }]);
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.status === 'error', 'the bomb refused');
+    const d = await dataset(page);
+    assert(d.error.includes('bomb.zip') && d.error.includes('budget'), `bomb: ${d.error}`);
+    assert(d.model === 'Fox.glb', `the model after the bomb: ${d.model}`);
+    // By URL from another origin (with CORS): the same archive.
+    const dir = mkdtempSync(join(tmpdir(), 'kloub-zip-'));
+    writeFileSync(join(dir, 'CesiumMan.zip'), cesium);
+    const files = await startStatic(dir, { cors: true });
+    try {
+      await page.goto(`${pageUrl(ctx.url, backend)}${backend === 'webgl2' ? '&' : '?'}src=${encodeURIComponent(`${files.url}/CesiumMan.zip`)}`);
+      await waitForDataset(page, () => {
+        const v = document.querySelector('kloub-viewer').dataset;
+        return v.model === 'CesiumMan.gltf' && v.status === 'ready';
+      }, 'CesiumMan from ?src=….zip');
+    } finally {
+      files.stop();
+      rmSync(dir, { recursive: true, force: true });
+    }
   });
 
   test(`${backend}: a broken file shows an error and keeps the previous model`, async (ctx) => {

@@ -1080,8 +1080,20 @@ impl App {
                     self.apply_sidecar(&files)
                 }
                 Ok(files) => {
+                    // Zip archives open into their files first (a bomb is refused before it is inflated).
+                    let expanded = load::expand_archives(files);
+                    let (files, notes) = match expanded {
+                        Ok(expanded) => expanded,
+                        Err(message) => {
+                            self.fail(message);
+                            continue;
+                        }
+                    };
                     let models = load::model_names(&files);
-                    let result = load::import_model(&files, None).and_then(|m| self.install(m, None));
+                    let result = load::import_model(&files, None).and_then(|mut m| {
+                        m.warnings.splice(0..0, notes);
+                        self.install(m, None)
+                    });
                     if result.is_ok() {
                         self.library = (models.len() > 1).then_some(Library { files, models, shown: Some(0) });
                         self.shown_url = delivery.url;
@@ -2023,6 +2035,10 @@ impl App {
         let model = self.model.as_ref();
         d.set(Key::Model, model.map_or("", |m| m.name.as_str()));
         d.set(Key::Src, self.shown_url.as_deref().unwrap_or_default());
+        let models = self.library.as_ref().map_or(String::new(), |l| {
+            serde_json::Value::from(l.models.iter().map(|m| load::base_name(m)).collect::<Vec<_>>()).to_string()
+        });
+        d.set(Key::Models, &models);
         d.set(Key::Clips, model.map_or("[]", |m| m.clips_json.as_str()));
         d.set(Key::Clip, model.map_or("", |m| m.clip_name(m.animator.main().clip)));
         let time_moved = d.set(Key::Time, &model.map_or(String::new(), |m| format!("{:.3}", m.animator.main().time)));

@@ -84,11 +84,14 @@ pub enum Key {
     /// Morph weights held by the page or the panel: a JSON array of `[node, target, weight]`
     /// (`""` when the clip drives them all).
     Morphs,
+    /// The models of a drop (or zip archive) holding several, a JSON array of file names, which
+    /// the panel lists to switch between; `""` for one model.
+    Models,
 }
 
 impl Key {
     /// Every key, in a fixed order.
-    pub const ALL: [Key; 36] = [
+    pub const ALL: [Key; 37] = [
         Key::Backend,
         Key::Status,
         Key::Model,
@@ -125,6 +128,7 @@ impl Key {
         Key::Transition,
         Key::IkGoals,
         Key::Morphs,
+        Key::Models,
     ];
 
     /// The dataset property name (`dataset.<name>` in JS).
@@ -166,6 +170,7 @@ impl Key {
             Key::Transition => "transition",
             Key::IkGoals => "ikGoals",
             Key::Morphs => "morphs",
+            Key::Models => "models",
         }
     }
 }

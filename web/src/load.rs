@@ -179,15 +179,130 @@ pub fn import_model(files: &[SourceFile], wanted: Option<&str>) -> Result<Loaded
     Ok(LoadedModel { name: display, asset: imported.asset, warnings: imported.warnings, sidecar })
 }
 
-/// Fetches `url` and delivers its bytes to `inbox`, then asks `ctx` for a repaint.
+/// Most external files a `.gltf` fetched from a URL may name.
+const MAX_SIBLINGS: usize = 1024;
+
+/// Fetches `url` and delivers its bytes to `inbox`, then asks `ctx` for a repaint. A `.gltf`
+/// brings its relative buffers and images along, fetched relative to its URL (the total within
+/// the import budget); a `.zip` is expanded when the delivery is imported.
 #[cfg(target_arch = "wasm32")]
 pub fn fetch_into(url: String, inbox: Inbox, ctx: egui::Context) {
     wasm_bindgen_futures::spawn_local(async move {
-        let name = file_name_of_url(&url).to_owned();
-        let files = fetch_bytes(&url, &name, &inbox, &ctx).await.map(|bytes| vec![SourceFile { name, bytes }]);
+        let files = fetch_model(&url, &inbox, &ctx).await;
         inbox.push(Delivery { url: Some(url.clone()), origin: url, files });
         ctx.request_repaint();
     });
+}
+
+/// The model at `url`, with the files a `.gltf` names beside it.
+#[cfg(target_arch = "wasm32")]
+async fn fetch_model(url: &str, inbox: &Inbox, ctx: &egui::Context) -> Result<Vec<SourceFile>, String> {
+    let name = file_name_of_url(url).to_owned();
+    let bytes = fetch_bytes(url, &name, inbox, ctx).await?;
+    let siblings = if is_gltf_json(&name, &bytes) { external_uris(&bytes) } else { Vec::new() };
+    let budget = kloub_core::ImportOptions::default().budget_bytes;
+    let mut total = bytes.len() as u64;
+    let mut files = vec![SourceFile { name, bytes }];
+    if siblings.is_empty() {
+        return Ok(files);
+    }
+    let base = absolute_url(url)?;
+    for uri in siblings {
+        let address = web_sys::Url::new_with_base(&uri, &base)
+            .map_err(|_| format!("{url}: the URI {uri:?} it names is not a valid URL"))?
+            .href();
+        let relative = percent_decode(&uri);
+        let bytes = fetch_bytes(&address, base_name(&relative), inbox, ctx).await?;
+        total += bytes.len() as u64;
+        if total > budget {
+            return Err(format!("{url}: its files add up to more than the {budget}-byte import budget"));
+        }
+        files.push(SourceFile { name: relative, bytes });
+    }
+    Ok(files)
+}
+
+/// `url` made absolute against the page's address.
+#[cfg(target_arch = "wasm32")]
+fn absolute_url(url: &str) -> Result<String, String> {
+    let page = web_sys::window().and_then(|w| w.location().href().ok()).unwrap_or_default();
+    web_sys::Url::new_with_base(url, &page).map(|u| u.href()).map_err(|_| format!("{url}: not a valid URL"))
+}
+
+/// Whether a fetched file is a JSON glTF (by name, or by a leading `{` when the URL hides it).
+pub fn is_gltf_json(name: &str, bytes: &[u8]) -> bool {
+    name.to_ascii_lowercase().ends_with(".gltf")
+        || (!name.to_ascii_lowercase().ends_with(".glb")
+            && bytes.iter().find(|b| !b.is_ascii_whitespace()) == Some(&b'{'))
+}
+
+/// The relative URIs a JSON glTF's buffers and images name (not `data:` URIs, not absolute
+/// URLs), in order, each once; at most [`MAX_SIBLINGS`]. Nothing when it is not JSON.
+pub fn external_uris(gltf: &[u8]) -> Vec<String> {
+    let Ok(doc) = serde_json::from_slice::<serde_json::Value>(gltf) else { return Vec::new() };
+    let mut uris: Vec<String> = Vec::new();
+    for list in ["buffers", "images"] {
+        let items = doc.get(list).and_then(serde_json::Value::as_array).map_or(&[][..], Vec::as_slice);
+        for item in items {
+            let Some(uri) = item.get("uri").and_then(serde_json::Value::as_str) else { continue };
+            let lower = uri.to_ascii_lowercase();
+            let absolute = lower.starts_with("data:") || lower.contains("://") || uri.starts_with('/');
+            if !absolute && !uri.is_empty() && !uris.iter().any(|u| u == uri) && uris.len() < MAX_SIBLINGS {
+                uris.push(uri.to_owned());
+            }
+        }
+    }
+    uris
+}
+
+/// `%XX` escapes decoded (invalid ones kept as written), as the importer decodes URIs.
+pub fn percent_decode(s: &str) -> String {
+    let bytes = s.as_bytes();
+    let mut out = Vec::with_capacity(bytes.len());
+    let mut i = 0;
+    while i < bytes.len() {
+        let hex = |b: u8| (b as char).to_digit(16);
+        if bytes[i] == b'%'
+            && let (Some(h), Some(l)) =
+                (bytes.get(i + 1).copied().and_then(hex), bytes.get(i + 2).copied().and_then(hex))
+        {
+            out.push((h * 16 + l) as u8);
+            i += 3;
+            continue;
+        }
+        out.push(bytes[i]);
+        i += 1;
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}
+
+/// Replaces each zip archive among `files` by the files inside it (paths kept, under the
+/// archive's own folder); returns them with a warning per entry the archive left out.
+///
+/// # Errors
+/// An archive that cannot be read, is over the import budget (a zip bomb: refused before it
+/// is inflated), or holds no model; the message names the archive.
+pub fn expand_archives(files: Vec<SourceFile>) -> Result<(Vec<SourceFile>, Vec<Warning>), String> {
+    use kloub_core::archive::{ArchiveLimits, is_zip, read_zip};
+    let mut out = Vec::with_capacity(files.len());
+    let mut notes = Vec::new();
+    for file in files {
+        if !(file.name.to_ascii_lowercase().ends_with(".zip") || is_zip(&file.bytes)) {
+            out.push(file);
+            continue;
+        }
+        let archive = read_zip(&file.bytes, &ArchiveLimits::default()).map_err(|e| format!("{}: {e}", file.name))?;
+        if archive.models().is_empty() {
+            return Err(format!("{}: the archive holds no .glb or .gltf model", file.name));
+        }
+        let folder = folder_of(&file.name).to_owned();
+        let zip_name = base_name(&file.name).to_owned();
+        notes.extend(archive.skipped.iter().map(|m| Warning::new("", format!("{zip_name}: {m}"))));
+        out.extend(
+            archive.entries.into_iter().map(|e| SourceFile { name: format!("{folder}{}", e.path), bytes: e.bytes }),
+        );
+    }
+    Ok((out, notes))
 }
 
 /// Fetching needs a browser; natively the delivery is an error.
@@ -198,20 +313,171 @@ pub fn fetch_into(url: String, inbox: Inbox, ctx: egui::Context) {
     ctx.request_repaint();
 }
 
-/// Fetches `url`, streaming the body so the app can show a progress bar.
+/// Milliseconds to wait for a server's answer (its headers) before giving up.
+#[cfg(target_arch = "wasm32")]
+const ANSWER_TIMEOUT_MS: i32 = 30_000;
+
+/// An HTTP error status as a user can act on it: `"URL: HTTP 404 Not Found: the server has no
+/// file at this address"`.
+pub fn http_error(url: &str, status: u16, text: &str) -> String {
+    let hint = match status {
+        404 => "the server has no file at this address",
+        410 => "the file was removed from this address",
+        401 | 403 => "the server refuses to give it (it needs permission)",
+        429 => "the server is asked too often: try again later",
+        500..=599 => "the server failed to answer",
+        _ => "",
+    };
+    let text = if text.is_empty() { String::new() } else { format!(" {text}") };
+    if hint.is_empty() { format!("{url}: HTTP {status}{text}") } else { format!("{url}: HTTP {status}{text}: {hint}") }
+}
+
+/// Why a fetch of `url` failed, for a user who can act on it (the browser only says "Failed to
+/// fetch"): its CSP, the other server's CORS headers, the network, or the time limit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FetchFailure {
+    /// No answer within the time limit.
+    Timeout,
+    /// The page's Content-Security-Policy does not allow the origin.
+    Csp,
+    /// The other origin answered, but without `Access-Control-Allow-Origin`.
+    Cors,
+    /// Nothing answered (down, wrong address, refused, offline).
+    Network,
+}
+
+impl FetchFailure {
+    /// The message for a failed fetch of `url` (on `origin`, from a page on `page_origin`).
+    pub fn message(self, url: &str, origin: &str, page_origin: &str) -> String {
+        match self {
+            FetchFailure::Timeout => format!("{url}: timed out: {origin} did not answer within 30 s"),
+            FetchFailure::Csp => format!(
+                "{url}: this page's Content-Security-Policy does not allow fetching from {origin} (its connect-src); \
+                 `kloub serve --connect-src` lists the origins a deployment allows"
+            ),
+            FetchFailure::Cors => format!(
+                "{url}: the server at {origin} does not allow cross-origin requests (CORS): its answer has no \
+                 Access-Control-Allow-Origin header. Add `Access-Control-Allow-Origin: *` (or {page_origin}) to its \
+                 responses, or serve the model from this page's server"
+            ),
+            FetchFailure::Network => format!(
+                "{url}: network error: {origin} could not be reached (the server is down, the address is wrong, \
+                 or the connection was refused)"
+            ),
+        }
+    }
+}
+
+/// Origins blocked by the page's CSP while it is alive (`securitypolicyviolation` events).
+#[cfg(target_arch = "wasm32")]
+struct CspWatch {
+    document: Option<web_sys::Document>,
+    blocked: Rc<RefCell<Vec<String>>>,
+    listener: wasm_bindgen::closure::Closure<dyn FnMut(web_sys::SecurityPolicyViolationEvent)>,
+}
+
+#[cfg(target_arch = "wasm32")]
+impl CspWatch {
+    fn start(window: &web_sys::Window) -> Self {
+        use wasm_bindgen::JsCast;
+        let blocked: Rc<RefCell<Vec<String>>> = Rc::default();
+        let seen = blocked.clone();
+        let listener = wasm_bindgen::closure::Closure::<dyn FnMut(web_sys::SecurityPolicyViolationEvent)>::new(
+            move |event: web_sys::SecurityPolicyViolationEvent| seen.borrow_mut().push(event.blocked_uri()),
+        );
+        let document = window.document();
+        if let Some(d) = &document {
+            let _ = d.add_event_listener_with_callback("securitypolicyviolation", listener.as_ref().unchecked_ref());
+        }
+        Self { document, blocked, listener }
+    }
+
+    /// Whether a fetch to `origin` was blocked (reports name the origin or the whole URL).
+    fn blocked(&self, origin: &str) -> bool {
+        self.blocked.borrow().iter().any(|uri| uri.starts_with(origin))
+    }
+}
+
+#[cfg(target_arch = "wasm32")]
+impl Drop for CspWatch {
+    fn drop(&mut self) {
+        use wasm_bindgen::JsCast;
+        if let Some(d) = &self.document {
+            let _ = d
+                .remove_event_listener_with_callback("securitypolicyviolation", self.listener.as_ref().unchecked_ref());
+        }
+    }
+}
+
+/// Resolves after `ms` milliseconds (lets queued events, such as CSP reports, arrive).
+#[cfg(target_arch = "wasm32")]
+async fn sleep(window: &web_sys::Window, ms: i32) {
+    let promise = js_sys::Promise::new(&mut |resolve, _| {
+        let _ = window.set_timeout_with_callback_and_timeout_and_arguments_0(&resolve, ms);
+    });
+    let _ = wasm_bindgen_futures::JsFuture::from(promise).await;
+}
+
+/// Finds out why the fetch of `url` failed: a CSP report for its origin, else (for another
+/// origin) a `no-cors` probe: an answer means the server is there but sends no CORS headers,
+/// none means the network (or the CSP, reported now).
+#[cfg(target_arch = "wasm32")]
+async fn explain_failure(window: &web_sys::Window, url: &str, timed_out: bool, watch: &CspWatch) -> String {
+    use wasm_bindgen_futures::JsFuture;
+    let absolute = absolute_url(url).unwrap_or_else(|_| url.to_owned());
+    let origin = web_sys::Url::new(&absolute).map(|u| u.origin()).unwrap_or_else(|_| absolute.clone());
+    let page_origin = window.location().origin().unwrap_or_default();
+    if timed_out {
+        return FetchFailure::Timeout.message(url, &origin, &page_origin);
+    }
+    sleep(window, 0).await;
+    if watch.blocked(&origin) {
+        return FetchFailure::Csp.message(url, &origin, &page_origin);
+    }
+    if origin == page_origin {
+        return FetchFailure::Network.message(url, &origin, &page_origin);
+    }
+    let init = web_sys::RequestInit::new();
+    init.set_mode(web_sys::RequestMode::NoCors);
+    let probe = JsFuture::from(window.fetch_with_str_and_init(&absolute, &init)).await;
+    sleep(window, 0).await;
+    let failure = match probe {
+        Ok(_) => FetchFailure::Cors,
+        Err(_) if watch.blocked(&origin) => FetchFailure::Csp,
+        Err(_) => FetchFailure::Network,
+    };
+    failure.message(url, &origin, &page_origin)
+}
+
+/// Fetches `url`, streaming the body so the app can show a progress bar. A failure says why
+/// ([`http_error`], [`FetchFailure`]).
 #[cfg(target_arch = "wasm32")]
 async fn fetch_bytes(url: &str, name: &str, inbox: &Inbox, ctx: &egui::Context) -> Result<Vec<u8>, String> {
     use wasm_bindgen::JsCast;
     use wasm_bindgen_futures::JsFuture;
 
     let window = web_sys::window().ok_or("no window")?;
-    let response = JsFuture::from(window.fetch_with_str(url))
-        .await
-        .map_err(|e| format!("{url}: {}", crate::dom::js_error_text(&e)))?;
+    let controller = web_sys::AbortController::new().map_err(|_| format!("{url}: AbortController is unavailable"))?;
+    let signal = controller.signal();
+    let init = web_sys::RequestInit::new();
+    init.set_signal(Some(&signal));
+    let abort = wasm_bindgen::closure::Closure::once(move || controller.abort());
+    let timer = window
+        .set_timeout_with_callback_and_timeout_and_arguments_0(abort.as_ref().unchecked_ref(), ANSWER_TIMEOUT_MS)
+        .unwrap_or(0);
+    let watch = CspWatch::start(&window);
+    let answer = JsFuture::from(window.fetch_with_str_and_init(url, &init)).await;
+    window.clear_timeout_with_handle(timer);
+    drop(abort);
+    let response = match answer {
+        Ok(response) => response,
+        Err(_) => return Err(explain_failure(&window, url, signal.aborted(), &watch).await),
+    };
+    drop(watch);
     let response: web_sys::Response =
         response.dyn_into().map_err(|_| format!("{url}: fetch did not return a Response"))?;
     if !response.ok() {
-        return Err(format!("{url}: HTTP {} {}", response.status(), response.status_text()));
+        return Err(http_error(url, response.status(), &response.status_text()));
     }
     let fail = |e: wasm_bindgen::JsValue| format!("{url}: {}", crate::dom::js_error_text(&e));
     let total = response.headers().get("content-length").ok().flatten().and_then(|v| v.trim().parse::<u64>().ok());
@@ -366,6 +632,75 @@ mod tests {
         let fox = import_model(&files, Some("Fox.glb")).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(fox.asset.clips.len(), 3);
         assert!(import_model(&files, Some("Cat.glb")).is_err());
+    }
+
+    #[test]
+    fn a_gltf_names_its_relative_files_once_and_data_or_absolute_uris_not_at_all() {
+        let gltf = br#"{"buffers": [{"uri": "data%20file.bin"}, {"uri": "data:application/octet-stream;base64,AAAA"},
+                        {"uri": "https://cdn.example/x.bin"}, {"uri": "data%20file.bin"}, {}],
+                        "images": [{"uri": "tex/skin.png"}, {"bufferView": 0}, {"uri": "/abs.png"}]}"#;
+        assert_eq!(external_uris(gltf), ["data%20file.bin", "tex/skin.png"]);
+        assert!(external_uris(b"not json").is_empty());
+        assert!(is_gltf_json("Man.gltf", b""));
+        assert!(is_gltf_json("model", b"  {\"asset\": {}}"));
+        assert!(!is_gltf_json("Man.glb", b"{"));
+        assert_eq!(percent_decode("data%20file.bin"), "data file.bin");
+        assert_eq!(percent_decode("a%2"), "a%2");
+        assert_eq!(percent_decode("%C3%A9t%C3%A9.png"), "été.png");
+    }
+
+    #[test]
+    fn load_errors_say_what_a_user_can_do() {
+        let e = http_error("http://h/x.glb", 404, "Not Found");
+        assert_eq!(e, "http://h/x.glb: HTTP 404 Not Found: the server has no file at this address");
+        assert!(http_error("u", 403, "Forbidden").contains("permission"));
+        assert_eq!(http_error("u", 418, ""), "u: HTTP 418");
+        let cors = FetchFailure::Cors.message("http://b/x.glb", "http://b", "http://a");
+        assert!(
+            cors.contains("CORS") && cors.contains("Access-Control-Allow-Origin") && cors.contains("http://b/x.glb")
+        );
+        assert!(FetchFailure::Csp.message("u", "http://b", "http://a").contains("Content-Security-Policy"));
+        assert!(FetchFailure::Network.message("u", "http://b", "http://a").contains("network error"));
+        assert!(FetchFailure::Timeout.message("u", "http://b", "http://a").contains("timed out"));
+    }
+
+    fn zipped(files: &[(&str, &[u8])]) -> Vec<u8> {
+        use std::io::Write;
+        let mut out = zip::ZipWriter::new(std::io::Cursor::new(Vec::new()));
+        let options = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Deflated);
+        for (name, bytes) in files {
+            out.start_file(*name, options).expect("start");
+            out.write_all(bytes).expect("write");
+        }
+        out.finish().expect("finish").into_inner()
+    }
+
+    #[test]
+    fn a_zipped_gltf_folder_opens_like_the_folder() {
+        let gltf = shared("RiggedSimple/glTF/RiggedSimple.gltf");
+        let bin = shared("RiggedSimple/glTF/RiggedSimple0.bin");
+        let archive = zipped(&[
+            ("Simple/glTF/RiggedSimple.gltf", &gltf.bytes),
+            ("Simple/glTF/RiggedSimple0.bin", &bin.bytes),
+            ("../../etc/passwd", b"x"),
+        ]);
+        let (files, notes) = expand_archives(vec![SourceFile { name: "drop/Simple.zip".into(), bytes: archive }])
+            .unwrap_or_else(|e| panic!("{e}"));
+        let names: Vec<&str> = files.iter().map(|f| f.name.as_str()).collect();
+        assert_eq!(names, ["drop/Simple/glTF/RiggedSimple.gltf", "drop/Simple/glTF/RiggedSimple0.bin"]);
+        assert_eq!(notes.len(), 1);
+        assert!(notes[0].message.starts_with("Simple.zip: ") && notes[0].message.contains("../../etc/passwd"));
+        let model = import_model(&files, None).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!((model.name.as_str(), model.asset.skins.len()), ("RiggedSimple.gltf", 1));
+
+        let nothing = zipped(&[("readme.txt", b"hi")]);
+        let err = expand_archives(vec![SourceFile { name: "x.zip".into(), bytes: nothing }]).err();
+        assert!(err.is_some_and(|e| e.contains("x.zip") && e.contains("no .glb or .gltf")));
+        let broken =
+            expand_archives(vec![SourceFile { name: "y.zip".into(), bytes: b"PK\x03\x04junk".to_vec() }]).err();
+        assert!(broken.is_some_and(|e| e.starts_with("y.zip: ")));
+        let plain = vec![SourceFile { name: "Fox.glb".into(), bytes: b"glTF".to_vec() }];
+        assert_eq!(expand_archives(plain.clone()).map(|(f, _)| f), Ok(plain));
     }
 
     #[test]

@@ -79,6 +79,8 @@ pub struct PanelMemory {
     pub scrub_resume: Option<bool>,
     /// Seconds the ragdoll takes to hand back to the animation.
     pub ragdoll_blend: f32,
+    /// The Open menu's URL field.
+    pub open_url: String,
 }
 
 /// What the user asked for that the panel cannot do itself.
@@ -116,13 +118,31 @@ pub fn side_panel(
     ui.horizontal(|ui| {
         ui.heading("Kloub");
         ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
-            ui.menu_button("Open", |ui| {
+            // Closes on a click outside only: the URL field inside takes clicks and typing.
+            let stays_open =
+                egui::containers::menu::MenuConfig::new().close_behavior(egui::PopupCloseBehavior::CloseOnClickOutside);
+            egui::containers::menu::MenuButton::new("Open").config(stays_open).ui(ui, |ui| {
                 if ui.button("Files…").on_hover_text("A .glb, or a .gltf with its .bin and textures").clicked() {
                     actions.open = Some(false);
                     ui.close();
                 }
                 if ui.button("Folder…").on_hover_text("Every model in a folder, with their files").clicked() {
                     actions.open = Some(true);
+                    ui.close();
+                }
+                ui.separator();
+                ui.label("URL (.glb, .gltf or .zip; other origins need CORS):");
+                let field = ui.add(
+                    egui::TextEdit::singleline(&mut memory.open_url)
+                        .hint_text("https://…/model.glb")
+                        .desired_width(240.0),
+                );
+                let entered = field.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
+                let url = memory.open_url.trim().to_owned();
+                if (ui.add_enabled(!url.is_empty(), egui::Button::new("Open URL")).clicked() || entered)
+                    && !url.is_empty()
+                {
+                    actions.commands.push(Command::LoadUrl(url));
                     ui.close();
                 }
             });
@@ -384,7 +404,7 @@ fn outline_node(
 
 impl Default for PanelMemory {
     fn default() -> Self {
-        Self { clip_filter: String::new(), scrub_resume: None, ragdoll_blend: 0.5 }
+        Self { clip_filter: String::new(), scrub_resume: None, ragdoll_blend: 0.5, open_url: String::new() }
     }
 }
 

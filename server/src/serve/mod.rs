@@ -58,12 +58,41 @@ pub const DEFAULT_MODEL: &str = "Fox.glb";
 /// The README's run command, named on the page shown when the bundle is not built.
 pub const RUN_COMMAND: &str = "./scripts/run.sh";
 
-/// `Content-Security-Policy` of HTML responses: only our own scripts, WebAssembly compilation
-/// allowed (`'wasm-unsafe-eval'`) but no JavaScript `eval`; inline styles allowed (egui sets
-/// element styles); embeddable in any page (`frame-ancestors *`).
+/// Where the page may fetch models from besides its own server (`connect-src`), unless
+/// `kloub serve --connect-src` says otherwise: any `https:` origin (CDNs, buckets) and `http:`
+/// on loopback (a colleague's `kloub serve`, a local static server).
+pub const DEFAULT_CONNECT_SRC: &str = "https: http://127.0.0.1:* http://localhost:*";
+
+/// `Content-Security-Policy` of HTML responses with [`DEFAULT_CONNECT_SRC`]: only our own
+/// scripts, WebAssembly compilation allowed (`'wasm-unsafe-eval'`) but no JavaScript `eval`;
+/// inline styles allowed (egui sets element styles); models fetched from the page's server and
+/// the default other origins; embeddable in any page (`frame-ancestors *`).
 pub const CSP: &str = "default-src 'self'; script-src 'self' 'wasm-unsafe-eval'; \
-    style-src 'self' 'unsafe-inline'; img-src 'self' data: blob:; connect-src 'self' blob: data:; \
+    style-src 'self' 'unsafe-inline'; img-src 'self' data: blob:; \
+    connect-src 'self' blob: data: https: http://127.0.0.1:* http://localhost:*; \
     worker-src 'self' blob:; object-src 'none'; base-uri 'none'; frame-ancestors *";
+
+/// [`CSP`] with `connect-src 'self' blob: data:` plus `sources` (space-separated CSP source
+/// expressions, e.g. `https://cdn.example.com`; empty: the page's own server only).
+///
+/// # Errors
+/// A source with a character outside CSP's source grammar (`;`, `,`, quotes, control
+/// characters…), which could otherwise smuggle in another directive.
+pub fn csp(sources: &str) -> Result<String, String> {
+    for token in sources.split_whitespace() {
+        let ok = token.chars().all(|c| c.is_ascii_alphanumeric() || "*:/.-_+[]%~".contains(c));
+        if !ok {
+            return Err(format!("connect-src source {token:?}: only URL characters are allowed"));
+        }
+    }
+    let list: Vec<&str> = sources.split_whitespace().collect();
+    let connect = if list.is_empty() { String::new() } else { format!(" {}", list.join(" ")) };
+    Ok(CSP.replacen(
+        &format!("connect-src 'self' blob: data: {DEFAULT_CONNECT_SRC};"),
+        &format!("connect-src 'self' blob: data:{connect};"),
+        1,
+    ))
+}
 
 /// Methods of the bundle routes, for `Allow`.
 const ALLOW_BUNDLE: &str = "GET, HEAD";
@@ -86,15 +115,19 @@ pub struct ServeConfig {
     pub assets: Source,
     /// Resource limits.
     pub limits: Limits,
+    /// The origins the page may fetch models from besides its own server (see [`csp`]);
+    /// `None`: [`DEFAULT_CONNECT_SRC`].
+    pub connect_src: Option<String>,
 }
 
 impl Default for ServeConfig {
-    /// The bundle and the samples embedded in the binary, default limits.
+    /// The bundle and the samples embedded in the binary, default limits and origins.
     fn default() -> Self {
         Self {
             dist: Source::Memory(embedded::dist()),
             assets: Source::Memory(embedded::assets()),
             limits: Limits::default(),
+            connect_src: None,
         }
     }
 }
@@ -106,6 +139,8 @@ pub struct App {
     /// The `/api/assets` body, as a one-file root so it gets ETags, HEAD and ranges too.
     index: Root,
     limits: Limits,
+    /// The `Content-Security-Policy` of HTML answers.
+    csp: HeaderValue,
 }
 
 impl App {
@@ -128,7 +163,12 @@ impl App {
         );
         let json = serde_json::to_vec(&entries).unwrap_or_else(|_| b"[]".to_vec());
         let index = Root::Memory(MemoryDir::new([("assets.json".to_owned(), Bytes::from(json))]));
-        Self { dist, assets, index, limits: config.limits }
+        let policy = config.connect_src.as_deref().map_or_else(|| Ok(CSP.to_owned()), csp);
+        let csp = policy.ok().and_then(|p| HeaderValue::from_str(&p).ok()).unwrap_or_else(|| {
+            log::error!("--connect-src is not a list of CSP sources: the default origins apply");
+            HeaderValue::from_static(CSP)
+        });
+        Self { dist, assets, index, limits: config.limits, csp }
     }
 
     /// Answers one request (the body is never read: requests with one are refused).
@@ -144,7 +184,7 @@ impl App {
         headers.insert(X_CONTENT_TYPE_OPTIONS, HeaderValue::from_static("nosniff"));
         let html = headers.get(CONTENT_TYPE).is_some_and(|t| t.as_bytes().starts_with(b"text/html"));
         if html {
-            headers.insert(CONTENT_SECURITY_POLICY, HeaderValue::from_static(CSP));
+            headers.insert(CONTENT_SECURITY_POLICY, self.csp.clone());
         }
         if library {
             cors(headers);
@@ -472,5 +512,20 @@ mod tests {
         assert!(CSP.contains("'wasm-unsafe-eval'"));
         assert!(!CSP.contains("'unsafe-eval'"));
         assert!(CSP.contains("frame-ancestors *"));
+    }
+
+    #[test]
+    fn connect_src_is_the_default_origins_or_what_the_deployment_lists() {
+        assert!(CSP.contains(&format!("connect-src 'self' blob: data: {DEFAULT_CONNECT_SRC};")));
+        assert_eq!(csp(DEFAULT_CONNECT_SRC).as_deref(), Ok(CSP));
+        let narrow = csp("https://cdn.example.com  https://*.bucket.example:443").unwrap_or_default();
+        assert!(
+            narrow.contains("connect-src 'self' blob: data: https://cdn.example.com https://*.bucket.example:443;")
+        );
+        assert!(!narrow.contains("http://127.0.0.1"));
+        assert!(csp("").is_ok_and(|p| p.contains("connect-src 'self' blob: data:;")));
+        for bad in ["https://a; script-src *", "'unsafe-eval'", "a,b", "x\ny"] {
+            assert!(csp(bad).is_err(), "{bad:?}");
+        }
     }
 }

@@ -232,6 +232,7 @@ impl Site {
             dist: kloub_server::serve::Source::Dir(self.dist.clone()),
             assets: kloub_server::serve::Source::Dir(self.assets.clone()),
             limits: Default::default(),
+            connect_src: None,
         }
     }
 
@@ -241,6 +242,7 @@ impl Site {
             dist: kloub_server::serve::Source::Memory(memory_of(&self.dist)),
             assets: kloub_server::serve::Source::Memory(memory_of(&self.assets)),
             limits: Default::default(),
+            connect_src: None,
         }
     }
 
