@@ -28,22 +28,6 @@ if (view.paused) viewer.removeAttribute('autoplay');
 // Defined only now, so the element starts with the attributes above.
 await import('./kloub-viewer.js');
 
-// The Samples menu lists the server's library (`kloub serve`'s /api/assets). A page served without that API
-// (plain static files) has no library (null here) and opens the bundle's /models/default.glb.
-const library = await fetch(new URL('api/assets', location.href))
-  .then((r) => (r.ok ? r.json() : null))
-  .then((list) => (Array.isArray(list) ? list : null))
-  .catch((e) => {
-    console.info(`kloub: no sample library (${e.message})`);
-    return null;
-  });
-if (library) viewer.samples = library;
-if (!src) {
-  const shown = library?.filter((s) => s && typeof s.url === 'string' && !s.error) ?? [];
-  const first = library === null ? '/models/default.glb' : shown.find((s) => s.default) ? '/models/default.glb' : shown[0]?.url;
-  if (first) viewer.setAttribute('src', first);
-}
-
 // Applied once, after the first model from the hash is on screen: what attributes cannot say.
 let pending = Object.keys(view).length > 0 ? view : null;
 viewer.addEventListener('load', () => {
@@ -82,6 +66,27 @@ viewer.addEventListener('load', () => {
     }
   }
 });
+
+// The Samples menu lists the server's library (`kloub serve`'s /api/assets). A page served without that API
+// (plain static files) has no library (null here) and opens the bundle's /models/default.glb.
+const library = await fetch(new URL('api/assets', location.href))
+  .then((r) => (r.ok ? r.json() : null))
+  .then((list) => (Array.isArray(list) ? list : null))
+  .catch((e) => {
+    console.info(`kloub: no sample library (${e.message})`);
+    return null;
+  });
+// The element takes up to 1,024 entries (a larger library is cut for the menu, not refused).
+try {
+  if (library) viewer.samples = library.slice(0, 1024);
+} catch (e) {
+  console.warn(`kloub: the sample library was not usable: ${e.message}`);
+}
+if (!src) {
+  const shown = library?.filter((s) => s && typeof s.url === 'string' && !s.error) ?? [];
+  const first = library === null ? '/models/default.glb' : shown.find((s) => s.default) ? '/models/default.glb' : shown[0]?.url;
+  if (first) viewer.setAttribute('src', first);
+}
 
 // At most two hash writes a second while playing (browsers limit replaceState calls, Safari to 100 per 30 s).
 const HASH_INTERVAL_MS = 500;

@@ -61,6 +61,10 @@ export interface KloubViewerState {
   ikGoals?: string;
   /** JSON array of held morph weights: `[node, targetIndex, weight]`. */
   morphs?: string;
+  /** JSON array of the model file names of a drop or zip holding several; empty for one model. */
+  models?: string;
+  /** Where each IK goal's pole marker is drawn, `"x,y"` in CSS px of the canvas, `;` per goal. */
+  ikPole?: string;
   /** JSON array of clip names. */
   clips?: string;
   clip?: string;

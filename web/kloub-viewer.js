@@ -279,7 +279,7 @@ export class KloubViewer extends HTMLElement {
 
   #crossfadeSeconds() {
     const s = Number(this.getAttribute('crossfade-duration'));
-    return Number.isFinite(s) && s >= 0 ? s : 0.3;
+    return Number.isFinite(s) && s >= 0 ? Math.min(s, MAX_SECONDS) : 0.3;
   }
 
   #dispatch(type, detail) {
@@ -368,9 +368,9 @@ export class KloubViewer extends HTMLElement {
   /** Crossfades to the clip `name` over `seconds` (default: crossfade-duration). */
   crossfadeTo(name, seconds = this.#crossfadeSeconds()) {
     const m = 'crossfadeTo';
-    str(m, 'name', name);
+    optStr(m, 'name', name);
     num(m, 'seconds', seconds, { min: 0, max: MAX_SECONDS });
-    this.#call(m, (v) => v.crossfadeTo(name, seconds));
+    this.#call(m, (v) => v.crossfadeTo(name ?? null, seconds));
   }
   /** Plays `clip` on the subtree under the joint `rootJoint` with `weight` in [0, 1]; a null clip removes it. */
   setLayer(clip, rootJoint, weight = 1) {
@@ -590,10 +590,11 @@ export class KloubViewer extends HTMLElement {
   get samples() { return this.#samples.map((s) => ({ ...s })); }
   set samples(list) {
     if (!Array.isArray(list)) throw new TypeError('samples: expected an array of {name, url, …}');
-    this.#samples = list
+    const kept = list
       .filter((s) => s && typeof s === 'object' && typeof s.name === 'string' && s.name !== '' && typeof s.url === 'string' && s.url !== '' && !s.error)
       .map((s) => ({ ...s }));
-    if (this.#samples.length > MAX_LIST) throw new RangeError(`samples: ${this.#samples.length} entries: at most ${MAX_LIST}`);
+    if (kept.length > MAX_LIST) throw new RangeError(`samples: ${kept.length} entries: at most ${MAX_LIST}`);
+    this.#samples = kept;
     this.#viewer?.setSamples(JSON.stringify(this.#samples));
   }
   setCandyPose(twist, bend) {

@@ -281,10 +281,14 @@ impl Controls {
     /// A message when no node has that name.
     pub fn node_index(&self, name: &str) -> Result<u32, String> {
         let shared = self.0.borrow();
-        shared
-            .nodes
-            .iter()
-            .position(|n| n.as_deref() == Some(name))
+        let named = shared.nodes.iter().position(|n| n.as_deref() == Some(name));
+        // An unnamed node goes by "node N", as the state mirrors and the panel write it.
+        let unnamed = || {
+            let i: usize = name.strip_prefix("node ")?.parse().ok()?;
+            shared.nodes.get(i).is_some_and(|n| n.as_deref().is_none_or(str::is_empty)).then_some(i)
+        };
+        named
+            .or_else(unnamed)
             .and_then(|i| u32::try_from(i).ok())
             .ok_or_else(|| format!("no joint or node named {name:?} in the shown model"))
     }
@@ -440,6 +444,11 @@ mod tests {
         assert_eq!(c.morph_node_index("Head"), Ok(1));
         assert_eq!(c.node_index("Head"), Ok(0));
         assert_eq!(c.morph_node_index("Hips"), Ok(2), "no node with targets: the first of that name");
+        c.publish(vec![], vec![None, Some("Hips".into()), Some(String::new())], vec![]);
+        assert_eq!(c.node_index("node 0"), Ok(0), "unnamed nodes go by \"node N\"");
+        assert_eq!(c.node_index("node 2"), Ok(2));
+        assert!(c.node_index("node 1").is_err(), "a named node goes by its name only");
+        assert!(c.node_index("node 9").is_err());
         assert!(c.morph_node_index("Tail").is_err());
     }
 

@@ -269,8 +269,6 @@ impl Viewer {
         Ok(())
     }
 
-    /// Places the camera: `yaw` and `pitch` in radians, `distance` from the target point
-    /// `x, y, z` (the values of `data-camera`).
     /// How clip changes crossfade: `easing` `"smoothstep"` | `"linear"` and what the outgoing
     /// clip does, `outgoing` `"freeze"` | `"keep"` | `"sync"` (`null`: unchanged).
     #[wasm_bindgen(js_name = setTransition)]
@@ -281,6 +279,8 @@ impl Viewer {
         Ok(())
     }
 
+    /// Places the camera: `yaw` and `pitch` in radians, `distance` from the target point
+    /// `x, y, z` (the values of `data-camera`).
     #[wasm_bindgen(js_name = setCamera)]
     pub fn set_camera(&self, yaw: f32, pitch: f32, distance: f32, x: f32, y: f32, z: f32) -> Result<(), JsValue> {
         let values = [yaw, pitch, distance, x, y, z];

@@ -197,10 +197,15 @@ pub fn fetch_into(url: String, inbox: Inbox, ctx: egui::Context) {
 /// The model at `url`, with the files a `.gltf` names beside it.
 #[cfg(target_arch = "wasm32")]
 async fn fetch_model(url: &str, inbox: &Inbox, ctx: &egui::Context) -> Result<Vec<SourceFile>, String> {
-    let name = file_name_of_url(url).to_owned();
-    let bytes = fetch_bytes(url, &name, inbox, ctx).await?;
-    let siblings = if is_gltf_json(&name, &bytes) { external_uris(&bytes) } else { Vec::new() };
+    let mut name = file_name_of_url(url).to_owned();
     let budget = kloub_core::ImportOptions::default().budget_bytes;
+    let bytes = fetch_bytes(url, &name, budget, inbox, ctx).await?;
+    let gltf = is_gltf_json(&name, &bytes);
+    // A glTF behind an address that hides its name (`/api/model?id=3`) is named as one.
+    if gltf && !name.to_ascii_lowercase().ends_with(".gltf") {
+        name.push_str(".gltf");
+    }
+    let siblings = if gltf { external_uris(&bytes) } else { Vec::new() };
     let mut total = bytes.len() as u64;
     let mut files = vec![SourceFile { name, bytes }];
     if siblings.is_empty() {
@@ -211,12 +216,10 @@ async fn fetch_model(url: &str, inbox: &Inbox, ctx: &egui::Context) -> Result<Ve
         let address = web_sys::Url::new_with_base(&uri, &base)
             .map_err(|_| format!("{url}: the URI {uri:?} it names is not a valid URL"))?
             .href();
-        let relative = percent_decode(&uri);
-        let bytes = fetch_bytes(&address, base_name(&relative), inbox, ctx).await?;
+        let relative = kloub_core::import::percent_decode(&uri);
+        let left = budget.saturating_sub(total);
+        let bytes = fetch_bytes(&address, base_name(&relative), left, inbox, ctx).await?;
         total += bytes.len() as u64;
-        if total > budget {
-            return Err(format!("{url}: its files add up to more than the {budget}-byte import budget"));
-        }
         files.push(SourceFile { name: relative, bytes });
     }
     Ok(files)
@@ -245,8 +248,11 @@ pub fn external_uris(gltf: &[u8]) -> Vec<String> {
         let items = doc.get(list).and_then(serde_json::Value::as_array).map_or(&[][..], Vec::as_slice);
         for item in items {
             let Some(uri) = item.get("uri").and_then(serde_json::Value::as_str) else { continue };
-            let lower = uri.to_ascii_lowercase();
-            let absolute = lower.starts_with("data:") || lower.contains("://") || uri.starts_with('/');
+            // Anything with a scheme (`data:`, `https:host/x`), or rooted (`/x`, `\\host\x`), is not beside the file.
+            let scheme = uri.split_once(':').is_some_and(|(head, _)| {
+                !head.is_empty() && head.chars().all(|c| c.is_ascii_alphanumeric() || "+-.".contains(c))
+            });
+            let absolute = scheme || uri.starts_with(['/', '\\']);
             if !absolute && !uri.is_empty() && !uris.iter().any(|u| u == uri) && uris.len() < MAX_SIBLINGS {
                 uris.push(uri.to_owned());
             }
@@ -255,29 +261,8 @@ pub fn external_uris(gltf: &[u8]) -> Vec<String> {
     uris
 }
 
-/// `%XX` escapes decoded (invalid ones kept as written), as the importer decodes URIs.
-pub fn percent_decode(s: &str) -> String {
-    let bytes = s.as_bytes();
-    let mut out = Vec::with_capacity(bytes.len());
-    let mut i = 0;
-    while i < bytes.len() {
-        let hex = |b: u8| (b as char).to_digit(16);
-        if bytes[i] == b'%'
-            && let (Some(h), Some(l)) =
-                (bytes.get(i + 1).copied().and_then(hex), bytes.get(i + 2).copied().and_then(hex))
-        {
-            out.push((h * 16 + l) as u8);
-            i += 3;
-            continue;
-        }
-        out.push(bytes[i]);
-        i += 1;
-    }
-    String::from_utf8_lossy(&out).into_owned()
-}
-
-/// Replaces each zip archive among `files` by the files inside it (paths kept, under the
-/// archive's own folder); returns them with a warning per entry the archive left out.
+/// Replaces each zip archive among `files` by the files inside it (paths kept, under a folder
+/// named after the archive); returns them with a warning per entry the archive left out.
 ///
 /// # Errors
 /// An archive that cannot be read, is over the import budget (a zip bomb: refused before it
@@ -287,7 +272,11 @@ pub fn expand_archives(files: Vec<SourceFile>) -> Result<(Vec<SourceFile>, Vec<W
     let mut out = Vec::with_capacity(files.len());
     let mut notes = Vec::new();
     for file in files {
-        if !(file.name.to_ascii_lowercase().ends_with(".zip") || is_zip(&file.bytes)) {
+        // By extension, or by content for a name without one (a URL that hides it): a `.bin`
+        // that happens to start with `PK` stays a `.bin`.
+        let base = base_name(&file.name);
+        let by_name = base.to_ascii_lowercase().ends_with(".zip");
+        if !(by_name || (!base.contains('.') && is_zip(&file.bytes))) {
             out.push(file);
             continue;
         }
@@ -295,8 +284,10 @@ pub fn expand_archives(files: Vec<SourceFile>) -> Result<(Vec<SourceFile>, Vec<W
         if archive.models().is_empty() {
             return Err(format!("{}: the archive holds no .glb or .gltf model", file.name));
         }
-        let folder = folder_of(&file.name).to_owned();
+        // Under the archive's own name: two archives each holding `scene.gltf` + `scene.bin` stay apart.
         let zip_name = base_name(&file.name).to_owned();
+        let stem = zip_name.rsplit_once('.').map_or(zip_name.as_str(), |(stem, _)| stem);
+        let folder = format!("{}{stem}/", folder_of(&file.name));
         notes.extend(archive.skipped.iter().map(|m| Warning::new("", format!("{zip_name}: {m}"))));
         out.extend(
             archive.entries.into_iter().map(|e| SourceFile { name: format!("{folder}{}", e.path), bytes: e.bytes }),
@@ -313,9 +304,13 @@ pub fn fetch_into(url: String, inbox: Inbox, ctx: egui::Context) {
     ctx.request_repaint();
 }
 
-/// Milliseconds to wait for a server's answer (its headers) before giving up.
+/// Milliseconds without progress (no answer, then no chunk of the body) before a fetch gives up.
 #[cfg(target_arch = "wasm32")]
 const ANSWER_TIMEOUT_MS: i32 = 30_000;
+
+/// Milliseconds the CORS probe of a failed fetch may take.
+#[cfg(target_arch = "wasm32")]
+const PROBE_TIMEOUT_MS: i32 = 10_000;
 
 /// An HTTP error status as a user can act on it: `"URL: HTTP 404 Not Found: the server has no
 /// file at this address"`.
@@ -439,7 +434,32 @@ async fn explain_failure(window: &web_sys::Window, url: &str, timed_out: bool, w
     }
     let init = web_sys::RequestInit::new();
     init.set_mode(web_sys::RequestMode::NoCors);
+    // The probe gets its own short limit; its (opaque) body is never read.
+    let controller = web_sys::AbortController::new().ok();
+    if let Some(c) = &controller {
+        init.set_signal(Some(&c.signal()));
+    }
+    let stop = controller.clone();
+    let abort = wasm_bindgen::closure::Closure::<dyn FnMut()>::new(move || {
+        if let Some(c) = &stop {
+            c.abort();
+        }
+    });
+    let timer = {
+        use wasm_bindgen::JsCast;
+        window.set_timeout_with_callback_and_timeout_and_arguments_0(abort.as_ref().unchecked_ref(), PROBE_TIMEOUT_MS)
+    }
+    .unwrap_or(0);
     let probe = JsFuture::from(window.fetch_with_str_and_init(&absolute, &init)).await;
+    window.clear_timeout_with_handle(timer);
+    drop(abort);
+    if let (Ok(answer), Some(c)) = (&probe, &controller) {
+        use wasm_bindgen::JsCast;
+        if let Some(body) = answer.dyn_ref::<web_sys::Response>().and_then(web_sys::Response::body) {
+            let _ = body.cancel();
+        }
+        c.abort();
+    }
     sleep(window, 0).await;
     let failure = match probe {
         Ok(_) => FetchFailure::Cors,
@@ -452,7 +472,7 @@ async fn explain_failure(window: &web_sys::Window, url: &str, timed_out: bool, w
 /// Fetches `url`, streaming the body so the app can show a progress bar. A failure says why
 /// ([`http_error`], [`FetchFailure`]).
 #[cfg(target_arch = "wasm32")]
-async fn fetch_bytes(url: &str, name: &str, inbox: &Inbox, ctx: &egui::Context) -> Result<Vec<u8>, String> {
+async fn fetch_bytes(url: &str, name: &str, limit: u64, inbox: &Inbox, ctx: &egui::Context) -> Result<Vec<u8>, String> {
     use wasm_bindgen::JsCast;
     use wasm_bindgen_futures::JsFuture;
 
@@ -461,48 +481,78 @@ async fn fetch_bytes(url: &str, name: &str, inbox: &Inbox, ctx: &egui::Context) 
     let signal = controller.signal();
     let init = web_sys::RequestInit::new();
     init.set_signal(Some(&signal));
-    let abort = wasm_bindgen::closure::Closure::once(move || controller.abort());
-    let timer = window
-        .set_timeout_with_callback_and_timeout_and_arguments_0(abort.as_ref().unchecked_ref(), ANSWER_TIMEOUT_MS)
-        .unwrap_or(0);
+    // One watchdog for the answer and then for every chunk of the body: no progress for
+    // ANSWER_TIMEOUT_MS aborts the fetch (and its stream). Kept alive until its timer is cleared.
+    let abort = wasm_bindgen::closure::Closure::<dyn FnMut()>::new(move || controller.abort());
+    let arm = || {
+        window
+            .set_timeout_with_callback_and_timeout_and_arguments_0(abort.as_ref().unchecked_ref(), ANSWER_TIMEOUT_MS)
+            .unwrap_or(0)
+    };
+    let mut timer = arm();
     let watch = CspWatch::start(&window);
     let answer = JsFuture::from(window.fetch_with_str_and_init(url, &init)).await;
-    window.clear_timeout_with_handle(timer);
-    drop(abort);
     let response = match answer {
         Ok(response) => response,
-        Err(_) => return Err(explain_failure(&window, url, signal.aborted(), &watch).await),
+        Err(_) => {
+            window.clear_timeout_with_handle(timer);
+            return Err(explain_failure(&window, url, signal.aborted(), &watch).await);
+        }
     };
     drop(watch);
-    let response: web_sys::Response =
-        response.dyn_into().map_err(|_| format!("{url}: fetch did not return a Response"))?;
-    if !response.ok() {
-        return Err(http_error(url, response.status(), &response.status_text()));
-    }
-    let fail = |e: wasm_bindgen::JsValue| format!("{url}: {}", crate::dom::js_error_text(&e));
-    let total = response.headers().get("content-length").ok().flatten().and_then(|v| v.trim().parse::<u64>().ok());
-    let Some(body) = response.body() else {
-        let buffer = JsFuture::from(response.array_buffer().map_err(fail)?).await.map_err(fail)?;
-        return Ok(js_sys::Uint8Array::new(&buffer).to_vec());
-    };
-    let reader: web_sys::ReadableStreamDefaultReader =
-        body.get_reader().dyn_into().map_err(|_| format!("{url}: the body has no reader"))?;
-    let mut bytes = Vec::with_capacity(total.map_or(0, |t| t.min(MAX_PREALLOCATE) as usize));
-    loop {
-        let chunk = JsFuture::from(reader.read()).await.map_err(fail)?;
-        let done = js_sys::Reflect::get(&chunk, &"done".into()).map_err(fail)?.as_bool().unwrap_or(true);
-        if done {
-            break;
+    let result = async {
+        let response: web_sys::Response =
+            response.dyn_into().map_err(|_| format!("{url}: fetch did not return a Response"))?;
+        if !response.ok() {
+            return Err(http_error(url, response.status(), &response.status_text()));
         }
-        let value = js_sys::Reflect::get(&chunk, &"value".into()).map_err(fail)?;
-        let array: js_sys::Uint8Array = value.dyn_into().map_err(|_| format!("{url}: a body chunk is not bytes"))?;
-        let start = bytes.len();
-        bytes.resize(start + array.length() as usize, 0);
-        array.copy_to(&mut bytes[start..]);
-        inbox.set_progress(Progress { name: name.to_owned(), received: bytes.len() as u64, total });
-        ctx.request_repaint();
+        let fail = |e: wasm_bindgen::JsValue| {
+            if signal.aborted() {
+                format!("{url}: stalled: no data for {} s", ANSWER_TIMEOUT_MS / 1000)
+            } else {
+                format!("{url}: {}", crate::dom::js_error_text(&e))
+            }
+        };
+        let over = || format!("{url}: larger than the {limit} bytes left of the import budget");
+        let total = response.headers().get("content-length").ok().flatten().and_then(|v| v.trim().parse::<u64>().ok());
+        if total.is_some_and(|t| t > limit) {
+            return Err(over());
+        }
+        let Some(body) = response.body() else {
+            let buffer = JsFuture::from(response.array_buffer().map_err(fail)?).await.map_err(fail)?;
+            let bytes = js_sys::Uint8Array::new(&buffer).to_vec();
+            return if bytes.len() as u64 > limit { Err(over()) } else { Ok(bytes) };
+        };
+        let reader: web_sys::ReadableStreamDefaultReader =
+            body.get_reader().dyn_into().map_err(|_| format!("{url}: the body has no reader"))?;
+        let mut bytes = Vec::with_capacity(total.map_or(0, |t| t.min(MAX_PREALLOCATE) as usize));
+        loop {
+            let chunk = JsFuture::from(reader.read()).await.map_err(fail)?;
+            window.clear_timeout_with_handle(timer);
+            timer = arm();
+            let done = js_sys::Reflect::get(&chunk, &"done".into()).map_err(fail)?.as_bool().unwrap_or(true);
+            if done {
+                break;
+            }
+            let value = js_sys::Reflect::get(&chunk, &"value".into()).map_err(fail)?;
+            let array: js_sys::Uint8Array =
+                value.dyn_into().map_err(|_| format!("{url}: a body chunk is not bytes"))?;
+            if bytes.len() as u64 + u64::from(array.length()) > limit {
+                let _ = reader.cancel();
+                return Err(over());
+            }
+            let start = bytes.len();
+            bytes.resize(start + array.length() as usize, 0);
+            array.copy_to(&mut bytes[start..]);
+            inbox.set_progress(Progress { name: name.to_owned(), received: bytes.len() as u64, total });
+            ctx.request_repaint();
+        }
+        Ok(bytes)
     }
-    Ok(bytes)
+    .await;
+    window.clear_timeout_with_handle(timer);
+    drop(abort);
+    result
 }
 
 /// Most bytes reserved up front from a `Content-Length` (a larger body grows as it arrives).
@@ -637,16 +687,18 @@ mod tests {
     #[test]
     fn a_gltf_names_its_relative_files_once_and_data_or_absolute_uris_not_at_all() {
         let gltf = br#"{"buffers": [{"uri": "data%20file.bin"}, {"uri": "data:application/octet-stream;base64,AAAA"},
-                        {"uri": "https://cdn.example/x.bin"}, {"uri": "data%20file.bin"}, {}],
+                        {"uri": "https://cdn.example/x.bin"}, {"uri": "data%20file.bin"}, {}, {"uri": "https:host/y.bin"},
+                        {"uri": "\\\\host\\z.bin"}],
                         "images": [{"uri": "tex/skin.png"}, {"bufferView": 0}, {"uri": "/abs.png"}]}"#;
         assert_eq!(external_uris(gltf), ["data%20file.bin", "tex/skin.png"]);
         assert!(external_uris(b"not json").is_empty());
         assert!(is_gltf_json("Man.gltf", b""));
         assert!(is_gltf_json("model", b"  {\"asset\": {}}"));
         assert!(!is_gltf_json("Man.glb", b"{"));
-        assert_eq!(percent_decode("data%20file.bin"), "data file.bin");
-        assert_eq!(percent_decode("a%2"), "a%2");
-        assert_eq!(percent_decode("%C3%A9t%C3%A9.png"), "été.png");
+        let decode = kloub_core::import::percent_decode;
+        assert_eq!(decode("data%20file.bin"), "data file.bin");
+        assert_eq!(decode("a%2"), "a%2");
+        assert_eq!(decode("%C3%A9t%C3%A9.png"), "été.png");
     }
 
     #[test]
@@ -687,7 +739,7 @@ mod tests {
         let (files, notes) = expand_archives(vec![SourceFile { name: "drop/Simple.zip".into(), bytes: archive }])
             .unwrap_or_else(|e| panic!("{e}"));
         let names: Vec<&str> = files.iter().map(|f| f.name.as_str()).collect();
-        assert_eq!(names, ["drop/Simple/glTF/RiggedSimple.gltf", "drop/Simple/glTF/RiggedSimple0.bin"]);
+        assert_eq!(names, ["drop/Simple/Simple/glTF/RiggedSimple.gltf", "drop/Simple/Simple/glTF/RiggedSimple0.bin"]);
         assert_eq!(notes.len(), 1);
         assert!(notes[0].message.starts_with("Simple.zip: ") && notes[0].message.contains("../../etc/passwd"));
         let model = import_model(&files, None).unwrap_or_else(|e| panic!("{e}"));
@@ -699,8 +751,31 @@ mod tests {
         let broken =
             expand_archives(vec![SourceFile { name: "y.zip".into(), bytes: b"PK\x03\x04junk".to_vec() }]).err();
         assert!(broken.is_some_and(|e| e.starts_with("y.zip: ")));
-        let plain = vec![SourceFile { name: "Fox.glb".into(), bytes: b"glTF".to_vec() }];
-        assert_eq!(expand_archives(plain.clone()).map(|(f, _)| f), Ok(plain));
+        let plain = vec![
+            SourceFile { name: "Fox.glb".into(), bytes: b"glTF".to_vec() },
+            SourceFile { name: "indices.bin".into(), bytes: b"PK\x03\x04 by chance".to_vec() },
+        ];
+        assert_eq!(
+            expand_archives(plain.clone()).map(|(f, _)| f),
+            Ok(plain),
+            "only .zip names, or names without an extension, are sniffed"
+        );
+        // Two archives with the same inner names stay apart.
+        let a = zipped(&[("scene.gltf", &gltf.bytes), ("RiggedSimple0.bin", &bin.bytes)]);
+        let (two, _) = expand_archives(vec![
+            SourceFile { name: "a.zip".into(), bytes: a.clone() },
+            SourceFile { name: "b.zip".into(), bytes: a },
+        ])
+        .unwrap_or_else(|e| panic!("{e}"));
+        let names: Vec<&str> = two.iter().map(|f| f.name.as_str()).collect();
+        assert_eq!(names, ["a/scene.gltf", "a/RiggedSimple0.bin", "b/scene.gltf", "b/RiggedSimple0.bin"]);
+        // A zip behind a URL without a name is found by its content.
+        let sniffed =
+            expand_archives(vec![SourceFile { name: "download".into(), bytes: zipped(&[("m.glb", b"glTF")]) }]);
+        assert_eq!(
+            sniffed.map(|(f, _)| f.into_iter().map(|f| f.name).collect::<Vec<_>>()),
+            Ok(vec!["download/m.glb".to_owned()])
+        );
     }
 
     #[test]

@@ -5,8 +5,8 @@
 
 use serde_json::Value;
 
-/// Most entries kept from one list (a longer list is cut, with a warning in the console).
-pub const MAX_SAMPLES: usize = 200;
+/// Most entries kept from one list (the element refuses a longer one; this cut is the last guard).
+pub const MAX_SAMPLES: usize = 1024;
 
 /// Longest name, attribution or licence kept, in bytes (cut at a character boundary).
 const MAX_TEXT_BYTES: usize = 8 * 1024;

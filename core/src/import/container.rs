@@ -131,8 +131,9 @@ impl Budget {
     }
 }
 
-/// Decodes `%XX` escapes (invalid escapes are kept as they are).
-pub(crate) fn percent_decode(s: &str) -> String {
+/// Decodes `%XX` escapes (invalid escapes are kept as they are), as the importer decodes a URI
+/// before asking its [`super::Resolver`]; invalid UTF-8 becomes U+FFFD.
+pub fn percent_decode(s: &str) -> String {
     let b = s.as_bytes();
     let mut out = Vec::with_capacity(b.len());
     let mut i = 0;

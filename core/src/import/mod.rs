@@ -10,6 +10,7 @@
 mod accessor;
 mod anim;
 mod container;
+pub use container::percent_decode;
 mod json;
 mod material;
 mod mesh;

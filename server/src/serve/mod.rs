@@ -76,9 +76,12 @@ pub const CSP: &str = "default-src 'self'; script-src 'self' 'wasm-unsafe-eval';
 /// expressions, e.g. `https://cdn.example.com`; empty: the page's own server only).
 ///
 /// # Errors
-/// A source with a character outside CSP's source grammar (`;`, `,`, quotes, control
-/// characters…), which could otherwise smuggle in another directive.
+/// A source with a character outside CSP's source grammar (`;`, `,`, quotes…), which could
+/// otherwise smuggle in another directive, or a control character (newline, tab) between them.
 pub fn csp(sources: &str) -> Result<String, String> {
+    if sources.chars().any(char::is_control) {
+        return Err("connect-src: sources are separated by spaces; control characters are not allowed".to_owned());
+    }
     for token in sources.split_whitespace() {
         let ok = token.chars().all(|c| c.is_ascii_alphanumeric() || "*:/.-_+[]%~".contains(c));
         if !ok {
@@ -164,10 +167,13 @@ impl App {
         let json = serde_json::to_vec(&entries).unwrap_or_else(|_| b"[]".to_vec());
         let index = Root::Memory(MemoryDir::new([("assets.json".to_owned(), Bytes::from(json))]));
         let policy = config.connect_src.as_deref().map_or_else(|| Ok(CSP.to_owned()), csp);
-        let csp = policy.ok().and_then(|p| HeaderValue::from_str(&p).ok()).unwrap_or_else(|| {
-            log::error!("--connect-src is not a list of CSP sources: the default origins apply");
-            HeaderValue::from_static(CSP)
+        // An invalid list fails closed: this server's own models only.
+        let own_only = || csp("").ok().and_then(|p| HeaderValue::from_str(&p).ok());
+        let csp = policy.ok().and_then(|p| HeaderValue::from_str(&p).ok()).or_else(|| {
+            log::error!("--connect-src is not a list of CSP sources: only this server's models can be opened");
+            own_only()
         });
+        let csp = csp.unwrap_or_else(|| HeaderValue::from_static(CSP));
         Self { dist, assets, index, limits: config.limits, csp }
     }
 
