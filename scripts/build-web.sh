@@ -52,7 +52,7 @@ cat > "$DIST/package.json.new" <<JSON
   "module": "./kloub-viewer.js",
   "types": "./kloub-viewer.d.ts",
   "exports": { ".": { "types": "./kloub-viewer.d.ts", "default": "./kloub-viewer.js" }, "./kloub_web_bg.wasm": "./kloub_web_bg.wasm" },
-  "files": ["kloub-viewer.js", "kloub-viewer.d.ts", "kloub_web.js", "kloub_web_bg.wasm"],
+  "files": ["kloub-viewer.js", "kloub-viewer.d.ts", "hash-state.js", "kloub_web.js", "kloub_web_bg.wasm"],
   "sideEffects": ["./kloub-viewer.js"]
 }
 JSON

@@ -7,7 +7,7 @@
 // solvers, held morph weights (web/hash-state.js) — and is kept up to date, so a
 // copied link reopens what was on screen.
 // Kept out of index.html so the page works under a CSP without 'unsafe-inline'.
-import { viewToHash, hashToView } from './hash-state.js';
+import { viewToHash, hashToView, applyView } from './hash-state.js';
 
 const viewer = document.getElementById('app');
 const query = new URLSearchParams(location.search);
@@ -34,37 +34,7 @@ viewer.addEventListener('load', () => {
   if (!pending) return;
   const v = pending;
   pending = null;
-  // Each setting on its own: one that does not fit this model or backend is dropped with a warning, the rest apply.
-  // Copies first: their grid reframes the camera, which the hash's camera then overrides.
-  const apply = [
-    ['copies', () => viewer.setCopies(v.copies)],
-    ['camera', () => { viewer.camera = v.camera; }],
-    ['layer', () => viewer.setLayer(v.layer.clip, v.layer.root, v.layer.weight)],
-    ['skinningPath', () => viewer.setSkinningPath(v.skinningPath)],
-    ['overlays', () => viewer.setOverlays(v.overlays)],
-    ['background', () => viewer.setBackground(v.background)],
-    ['lighting', () => viewer.setLighting(v.lighting)],
-    ['grid', () => viewer.setGrid(v.grid)],
-    ['heatmap', () => viewer.setHeatmap(v.heatmap)],
-    ['transition', () => viewer.setTransition(v.transition)],
-    ['blend', () => viewer.setBlend(v.blend.names, v.blend.weights)],
-    ['ik', () => {
-      for (const g of v.ik) {
-        viewer.setIkTarget(g.effector, g.target, g.depth);
-        viewer.setIkSolver(g.effector, g.solver, { pole: g.pole, softness: g.softness, patternMove: g.patternMove, iterations: g.iterations });
-      }
-    }],
-    ['morphs', () => { for (const m of v.morphs) viewer.setMorphWeight(m.node, m.target, m.weight); }],
-    ['time', () => { viewer.currentTime = v.time; }],
-  ];
-  for (const [key, set] of apply) {
-    if (v[key] === undefined) continue;
-    try {
-      set();
-    } catch (e) {
-      console.warn(`kloub: the URL hash's ${key} does not fit this view: ${e.message}`);
-    }
-  }
+  applyView(viewer, v, (key, e) => console.warn(`kloub: the URL hash's ${key} does not fit this view: ${e.message}`));
 });
 
 // The Samples menu lists the server's library (`kloub serve`'s /api/assets). A page served without that API

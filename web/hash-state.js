@@ -163,3 +163,43 @@ export function hashToView(hash, warn = (message) => console.warn(`kloub: URL ha
   }
   return view;
 }
+
+/**
+ * Applies a view (from `hashToView`) to a <kloub-viewer> whose model is shown: what attributes cannot say. Each
+ * setting on its own: one that does not fit this model or backend is left out (`warn(key, error)`), the rest apply.
+ * Copies first: their grid reframes the camera, which the view's camera then overrides.
+ */
+export function applyView(viewer, v, warn = () => {}) {
+  const apply = [
+    ['copies', () => viewer.setCopies(v.copies)],
+    ['camera', () => { viewer.camera = v.camera; }],
+    ['layer', () => viewer.setLayer(v.layer.clip, v.layer.root, v.layer.weight)],
+    ['skinning', () => viewer.setSkinning(v.skinning)],
+    ['skinningPath', () => viewer.setSkinningPath(v.skinningPath)],
+    ['speed', () => viewer.setSpeed(v.speed)],
+    ['loop', () => viewer.setLoop(v.loop)],
+    ['overlays', () => viewer.setOverlays(v.overlays)],
+    ['background', () => viewer.setBackground(v.background)],
+    ['lighting', () => viewer.setLighting(v.lighting)],
+    ['grid', () => viewer.setGrid(v.grid)],
+    ['heatmap', () => viewer.setHeatmap(v.heatmap)],
+    ['transition', () => viewer.setTransition(v.transition)],
+    ['blend', () => viewer.setBlend(v.blend.names, v.blend.weights)],
+    ['ik', () => {
+      for (const g of v.ik) {
+        viewer.setIkTarget(g.effector, g.target, g.depth);
+        viewer.setIkSolver(g.effector, g.solver, { pole: g.pole, softness: g.softness, patternMove: g.patternMove, iterations: g.iterations });
+      }
+    }],
+    ['morphs', () => { for (const m of v.morphs) viewer.setMorphWeight(m.node, m.target, m.weight); }],
+    ['time', () => { viewer.currentTime = v.time; }],
+  ];
+  for (const [key, set] of apply) {
+    if (v[key] === undefined) continue;
+    try {
+      set();
+    } catch (e) {
+      warn(key, e);
+    }
+  }
+}

@@ -47,7 +47,7 @@ export interface KloubSample {
  * Values are strings, as in `HTMLElement.dataset`.
  */
 export interface KloubViewerState {
-  status?: 'loading' | 'ready' | 'error';
+  status?: 'loading' | 'ready' | 'error' | 'lost';
   error?: string;
   backend?: 'webgpu' | 'webgl2';
   model?: string;
@@ -117,6 +117,8 @@ export declare class KloubViewer extends HTMLElement {
   skinning: SkinningMethod;
   /** Side panel and menus shown (attribute `controls`). */
   controls: boolean;
+  /* Attribute `min-pixel-ratio`: the lowest resolution (canvas pixels per CSS pixel, default 0.5) a viewer without
+     `controls` may drop to while frames are slow. */
   /** The renderer in use; choose it with the `backend` attribute (auto | webgpu | webgl2). */
   readonly backend: string;
 

@@ -8,19 +8,119 @@
 // State is mirrored into the element's own data-* attributes (data-status, data-clip, data-time,
 // ...; see kloub-viewer.d.ts) and reported by events: load, error, play, pause, timeupdate, loop,
 // finished. The wasm module is loaded once per page, on the first connected element.
-import init, { Viewer } from './kloub_web.js';
+import { viewToHash, hashToView, applyView } from './hash-state.js';
 
-let wasm = null;
-/** Loads and instantiates the wasm module once (shared by every element on the page). */
-function loadWasm() {
-  wasm ??= init({ module_or_path: new URL('./kloub_web_bg.wasm', import.meta.url) });
-  return wasm;
+// ---- the page runtime: one module instance, one frame loop, shared by every element ----
+
+let compiled = null;
+let runtime = null;
+let instance = 0;
+/** The elements whose viewer is mounted (the frame loop draws them). */
+const mounted = new Set();
+const TICK = Symbol('tick');
+const SHOW = Symbol('show');
+const REVIVE = Symbol('revive');
+const SIZE = Symbol('size');
+
+/**
+ * The wasm module's exports, instantiated once per page (and again after a panic: a new instance from the same
+ * compiled module, so no download).
+ */
+function loadRuntime() {
+  runtime ??= (async () => {
+    const wasmUrl = new URL('./kloub_web_bg.wasm', import.meta.url);
+    compiled ??= await WebAssembly.compileStreaming(fetch(wasmUrl)).catch(async () => {
+      const response = await fetch(wasmUrl);
+      if (!response.ok) throw new Error(`${wasmUrl}: HTTP ${response.status}`);
+      return WebAssembly.compile(await response.arrayBuffer());
+    });
+    // Each instance needs its own copy of the glue module (it keeps the instance in a module variable).
+    const glue = instance === 0 ? await import('./kloub_web.js') : await import(`./kloub_web.js?instance=${instance}`);
+    await glue.default({ module_or_path: compiled });
+    glue.setPanicHandler(onPanic);
+    return glue;
+  })();
+  return runtime;
 }
+
+const panics = [];
+/** A Rust panic (a bug): the instance is dead. Make a new one and bring every viewer back from its state. */
+function onPanic(message) {
+  // Called inside the panic hook: nothing here may call into the dead instance.
+  if (runtime === null) return;
+  runtime = null;
+  instance += 1;
+  const now = performance.now();
+  panics.push(now);
+  while (panics.length > 0 && panics[0] < now - 10000) panics.shift();
+  const giveUp = panics.length > 3;
+  setTimeout(() => {
+    for (const element of [...mounted]) element[REVIVE](String(message), giveUp);
+  }, 0);
+}
+
+/** The frame loop: one requestAnimationFrame for the page, drawing only the viewers in view that asked for a frame. */
+const loop = { raf: 0, timer: 0, last: 0, interval: 16.7, scale: 1, changed: 0 };
+function requestFrame() {
+  if (loop.raf) return;
+  if (loop.timer) {
+    clearTimeout(loop.timer);
+    loop.timer = 0;
+  }
+  loop.raf = requestAnimationFrame(tick);
+}
+function tick(now) {
+  loop.raf = 0;
+  let soonest = Infinity;
+  let drew = 0;
+  for (const element of mounted) {
+    const [due, drawn] = element[TICK](now);
+    soonest = Math.min(soonest, due);
+    drew += drawn;
+  }
+  if (drew > 0) adapt(now);
+  if (soonest <= now + 20) requestFrame();
+  else if (Number.isFinite(soonest)) loop.timer = setTimeout(() => { loop.timer = 0; requestFrame(); }, soonest - now - 10);
+}
+/**
+ * Holds the frame rate by lowering the resolution of viewers without panels (down to their min-pixel-ratio) when
+ * frames take longer than 1/30 s, and raising it again when they take less than 1/50 s.
+ */
+function adapt(now) {
+  const dt = now - loop.last;
+  loop.last = now;
+  if (dt <= 0 || dt > 500) return;
+  loop.interval = loop.interval * 0.9 + dt * 0.1;
+  if (now - loop.changed < 1000) return;
+  if (loop.interval > 1000 / 30 && loop.scale > 0.25) {
+    loop.scale = Math.max(0.25, loop.scale * 0.8);
+    loop.changed = now;
+  } else if (loop.interval < 1000 / 50 && loop.scale < 1) {
+    loop.scale = Math.min(1, loop.scale * 1.15);
+    loop.changed = now;
+  }
+}
+
+const visibility = new IntersectionObserver((entries) => {
+  for (const entry of entries) entry.target[SHOW](entry.isIntersecting);
+});
+const sizes = new ResizeObserver((entries) => {
+  for (const entry of entries) entry.target[SIZE](entry.contentRect.width, entry.contentRect.height);
+});
+document.addEventListener('visibilitychange', () => {
+  for (const element of mounted) element[SHOW](null);
+});
+
+/** Modifier bits of an input event: 1 Alt, 2 Ctrl, 4 Shift, 8 Meta. */
+const modifierBits = (e) => (e.altKey ? 1 : 0) | (e.ctrlKey ? 2 : 0) | (e.shiftKey ? 4 : 0) | (e.metaKey ? 8 : 0);
 
 const STYLE = `
 :host { display: block; position: relative; width: 300px; height: 150px; overflow: hidden; }
 :host([hidden]) { display: none; }
 canvas { display: block; width: 100%; height: 100%; outline: none; touch-action: none; }
+.kloub-note { position: absolute; inset: auto 0 0 0; padding: 6px 10px; font: 13px system-ui, sans-serif;
+  color: #eee; background: rgba(20, 20, 20, 0.8); pointer-events: none; }
+.kloub-note[hidden] { display: none; }
 .kloub-loading { position: absolute; inset: 0; display: flex; align-items: center; justify-content: center;
   font: 14px system-ui, sans-serif; color: #888; pointer-events: none; }
 :host(:not([data-status="loading"])) .kloub-loading { display: none; }
@@ -79,6 +179,13 @@ function bool(method, arg, value) {
   if (typeof value !== 'boolean') throw new TypeError(`${method}: ${arg} must be true or false, got ${describe(value)}`);
   return value;
 }
+/** A plain object (an options bag): not null, not an array. `shape` says what is expected. */
+function obj(method, shape, value) {
+  if (value === null || typeof value !== 'object' || Array.isArray(value)) {
+    throw new TypeError(`${method}: expected ${shape}, got ${describe(value)}`);
+  }
+  return value;
+}
 function vec3(method, arg, value) {
   if (!Array.isArray(value) && !ArrayBuffer.isView(value)) throw new TypeError(`${method}: ${arg} must be [x, y, z], got ${describe(value)}`);
   if (value.length !== 3) throw new RangeError(`${method}: ${arg} has ${value.length} numbers: expected [x, y, z]`);
@@ -124,7 +231,7 @@ async function droppedFiles(dataTransfer) {
 export class KloubViewer extends HTMLElement {
   static observedAttributes = [
     'src', 'autoplay', 'animation-name', 'speed', 'loop', 'crossfade-duration', 'layer-clip', 'layer-root',
-    'skinning', 'backend', 'controls',
+    'skinning', 'backend', 'controls', 'min-pixel-ratio',
   ];
 
   #viewer = null;
@@ -134,18 +241,31 @@ export class KloubViewer extends HTMLElement {
   #teardown = null;
   #pickers = [];
   #samples = [];
+  /** The files of the last model loaded from files (to bring it back after a panic). */
+  #files = null;
+  /** Scheduling: when the viewer wants its next frame (ms), whether it is in view, its CSS size. */
+  #due = 0;
+  #inView = true;
+  #hiddenAt = null;
+  #cssSize = null;
+  #lost = false;
+  /** Input handed over since the last frame. */
+  #inputPending = false;
+  #note;
+  #primaryTouch = null;
 
   constructor() {
     super();
     const root = this.attachShadow({ mode: 'open' });
     const style = document.createElement('style');
     style.textContent = STYLE;
-    this.#canvas = document.createElement('canvas');
-    this.#canvas.setAttribute('part', 'canvas');
-    this.#canvas.tabIndex = 0;
     const loading = document.createElement('div');
     loading.className = 'kloub-loading';
     loading.textContent = 'Loading…';
+    this.#note = document.createElement('div');
+    this.#note.className = 'kloub-note';
+    this.#note.setAttribute('role', 'status');
+    this.#note.hidden = true;
     // The panel's Open menu: file inputs the viewer clicks through the "kloub:open" request.
     this.#pickers = ['files', 'folder'].map((kind) => {
       const input = document.createElement('input');
@@ -161,7 +281,8 @@ export class KloubViewer extends HTMLElement {
       });
       return input;
     });
-    root.append(style, this.#canvas, loading, ...this.#pickers);
+    this.#canvas = this.#newCanvas();
+    root.append(style, this.#canvas, loading, this.#note, ...this.#pickers);
     // Drops are read here (folders too) and handed over whole; capture runs before the canvas's own handler.
     const drag = (on) => (event) => {
       if (!this.hasAttribute('controls') || !event.dataTransfer) return;
@@ -180,11 +301,90 @@ export class KloubViewer extends HTMLElement {
     }, true);
   }
 
+  /** A canvas with the input listeners that feed the viewer (a fresh one after a device loss or a backend change). */
+  #newCanvas() {
+    const canvas = document.createElement('canvas');
+    canvas.setAttribute('part', 'canvas');
+    canvas.tabIndex = 0;
+    const input = (fn) => (event) => {
+      const viewer = this.#viewer;
+      if (!viewer || this.#lost) return;
+      // A press, release or key after other input not yet drawn: draw that input first, so that a quick press,
+      // move and release (a drag between two animation frames) reaches the viewer as a drag, not as one click, and
+      // keys typed right after a click on a text field reach the field the click focused.
+      const edge = ['pointerdown', 'pointerup', 'pointercancel', 'keydown'].includes(event.type);
+      if (edge && this.#inputPending) this.#draw(performance.now());
+      fn(viewer, event);
+      this.#inputPending = true;
+      this.#wake(0);
+    };
+    const at = (event) => {
+      const rect = canvas.getBoundingClientRect();
+      return [event.clientX - rect.left, event.clientY - rect.top];
+    };
+    const touchPhase = { pointerdown: 0, pointermove: 1, pointerup: 2, pointercancel: 3 };
+    const pointer = input((viewer, event) => {
+      const [x, y] = at(event);
+      const touch = event.pointerType === 'touch';
+      if (touch) {
+        viewer.touch(event.pointerId, touchPhase[event.type], x, y, event.pressure);
+        if (event.type === 'pointerdown' && this.#primaryTouch === null) this.#primaryTouch = event.pointerId;
+        // Only the first finger moves egui's pointer; the others are touches (pinch, two-finger pan).
+        if (event.pointerId !== this.#primaryTouch) return;
+        if (event.type === 'pointerup' || event.type === 'pointercancel') this.#primaryTouch = null;
+      }
+      switch (event.type) {
+        case 'pointerdown':
+          canvas.focus({ preventScroll: true });
+          canvas.setPointerCapture?.(event.pointerId);
+          viewer.pointerButton(x, y, event.button, true, modifierBits(event));
+          break;
+        case 'pointerup': case 'pointercancel':
+          viewer.pointerButton(x, y, Math.max(event.button, 0), false, modifierBits(event));
+          if (touch) viewer.pointerGone();
+          break;
+        default: viewer.pointerMove(x, y);
+      }
+    });
+    for (const type of ['pointerdown', 'pointermove', 'pointerup', 'pointercancel']) canvas.addEventListener(type, pointer);
+    canvas.addEventListener('pointerleave', input((viewer, event) => { if (event.pointerType === 'mouse') viewer.pointerGone(); }));
+    canvas.addEventListener('wheel', input((viewer, event) => {
+      event.preventDefault();
+      viewer.wheel(event.deltaX, event.deltaY, event.deltaMode, modifierBits(event));
+    }), { passive: false });
+    const key = (pressed) => input((viewer, event) => {
+      if (viewer.key(event.key, event.code, pressed, modifierBits(event))) event.preventDefault();
+    });
+    canvas.addEventListener('keydown', key(true));
+    canvas.addEventListener('keyup', key(false));
+    canvas.addEventListener('focus', input((viewer) => viewer.focus(true)));
+    canvas.addEventListener('blur', input((viewer) => viewer.focus(false)));
+    canvas.addEventListener('paste', input((viewer, event) => {
+      const text = event.clipboardData?.getData('text/plain');
+      if (text) {
+        event.preventDefault();
+        viewer.paste(text);
+      }
+    }));
+    canvas.addEventListener('copy', input((viewer) => viewer.copy(false)));
+    canvas.addEventListener('cut', input((viewer) => viewer.copy(true)));
+    canvas.addEventListener('contextmenu', (event) => event.preventDefault());
+    return canvas;
+  }
+
+  #replaceCanvas() {
+    const canvas = this.#newCanvas();
+    this.#canvas.replaceWith(canvas);
+    this.#canvas = canvas;
+  }
+
   connectedCallback() {
     if (this.#teardown) {
       clearTimeout(this.#teardown);
       this.#teardown = null;
     }
+    visibility.observe(this);
+    sizes.observe(this);
     if (!this.#mounting) this.#mounting = this.#mount();
   }
 
@@ -192,10 +392,17 @@ export class KloubViewer extends HTMLElement {
     // Moving the element within the page reconnects it at once: only a real removal stops the viewer.
     this.#teardown = setTimeout(() => {
       this.#teardown = null;
-      this.#viewer?.destroy();
-      this.#viewer = null;
+      visibility.unobserve(this);
+      sizes.unobserve(this);
+      this.#unmount();
       this.#mounting = null;
     }, 0);
+  }
+
+  #unmount() {
+    mounted.delete(this);
+    this.#viewer?.destroy();
+    this.#viewer = null;
   }
 
   attributeChangedCallback(name, old, value) {
@@ -223,27 +430,35 @@ export class KloubViewer extends HTMLElement {
         case 'backend': this.#remount(); break;
         default: break;
       }
+      this.#wake(0);
     } catch (e) {
       this.#fail(e instanceof Error ? e.message : String(e));
     }
   }
 
-  async #mount() {
+  /**
+   * Mounts a viewer on the shared runtime. `revive`: the state (a dataset snapshot) of a viewer lost to a panic,
+   * shown again once its model is back.
+   */
+  async #mount(revive = null) {
     this.dataset.status = 'loading';
     try {
-      await loadWasm();
-      const viewer = new Viewer();
+      const glue = await loadRuntime();
+      const viewer = new glue.Viewer();
       this.#viewer = viewer;
       this.#configure();
       const emit = (type, detail) => {
         // A request of the viewer's own, answered while the user's click is still being handled.
         if (type === 'kloub:open') this.#pickers[detail === 'folder' ? 1 : 0].click();
+        else if (type === 'kloub:wake') this.#wake(Number(detail));
+        else if (type === 'kloub:lost') this.#onLost(detail);
         else queueMicrotask(() => this.#dispatch(type, detail));
       };
       const backend = this.getAttribute('backend');
       viewer.setPanels(this.hasAttribute('controls'));
-      await viewer.mount(this.#canvas, this, this.shadowRoot, emit, backend === 'auto' ? null : backend,
-        this.getAttribute('src'));
+      const src = revive ? (revive.src || (this.#files ? null : this.getAttribute('src'))) : this.getAttribute('src');
+      if (revive && src) this.#reviveOnLoad(revive);
+      await viewer.mount(this.#canvas, this, this.shadowRoot, emit, backend === 'auto' ? null : backend, src);
       // Removed from the page while starting: stop now (disconnectedCallback found nothing to stop).
       if (!this.isConnected && this.#viewer === viewer) {
         viewer.destroy();
@@ -251,22 +466,158 @@ export class KloubViewer extends HTMLElement {
         this.#mounting = null;
         return;
       }
+      mounted.add(this);
       if (this.#samples.length > 0) viewer.setSamples(JSON.stringify(this.#samples));
       if (this.hasAttribute('crossfade-duration')) viewer.setCrossfadeDuration(this.#crossfadeSeconds());
       if (this.hasAttribute('skinning')) viewer.setSkinning(this.getAttribute('skinning'));
+      if (revive && !src && this.#files) {
+        this.#reviveOnLoad(revive);
+        this.#loadFiles(this.#files).catch((e) => this.#fail(String(e)));
+      }
+      this.#wake(0);
     } catch (e) {
       const message = e instanceof Error ? e.message : String(e);
       if (this.dataset.status !== 'error') this.#fail(`Kloub could not start: ${message}`);
     }
   }
 
-  #remount() {
-    this.#viewer?.destroy();
+  /** After a panic: once the model is shown again, restores the rest of the view from the snapshot. */
+  #reviveOnLoad(snapshot) {
+    const view = hashToView(viewToHash(snapshot, null), () => {});
+    if (snapshot.playing === 'true') delete view.paused;
+    const once = () => {
+      this.removeEventListener('load', once);
+      applyView(this, view, (key, e) => console.warn(`kloub: after recovery, ${key} could not be restored: ${e.message}`));
+      if (snapshot.playing === 'true') this.play();
+      else if (snapshot.playing === 'false') this.pause();
+    };
+    this.addEventListener('load', once);
+  }
+
+  [REVIVE](message, giveUp) {
+    mounted.delete(this);
+    // The old viewer belongs to the dead instance: dropped without a call.
     this.#viewer = null;
+    if (giveUp) {
+      this.#fail(`Kloub stopped after repeated internal errors: ${message}`);
+      this.#showNote('Kloub stopped after repeated internal errors. Reload the page to try again.');
+      return;
+    }
+    const snapshot = { ...this.dataset };
+    this.#replaceCanvas();
+    this.#lost = false;
+    this.#showNote(null);
+    this.#dispatch('error', `Kloub recovered from an internal error: ${message}`);
+    this.#mounting = this.#mount(snapshot);
+  }
+
+  /** The page's device was lost: say so, then move to a new device (with a fresh canvas) as soon as there is one. */
+  #onLost(detail) {
+    if (this.#lost) return;
+    this.#lost = true;
+    this.dataset.status = 'lost';
+    this.#showNote('The graphics context was lost; restoring…');
+    console.warn(`kloub: device lost (${detail}); restoring`);
+    const attempt = (n) => {
+      const viewer = this.#viewer;
+      if (!viewer || !this.#lost) return;
+      setTimeout(() => {
+        if (viewer !== this.#viewer) return;
+        const previous = this.#canvas;
+        this.#replaceCanvas();
+        viewer.reattach(this.#canvas).then(() => {
+          this.#lost = false;
+          this.#showNote(null);
+          this.#wake(0);
+        }, (e) => {
+          console.warn(`kloub: no new device yet (${e.message ?? e})`);
+          if (n < 60) attempt(n + 1);
+          else {
+            previous.remove();
+            this.#fail(`the graphics context was lost and could not be restored: ${e.message ?? e}`);
+          }
+        });
+      }, Math.min(1000, 50 * 2 ** n)); // soon after the loss, then backing off to once a second
+    };
+    attempt(0);
+  }
+
+  #showNote(text) {
+    this.#note.textContent = text ?? '';
+    this.#note.hidden = !text;
+  }
+
+  /** The viewer wants a frame in `delay` ms. */
+  #wake(delay) {
+    const at = performance.now() + (Number.isFinite(delay) && delay > 0 ? delay : 0);
+    if (at < this.#due) this.#due = at;
+    if (mounted.has(this)) requestFrame();
+  }
+
+  /** The frame loop's call: draws when in view and due; returns [when next due, frames drawn]. */
+  [TICK](now) {
+    const viewer = this.#viewer;
+    if (!viewer || this.#lost || !this.#inView || document.hidden) return [Infinity, 0];
+    if (now < this.#due) return [this.#due, 0];
+    return this.#draw(now);
+  }
+
+  /** Draws a frame now; returns [when the next is due, frames drawn]. */
+  #draw(now) {
+    const viewer = this.#viewer;
+    if (!viewer || this.#lost) return [Infinity, 0];
+    this.#inputPending = false;
+    const css = this.#cssSize ?? [this.#canvas.clientWidth, this.#canvas.clientHeight];
+    if (css[0] <= 0 || css[1] <= 0) {
+      this.#due = Infinity;
+      return [Infinity, 0];
+    }
+    const dpr = window.devicePixelRatio || 1;
+    const floor = Math.min(dpr, this.#minPixelRatio());
+    const ppp = this.hasAttribute('controls') ? dpr : Math.max(floor, dpr * loop.scale);
+    const next = viewer.frame(now, Math.max(1, Math.round(css[0] * ppp)), Math.max(1, Math.round(css[1] * ppp)), ppp);
+    if (next < 0) {
+      this.#onLost('the device is gone');
+      return [Infinity, 0];
+    }
+    this.#due = now + next;
+    return [this.#due, 1];
+  }
+
+  #minPixelRatio() {
+    const v = Number(this.getAttribute('min-pixel-ratio') ?? 0.5);
+    return Number.isFinite(v) && v > 0 ? Math.min(v, 8) : 0.5;
+  }
+
+  /** In view or not (`null`: the page's visibility changed). Out of view nothing is drawn; back in view, the clocks
+   *  jump by the time away, as if the viewer had kept playing. */
+  [SHOW](inView) {
+    if (inView !== null) this.#inView = inView;
+    const shown = this.#inView && !document.hidden;
+    const now = performance.now();
+    if (!shown) {
+      if (this.#hiddenAt === null && this.#viewer?.animating) this.#hiddenAt = now;
+      return;
+    }
+    if (this.#hiddenAt !== null) {
+      this.#viewer?.catchUp((now - this.#hiddenAt) / 1000);
+      this.#hiddenAt = null;
+      this.#wake(0);
+    } else if (mounted.has(this)) {
+      // The canvas still shows the last frame: draw only what was asked for meanwhile (a frame due).
+      requestFrame();
+    }
+  }
+
+  [SIZE](width, height) {
+    this.#cssSize = [width, height];
+    this.#wake(0);
+  }
+
+  #remount() {
+    this.#unmount();
     // A fresh canvas: a context of the other backend cannot be created on the old one.
-    const canvas = this.#canvas.cloneNode(false);
-    this.#canvas.replaceWith(canvas);
-    this.#canvas = canvas;
+    this.#replaceCanvas();
     this.#mounting = this.#mount();
   }
 
@@ -320,6 +671,7 @@ export class KloubViewer extends HTMLElement {
   }
 
   async #loadFiles(entries) {
+    this.#files = entries;
     const names = entries.map((e) => e.name);
     const contents = await Promise.all(entries.map(async (e) => new Uint8Array(await e.file.arrayBuffer())));
     this.#require().loadFiles(names, contents);
@@ -399,7 +751,7 @@ export class KloubViewer extends HTMLElement {
     str(m, 'joint', joint);
     oneOf(m, 'solver', solver, IK_SOLVERS);
     options ??= {};
-    if (typeof options !== 'object' || Array.isArray(options)) throw new TypeError(`${m}: options must be an object, got ${describe(options)}`);
+    obj(m, '{ pole, softness, patternMove, iterations }', options);
     const { pole, softness, patternMove, iterations } = options;
     const [x, y, z] = pole === null || pole === undefined ? [] : vec3(m, 'options.pole', pole);
     if (softness !== undefined) num(m, 'options.softness', softness, { min: 0, max: 0.5 });
@@ -478,9 +830,7 @@ export class KloubViewer extends HTMLElement {
    */
   setTransition(options) {
     const m = 'setTransition';
-    if (options === null || typeof options !== 'object' || Array.isArray(options)) {
-      throw new TypeError(`${m}: expected { duration, easing, outgoing }, got ${describe(options)}`);
-    }
+    obj(m, '{ duration, easing, outgoing }', options);
     const { duration, easing, outgoing } = options;
     if (duration !== undefined) num(m, 'duration', duration, { min: 0, max: MAX_SECONDS });
     if (easing !== undefined) oneOf(m, 'easing', easing, EASINGS);
@@ -507,9 +857,7 @@ export class KloubViewer extends HTMLElement {
   /** Overlays: `{ skeleton, bounds, wireframe, normals, bodies }` (missing keys: off). */
   setOverlays(overlays = {}) {
     const m = 'setOverlays';
-    if (overlays === null || typeof overlays !== 'object' || Array.isArray(overlays)) {
-      throw new TypeError(`${m}: expected an object such as { skeleton: true }, got ${describe(overlays)}`);
-    }
+    obj(m, 'an object such as { skeleton: true }', overlays);
     const keys = ['skeleton', 'bounds', 'wireframe', 'normals', 'bodies'];
     const on = keys.map((k) => (overlays[k] === undefined ? false : bool(m, k, overlays[k])));
     this.#call(m, (v) => v.setOverlays(...on));
@@ -524,9 +872,7 @@ export class KloubViewer extends HTMLElement {
   /** Ragdoll gravity (m/s² for a person-sized body) and damping. */
   setRagdollOptions(options = {}) {
     const m = 'setRagdollOptions';
-    if (options === null || typeof options !== 'object' || Array.isArray(options)) {
-      throw new TypeError(`${m}: expected { gravity, damping }, got ${describe(options)}`);
-    }
+    obj(m, '{ gravity, damping }', options);
     const { gravity = 9.81, damping = 0.5 } = options;
     num(m, 'gravity', gravity, { min: -1000, max: 1000 });
     num(m, 'damping', damping, { min: 0, max: 1000 });
@@ -612,6 +958,22 @@ export class KloubViewer extends HTMLElement {
     if (!(distance > 0)) throw new RangeError(`${m}: distance ${distance}: expected a positive number`);
     this.#call(m, (v) => v.setCamera(yaw, pitch, distance, x, y, z));
   }
+  // ---- test hooks (not part of the page API) ----
+
+  /** Panics inside the module as a bug would; every viewer of the page comes back from its state. */
+  static async _testPanic(message = 'test') {
+    const glue = await loadRuntime();
+    try {
+      glue._testPanic(message);
+    } catch {
+      // The trap that ends the instance; the panic handler has already started the recovery.
+    }
+  }
+  /** Loses every GPU device of the page (WebGPU device.destroy(), WebGL2 WEBGL_lose_context). */
+  static async _testLoseDevices() { (await loadRuntime())._testLoseDevices(); }
+  /** The page's shared WebGL2 canvas (null until a WebGL2 viewer mounts). */
+  static async _testGlCanvas() { return (await loadRuntime())._testGlCanvas() ?? null; }
+
   /** Every mirrored state value (a copy of the data-* attributes). */
   get state() { return { ...this.dataset }; }
 }

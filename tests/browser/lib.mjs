@@ -159,7 +159,9 @@ export async function viewportShot(page, selector = 'kloub-viewer') {
     return { viewport: el.dataset.viewport, left: r.left, top: r.top };
   }, selector);
   const [x, y, width, height] = (viewport ?? '').split(',').map(Number);
-  const clip = width > 0 && height > 0 ? { x: x + left, y: y + top, width, height } : undefined;
+  // Whole pixels: a fractional element size must not make two shots of one view differ in size.
+  const clip = width > 0 && height > 0
+    ? { x: Math.round(x + left), y: Math.round(y + top), width: Math.floor(width), height: Math.floor(height) } : undefined;
   return PNG.sync.read(await page.screenshot({ clip }));
 }
 

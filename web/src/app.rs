@@ -19,7 +19,7 @@ use crate::dom::{Dataset, Key};
 use crate::ik::IkState;
 use crate::load::{self, Inbox, LoadedModel};
 use crate::overlay::{self, Overlays, Projection, nearest_within};
-use crate::render::{Camera, SceneRenderer, msaa_samples};
+use crate::render::{Camera, SceneRenderer, display_msaa};
 use crate::ui;
 use kloub_core::rig::JointSettings;
 
@@ -319,11 +319,15 @@ impl Model {
     /// `dataset.blend`: the clips weighted in the base blend as a JSON array of `[name, weight]`,
     /// when two or more are (`""` while one clip plays alone).
     pub fn blend_summary(&self) -> String {
+        // Mirrored every frame: nothing is built while one clip plays alone (the usual case).
+        if self.blend_weights.iter().filter(|w| w.is_finite() && **w > 0.0).count() < 2 {
+            return String::new();
+        }
         let weighted: Vec<serde_json::Value> = (self.clip_names.iter().zip(&self.blend_weights))
             .filter(|(_, w)| w.is_finite() && **w > 0.0)
             .map(|(name, w)| serde_json::json!([name, round5(*w)]))
             .collect();
-        if weighted.len() < 2 { String::new() } else { serde_json::Value::Array(weighted).to_string() }
+        serde_json::Value::Array(weighted).to_string()
     }
 
     /// `dataset.ikGoals`: every IK goal as the page would set it again (`setIkTarget` +
@@ -353,6 +357,10 @@ impl Model {
     /// `dataset.morphs`: the morph weights held by the page or the panel, a JSON array of
     /// `[node name, target index, weight]`; `""` when the clip drives every weight.
     pub fn morphs_json(&self) -> String {
+        // Mirrored every frame: no walk over the nodes while the clip drives every weight.
+        if self.morph_overrides.iter().all(Option::is_none) {
+            return String::new();
+        }
         let mut held = Vec::new();
         for (node, n) in self.asset.nodes.iter().enumerate() {
             let start = self.asset.weight_offsets.get(node).copied().unwrap_or(0) as usize;
@@ -755,6 +763,8 @@ impl Fps {
 struct Library {
     files: Vec<load::SourceFile>,
     models: Vec<String>,
+    /// `models`' file names as a JSON array (`dataset.models`), made once.
+    models_json: String,
     shown: Option<usize>,
 }
 
@@ -776,6 +786,14 @@ pub struct App {
     last_error: String,
     error_window: Option<String>,
     viewport: Option<ViewportTexture>,
+    /// Drawing straight into the canvas ([`App::set_direct`]): the scene is not drawn into a
+    /// texture of its own for egui to show, the page draws it under egui's output.
+    direct: bool,
+    /// In direct mode: the scene prepared this frame, to be drawn into this rectangle of the
+    /// canvas (`[x, y, width, height]` in pixels) by [`App::draw_scene`].
+    scene_rect: Option<[u32; 4]>,
+    /// A screenshot asked for in direct mode: the next frame also renders the offscreen target.
+    screenshot_wanted: bool,
     dataset: Dataset,
     frames: u64,
     fps: Fps,
@@ -970,16 +988,25 @@ const MAX_DT: f32 = 0.25;
 pub const DEFAULT_CROSSFADE: f32 = 0.3;
 
 impl App {
-    /// Creates the app on eframe's wgpu device and starts fetching `config.model_url`.
+    /// Creates the app on eframe's wgpu device and starts fetching `config.model_url` (native
+    /// tests; the page runs the app through [`App::with_gpu`]).
     ///
     /// # Errors
     /// When eframe was started without the wgpu renderer.
+    #[cfg(not(target_arch = "wasm32"))]
     pub fn new(cc: &eframe::CreationContext<'_>, config: AppConfig) -> Result<Self, String> {
         let gpu = cc.wgpu_render_state.clone().ok_or("eframe was started without the wgpu renderer")?;
+        Ok(Self::with_gpu(&cc.egui_ctx, gpu, config))
+    }
+
+    /// Creates the app on `gpu` (a device that may be shared with other viewers, and this
+    /// viewer's own egui renderer), drawing its panels through `ctx`, and starts fetching
+    /// `config.model_url`.
+    pub fn with_gpu(ctx: &egui::Context, gpu: egui_wgpu::RenderState, config: AppConfig) -> Self {
         let backend = backend_name(gpu.adapter.get_info().backend);
         log::info!("kloub: rendering with {backend} ({:?})", gpu.adapter.get_info().name);
-        install_fonts(&cc.egui_ctx);
-        let scene = SceneRenderer::new(&gpu.device, &gpu.queue, msaa_samples(&gpu.adapter));
+        install_fonts(ctx);
+        let scene = SceneRenderer::new(&gpu.device, &gpu.queue, display_msaa(&gpu.adapter));
         let mut app = Self {
             gpu,
             backend,
@@ -1012,22 +1039,120 @@ impl App {
             help: false,
             screenshot: None,
             last_screenshot: None,
+            direct: false,
+            scene_rect: None,
+            screenshot_wanted: false,
             viewport_rect: Rect::ZERO,
             parsing: Vec::new(),
             drop_hint: false,
             announce_load: false,
             reported_playing: false,
         };
-        app.controls.set_repaint(cc.egui_ctx.clone());
+        app.controls.set_repaint(ctx.clone());
         app.controls.set_supports_compute(app.scene.supports_compute());
         app.dataset.set(Key::Backend, backend);
         if let Some(url) = config.model_url {
             app.pending += 1;
             app.status = Status::Loading;
-            load::fetch_into(url, app.inbox.clone(), cc.egui_ctx.clone());
+            load::fetch_into(url, app.inbox.clone(), ctx.clone());
         }
         app.sync_dataset();
-        Ok(app)
+        app
+    }
+
+    /// Moves the viewer to a new device (the old one was lost): the renderer is rebuilt with
+    /// the same settings and the shown model uploaded again; everything else (model, clocks,
+    /// camera, IK goals, panels) is kept.
+    ///
+    /// # Errors
+    /// When the model cannot be uploaded to the new device (it is then dropped, as a failed
+    /// load would be).
+    pub fn replace_gpu(&mut self, gpu: egui_wgpu::RenderState) -> Result<(), String> {
+        let mut scene = SceneRenderer::new(&gpu.device, &gpu.queue, display_msaa(&gpu.adapter));
+        scene.set_grid(self.scene.grid());
+        scene.set_heatmap(self.scene.heatmap());
+        scene.set_look(self.scene.look());
+        scene.set_ground(self.scene.ground());
+        // Compute skinning is only there on WebGPU; another backend falls back to the vertex shader.
+        if scene.set_skinning_path(self.scene.skinning_path()).is_err() {
+            log::warn!("kloub: the new device has no compute shaders: skinning in the vertex shader");
+        }
+        self.scene = scene;
+        self.gpu = gpu;
+        self.viewport = None;
+        self.scene_rect = None;
+        self.screenshot = None;
+        self.controls.set_supports_compute(self.scene.supports_compute());
+        let result = match &self.model {
+            Some(model) => self
+                .scene
+                .set_asset(&self.gpu.device, &self.gpu.queue, &model.asset)
+                .map_err(|e| format!("{}: {e}", model.name)),
+            None => Ok(()),
+        };
+        if let Err(message) = &result {
+            self.model = None;
+            self.scene.clear_asset();
+            self.fail(message.clone());
+        }
+        result
+    }
+
+    /// Moves every clock by `seconds` at once: the time the viewer was out of view or its
+    /// page hidden, so that it comes back where it would be had it kept playing. (A ragdoll
+    /// does not move while unseen.)
+    pub fn catch_up(&mut self, seconds: f32) {
+        if !(seconds.is_finite() && seconds > 0.0) {
+            return;
+        }
+        if let Some(model) = &mut self.model
+            && model.is_animating()
+        {
+            let events = model.advance(seconds);
+            if events.looped > 0 {
+                self.dataset.host().emit("loop", &events.looped.to_string());
+            }
+            if events.finished {
+                self.dataset.host().emit("finished", "");
+            }
+        }
+    }
+
+    /// Wakes `ctx` (instead of the previous context) when a command arrives, after the
+    /// viewer moved to a new egui context; the status is written again.
+    pub fn set_context(&mut self, ctx: &egui::Context) {
+        self.controls.set_repaint(ctx.clone());
+        self.dataset.forget(Key::Status);
+        ctx.request_repaint();
+    }
+
+    /// Whether the shown model moves by itself (clips playing, a crossfade, a falling ragdoll).
+    pub fn animating(&self) -> bool {
+        self.model.as_ref().is_some_and(|m| m.is_animating() || m.ragdoll_moving())
+    }
+
+    /// Whether the side panel and menus show (the viewer then draws through egui's panel
+    /// layout; without them the page may lower the resolution to hold the frame rate).
+    pub fn panels(&self) -> bool {
+        self.panels
+    }
+
+    /// Draw the scene straight into the canvas (the page's runtime) rather than into a texture
+    /// that egui shows (eframe natively): the page calls [`App::draw_scene`] after each frame,
+    /// before painting egui's output over it.
+    pub fn set_direct(&mut self, direct: bool) {
+        self.direct = direct;
+        self.scene_rect = None;
+    }
+
+    /// In direct mode: records the scene prepared by this frame into `encoder`, drawn into
+    /// `view` (a canvas surface of `size` pixels, in the renderer's colour format) within the
+    /// viewport's rectangle. Returns whether it drew (the surface is then cleared and egui's
+    /// output goes over it; otherwise egui clears it).
+    pub fn draw_scene(&mut self, encoder: &mut wgpu::CommandEncoder, view: &wgpu::TextureView, size: [u32; 2]) -> bool {
+        let Some(rect) = self.scene_rect.take() else { return false };
+        self.scene.draw_into(&self.gpu.device, encoder, view, size, rect);
+        true
     }
 
     /// The values last mirrored into the element's `data-*` attributes (kept natively too, for tests).
@@ -1095,7 +1220,11 @@ impl App {
                         self.install(m, None)
                     });
                     if result.is_ok() {
-                        self.library = (models.len() > 1).then_some(Library { files, models, shown: Some(0) });
+                        self.library = (models.len() > 1).then(|| {
+                            let names: Vec<&str> = models.iter().map(|m| load::base_name(m)).collect();
+                            let models_json = serde_json::Value::from(names).to_string();
+                            Library { files, models, models_json, shown: Some(0) }
+                        });
                         self.shown_url = delivery.url;
                     }
                     result
@@ -1540,7 +1669,9 @@ impl App {
             .unwrap_or_default();
         let handle_at = |p: Pos2| nearest_within(p, markers.iter().map(|&(handle, at, _)| (at, handle)));
         if response.drag_started_by(egui::PointerButton::Primary) && !shift {
-            self.ik_drag = response.interact_pointer_pos().and_then(handle_at);
+            // Where the press was: a quick drag may have moved off the handle before egui calls it a drag.
+            let pressed_at = ui.input(|i| i.pointer.press_origin());
+            self.ik_drag = pressed_at.or_else(|| response.interact_pointer_pos()).and_then(handle_at);
             if let (Some(handle), Some(model)) = (self.ik_drag, self.model.as_mut()) {
                 model.ik_selected = handle.goal;
             }
@@ -1673,17 +1804,32 @@ impl App {
         let offsets: Vec<Vec3> = (0..model.copy_count()).map(|c| model.copy_offset(c)).collect();
         let mut instances: Vec<&mut Instance> =
             std::iter::once(&mut model.instance).chain(model.copies.iter_mut().map(|(_, i)| i)).collect();
-        let rendered = self.scene.render_copies(
-            &gpu.device,
-            &gpu.queue,
-            &model.asset,
-            &mut instances,
-            &offsets,
-            &self.camera,
-            size,
-        );
-        // A cheap handle clone, so the renderer can be asked for its times and target version.
-        let rendered = rendered.cloned();
+        let offscreen = !self.direct || self.screenshot_wanted;
+        let rendered = if offscreen {
+            self.scene
+                .render_copies(&gpu.device, &gpu.queue, &model.asset, &mut instances, &offsets, &self.camera, size)
+                .map(|view| Some(view.clone()))
+        } else {
+            Ok(None)
+        };
+        let rendered = rendered.and_then(|view| {
+            if self.direct {
+                let aspect = size[0].max(1) as f32 / size[1].max(1) as f32;
+                self.scene.prepare_copies(
+                    &gpu.device,
+                    &gpu.queue,
+                    &model.asset,
+                    &mut instances,
+                    &offsets,
+                    &self.camera,
+                    aspect,
+                )?;
+                let at = |v: f32| (v * ppp).round().max(0.0) as u32;
+                self.scene_rect = Some([at(rect.min.x), at(rect.min.y), size[0], size[1]]);
+            }
+            Ok(view)
+        });
+        drop(instances);
         let times = self.scene.times();
         self.stages.cpu_skin = smooth(self.stages.cpu_skin, times.cpu_skin_ms);
         self.stages.upload = smooth(self.stages.upload, times.upload_ms);
@@ -1694,34 +1840,47 @@ impl App {
                 // Unreachable with an asset the renderer accepted; drop it rather than fail every frame.
                 let message = format!("{}: cannot draw: {e}", model.name);
                 self.model = None;
+                self.scene_rect = None;
                 self.scene.clear_asset();
                 self.fail(message);
                 return;
             }
         };
-        let version = self.scene.target_version();
-        let mut renderer = gpu.renderer.write();
-        let id = match &mut self.viewport {
-            Some(texture) if texture.version == version => texture.id,
-            Some(texture) => {
-                renderer.update_egui_texture_from_wgpu_texture(
-                    &gpu.device,
-                    &view,
-                    wgpu::FilterMode::Linear,
-                    texture.id,
-                );
-                texture.version = version;
-                texture.id
+        if self.screenshot_wanted {
+            self.screenshot_wanted = false;
+            if let Some(texture) = self.scene.target_texture() {
+                self.screenshot = Some(crate::render::readback::PendingReadback::start(
+                    &self.gpu.device,
+                    &self.gpu.queue,
+                    texture,
+                    4,
+                ));
             }
-            None => {
-                let id = renderer.register_native_texture(&gpu.device, &view, wgpu::FilterMode::Linear);
-                self.viewport = Some(ViewportTexture { id, version });
-                id
-            }
-        };
-        let uv = Rect::from_min_max(Pos2::ZERO, Pos2::new(1.0, 1.0));
-        ui.painter().image(id, rect, uv, Color32::WHITE);
-        drop(renderer);
+        }
+        if let Some(view) = view.filter(|_| !self.direct) {
+            let version = self.scene.target_version();
+            let mut renderer = gpu.renderer.write();
+            let id = match &mut self.viewport {
+                Some(texture) if texture.version == version => texture.id,
+                Some(texture) => {
+                    renderer.update_egui_texture_from_wgpu_texture(
+                        &gpu.device,
+                        &view,
+                        wgpu::FilterMode::Linear,
+                        texture.id,
+                    );
+                    texture.version = version;
+                    texture.id
+                }
+                None => {
+                    let id = renderer.register_native_texture(&gpu.device, &view, wgpu::FilterMode::Linear);
+                    self.viewport = Some(ViewportTexture { id, version });
+                    id
+                }
+            };
+            let uv = Rect::from_min_max(Pos2::ZERO, Pos2::new(1.0, 1.0));
+            ui.painter().image(id, rect, uv, Color32::WHITE);
+        }
         if let Some(model) = self.model.as_mut() {
             let painter = ui.painter_at(rect);
             overlay::paint_mesh_lines(&painter, model, &projection, origin, self.overlays, &mut self.overlay_scratch);
@@ -1933,6 +2092,12 @@ impl App {
     /// Starts saving the view (the 3D viewport, without the panels' overlays) as a PNG: the
     /// GPU copy is read back over the next frames, then offered as `<model>.png`.
     fn screenshot(&mut self) {
+        if self.direct {
+            // Drawn straight into the canvas, the scene has no texture of its own: the next
+            // frame renders one.
+            self.screenshot_wanted = true;
+            return;
+        }
         if let Some(texture) = self.scene.target_texture() {
             self.screenshot =
                 Some(crate::render::readback::PendingReadback::start(&self.gpu.device, &self.gpu.queue, texture, 4));
@@ -2035,10 +2200,7 @@ impl App {
         let model = self.model.as_ref();
         d.set(Key::Model, model.map_or("", |m| m.name.as_str()));
         d.set(Key::Src, self.shown_url.as_deref().unwrap_or_default());
-        let models = self.library.as_ref().map_or(String::new(), |l| {
-            serde_json::Value::from(l.models.iter().map(|m| load::base_name(m)).collect::<Vec<_>>()).to_string()
-        });
-        d.set(Key::Models, &models);
+        d.set(Key::Models, self.library.as_ref().map_or("", |l| l.models_json.as_str()));
         d.set(Key::Clips, model.map_or("[]", |m| m.clips_json.as_str()));
         d.set(Key::Clip, model.map_or("", |m| m.clip_name(m.animator.main().clip)));
         let time_moved = d.set(Key::Time, &model.map_or(String::new(), |m| format!("{:.3}", m.animator.main().time)));
@@ -2122,8 +2284,17 @@ impl App {
     }
 }
 
+#[cfg(not(target_arch = "wasm32"))]
 impl eframe::App for App {
     fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
+        self.frame(ui);
+    }
+}
+
+impl App {
+    /// One frame: commands, clocks, panels, the 3D view and its overlays, drawn into `ui`
+    /// (the whole canvas).
+    pub fn frame(&mut self, ui: &mut egui::Ui) {
         let ctx = ui.ctx().clone();
         self.receive();
         self.take_drops(&ctx);

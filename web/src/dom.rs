@@ -321,6 +321,12 @@ impl Dataset {
         true
     }
 
+    /// Forgets what was written under `key`, so the next [`Dataset::set`] writes it (the
+    /// page changed it meanwhile, e.g. `data-status="lost"`).
+    pub fn forget(&mut self, key: Key) {
+        self.written[key as usize] = None;
+    }
+
     /// The last value written under `key`.
     pub fn get(&self, key: Key) -> Option<&str> {
         self.written[key as usize].as_deref()

@@ -1,9 +1,11 @@
 //! The wasm entry point: the [`Viewer`] handle that the `<kloub-viewer>` element
 //! (`web/kloub-viewer.js`) creates, configures and mounts on its own canvas. Many viewers may
-//! run on one page; each writes only to its own element (state as `data-*` attributes, events
-//! through the element's callback, the error overlay into its shadow root).
+//! run on one page: they draw with one shared device ([`crate::page::gpu`]), each writes only
+//! to its own element (state as `data-*` attributes, events through the element's callback,
+//! the error overlay into its shadow root). The element schedules the frames
+//! ([`Viewer::frame`]) and forwards input.
 
-use std::cell::RefCell;
+use std::cell::{Cell, RefCell};
 use std::rc::Rc;
 
 use wasm_bindgen::prelude::*;
@@ -16,6 +18,8 @@ use crate::candy::Sample;
 use crate::control::{Command, Controls, Prefs, parse_loop_mode};
 use crate::dom::{self, Host};
 use crate::load::{Delivery, Inbox, SourceFile};
+use crate::page::gpu;
+use crate::page::view::{Next, View};
 use crate::render::SkinningPath;
 
 /// Controls one viewer from JavaScript. Names are resolved against the model shown at the
@@ -25,7 +29,34 @@ use crate::render::SkinningPath;
 pub struct Viewer {
     controls: Controls,
     inbox: Inbox,
-    mounted: Rc<RefCell<Option<(eframe::WebRunner, Host)>>>,
+    id: u32,
+    mounted: Rc<RefCell<Option<Mounted>>>,
+}
+
+struct Mounted {
+    view: View,
+    host: Host,
+    backend: BackendChoice,
+}
+
+thread_local! {
+    static NEXT_ID: Cell<u32> = const { Cell::new(1) };
+    /// Each mounted viewer's `emit`, to say `kloub:wake` when its egui context asks for a frame.
+    static WAKERS: RefCell<Vec<(u32, js_sys::Function)>> = const { RefCell::new(Vec::new()) };
+    /// The page's handler of a panic (the element module recreates the module instance).
+    static PANIC_HANDLER: RefCell<Option<js_sys::Function>> = const { RefCell::new(None) };
+}
+
+/// Asks the element of viewer `id` for a frame in `delay_ms`.
+fn wake(id: u32, delay_ms: f64) {
+    let emit = WAKERS.with(|w| w.try_borrow().ok().and_then(|w| w.iter().find(|(i, _)| *i == id).map(|(_, f)| f.clone())));
+    if let Some(emit) = emit {
+        let _ = emit.call2(&JsValue::NULL, &"kloub:wake".into(), &delay_ms.into());
+    }
+}
+
+fn watch_repaints(id: u32, ctx: &egui::Context) {
+    ctx.set_request_repaint_callback(move |info| wake(id, info.delay.as_secs_f64() * 1000.0));
 }
 
 impl Default for Viewer {
@@ -39,18 +70,24 @@ impl Viewer {
     /// A viewer that is not shown yet: configure it, then [`Viewer::mount`] it.
     #[wasm_bindgen(constructor)]
     pub fn new() -> Viewer {
-        // A second viewer (another logger already installed) keeps the first logger.
-        let _ = eframe::WebLogger::init(log::LevelFilter::Info);
+        crate::page::log::init();
         install_panic_hook();
-        Viewer { controls: Controls::default(), inbox: Inbox::default(), mounted: Rc::default() }
+        let id = NEXT_ID.with(|n| {
+            let id = n.get();
+            n.set(id.wrapping_add(1));
+            id
+        });
+        Viewer { controls: Controls::default(), inbox: Inbox::default(), id, mounted: Rc::default() }
     }
 
     /// Starts the viewer on `canvas`, mirroring its state into `element.dataset`, putting
     /// the error overlay into `overlay` (the element's shadow root) and reporting events
-    /// through `emit(type, detail)`. `backend`: `"webgpu"`, `"webgl2"` (also `"gl"`) or
-    /// `null`/`"auto"` (WebGPU when available). `src`: a model URL to show first. The side
-    /// panel shows unless [`Viewer::set_panels`] said otherwise. Resolves when the first frame
-    /// is scheduled; rejects (after showing the overlay) when no renderer could start.
+    /// through `emit(type, detail)` (also `kloub:wake` with a delay in ms when it wants a
+    /// frame, and `kloub:lost` when the page's device is lost). `backend`: `"webgpu"`,
+    /// `"webgl2"` (also `"gl"`) or `null`/`"auto"` (WebGPU when available); every viewer of
+    /// a backend shares one device. `src`: a model URL to show first. The side panel shows
+    /// unless [`Viewer::set_panels`] said otherwise. Resolves when the viewer can draw;
+    /// rejects (after showing the overlay) when no device could be made.
     pub fn mount(
         &self,
         canvas: web_sys::HtmlCanvasElement,
@@ -60,46 +97,166 @@ impl Viewer {
         backend: Option<String>,
         src: Option<String>,
     ) -> js_sys::Promise {
-        let host = Host::new(element, overlay, emit);
+        let host = Host::new(element, overlay, emit.clone());
         let controls = self.controls.clone();
         let inbox = self.inbox.clone();
         let mounted = self.mounted.clone();
+        let id = self.id;
         wasm_bindgen_futures::future_to_promise(async move {
             if mounted.borrow().is_some() {
                 return Err(js_sys::Error::new("mount: this viewer is already mounted").into());
             }
             host.write(dom::Key::Status.name(), "loading");
             let choice = BackendChoice::from_query(backend.as_deref());
-            let mut options = eframe::WebOptions::default();
-            if let egui_wgpu::WgpuSetup::CreateNew(create) = &mut options.wgpu_options.wgpu_setup {
-                create.instance_descriptor.backends = choice.backends();
-            }
-            let runner = eframe::WebRunner::new();
-            dom::register(&host);
-            let config = AppConfig {
-                model_url: src.filter(|s| !s.is_empty()),
-                controls,
-                inbox,
-                host: host.clone(),
-                panels: true,
+            let started = gpu::shared(choice).await.and_then(|gpu| {
+                let config =
+                    AppConfig { model_url: src.filter(|s| !s.is_empty()), controls, inbox, host: host.clone(), panels: true };
+                View::new(gpu, canvas, |ctx, render| {
+                    watch_repaints(id, ctx);
+                    App::with_gpu(ctx, render, config)
+                })
+            });
+            let view = match started {
+                Ok(view) => view,
+                Err(error) => {
+                    let message = format!("Kloub could not start: {error}");
+                    host.show_fatal(&message);
+                    return Err(js_sys::Error::new(&message).into());
+                }
             };
-            let started = runner.start(canvas, options, Box::new(move |cc| Ok(Box::new(App::new(cc, config)?)))).await;
-            if let Err(error) = started {
-                let message = format!("Kloub could not start: {}", dom::js_error_text(&error));
-                host.show_fatal(&message);
-                dom::unregister(&host);
-                return Err(js_sys::Error::new(&message).into());
+            if let Some(emit) = emit {
+                WAKERS.with(|w| w.borrow_mut().push((id, emit.clone())));
+                gpu::listen(id, emit);
             }
-            *mounted.borrow_mut() = Some((runner, host));
+            dom::register(&host);
+            *mounted.borrow_mut() = Some(Mounted { view, host, backend: choice });
+            wake(id, 0.0);
             Ok(JsValue::UNDEFINED)
         })
     }
 
+    /// Moves the viewer to a new device after `kloub:lost`, drawing on `canvas` (a fresh
+    /// one: the old canvas's context belongs to the lost device). Its model, clocks, camera
+    /// and settings stay. Resolves when it can draw again; rejects while no device can be made
+    /// (try again later).
+    pub fn reattach(&self, canvas: web_sys::HtmlCanvasElement) -> js_sys::Promise {
+        let mounted = self.mounted.clone();
+        let id = self.id;
+        wasm_bindgen_futures::future_to_promise(async move {
+            let Some(backend) = mounted.borrow().as_ref().map(|m| m.backend) else {
+                return Err(js_sys::Error::new("reattach: this viewer is not mounted").into());
+            };
+            let gpu = gpu::shared(backend).await.map_err(|e| js_sys::Error::new(&e))?;
+            let mut slot = mounted.borrow_mut();
+            let Some(m) = slot.as_mut() else { return Err(js_sys::Error::new("reattach: unmounted meanwhile").into()) };
+            if m.view.gpu().generation != gpu.generation || m.view.gpu().is_lost() {
+                m.view.reattach(gpu, canvas).map_err(|e| js_sys::Error::new(&e))?;
+                watch_repaints(id, &m.view.ctx);
+            }
+            drop(slot);
+            wake(id, 0.0);
+            Ok(JsValue::UNDEFINED)
+        })
+    }
+
+    /// Draws a frame at `now` (ms, the animation frame's timestamp) on a canvas of `width` ×
+    /// `height` pixels, `ppp` canvas pixels per CSS pixel. Returns when the next frame is
+    /// wanted: a delay in ms (0: the next animation frame), `Infinity` (only when something
+    /// changes: `kloub:wake` says so) or -1 (the device is lost: [`Viewer::reattach`]).
+    pub fn frame(&self, now: f64, width: u32, height: u32, ppp: f32) -> f64 {
+        let Ok(mut slot) = self.mounted.try_borrow_mut() else { return f64::INFINITY };
+        let Some(m) = slot.as_mut() else { return f64::INFINITY };
+        match m.view.frame(now, width, height, ppp) {
+            Next::In(ms) => ms,
+            Next::Idle => f64::INFINITY,
+            Next::Lost => -1.0,
+        }
+    }
+
+    /// Moves every clock by `seconds`: the time the viewer was out of view while playing, so
+    /// that it comes back where it would be.
+    #[wasm_bindgen(js_name = catchUp)]
+    pub fn catch_up(&self, seconds: f64) {
+        if let Ok(mut slot) = self.mounted.try_borrow_mut()
+            && let Some(m) = slot.as_mut()
+        {
+            m.view.app.catch_up(seconds as f32);
+        }
+    }
+
+    /// Whether the shown model moves (a frame is wanted every animation frame while in view).
+    #[wasm_bindgen(getter)]
+    pub fn animating(&self) -> bool {
+        self.mounted.try_borrow().ok().and_then(|m| m.as_ref().map(|m| m.view.app.animating())).unwrap_or(false)
+    }
+
+    fn with_input(&self, f: impl FnOnce(&mut crate::page::input::Input)) {
+        if let Ok(mut slot) = self.mounted.try_borrow_mut()
+            && let Some(m) = slot.as_mut()
+        {
+            f(&mut m.view.input);
+        }
+    }
+
+    /// Input: the pointer moved to `x, y` (CSS pixels in the canvas).
+    #[wasm_bindgen(js_name = pointerMove)]
+    pub fn pointer_move(&self, x: f32, y: f32) {
+        self.with_input(|i| i.pointer_move(x, y));
+    }
+
+    /// Input: `button` (DOM numbering) pressed or released; `modifiers` bits 1 Alt, 2 Ctrl,
+    /// 4 Shift, 8 Meta.
+    #[wasm_bindgen(js_name = pointerButton)]
+    pub fn pointer_button(&self, x: f32, y: f32, button: u8, pressed: bool, modifiers: u8) {
+        self.with_input(|i| i.pointer_button(x, y, button, pressed, modifiers));
+    }
+
+    /// Input: the pointer left the canvas.
+    #[wasm_bindgen(js_name = pointerGone)]
+    pub fn pointer_gone(&self) {
+        self.with_input(crate::page::input::Input::pointer_gone);
+    }
+
+    /// Input: a wheel event (`deltaMode` 0 pixels, 1 lines, 2 pages).
+    pub fn wheel(&self, dx: f32, dy: f32, mode: u8, modifiers: u8) {
+        self.with_input(|i| i.wheel(dx, dy, mode, modifiers));
+    }
+
+    /// Input: a touch point (`phase` 0 start, 1 move, 2 end, 3 cancel).
+    pub fn touch(&self, id: u32, phase: u8, x: f32, y: f32, force: f32) {
+        self.with_input(|i| i.touch(id, phase, x, y, force));
+    }
+
+    /// Input: a key (`key` and `code` of the DOM event). Returns whether the page should
+    /// prevent the browser's default action.
+    pub fn key(&self, key: &str, code: &str, pressed: bool, modifiers: u8) -> bool {
+        let mut prevent = false;
+        self.with_input(|i| prevent = i.key(key, code, pressed, modifiers));
+        prevent
+    }
+
+    /// Input: pasted text.
+    pub fn paste(&self, text: String) {
+        self.with_input(|i| i.paste(text));
+    }
+
+    /// Input: the browser's copy (`cut` false) or cut command.
+    pub fn copy(&self, cut: bool) {
+        self.with_input(|i| i.copy(cut));
+    }
+
+    /// Input: the canvas gained or lost the keyboard focus.
+    pub fn focus(&self, on: bool) {
+        self.with_input(|i| i.focus(on));
+    }
+
     /// Stops the viewer and frees its GPU resources (the element left the page).
     pub fn destroy(&self) {
-        if let Some((runner, host)) = self.mounted.borrow_mut().take() {
-            runner.destroy();
-            dom::unregister(&host);
+        if let Some(m) = self.mounted.borrow_mut().take() {
+            dom::unregister(&m.host);
+            gpu::unlisten(self.id);
+            WAKERS.with(|w| w.borrow_mut().retain(|(i, _)| *i != self.id));
+            drop(m);
         }
     }
 
@@ -539,12 +696,49 @@ fn range_error(message: impl AsRef<str>) -> JsValue {
     js_sys::RangeError::new(message.as_ref()).into()
 }
 
+/// Hands a panic (a bug) to the page: `handler(message)` is called from the panic hook, and the
+/// element module recreates the module instance and remounts every viewer from its state. Without
+/// a handler every viewer shows the error.
+#[wasm_bindgen(js_name = setPanicHandler)]
+pub fn set_panic_handler(handler: Option<js_sys::Function>) {
+    PANIC_HANDLER.with(|h| *h.borrow_mut() = handler);
+}
+
+/// For tests: panics inside the module (as a bug would), so recovery can be checked.
+#[wasm_bindgen(js_name = _testPanic)]
+pub fn test_panic(message: &str) {
+    panic!("test panic: {message}");
+}
+
+/// For tests: loses every device of the page (WebGPU `device.destroy()`, WebGL2
+/// `WEBGL_lose_context`), as a GPU reset would.
+#[wasm_bindgen(js_name = _testLoseDevices)]
+pub fn test_lose_devices() {
+    for gpu in gpu::live() {
+        gpu.lose_for_test();
+    }
+}
+
+/// For tests: the page's WebGL2 canvas (`null` before a WebGL2 viewer mounts), to lose and
+/// restore its context as a page or browser would.
+#[wasm_bindgen(js_name = _testGlCanvas)]
+pub fn test_gl_canvas() -> Option<web_sys::HtmlCanvasElement> {
+    gpu::live().iter().find_map(|g| g.gl.as_ref().map(|gl| gl.canvas.clone()))
+}
+
 fn install_panic_hook() {
     static INSTALLED: std::sync::Once = std::sync::Once::new();
     INSTALLED.call_once(|| {
         let previous = std::panic::take_hook();
         std::panic::set_hook(Box::new(move |info| {
-            dom::show_fatal_everywhere(&info.to_string());
+            let message = info.to_string();
+            let handler = PANIC_HANDLER.with(|h| h.try_borrow().ok().and_then(|h| h.clone()));
+            match handler {
+                Some(handler) => {
+                    let _ = handler.call1(&JsValue::NULL, &JsValue::from_str(&message));
+                }
+                None => dom::show_fatal_everywhere(&message),
+            }
             previous(info);
         }));
     });

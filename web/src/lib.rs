@@ -21,6 +21,7 @@ mod entry;
 pub mod ik;
 pub mod load;
 pub mod overlay;
+pub mod page;
 pub mod ragdoll;
 pub mod render;
 pub mod samples;

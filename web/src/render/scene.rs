@@ -77,11 +77,62 @@ impl SkinningPath {
 /// The heatmap's full-scale distance as a fraction of the rest pose's bounding-box diagonal.
 const HEATMAP_FULL_SCALE: f32 = 0.02;
 
-/// Sample count to use with `adapter`: 4× MSAA when both the colour and depth formats
-/// support it, else 1.
+/// The MSAA sample count for a viewer on screen: [`msaa_samples`], except on a CPU adapter
+/// (SwiftShader, llvmpipe) in the browser, where 4× multisampling quadruples the fill cost of
+/// every frame and the page's frame rate matters more (measured in BENCHMARKS.md, "Frame
+/// cost"). Native rendering (the golden images on lavapipe) keeps 4×.
+pub fn display_msaa(adapter: &wgpu::Adapter) -> u32 {
+    if cfg!(target_arch = "wasm32") && adapter.get_info().device_type == wgpu::DeviceType::Cpu {
+        1
+    } else {
+        msaa_samples(adapter)
+    }
+}
+
+/// 4× when the adapter can multisample the colour and depth formats, else 1.
 pub fn msaa_samples(adapter: &wgpu::Adapter) -> u32 {
     let supports = |format| adapter.get_texture_format_features(format).flags.sample_count_supported(4);
     if supports(COLOR_FORMAT) && supports(DEPTH_FORMAT) { 4 } else { 1 }
+}
+
+/// A texture of `size` for `RENDER_ATTACHMENT` plus `usage`.
+fn attachment(
+    device: &wgpu::Device,
+    label: &str,
+    size: [u32; 2],
+    format: wgpu::TextureFormat,
+    samples: u32,
+    usage: wgpu::TextureUsages,
+) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d { width: size[0], height: size[1], depth_or_array_layers: 1 },
+        mip_level_count: 1,
+        sample_count: samples,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | usage,
+        view_formats: &[],
+    })
+}
+
+/// MSAA colour (when multisampling) and depth of one size: what a pass needs besides the
+/// texture it ends in.
+struct Attachments {
+    size: [u32; 2],
+    msaa: Option<wgpu::TextureView>,
+    depth: wgpu::TextureView,
+}
+
+impl Attachments {
+    fn new(device: &wgpu::Device, size: [u32; 2], sample_count: u32) -> Self {
+        let view = |t: wgpu::Texture| t.create_view(&wgpu::TextureViewDescriptor::default());
+        let none = wgpu::TextureUsages::empty();
+        let msaa = (sample_count > 1)
+            .then(|| view(attachment(device, "kloub scene msaa", size, COLOR_FORMAT, sample_count, none)));
+        let depth = view(attachment(device, "kloub scene depth", size, DEPTH_FORMAT, sample_count, none));
+        Self { size, msaa, depth }
+    }
 }
 
 /// The render target: resolved colour (sampled by egui, copied by tests), MSAA colour, depth.
@@ -95,34 +146,11 @@ struct Target {
 
 impl Target {
     fn new(device: &wgpu::Device, size: [u32; 2], sample_count: u32) -> Self {
-        let extent = wgpu::Extent3d { width: size[0], height: size[1], depth_or_array_layers: 1 };
-        let texture = |label, format, samples, usage| {
-            device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(label),
-                size: extent,
-                mip_level_count: 1,
-                sample_count: samples,
-                dimension: wgpu::TextureDimension::D2,
-                format,
-                usage,
-                view_formats: &[],
-            })
-        };
-        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT;
-        let resolved = texture(
-            "kloub scene colour",
-            COLOR_FORMAT,
-            1,
-            usage | wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC,
-        );
-        let msaa = (sample_count > 1).then(|| {
-            texture("kloub scene msaa", COLOR_FORMAT, sample_count, usage)
-                .create_view(&wgpu::TextureViewDescriptor::default())
-        });
-        let depth = texture("kloub scene depth", DEPTH_FORMAT, sample_count, usage)
-            .create_view(&wgpu::TextureViewDescriptor::default());
-        let view = resolved.create_view(&wgpu::TextureViewDescriptor::default());
-        Self { size, texture: resolved, view, msaa, depth }
+        let usage = wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC;
+        let texture = attachment(device, "kloub scene colour", size, COLOR_FORMAT, 1, usage);
+        let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
+        let Attachments { msaa, depth, .. } = Attachments::new(device, size, sample_count);
+        Self { size, texture, view, msaa, depth }
     }
 }
 
@@ -223,6 +251,10 @@ pub struct SceneRenderer {
     scene: Option<GpuScene>,
     target: Option<Target>,
     target_version: u64,
+    /// MSAA colour and depth for drawing straight into a canvas's surface.
+    direct: Option<Attachments>,
+    /// Copies prepared by the last [`SceneRenderer::prepare_copies`].
+    prepared_copies: usize,
     skinning: SkinningPath,
     ground: Ground,
     scratch: Scratch,
@@ -267,6 +299,8 @@ impl SceneRenderer {
             scene: None,
             target: None,
             target_version: 0,
+            direct: None,
+            prepared_copies: 1,
             skinning: SkinningPath::Gpu,
             ground: Ground::default(),
             scratch: Scratch::default(),
@@ -524,12 +558,44 @@ impl SceneRenderer {
             self.target = Some(Target::new(device, size, self.sample_count));
             self.target_version += 1;
         }
+        self.prepare_copies(device, queue, asset, instances, offsets, camera, size[0] as f32 / size[1] as f32)?;
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("kloub scene") });
+        let target = self.target.take().ok_or("render target missing")?;
+        let (color, resolve) = match &target.msaa {
+            Some(msaa) => (msaa, Some(&target.view)),
+            None => (&target.view, None),
+        };
+        self.encode(device, &mut encoder, color, resolve, &target.depth, None);
+        self.target = Some(target);
+        queue.submit([encoder.finish()]);
+        let target = self.target.as_ref().ok_or("render target missing")?;
+        Ok(&target.view)
+    }
 
-        let aspect = size[0] as f32 / size[1] as f32;
+    /// The first half of a frame drawn straight into a canvas ([`SceneRenderer::draw_into`]):
+    /// the camera for a viewport of `aspect` (width / height), palettes, CPU deformation and
+    /// uploads for `instances` moved by `offsets`.
+    ///
+    /// # Errors
+    /// When `asset` is not the one passed to [`SceneRenderer::set_asset`] or an instance does
+    /// not fit it.
+    #[expect(clippy::too_many_arguments, reason = "render's arguments less the size, plus the aspect")]
+    pub fn prepare_copies(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        asset: &Asset,
+        instances: &mut [&mut Instance],
+        offsets: &[Vec3],
+        camera: &Camera,
+        aspect: f32,
+    ) -> Result<(), String> {
+        let aspect = if aspect.is_finite() && aspect > 0.0 { aspect } else { 1.0 };
         let frame = FrameUniform::new(camera.view_proj(aspect), camera.eye(), camera.target, &self.ground, self.look);
         queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&frame));
 
         let copies = instances.len();
+        self.prepared_copies = copies;
         if let Some(scene) = self.scene.as_mut() {
             scene.reserve(
                 device,
@@ -558,14 +624,63 @@ impl SceneRenderer {
                 }
             }
         }
-        let encode_started = web_time::Instant::now();
+        let ms = |d: std::time::Duration| d.as_secs_f32() * 1000.0;
+        let prepared = f32::from(u8::from(self.scene.is_some()));
+        self.times.cpu_skin_ms = ms(self.scratch.cpu_skin) * prepared;
+        self.times.upload_ms = ms(self.scratch.prepare.saturating_sub(self.scratch.cpu_skin)) * prepared;
+        Ok(())
+    }
 
-        let target = self.target.as_ref().ok_or("render target missing")?;
+    /// The second half of a frame drawn straight into a canvas: records the frame prepared by
+    /// [`SceneRenderer::prepare_copies`] into `encoder`, drawing into `view` (a surface texture
+    /// of `size` pixels in [`COLOR_FORMAT`]) within `rect` (`[x, y, width, height]` in pixels;
+    /// the rest of the surface is cleared to the background). No offscreen target and no
+    /// second pass: the colour is resolved (or written, without MSAA) into the surface itself.
+    pub fn draw_into(
+        &mut self,
+        device: &wgpu::Device,
+        encoder: &mut wgpu::CommandEncoder,
+        view: &wgpu::TextureView,
+        size: [u32; 2],
+        rect: [u32; 4],
+    ) {
+        let max = device.limits().max_texture_dimension_2d;
+        let size = [size[0].clamp(1, max), size[1].clamp(1, max)];
+        if self.direct.as_ref().is_none_or(|d| d.size != size) {
+            self.direct = Some(Attachments::new(device, size, self.sample_count));
+        }
+        // Within the surface and at least one pixel (a viewport outside it is a validation error).
+        let x = rect[0].min(size[0] - 1);
+        let y = rect[1].min(size[1] - 1);
+        let rect = [x, y, rect[2].clamp(1, size[0] - x), rect[3].clamp(1, size[1] - y)];
+        if let Some(direct) = self.direct.take() {
+            let (color, resolve) = match &direct.msaa {
+                Some(msaa) => (msaa, Some(view)),
+                None => (view, None),
+            };
+            self.encode(device, encoder, color, resolve, &direct.depth, Some(rect));
+            self.direct = Some(direct);
+        }
+    }
+
+    /// Records compute skinning and the scene's render pass (background, opaque draws, grid,
+    /// blended draws back to front) into `encoder`; `viewport`: the part of the attachments
+    /// drawn into (all of them when `None`).
+    fn encode(
+        &mut self,
+        device: &wgpu::Device,
+        encoder: &mut wgpu::CommandEncoder,
+        color: &wgpu::TextureView,
+        resolve_target: Option<&wgpu::TextureView>,
+        depth: &wgpu::TextureView,
+        viewport: Option<[u32; 4]>,
+    ) {
+        let encode_started = web_time::Instant::now();
+        let copies = self.prepared_copies;
         let scene = self.scene.as_ref().unwrap_or(&self.empty);
-        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("kloub scene") });
         if let Some(kit) = &self.compute {
             scene.dispatch_compute(
-                &mut encoder,
+                encoder,
                 kit,
                 copies,
                 self.draw_stride,
@@ -573,14 +688,10 @@ impl SceneRenderer {
             );
         }
         {
-            let (view, resolve_target) = match &target.msaa {
-                Some(msaa) => (msaa, Some(&target.view)),
-                None => (&target.view, None),
-            };
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("kloub scene"),
                 color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view,
+                    view: color,
                     depth_slice: None,
                     resolve_target,
                     ops: wgpu::Operations {
@@ -589,7 +700,7 @@ impl SceneRenderer {
                     },
                 })],
                 depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &target.depth,
+                    view: depth,
                     depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }),
                     stencil_ops: None,
                 }),
@@ -597,6 +708,10 @@ impl SceneRenderer {
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
+            if let Some([x, y, w, h]) = viewport {
+                pass.set_viewport(x as f32, y as f32, w as f32, h as f32, 0.0, 1.0);
+                pass.set_scissor_rect(x, y, w, h);
+            }
             pass.set_bind_group(0, &scene.frame_bind_group, &[]);
             pass.set_pipeline(&self.pipelines.background);
             pass.draw(0..3, 0..1);
@@ -611,15 +726,7 @@ impl SceneRenderer {
             let blended = self.scratch.blend_order.iter().map(|&(_, i)| i);
             scene.encode(&mut pass, &self.pipelines, blended, self.draw_stride);
         }
-        queue.submit([encoder.finish()]);
-        let ms = |d: std::time::Duration| d.as_secs_f32() * 1000.0;
-        let prepared = self.scene.is_some();
-        self.times = RenderTimes {
-            cpu_skin_ms: ms(self.scratch.cpu_skin) * f32::from(u8::from(prepared)),
-            upload_ms: ms(self.scratch.prepare.saturating_sub(self.scratch.cpu_skin)) * f32::from(u8::from(prepared)),
-            draw_ms: ms(encode_started.elapsed()),
-        };
-        Ok(&target.view)
+        self.times.draw_ms = encode_started.elapsed().as_secs_f32() * 1000.0;
     }
 
     /// CPU time of the stages of the last [`SceneRenderer::render`].

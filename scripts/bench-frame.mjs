@@ -1,0 +1,171 @@
+// Frame cost of <kloub-viewer> against three.js r187 (the npm dev dependency), side by side in the same headless
+// Debian chromium with the same flags, page size, models, counts and backend: an 800×600 canvas showing N copies of
+// a character playing one clip, no antialiasing on the three.js side (GLTFLoader's materials), the element without
+// `controls` on Kloub's. Prints a Markdown table of milliseconds per frame and the Kloub / three.js ratio.
+//
+//   scripts/build-web.sh && cargo build -p kloub-server && node scripts/bench-frame.mjs
+//
+// Frame time = wall time / frames drawn over KLOUB_BENCH_SECONDS (default 4) after a 2 s warm-up; both sides draw
+// from requestAnimationFrame, which chromium paces to at most 60 a second (16.7 ms is the floor) and holds back while
+// the GPU process (SwiftShader here: the CPU emulates the GPU) has not finished the previous frames, so the figure
+// includes the GPU's work. The runs alternate three.js and Kloub per cell, so both see the same machine load.
+// KLOUB_BACKENDS (webgl2,webgpu), KLOUB_BENCH_CASES ("Fox:1,Fox:10,Fox:50,CesiumMan:1,CesiumMan:10,CesiumMan:50").
+import { createServer } from 'node:http';
+import { readFileSync, statSync } from 'node:fs';
+import { extname, join, resolve } from 'node:path';
+import { ROOT, openBrowser, startServer } from '../tests/browser/lib.mjs';
+
+const SECONDS = Number(process.env.KLOUB_BENCH_SECONDS ?? 4);
+const BACKENDS = (process.env.KLOUB_BACKENDS ?? 'webgl2,webgpu').split(',');
+const MODELS = { Fox: ['Fox.glb', 'Run'], CesiumMan: ['CesiumMan/CesiumMan.glb', null] };
+const CASES = (process.env.KLOUB_BENCH_CASES ?? 'Fox:1,Fox:10,Fox:50,CesiumMan:1,CesiumMan:10,CesiumMan:50')
+  .split(',').map((c) => { const [model, n] = c.split(':'); return { model, n: Number(n) }; });
+const WIDTH = 800;
+const HEIGHT = 600;
+const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
+
+// The three.js page: N clones in a square grid one model size apart, framed like Kloub's copies, each with its mixer.
+const THREE_PAGE = `<!doctype html><html><head><meta charset="utf-8">
+<style>body{margin:0} canvas{display:block;width:${WIDTH}px;height:${HEIGHT}px}</style>
+<script type="importmap">{"imports":{"three":"/three/build/THREE_BUILD","three/addons/":"/three/examples/jsm/"}}</script>
+</head><body><script type="module">
+import * as THREE from 'three';
+import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
+import * as SkeletonUtils from 'three/addons/utils/SkeletonUtils.js';
+const q = new URLSearchParams(location.search);
+const n = Number(q.get('n')), clipName = q.get('clip'), webgpu = q.get('backend') === 'webgpu';
+const renderer = webgpu ? new THREE.WebGPURenderer({ antialias: false }) : new THREE.WebGLRenderer({ antialias: false });
+renderer.setPixelRatio(1);
+renderer.setSize(${WIDTH}, ${HEIGHT});
+if (webgpu) await renderer.init();
+document.body.append(renderer.domElement);
+window.backend = webgpu ? (renderer.backend.isWebGPUBackend ? 'webgpu' : 'webgl2-fallback') : 'webgl2';
+const scene = new THREE.Scene();
+scene.background = new THREE.Color(0x202124);
+scene.add(new THREE.HemisphereLight(0xffffff, 0x444444, 1.5));
+const sun = new THREE.DirectionalLight(0xffffff, 2);
+sun.position.set(1, 2, 1.5);
+scene.add(sun);
+const gltf = await new GLTFLoader().loadAsync(q.get('model'));
+const box = new THREE.Box3().setFromObject(gltf.scene);
+const size = box.getSize(new THREE.Vector3());
+const side = Math.ceil(Math.sqrt(n));
+const spacing = Math.max(size.x, size.z) * 1.2;
+const clip = gltf.animations.find((a) => a.name === clipName) ?? gltf.animations[0];
+const mixers = [];
+for (let i = 0; i < n; i++) {
+  const copy = SkeletonUtils.clone(gltf.scene);
+  copy.position.set((i % side - (side - 1) / 2) * spacing, 0, (Math.floor(i / side) - (side - 1) / 2) * spacing);
+  scene.add(copy);
+  const mixer = new THREE.AnimationMixer(copy);
+  mixer.clipAction(clip).play();
+  mixers.push(mixer);
+}
+const extent = Math.max(size.y, spacing * side);
+const camera = new THREE.PerspectiveCamera(45, ${WIDTH} / ${HEIGHT}, extent * 0.01, extent * 20);
+camera.position.set(0, size.y * 0.6 + extent * 0.5, extent * 1.6);
+camera.lookAt(0, size.y * 0.4, 0);
+const clock = new THREE.Clock();
+window.frames = 0;
+renderer.setAnimationLoop(() => {
+  const dt = clock.getDelta();
+  for (const m of mixers) m.update(dt);
+  renderer.render(scene, camera);
+  window.frames++;
+});
+window.ready = true;
+</script></body></html>`;
+
+const MIME = { '.js': 'text/javascript', '.html': 'text/html', '.glb': 'model/gltf-binary' };
+function startThreeServer() {
+  const three = resolve(ROOT, 'node_modules/three');
+  const assets = resolve(ROOT, 'web/assets');
+  const server = createServer((req, res) => {
+    const url = new URL(req.url, 'http://x');
+    const path = decodeURIComponent(url.pathname);
+    if (path === '/three.html') {
+      const build = url.searchParams.get('backend') === 'webgpu' ? 'three.webgpu.js' : 'three.module.js';
+      res.writeHead(200, { 'content-type': 'text/html' }).end(THREE_PAGE.replace('THREE_BUILD', build));
+      return;
+    }
+    const [dir, rest] = path.startsWith('/three/') ? [three, path.slice(7)] : path.startsWith('/assets/') ? [assets, path.slice(8)] : [null, null];
+    const file = dir && resolve(dir, rest);
+    if (!file || !file.startsWith(dir) || !statSync(file, { throwIfNoEntry: false })?.isFile()) {
+      res.writeHead(404).end('not found');
+      return;
+    }
+    res.writeHead(200, { 'content-type': MIME[extname(file)] ?? 'application/octet-stream' }).end(readFileSync(file));
+  });
+  return new Promise((ok) => server.listen(0, '127.0.0.1', () => ok({ url: `http://127.0.0.1:${server.address().port}`, stop: () => server.close() })));
+}
+
+/** Frames counted by `count()` (in the page) over SECONDS after the warm-up: ms per frame. */
+async function measure(page, count) {
+  await sleep(2000);
+  const [t0, f0] = await page.evaluate(count);
+  await sleep(SECONDS * 1000);
+  const [t1, f1] = await page.evaluate(count);
+  return f1 > f0 ? (t1 - t0) / (f1 - f0) : Infinity;
+}
+
+async function three(page, base, backend, { model, n }) {
+  const [file, clip] = MODELS[model];
+  await page.goto(`${base}/three.html?backend=${backend}&n=${n}&model=/assets/${file}&clip=${clip ?? ''}`);
+  await page.waitForFunction(() => window.ready === true, null, { timeout: 120000 });
+  const used = await page.evaluate(() => window.backend);
+  if (used !== backend) throw new Error(`three.js used ${used}, not ${backend}`);
+  return measure(page, () => [performance.now(), window.frames]);
+}
+
+async function kloub(page, base, backend, { model, n }) {
+  const [file, clip] = MODELS[model];
+  await page.goto(`${base}/embed.html`);
+  await page.evaluate(({ backend, file, clip, w, h }) => {
+    document.body.innerHTML = '';
+    document.body.style.margin = '0';
+    const v = document.createElement('kloub-viewer');
+    v.setAttribute('backend', backend);
+    v.setAttribute('src', `/assets/${file}`);
+    v.setAttribute('autoplay', '');
+    if (clip) v.setAttribute('animation-name', clip);
+    v.style.cssText = `width:${w}px;height:${h}px;border:0`;
+    document.body.append(v);
+  }, { backend, file, clip, w: WIDTH, h: HEIGHT });
+  await page.waitForFunction(() => document.querySelector('kloub-viewer').dataset.status === 'ready'
+    && document.querySelector('kloub-viewer').dataset.clips !== '[]', null, { timeout: 120000 });
+  const used = await page.evaluate(() => document.querySelector('kloub-viewer').dataset.backend);
+  if (used !== backend) throw new Error(`Kloub used ${used}, not ${backend}`);
+  if (n > 1) {
+    await page.evaluate((n) => document.querySelector('kloub-viewer').setCopies(n), n);
+    await page.waitForFunction((n) => document.querySelector('kloub-viewer').dataset.copies === String(n), n, { timeout: 30000 });
+  }
+  return measure(page, () => [performance.now(), Number(document.querySelector('kloub-viewer').dataset.frames)]);
+}
+
+const kloubServer = await startServer();
+const threeServer = await startThreeServer();
+const rows = [];
+try {
+  for (const backend of BACKENDS) {
+    const ctx = await openBrowser();
+    try {
+      await ctx.page.setViewportSize({ width: WIDTH + 40, height: HEIGHT + 40 });
+      for (const c of CASES) {
+        const t = await three(ctx.page, threeServer.url, backend, c);
+        const k = await kloub(ctx.page, kloubServer.url, backend, c);
+        rows.push([backend, `${c.model} ×${c.n}`, t, k]);
+        console.error(`bench-frame: ${backend} ${c.model} ×${c.n}: three.js ${t.toFixed(1)} ms, Kloub ${k.toFixed(1)} ms`);
+      }
+    } finally {
+      await ctx.close();
+    }
+  }
+} finally {
+  kloubServer.stop();
+  threeServer.stop();
+}
+console.log(`| Backend (SwiftShader) | Case (${WIDTH}×${HEIGHT}) | three.js r187 ms | Kloub ms | Kloub / three.js |`);
+console.log('|---|---|---:|---:|---:|');
+for (const [backend, name, t, k] of rows) {
+  console.log(`| ${backend} | ${name} | ${t.toFixed(1)} | ${k.toFixed(1)} | ${(k / t).toFixed(2)} |`);
+}

@@ -1,0 +1,358 @@
+//! One viewer on the page: its app, egui context and renderer, its canvas and how frames get
+//! there (a WebGPU surface of its own, or a copy from the page's WebGL2 canvas).
+
+use std::rc::Rc;
+use std::sync::Arc;
+
+use wasm_bindgen::JsCast;
+
+use super::gpu::{Gpu, GpuKind};
+use super::input::Input;
+use crate::app::App;
+
+/// Where a viewer's frames end up.
+enum Output {
+    /// Its canvas's own WebGPU surface.
+    Surface { surface: wgpu::Surface<'static>, config: wgpu::SurfaceConfiguration },
+    /// Its canvas's 2D context, which the page's WebGL2 canvas is copied into.
+    Copy { context: web_sys::CanvasRenderingContext2d },
+}
+
+/// What a frame asks of the page.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Next {
+    /// Draw again after this many milliseconds (0: at the next animation frame).
+    In(f64),
+    /// Nothing to draw until something changes (input, a command, a load).
+    Idle,
+    /// The device is lost: move to a new one ([`View::reattach`]).
+    Lost,
+}
+
+/// A mounted viewer.
+pub struct View {
+    /// The viewer's state, panels and 3D view.
+    pub app: App,
+    /// Its egui context.
+    pub ctx: egui::Context,
+    /// Input since the last frame.
+    pub input: Input,
+    gpu: Rc<Gpu>,
+    render: egui_wgpu::RenderState,
+    canvas: web_sys::HtmlCanvasElement,
+    output: Output,
+    /// The time origin (ms, `performance.now()`).
+    start: f64,
+    cursor: egui::CursorIcon,
+}
+
+/// A new egui context and renderer for `gpu` (one per viewer: egui's textures are numbered
+/// per context).
+fn render_state(gpu: &Gpu) -> egui_wgpu::RenderState {
+    let renderer = egui_wgpu::Renderer::new(&gpu.device, gpu.format, egui_wgpu::RendererOptions::default());
+    egui_wgpu::RenderState {
+        adapter: gpu.adapter.clone(),
+        instance: gpu.instance.clone(),
+        device: gpu.device.clone(),
+        queue: gpu.queue.clone(),
+        target_format: gpu.format,
+        renderer: Arc::new(egui::mutex::RwLock::new(renderer)),
+    }
+}
+
+fn output(gpu: &Gpu, canvas: &web_sys::HtmlCanvasElement) -> Result<Output, String> {
+    match gpu.kind {
+        GpuKind::WebGpu => {
+            let surface = gpu
+                .instance
+                .create_surface(wgpu::SurfaceTarget::Canvas(canvas.clone()))
+                .map_err(|e| format!("the canvas takes no WebGPU context: {e}"))?;
+            let config = wgpu::SurfaceConfiguration {
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+                format: gpu.format,
+                width: canvas.width().max(1),
+                height: canvas.height().max(1),
+                present_mode: wgpu::PresentMode::Fifo,
+                desired_maximum_frame_latency: 2,
+                alpha_mode: wgpu::CompositeAlphaMode::Auto,
+                // The scene draws through an sRGB view of the same texture; egui draws through
+                // the plain one (it blends in gamma space, as the browser composites).
+                view_formats: vec![crate::render::texture::COLOR_FORMAT],
+                color_space: wgpu::SurfaceColorSpace::Auto,
+            };
+            surface.configure(&gpu.device, &config);
+            Ok(Output::Surface { surface, config })
+        }
+        GpuKind::Gl => {
+            let context = canvas
+                .get_context("2d")
+                .ok()
+                .flatten()
+                .and_then(|c| c.dyn_into::<web_sys::CanvasRenderingContext2d>().ok())
+                .ok_or("the canvas takes no 2D context (it was used with another backend)")?;
+            Ok(Output::Copy { context })
+        }
+    }
+}
+
+/// `performance.now()` in milliseconds.
+pub fn now_ms() -> f64 {
+    web_sys::window().and_then(|w| w.performance()).map_or(0.0, |p| p.now())
+}
+
+impl View {
+    /// A viewer on `canvas` drawing with `gpu`; `make` creates its app on the given egui
+    /// context and render state.
+    ///
+    /// # Errors
+    /// When the canvas cannot show frames of `gpu`'s kind.
+    pub fn new(
+        gpu: Rc<Gpu>,
+        canvas: web_sys::HtmlCanvasElement,
+        make: impl FnOnce(&egui::Context, egui_wgpu::RenderState) -> App,
+    ) -> Result<View, String> {
+        let output = output(&gpu, &canvas)?;
+        let ctx = egui::Context::default();
+        let render = render_state(&gpu);
+        let mut app = make(&ctx, render.clone());
+        app.set_direct(true);
+        Ok(View {
+            app,
+            ctx,
+            input: Input::default(),
+            gpu,
+            render,
+            canvas,
+            output,
+            start: now_ms(),
+            cursor: egui::CursorIcon::Default,
+        })
+    }
+
+    /// The device this viewer draws with.
+    pub fn gpu(&self) -> &Rc<Gpu> {
+        &self.gpu
+    }
+
+    /// Moves the viewer to `gpu` (after a loss) on a fresh `canvas`: a new egui context and
+    /// renderer (egui re-sends its fonts), the app's renderer rebuilt and its model uploaded
+    /// again; the model, clocks, camera and settings stay.
+    ///
+    /// # Errors
+    /// When the canvas takes no context of the new kind, or the model cannot be uploaded.
+    pub fn reattach(&mut self, gpu: Rc<Gpu>, canvas: web_sys::HtmlCanvasElement) -> Result<(), String> {
+        self.output = output(&gpu, &canvas)?;
+        self.canvas = canvas;
+        let render = render_state(&gpu);
+        let ctx = egui::Context::default();
+        crate::app::install_fonts(&ctx);
+        self.app.replace_gpu(render.clone())?;
+        self.app.set_context(&ctx);
+        self.ctx = ctx;
+        self.render = render;
+        self.gpu = gpu;
+        Ok(())
+    }
+
+    /// Draws a frame at `now` (ms) on a canvas of `width` × `height` pixels, `ppp` pixels
+    /// per CSS pixel; says when the next is wanted.
+    pub fn frame(&mut self, now: f64, width: u32, height: u32, ppp: f32) -> Next {
+        if self.gpu.is_lost() {
+            return Next::Lost;
+        }
+        let max = self.gpu.device.limits().max_texture_dimension_2d;
+        let (width, height) = (width.clamp(1, max), height.clamp(1, max));
+        let ppp = if ppp.is_finite() && ppp > 0.05 { ppp } else { 1.0 };
+        if self.canvas.width() != width {
+            self.canvas.set_width(width);
+        }
+        if self.canvas.height() != height {
+            self.canvas.set_height(height);
+        }
+        let size = egui::vec2(width as f32, height as f32) / ppp;
+        let raw = self.input.take(size, ppp, (now - self.start) / 1000.0);
+        let app = &mut self.app;
+        let output = self.ctx.run_ui(raw, |ui| app.frame(ui));
+        self.platform(&output.platform_output);
+        let next = output
+            .viewport_output
+            .get(&egui::ViewportId::ROOT)
+            .map_or(Next::Idle, |v| if v.repaint_delay == std::time::Duration::MAX {
+                Next::Idle
+            } else {
+                Next::In(v.repaint_delay.as_secs_f64() * 1000.0)
+            });
+        let primitives = self.ctx.tessellate(output.shapes, output.pixels_per_point);
+        self.paint(&primitives, output.textures_delta, [width, height], output.pixels_per_point);
+        next
+    }
+
+    fn paint(
+        &mut self,
+        primitives: &[egui::ClippedPrimitive],
+        mut textures: egui::TexturesDelta,
+        size: [u32; 2],
+        ppp: f32,
+    ) {
+        let gpu = &self.gpu;
+        let screen = egui_wgpu::ScreenDescriptor { size_in_pixels: size, pixels_per_point: ppp };
+        let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("kloub frame") });
+        let commands = {
+            let mut renderer = self.render.renderer.write();
+            for (id, deltas) in textures.set.drain() {
+                for delta in deltas {
+                    renderer.update_texture(&gpu.device, &gpu.queue, id, &delta);
+                }
+            }
+            renderer.update_buffers(&gpu.device, &gpu.queue, &mut encoder, primitives, &screen)
+        };
+        let frame = match &mut self.output {
+            Output::Surface { surface, config } => {
+                if config.width != size[0] || config.height != size[1] {
+                    config.width = size[0];
+                    config.height = size[1];
+                    surface.configure(&gpu.device, config);
+                }
+                match surface.get_current_texture() {
+                    wgpu::CurrentSurfaceTexture::Success(f) | wgpu::CurrentSurfaceTexture::Suboptimal(f) => Some(f),
+                    other => {
+                        log::warn!("kloub: no surface texture this frame ({other:?}); configuring again");
+                        surface.configure(&gpu.device, config);
+                        None
+                    }
+                }
+            }
+            Output::Copy { .. } => gpu.gl.as_ref().and_then(|gl| {
+                let mut config = gl.config.borrow_mut();
+                if config.width < size[0] || config.height < size[1] {
+                    config.width = config.width.max(size[0]);
+                    config.height = config.height.max(size[1]);
+                    gl.surface.configure(&gpu.device, &config);
+                }
+                match gl.surface.get_current_texture() {
+                    wgpu::CurrentSurfaceTexture::Success(f) | wgpu::CurrentSurfaceTexture::Suboptimal(f) => Some(f),
+                    other => {
+                        log::warn!("kloub: no WebGL2 surface texture this frame ({other:?})");
+                        None
+                    }
+                }
+            }),
+        };
+        if let Some(frame) = frame {
+            let view = frame.texture.create_view(&wgpu::TextureViewDescriptor::default());
+            // The scene straight into the canvas (an sRGB view of it), then egui over it.
+            let scene_view = if frame.texture.format() == crate::render::texture::COLOR_FORMAT {
+                view.clone()
+            } else {
+                frame.texture.create_view(&wgpu::TextureViewDescriptor {
+                    format: Some(crate::render::texture::COLOR_FORMAT),
+                    ..Default::default()
+                })
+            };
+            let surface_size = [frame.texture.width(), frame.texture.height()];
+            let drew_scene = self.app.draw_scene(&mut encoder, &scene_view, surface_size);
+            let clear = self.ctx.global_style().visuals.extreme_bg_color.to_normalized_gamma_f32();
+            let load = if drew_scene {
+                wgpu::LoadOp::Load
+            } else {
+                wgpu::LoadOp::Clear(wgpu::Color {
+                    r: f64::from(clear[0]),
+                    g: f64::from(clear[1]),
+                    b: f64::from(clear[2]),
+                    a: 1.0,
+                })
+            };
+            {
+                let pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some("kloub egui"),
+                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                        view: &view,
+                        resolve_target: None,
+                        ops: wgpu::Operations { load, store: wgpu::StoreOp::Store },
+                        depth_slice: None,
+                    })],
+                    depth_stencil_attachment: None,
+                    timestamp_writes: None,
+                    occlusion_query_set: None,
+                    multiview_mask: None,
+                });
+                let renderer = self.render.renderer.read();
+                renderer.render(&mut pass.forget_lifetime(), primitives, &screen);
+            }
+            gpu.queue.submit(commands.into_iter().chain(std::iter::once(encoder.finish())));
+            gpu.queue.present(frame);
+            if let (Output::Copy { context }, Some(gl)) = (&self.output, &gpu.gl) {
+                let (w, h) = (f64::from(size[0]), f64::from(size[1]));
+                context.set_global_composite_operation("copy").ok();
+                let _ = context.draw_image_with_html_canvas_element_and_sw_and_sh_and_dx_and_dy_and_dw_and_dh(
+                    &gl.canvas, 0.0, 0.0, w, h, 0.0, 0.0, w, h,
+                );
+            }
+        } else {
+            gpu.queue.submit(commands.into_iter().chain(std::iter::once(encoder.finish())));
+        }
+        let mut renderer = self.render.renderer.write();
+        for id in &textures.free {
+            renderer.free_texture(id);
+        }
+    }
+
+    /// What egui asks of the page: the cursor, copied text, links to open.
+    fn platform(&mut self, output: &egui::PlatformOutput) {
+        if output.cursor_icon != self.cursor {
+            self.cursor = output.cursor_icon;
+            let _ = self.canvas.style().set_property("cursor", css_cursor(output.cursor_icon));
+        }
+        for command in &output.commands {
+            match command {
+                egui::OutputCommand::CopyText(text) => {
+                    if let Some(window) = web_sys::window() {
+                        let _ = window.navigator().clipboard().write_text(text);
+                    }
+                }
+                egui::OutputCommand::OpenUrl(open) => {
+                    if let Some(window) = web_sys::window() {
+                        let target = if open.new_tab { "_blank" } else { "_self" };
+                        let _ = window.open_with_url_and_target_and_features(&open.url, target, "noopener");
+                    }
+                }
+                _ => {}
+            }
+        }
+    }
+}
+
+/// The CSS `cursor` for egui's cursor.
+fn css_cursor(icon: egui::CursorIcon) -> &'static str {
+    use egui::CursorIcon as C;
+    match icon {
+        C::None => "none",
+        C::ContextMenu => "context-menu",
+        C::Help => "help",
+        C::PointingHand => "pointer",
+        C::Progress => "progress",
+        C::Wait => "wait",
+        C::Cell => "cell",
+        C::Crosshair => "crosshair",
+        C::Text => "text",
+        C::VerticalText => "vertical-text",
+        C::Alias => "alias",
+        C::Copy => "copy",
+        C::Move => "move",
+        C::NoDrop => "no-drop",
+        C::NotAllowed => "not-allowed",
+        C::Grab => "grab",
+        C::Grabbing => "grabbing",
+        C::AllScroll => "all-scroll",
+        C::ResizeHorizontal | C::ResizeEast | C::ResizeWest => "ew-resize",
+        C::ResizeVertical | C::ResizeNorth | C::ResizeSouth => "ns-resize",
+        C::ResizeNeSw | C::ResizeNorthEast | C::ResizeSouthWest => "nesw-resize",
+        C::ResizeNwSe | C::ResizeNorthWest | C::ResizeSouthEast => "nwse-resize",
+        C::ResizeColumn => "col-resize",
+        C::ResizeRow => "row-resize",
+        C::ZoomIn => "zoom-in",
+        C::ZoomOut => "zoom-out",
+        _ => "default",
+    }
+}
+
