@@ -1,7 +1,7 @@
 // Frame cost of <kloub-viewer> against three.js r187 (the npm dev dependency), side by side in the same headless
 // Debian chromium with the same flags, page size, models, counts and backend: an 800×600 canvas showing N copies of
 // a character playing one clip, no antialiasing on the three.js side (GLTFLoader's materials), the element without
-// `controls` on Kloub's. Prints a Markdown table of milliseconds per frame and the Kloub / three.js ratio.
+// `controls` on Kloub's, its adaptive resolution pinned to full size (`min-pixel-ratio="1"`). Prints a Markdown table of milliseconds per frame and the Kloub / three.js ratio.
 //
 //   scripts/build-web.sh && cargo build -p kloub-server && node scripts/bench-frame.mjs
 //
@@ -128,6 +128,8 @@ async function kloub(page, base, backend, { model, n }) {
     v.setAttribute('src', `/assets/${file}`);
     v.setAttribute('autoplay', '');
     if (clip) v.setAttribute('animation-name', clip);
+    // The same pixels as three.js: the resolution stays at 1 canvas pixel per CSS pixel however slow the frames.
+    v.setAttribute('min-pixel-ratio', '1');
     v.style.cssText = `width:${w}px;height:${h}px;border:0`;
     document.body.append(v);
   }, { backend, file, clip, w: WIDTH, h: HEIGHT });
