@@ -251,6 +251,8 @@ export class KloubViewer extends HTMLElement {
   #lost = false;
   /** Input handed over since the last frame. */
   #inputPending = false;
+  /** The pointer moved with a button held since the last frame (a release then ends a drag, not a click). */
+  #dragged = false;
   #note;
   #primaryTouch = null;
 
@@ -312,8 +314,10 @@ export class KloubViewer extends HTMLElement {
       // A press, release or key after other input not yet drawn: draw that input first, so that a quick press,
       // move and release (a drag between two animation frames) reaches the viewer as a drag, not as one click, and
       // keys typed right after a click on a text field reach the field the click focused.
-      const edge = ['pointerdown', 'pointerup', 'pointercancel', 'keydown'].includes(event.type);
+      const release = event.type === 'pointerup' || event.type === 'pointercancel';
+      const edge = event.type === 'pointerdown' || event.type === 'keydown' || (release && this.#dragged);
       if (edge && this.#inputPending) this.#draw(performance.now());
+      if (event.type === 'pointermove' && event.buttons !== 0) this.#dragged = true;
       fn(viewer, event);
       this.#inputPending = true;
       this.#wake(0);
@@ -567,6 +571,7 @@ export class KloubViewer extends HTMLElement {
     const viewer = this.#viewer;
     if (!viewer || this.#lost) return [Infinity, 0];
     this.#inputPending = false;
+    this.#dragged = false;
     const css = this.#cssSize ?? [this.#canvas.clientWidth, this.#canvas.clientHeight];
     if (css[0] <= 0 || css[1] <= 0) {
       this.#due = Infinity;
