@@ -4,7 +4,7 @@
 //! The page never touches the app directly: it resolves names against what the app published
 //! for the shown model ([`Controls::clip_index`], [`Controls::node_index`]) — so a bad name is
 //! an error at the call, synchronously — and queues a [`Command`]. The app applies queued
-//! commands at the start of its next frame through the same [`crate::app::Model`] methods the
+//! commands at the start of its next frame through the same [`crate::model::Model`] methods the
 //! side panel uses, so a test driving the handle exercises what a click does.
 
 use std::cell::RefCell;
@@ -101,8 +101,8 @@ pub enum Command {
     },
     /// Removes goal `goal`.
     RemoveIk(usize),
-    /// Shows this many characters in a grid (1 ..= [`crate::app::MAX_COPIES`]), each
-    /// [`crate::app::COPY_TIME_STEP`] seconds later than the previous.
+    /// Shows this many characters in a grid (1 ..= [`crate::model::MAX_COPIES`]), each
+    /// [`crate::model::COPY_TIME_STEP`] seconds later than the previous.
     SetCopies(usize),
     /// Shows or hides the side panel and the menus (the element's `controls` attribute).
     SetPanels(bool),

@@ -567,8 +567,8 @@ impl Viewer {
     /// Kept across models.
     #[wasm_bindgen(js_name = setCopies)]
     pub fn set_copies(&self, n: u32) -> Result<(), JsValue> {
-        if !(1..=crate::app::MAX_COPIES as u32).contains(&n) {
-            return Err(range_error(format!("setCopies: {n} copies: expected 1 to {}", crate::app::MAX_COPIES)));
+        if !(1..=crate::model::MAX_COPIES as u32).contains(&n) {
+            return Err(range_error(format!("setCopies: {n} copies: expected 1 to {}", crate::model::MAX_COPIES)));
         }
         self.controls.send(Command::SetCopies(n as usize));
         Ok(())

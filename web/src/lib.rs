@@ -1,11 +1,12 @@
 //! # kloub-web
 //!
-//! Kloub's viewer: an eframe app ([`app::App`]) that imports glTF/GLB with `kloub-core`,
-//! plays its clips, and draws it with the wgpu [`render::SceneRenderer`] into a texture shown
-//! in egui's central panel. On `wasm32` the exported [`Viewer`] runs it
-//! inside a `<kloub-viewer>` element (`web/kloub-viewer.js`).
+//! Kloub's viewer: an egui app ([`app::App`]) that imports glTF/GLB with `kloub-core`,
+//! plays its clips, and draws it with the wgpu [`render::SceneRenderer`]: in the browser straight
+//! into the element's canvas under egui's output, natively (tests) into a texture egui shows. On
+//! `wasm32` the exported [`Viewer`] runs it inside a `<kloub-viewer>` element
+//! (`web/kloub-viewer.js`) on the page runtime ([`page`]: one GPU device for every viewer).
 //!
-//! Modules: [`app`] (frame loop, model state), [`ui`] (side panel), [`control`] (commands
+//! Modules: [`app`] (frame loop), [`model`] (the shown model's state), [`ui`] (side panel), [`control`] (commands
 //! from the page), [`load`] (fetch, drop,
 //! import), [`dom`] (`document.body.dataset` mirror and error overlay; no-ops natively),
 //! [`backend`] (`?backend=` choice), [`render`] (GPU renderer and camera), [`samples`] (the
@@ -20,6 +21,7 @@ pub mod dom;
 mod entry;
 pub mod ik;
 pub mod load;
+pub mod model;
 pub mod overlay;
 pub mod page;
 pub mod ragdoll;

@@ -7,7 +7,7 @@ use egui::{Color32, Pos2, Rect, Stroke};
 use glam::{Mat4, Vec3};
 use kloub_core::asset::NodeIndex;
 
-use crate::app::Model;
+use crate::model::Model;
 use crate::render::Camera;
 
 /// Pointer distance (points) within which a marker or joint is picked.
