@@ -109,6 +109,24 @@ thread_local! {
     static GENERATION: Cell<u32> = const { Cell::new(0) };
     /// Whether the browser has no WebGPU adapter (known after the first try).
     static NO_WEBGPU: Cell<bool> = const { Cell::new(false) };
+    /// How many viewers draw through the page's WebGL2 canvas.
+    static GL_VIEWS: Cell<u32> = const { Cell::new(0) };
+}
+
+/// How many viewers draw through the page's WebGL2 canvas. With one, that canvas is shown in
+/// the viewer itself (no copy); with more, each frame is copied into its viewer's canvas.
+pub fn gl_views() -> u32 {
+    GL_VIEWS.with(Cell::get)
+}
+
+/// A viewer starts (`true`) or stops drawing through the WebGL2 canvas. Every viewer is asked
+/// for a frame, since the ones on WebGL2 switch between showing that canvas and copying it.
+pub fn count_gl_view(added: bool) {
+    GL_VIEWS.with(|n| n.set(if added { n.get().saturating_add(1) } else { n.get().saturating_sub(1) }));
+    let listeners: Vec<js_sys::Function> = LISTENERS.with(|l| l.borrow().iter().map(|(_, f)| f.clone()).collect());
+    for emit in listeners {
+        let _ = emit.call2(&JsValue::NULL, &"kloub:wake".into(), &0.into());
+    }
 }
 
 /// Registers `emit` to hear `kloub:lost` (with the lost kind's name) under `id`.
@@ -254,6 +272,18 @@ async fn make(kind: GpuKind) -> Result<Gpu, String> {
                 .map_err(|_| "cannot create a canvas")?;
             canvas.set_width(1);
             canvas.set_height(1);
+            // Shown inside a viewer while it is the page's only WebGL2 viewer: over its own canvas,
+            // which keeps receiving the input.
+            let _ = canvas.style().set_property("position", "absolute");
+            let _ = canvas.style().set_property("inset", "0");
+            let _ = canvas.style().set_property("pointer-events", "none");
+            // No depth or stencil in the canvas's own buffer (wgpu draws into textures of its own)
+            // and no antialiasing; these attributes hold for the context wgpu then asks for.
+            let attributes = js_sys::Object::new();
+            for (key, value) in [("antialias", false), ("depth", false), ("stencil", false)] {
+                let _ = js_sys::Reflect::set(&attributes, &key.into(), &value.into());
+            }
+            let _ = canvas.get_context_with_context_options("webgl2", &attributes);
             let flag = lost.clone();
             let on_lost = Closure::<dyn FnMut(web_sys::Event)>::new(move |event: web_sys::Event| {
                 event.prevent_default();

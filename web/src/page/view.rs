@@ -43,6 +43,8 @@ pub struct View {
     output: Output,
     /// The time origin (ms, `performance.now()`).
     start: f64,
+    /// Counted in [`super::gpu::gl_views`].
+    counted_gl: bool,
     cursor: egui::CursorIcon,
 }
 
@@ -116,7 +118,12 @@ impl View {
         let render = render_state(&gpu);
         let mut app = make(&ctx, render.clone());
         app.set_direct(true);
+        let counted_gl = gpu.kind == GpuKind::Gl;
+        if counted_gl {
+            super::gpu::count_gl_view(true);
+        }
         Ok(View {
+            counted_gl,
             app,
             ctx,
             input: Input::default(),
@@ -142,6 +149,11 @@ impl View {
     /// When the canvas takes no context of the new kind, or the model cannot be uploaded.
     pub fn reattach(&mut self, gpu: Rc<Gpu>, canvas: web_sys::HtmlCanvasElement) -> Result<(), String> {
         self.output = output(&gpu, &canvas)?;
+        self.release_gl();
+        if gpu.kind == GpuKind::Gl {
+            self.counted_gl = true;
+            super::gpu::count_gl_view(true);
+        }
         self.canvas = canvas;
         let render = render_state(&gpu);
         let ctx = egui::Context::default();
@@ -223,10 +235,24 @@ impl View {
                 }
             }
             Output::Copy { .. } => gpu.gl.as_ref().and_then(|gl| {
+                // The only WebGL2 viewer shows the page's canvas itself, sized to it; several
+                // share it, grown to the largest, each copied out of its top-left corner.
+                let alone = super::gpu::gl_views() == 1;
+                let shown_here = gl.canvas.parent_node().is_some_and(|p| Some(p) == self.canvas.parent_node());
+                if alone && !shown_here {
+                    let _ = self.canvas.after_with_node_1(&gl.canvas);
+                } else if !alone && shown_here {
+                    gl.canvas.remove();
+                }
                 let mut config = gl.config.borrow_mut();
-                if config.width < size[0] || config.height < size[1] {
-                    config.width = config.width.max(size[0]);
-                    config.height = config.height.max(size[1]);
+                let fits = if alone {
+                    config.width == size[0] && config.height == size[1]
+                } else {
+                    config.width >= size[0] && config.height >= size[1]
+                };
+                if !fits {
+                    config.width = if alone { size[0] } else { config.width.max(size[0]) };
+                    config.height = if alone { size[1] } else { config.height.max(size[1]) };
                     gl.surface.configure(&gpu.device, &config);
                 }
                 match gl.surface.get_current_texture() {
@@ -281,7 +307,9 @@ impl View {
             }
             gpu.queue.submit(commands.into_iter().chain(std::iter::once(encoder.finish())));
             gpu.queue.present(frame);
-            if let (Output::Copy { context }, Some(gl)) = (&self.output, &gpu.gl) {
+            if let (Output::Copy { context }, Some(gl)) = (&self.output, &gpu.gl)
+                && super::gpu::gl_views() != 1
+            {
                 let (w, h) = (f64::from(size[0]), f64::from(size[1]));
                 context.set_global_composite_operation("copy").ok();
                 let _ = context.draw_image_with_html_canvas_element_and_sw_and_sh_and_dx_and_dy_and_dw_and_dh(
@@ -319,6 +347,29 @@ impl View {
                 _ => {}
             }
         }
+    }
+}
+
+impl View {
+    /// Stops drawing through the page's WebGL2 canvas (the viewer goes away or moves to a new
+    /// device): takes that canvas out of this viewer if it is shown here, and uncounts it.
+    fn release_gl(&mut self) {
+        // Shown here, or anywhere once its device is lost (the canvas of a lost context is of no use).
+        if let Some(gl) = &self.gpu.gl
+            && gl.canvas.parent_node().is_some_and(|p| self.gpu.is_lost() || Some(p) == self.canvas.parent_node())
+        {
+            gl.canvas.remove();
+        }
+        if self.counted_gl {
+            self.counted_gl = false;
+            super::gpu::count_gl_view(false);
+        }
+    }
+}
+
+impl Drop for View {
+    fn drop(&mut self) {
+        self.release_gl();
     }
 }
 
