@@ -36,6 +36,8 @@ const SKIN_SPHERICAL: u32 = 3u;
 // rotation quaternion, the dual part, and the three rows of the stretch (w of the first:
 // 1 when the joint is rigid).
 const TEXELS_PER_JOINT: u32 = 8u;
+// The palette texture's width in texels (render::palette::PALETTE_WIDTH; a test keeps them equal).
+const PALETTE_WIDTH: u32 = 768u;
 const NO_PIVOT: u32 = 0xffffffffu;
 
 @group(0) @binding(1) var palette: texture_2d<f32>;
@@ -91,9 +93,17 @@ fn morphed(g: GeometryIn) -> Vertex {
     return v;
 }
 
+/// Where palette joint `joint` (skin-relative) starts: its TEXELS_PER_JOINT texels lie in one
+/// row, PALETTE_WIDTH being a multiple of it (one division per joint, no size query).
+fn joint_coord(joint: u32) -> vec2<u32> {
+    let t = (draw.params.x + joint) * TEXELS_PER_JOINT;
+    return vec2<u32>(t % PALETTE_WIDTH, t / PALETTE_WIDTH);
+}
+
 /// Texel `r` (0..TEXELS_PER_JOINT) of palette joint `joint` (skin-relative).
 fn joint_texel(joint: u32, r: u32) -> vec4<f32> {
-    return texel_at(palette, (draw.params.x + joint) * TEXELS_PER_JOINT + r);
+    let c = joint_coord(joint);
+    return textureLoad(palette, vec2<u32>(c.x + r, c.y), 0);
 }
 
 /// A skinning matrix as its three affine rows.
@@ -104,7 +114,18 @@ struct Rows {
 }
 
 fn joint_rows(joint: u32) -> Rows {
-    return Rows(joint_texel(joint, 0u), joint_texel(joint, 1u), joint_texel(joint, 2u));
+    let c = joint_coord(joint);
+    return Rows(
+        textureLoad(palette, c, 0),
+        textureLoad(palette, vec2<u32>(c.x + 1u, c.y), 0),
+        textureLoad(palette, vec2<u32>(c.x + 2u, c.y), 0),
+    );
+}
+
+/// `m` plus joint `joint`'s rows weighted by `w`.
+fn add_rows(m: Rows, w: f32, joint: u32) -> Rows {
+    let j = joint_rows(joint);
+    return Rows(m.r0 + w * j.r0, m.r1 + w * j.r1, m.r2 + w * j.r2);
 }
 
 fn transform_rows(m: Rows, p: vec3<f32>) -> vec3<f32> {
@@ -147,12 +168,21 @@ fn rotate(q: vec4<f32>, v: vec3<f32>) -> vec3<f32> {
 
 /// Linear blend skinning, matrices blended first (the 3n + 6 form).
 fn skin_linear(v: Vertex, s: SkinIn) -> Vertex {
+    // The first four influences without a loop or branches, the same sums in the same order as
+    // skipping zero weights (a zero weight adds exactly zero: palettes are finite); the second
+    // four only where the vertex has them. Loops with per-vertex branches cost a CPU rasterizer
+    // (SwiftShader) several times more per vertex.
     var m = Rows(vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0));
-    for (var k = 0u; k < 8u; k += 1u) {
-        let w = weight_of(s, k);
-        if w != 0.0 {
-            let j = joint_rows(joint_of(s, k));
-            m = Rows(m.r0 + w * j.r0, m.r1 + w * j.r1, m.r2 + w * j.r2);
+    m = add_rows(m, s.weights0.x, s.joints0.x);
+    m = add_rows(m, s.weights0.y, s.joints0.y);
+    m = add_rows(m, s.weights0.z, s.joints0.z);
+    m = add_rows(m, s.weights0.w, s.joints0.w);
+    if any(s.weights1 != vec4<f32>(0.0)) {
+        for (var k = 4u; k < 8u; k += 1u) {
+            let w = weight_of(s, k);
+            if w != 0.0 {
+                m = add_rows(m, w, joint_of(s, k));
+            }
         }
     }
     return Vertex(transform_rows(m, v.position), cofactor_normal(m.r0.xyz, m.r1.xyz, m.r2.xyz, v.normal));

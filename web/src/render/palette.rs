@@ -117,3 +117,18 @@ impl PaletteTexture {
         );
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_shaders_address_the_palette_with_its_width() {
+        // skinning.wgsl finds a joint's row and column with this constant (no size query per
+        // texel), and relies on a joint's texels sharing one row.
+        let declared = format!("const PALETTE_WIDTH: u32 = {PALETTE_WIDTH}u;");
+        assert!(crate::render::pipelines::MESH_WGSL.contains(&declared), "mesh shaders lack `{declared}`");
+        assert!(crate::render::pipelines::SKIN_COMPUTE_WGSL.contains(&declared), "compute shader lacks `{declared}`");
+        assert_eq!(PALETTE_WIDTH % TEXELS_PER_JOINT, 0);
+    }
+}
