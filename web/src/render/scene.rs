@@ -133,15 +133,22 @@ impl Attachments {
         let depth = view(attachment(device, "kloub scene depth", size, DEPTH_FORMAT, sample_count, none));
         Self { size, msaa, depth }
     }
+
+    /// The pass's colour attachment and resolve target for a frame ending in `view`: the MSAA
+    /// texture resolved into `view`, or `view` itself without multisampling.
+    fn colour<'a>(&'a self, view: &'a wgpu::TextureView) -> (&'a wgpu::TextureView, Option<&'a wgpu::TextureView>) {
+        match &self.msaa {
+            Some(msaa) => (msaa, Some(view)),
+            None => (view, None),
+        }
+    }
 }
 
 /// The render target: resolved colour (sampled by egui, copied by tests), MSAA colour, depth.
 struct Target {
-    size: [u32; 2],
     texture: wgpu::Texture,
     view: wgpu::TextureView,
-    msaa: Option<wgpu::TextureView>,
-    depth: wgpu::TextureView,
+    attachments: Attachments,
 }
 
 impl Target {
@@ -149,8 +156,7 @@ impl Target {
         let usage = wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC;
         let texture = attachment(device, "kloub scene colour", size, COLOR_FORMAT, 1, usage);
         let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
-        let Attachments { msaa, depth, .. } = Attachments::new(device, size, sample_count);
-        Self { size, texture, view, msaa, depth }
+        Self { texture, view, attachments: Attachments::new(device, size, sample_count) }
     }
 }
 
@@ -554,18 +560,15 @@ impl SceneRenderer {
     ) -> Result<&wgpu::TextureView, String> {
         let max = device.limits().max_texture_dimension_2d;
         let size = [size[0].clamp(1, max), size[1].clamp(1, max)];
-        if self.target.as_ref().is_none_or(|t| t.size != size) {
+        if self.target.as_ref().is_none_or(|t| t.attachments.size != size) {
             self.target = Some(Target::new(device, size, self.sample_count));
             self.target_version += 1;
         }
         self.prepare_copies(device, queue, asset, instances, offsets, camera, size[0] as f32 / size[1] as f32)?;
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("kloub scene") });
         let target = self.target.take().ok_or("render target missing")?;
-        let (color, resolve) = match &target.msaa {
-            Some(msaa) => (msaa, Some(&target.view)),
-            None => (&target.view, None),
-        };
-        self.encode(device, &mut encoder, color, resolve, &target.depth, None);
+        let (color, resolve) = target.attachments.colour(&target.view);
+        self.encode(device, &mut encoder, color, resolve, &target.attachments.depth, None);
         self.target = Some(target);
         queue.submit([encoder.finish()]);
         let target = self.target.as_ref().ok_or("render target missing")?;
@@ -654,10 +657,7 @@ impl SceneRenderer {
         let y = rect[1].min(size[1] - 1);
         let rect = [x, y, rect[2].clamp(1, size[0] - x), rect[3].clamp(1, size[1] - y)];
         if let Some(direct) = self.direct.take() {
-            let (color, resolve) = match &direct.msaa {
-                Some(msaa) => (msaa, Some(view)),
-                None => (view, None),
-            };
+            let (color, resolve) = direct.colour(view);
             self.encode(device, encoder, color, resolve, &direct.depth, Some(rect));
             self.direct = Some(direct);
         }
