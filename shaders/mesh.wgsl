@@ -84,13 +84,13 @@ fn vs_static(g: GeometryIn) -> VsOut {
 @vertex
 fn vs_skinned(g: GeometryIn, s: SkinIn) -> VsOut {
     let rest = morphed(g);
-    let v = skin_with(rest, s, draw.params.z);
+    let v = skin_with(rest, s, draw_method());
     let world = draw.model * vec4<f32>(v.position, 1.0);
     let normal = (draw.normal_matrix * vec4<f32>(v.normal, 0.0)).xyz;
     var out = finish(world.xyz, normal, g);
-    if (draw.params.y & DRAW_HEATMAP) != 0u {
+    if HEATMAP != 0u && (draw.params.y & DRAW_HEATMAP) != 0u {
         // Deviation from linear blend skinning (from dual quaternions when LBS is shown).
-        let reference = select(SKIN_LINEAR, SKIN_DUAL_QUATERNION, draw.params.z == SKIN_LINEAR);
+        let reference = select(SKIN_LINEAR, SKIN_DUAL_QUATERNION, draw_method() == SKIN_LINEAR);
         let other = skin_with(rest, s, reference);
         out.color = vec4<f32>(heat_color(distance(v.position, other.position) / max(draw.heat.x, 1e-20)), 1.0);
     }

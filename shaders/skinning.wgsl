@@ -36,6 +36,22 @@ const SKIN_SPHERICAL: u32 = 3u;
 // rotation quaternion, the dual part, and the three rows of the stretch (w of the first:
 // 1 when the joint is rigid).
 const TEXELS_PER_JOINT: u32 = 8u;
+// Pipeline-overridable specialisation: a mesh pipeline built for one skinning method (SKIN_*)
+// and without the heatmap compiles only that code (a CPU rasterizer such as SwiftShader runs
+// every branch of a vertex shader otherwise). The defaults read both from the draw (compute pass,
+// capture pipelines).
+const SKIN_FROM_DRAW: u32 = 4u;
+override SKIN_METHOD: u32 = 4u;
+override HEATMAP: u32 = 1u;
+
+/// The draw's skinning method: the pipeline's when it was built for one, else the draw's own.
+fn draw_method() -> u32 {
+    if SKIN_METHOD < SKIN_FROM_DRAW {
+        return SKIN_METHOD;
+    }
+    return draw.params.z;
+}
+
 // The palette texture's width in texels (render::palette::PALETTE_WIDTH; a test keeps them equal).
 const PALETTE_WIDTH: u32 = 768u;
 const NO_PIVOT: u32 = 0xffffffffu;
@@ -294,7 +310,7 @@ fn skin_spherical(v: Vertex, s: SkinIn) -> Vertex {
 /// Morph, then skin with the draw's method. The palette is in world space (joint world *
 /// inverse bind), so the mesh node's own transform is ignored, as glTF requires.
 fn skinned(g: GeometryIn, s: SkinIn) -> Vertex {
-    return skin_with(morphed(g), s, draw.params.z);
+    return skin_with(morphed(g), s, draw_method());
 }
 
 /// Skins the (morphed) vertex `v` with `method` (a SKIN_* constant).

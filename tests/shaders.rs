@@ -39,13 +39,36 @@ fn translate_for_webgl2(module: &naga::Module, info: &ModuleInfo) -> Result<(), 
         writer_flags: glsl::WriterFlags::ADJUST_COORDINATE_SPACE,
         ..Default::default()
     };
+    // Every specialisation the renderer builds: the overrides' defaults, and each skinning method
+    // with and without the heatmap (`PipelineKey` in web/src/render/pipelines.rs).
+    let specialised = module.overrides.iter().any(|(_, o)| o.name.as_deref() == Some("SKIN_METHOD"));
+    let mut variants = vec![naga::back::PipelineConstants::default()];
+    if specialised {
+        for method in 0..5 {
+            for heatmap in 0..2 {
+                let mut constants = naga::back::PipelineConstants::default();
+                constants.insert("SKIN_METHOD".to_owned(), f64::from(method));
+                constants.insert("HEATMAP".to_owned(), f64::from(heatmap));
+                variants.push(constants);
+            }
+        }
+    }
     for entry in &module.entry_points {
-        let pipeline =
-            glsl::PipelineOptions { shader_stage: entry.stage, entry_point: entry.name.clone(), multiview: None };
-        let mut out = String::new();
-        glsl::Writer::new(&mut out, module, info, &options, &pipeline, naga::proc::BoundsCheckPolicies::default())
-            .and_then(|mut writer| writer.write())
-            .map_err(|e| format!("entry point {}: GLSL ES 3.00: {e}", entry.name))?;
+        for constants in &variants {
+            let (module, info) = naga::back::pipeline_constants::process_overrides(
+                module,
+                info,
+                Some((entry.stage, entry.name.as_str())),
+                constants,
+            )
+            .map_err(|e| format!("entry point {}: overrides {constants:?}: {e}", entry.name))?;
+            let pipeline =
+                glsl::PipelineOptions { shader_stage: entry.stage, entry_point: entry.name.clone(), multiview: None };
+            let mut out = String::new();
+            glsl::Writer::new(&mut out, &module, &info, &options, &pipeline, naga::proc::BoundsCheckPolicies::default())
+                .and_then(|mut writer| writer.write())
+                .map_err(|e| format!("entry point {}: GLSL ES 3.00 with {constants:?}: {e}", entry.name))?;
+        }
     }
     Ok(())
 }

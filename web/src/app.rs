@@ -17,9 +17,9 @@ use crate::control::{Command, Controls};
 use crate::dom::{Dataset, Key};
 use crate::ik::IkState;
 use crate::load::{self, Inbox, LoadedModel};
+use crate::model::{LayerDraft, Model};
 use crate::overlay::{self, Overlays, Projection, nearest_within};
 use crate::render::{Camera, SceneRenderer, display_msaa};
-use crate::model::{LayerDraft, Model};
 use crate::ui;
 
 /// What to do at start-up.

@@ -49,7 +49,8 @@ thread_local! {
 
 /// Asks the element of viewer `id` for a frame in `delay_ms`.
 fn wake(id: u32, delay_ms: f64) {
-    let emit = WAKERS.with(|w| w.try_borrow().ok().and_then(|w| w.iter().find(|(i, _)| *i == id).map(|(_, f)| f.clone())));
+    let emit =
+        WAKERS.with(|w| w.try_borrow().ok().and_then(|w| w.iter().find(|(i, _)| *i == id).map(|(_, f)| f.clone())));
     if let Some(emit) = emit {
         let _ = emit.call2(&JsValue::NULL, &"kloub:wake".into(), &delay_ms.into());
     }
@@ -109,8 +110,13 @@ impl Viewer {
             host.write(dom::Key::Status.name(), "loading");
             let choice = BackendChoice::from_query(backend.as_deref());
             let started = gpu::shared(choice).await.and_then(|gpu| {
-                let config =
-                    AppConfig { model_url: src.filter(|s| !s.is_empty()), controls, inbox, host: host.clone(), panels: true };
+                let config = AppConfig {
+                    model_url: src.filter(|s| !s.is_empty()),
+                    controls,
+                    inbox,
+                    host: host.clone(),
+                    panels: true,
+                };
                 View::new(gpu, canvas, |ctx, render| {
                     watch_repaints(id, ctx);
                     App::with_gpu(ctx, render, config)

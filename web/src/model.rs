@@ -676,4 +676,3 @@ fn default_layer_root(asset: &Asset) -> NodeIndex {
     };
     joints.iter().copied().find(upper).or_else(|| joints.first().copied()).unwrap_or(0)
 }
-

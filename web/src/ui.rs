@@ -15,9 +15,9 @@ use kloub_core::job::ik::{IkSolver, JointLimit};
 use kloub_core::job::sample::{RotationLerp, sample_channel};
 use kloub_core::player::LoopMode;
 
-use crate::model::{MAX_COPIES, Model};
 use crate::candy::{CandyPanel, Sample, TABLE_BENDS};
 use crate::control::Command;
+use crate::model::{MAX_COPIES, Model};
 use crate::render::SkinningPath;
 
 /// Read-only facts the panel shows.

@@ -84,7 +84,8 @@ impl Gpu {
                 let lose = || -> Option<()> {
                     let context = gl.canvas.get_context("webgl2").ok()??;
                     let ext = js_sys::Reflect::get(&context, &"getExtension".into()).ok()?;
-                    let ext = ext.dyn_into::<js_sys::Function>().ok()?.call1(&context, &"WEBGL_lose_context".into()).ok()?;
+                    let ext =
+                        ext.dyn_into::<js_sys::Function>().ok()?.call1(&context, &"WEBGL_lose_context".into()).ok()?;
                     let lose = js_sys::Reflect::get(&ext, &"loseContext".into()).ok()?;
                     lose.dyn_into::<js_sys::Function>().ok()?.call0(&ext).ok()?;
                     Some(())

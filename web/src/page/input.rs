@@ -203,7 +203,11 @@ mod tests {
         let texts: Vec<&str> =
             raw.events.iter().filter_map(|e| if let Event::Text(t) = e { Some(t.as_str()) } else { None }).collect();
         assert_eq!(texts, ["a", " "]);
-        assert!(raw.events.iter().any(|e| matches!(e, Event::Key { key: egui::Key::ArrowLeft, modifiers, .. } if modifiers.shift)));
+        assert!(
+            raw.events
+                .iter()
+                .any(|e| matches!(e, Event::Key { key: egui::Key::ArrowLeft, modifiers, .. } if modifiers.shift))
+        );
         assert!(input.is_empty());
         assert_eq!(raw.screen_rect, Some(egui::Rect::from_min_size(Pos2::ZERO, Vec2::new(100.0, 50.0))));
         assert_eq!(raw.viewports.values().next().and_then(|v| v.native_pixels_per_point), Some(2.0));

@@ -186,14 +186,13 @@ impl View {
         let app = &mut self.app;
         let output = self.ctx.run_ui(raw, |ui| app.frame(ui));
         self.platform(&output.platform_output);
-        let next = output
-            .viewport_output
-            .get(&egui::ViewportId::ROOT)
-            .map_or(Next::Idle, |v| if v.repaint_delay == std::time::Duration::MAX {
+        let next = output.viewport_output.get(&egui::ViewportId::ROOT).map_or(Next::Idle, |v| {
+            if v.repaint_delay == std::time::Duration::MAX {
                 Next::Idle
             } else {
                 Next::In(v.repaint_delay.as_secs_f64() * 1000.0)
-            });
+            }
+        });
         let primitives = self.ctx.tessellate(output.shapes, output.pixels_per_point);
         self.paint(&primitives, output.textures_delta, [width, height], output.pixels_per_point);
         next
@@ -208,7 +207,8 @@ impl View {
     ) {
         let gpu = &self.gpu;
         let screen = egui_wgpu::ScreenDescriptor { size_in_pixels: size, pixels_per_point: ppp };
-        let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("kloub frame") });
+        let mut encoder =
+            gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("kloub frame") });
         let commands = {
             let mut renderer = self.render.renderer.write();
             for (id, deltas) in textures.set.drain() {
@@ -406,4 +406,3 @@ fn css_cursor(icon: egui::CursorIcon) -> &'static str {
         _ => "default",
     }
 }
-

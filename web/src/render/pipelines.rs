@@ -155,7 +155,15 @@ pub struct PipelineKey {
     pub double_sided: bool,
     /// Clockwise front faces (a world matrix with negative determinant mirrors the winding).
     pub mirrored: bool,
+    /// Skinned draws: the skinning method compiled in (a `SKIN_*` code of the shaders), or
+    /// [`SKIN_FROM_DRAW`] to read it from each draw's uniform.
+    pub skinning: u32,
+    /// Skinned draws: the deviation heatmap compiled in.
+    pub heatmap: bool,
 }
+
+/// [`PipelineKey::skinning`] for a pipeline that reads the method from each draw.
+pub const SKIN_FROM_DRAW: u32 = 4;
 
 /// Shader modules and pipelines for one sample count.
 pub struct Pipelines {
@@ -261,13 +269,23 @@ impl Pipelines {
             VertexPath::Static => ("vs_static", &skinned[..2]),
             VertexPath::Skinned => ("vs_skinned", &skinned[..]),
         };
+        // Skinned pipelines are specialised: only the method and the heatmap they draw with are
+        // compiled (`SKIN_METHOD`, `HEATMAP` in skinning.wgsl).
+        let constants = [
+            ("SKIN_METHOD", f64::from(key.skinning.min(SKIN_FROM_DRAW))),
+            ("HEATMAP", f64::from(u8::from(key.heatmap))),
+        ];
+        let compilation_options = match key.vertex {
+            VertexPath::Static => wgpu::PipelineCompilationOptions::default(),
+            VertexPath::Skinned => wgpu::PipelineCompilationOptions { constants: &constants, ..Default::default() },
+        };
         let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("kloub mesh"),
             layout: Some(&self.mesh_layout),
             vertex: wgpu::VertexState {
                 module: &self.mesh_module,
                 entry_point: Some(entry),
-                compilation_options: Default::default(),
+                compilation_options,
                 buffers,
             },
             primitive: wgpu::PrimitiveState {

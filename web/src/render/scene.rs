@@ -14,10 +14,10 @@ use super::mesh::{GeometryVertex, GpuPrimitive, interleave, pivot_buffer};
 use super::morph::{MorphSlot, MorphTexture};
 use super::palette::PaletteTexture;
 use super::pipelines::{
-    ComputeKit, DEPTH_FORMAT, Layouts, PipelineKey, Pipelines, SKIN_WORKGROUP, VertexPath, topology,
+    ComputeKit, DEPTH_FORMAT, Layouts, PipelineKey, Pipelines, SKIN_FROM_DRAW, SKIN_WORKGROUP, VertexPath, topology,
 };
 use super::texture::{COLOR_FORMAT, SamplerKey, upload_image, white_texture};
-use super::uniforms::{DrawUniform, FrameUniform, Ground, MaterialUniform};
+use super::uniforms::{DrawUniform, FrameUniform, Ground, MaterialUniform, skin_code};
 
 #[cfg(not(target_arch = "wasm32"))]
 mod capture;
@@ -1000,6 +1000,9 @@ impl GpuScene {
                 draw.compute_groups.resize_with(instances.len(), || None);
             }
             let mut mirrored = false;
+            // The method compiled into a skinned draw's pipeline: the copies' common one, or
+            // read per draw when they differ.
+            let mut method: Option<u32> = None;
             for (c, instance) in instances.iter_mut().enumerate() {
                 let place = Mat4::from_translation(offsets[c]);
                 let world = instance.worlds()[draw.node as usize];
@@ -1064,6 +1067,8 @@ impl GpuScene {
                         Some(scale) => uniform.with_heatmap(scale * self.diagonal),
                         None => uniform,
                     };
+                    let code = skin_code(instance.skinning());
+                    method = Some(if method.is_none_or(|m| m == code) { code } else { SKIN_FROM_DRAW });
                     (uniform, VertexPath::Skinned)
                 } else {
                     mirrored = world.determinant() < 0.0;
@@ -1078,6 +1083,8 @@ impl GpuScene {
                     blend: draw.blend,
                     double_sided: draw.double_sided,
                     mirrored,
+                    skinning: method.unwrap_or(SKIN_FROM_DRAW),
+                    heatmap: heatmap.is_some(),
                 });
                 if draw.blend {
                     let (min, max) = source.bounds;
