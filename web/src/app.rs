@@ -486,9 +486,17 @@ impl App {
     /// `view` (a canvas surface of `size` pixels, in the renderer's colour format) within the
     /// viewport's rectangle. Returns whether it drew (the surface is then cleared and egui's
     /// output goes over it; otherwise egui clears it).
-    pub fn draw_scene(&mut self, encoder: &mut wgpu::CommandEncoder, view: &wgpu::TextureView, size: [u32; 2]) -> bool {
+    /// `shared`: the MSAA and depth attachments of a surface several viewers draw into one after
+    /// another (see [`SceneRenderer::draw_into`]).
+    pub fn draw_scene(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        view: &wgpu::TextureView,
+        size: [u32; 2],
+        shared: Option<&mut Option<crate::render::scene::Attachments>>,
+    ) -> bool {
         let Some(rect) = self.scene_rect.take() else { return false };
-        self.scene.draw_into(&self.gpu.device, encoder, view, size, rect);
+        self.scene.draw_into(&self.gpu.device, encoder, view, size, rect, shared);
         true
     }
 

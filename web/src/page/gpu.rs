@@ -37,6 +37,9 @@ pub struct GlCanvas {
     pub surface: wgpu::Surface<'static>,
     /// The surface's configuration.
     pub config: RefCell<wgpu::SurfaceConfiguration>,
+    /// The MSAA and depth attachments every viewer draws with into the surface, one after
+    /// another: one set for the page, not one of the largest viewer's size per viewer.
+    pub attachments: RefCell<Option<crate::render::scene::Attachments>>,
     _lost: Closure<dyn FnMut(web_sys::Event)>,
 }
 
@@ -315,7 +318,16 @@ async fn make(kind: GpuKind) -> Result<Gpu, String> {
                 view_formats: vec![],
                 color_space: wgpu::SurfaceColorSpace::Auto,
             };
-            (adapter, Some(GlCanvas { canvas, surface, config: RefCell::new(config), _lost: on_lost }))
+            (
+                adapter,
+                Some(GlCanvas {
+                    canvas,
+                    surface,
+                    config: RefCell::new(config),
+                    attachments: RefCell::new(None),
+                    _lost: on_lost,
+                }),
+            )
         }
     };
     let (device, queue) =

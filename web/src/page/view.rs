@@ -276,7 +276,10 @@ impl View {
                 })
             };
             let surface_size = [frame.texture.width(), frame.texture.height()];
-            let drew_scene = self.app.draw_scene(&mut encoder, &scene_view, surface_size);
+            // On WebGL2 every viewer draws into the page's one surface: one set of attachments.
+            let mut shared = gpu.gl.as_ref().map(|gl| gl.attachments.borrow_mut());
+            let drew_scene = self.app.draw_scene(&mut encoder, &scene_view, surface_size, shared.as_deref_mut());
+            drop(shared);
             let clear = self.ctx.global_style().visuals.extreme_bg_color.to_normalized_gamma_f32();
             let load = if drew_scene {
                 wgpu::LoadOp::Load

@@ -117,9 +117,11 @@ fn attachment(
 }
 
 /// MSAA colour (when multisampling) and depth of one size: what a pass needs besides the
-/// texture it ends in.
-struct Attachments {
+/// texture it ends in. Viewers that draw one after another into the same surface (the page's
+/// WebGL2 canvas) share one set ([`SceneRenderer::draw_into`]).
+pub struct Attachments {
     size: [u32; 2],
+    samples: u32,
     msaa: Option<wgpu::TextureView>,
     depth: wgpu::TextureView,
 }
@@ -131,7 +133,7 @@ impl Attachments {
         let msaa = (sample_count > 1)
             .then(|| view(attachment(device, "kloub scene msaa", size, COLOR_FORMAT, sample_count, none)));
         let depth = view(attachment(device, "kloub scene depth", size, DEPTH_FORMAT, sample_count, none));
-        Self { size, msaa, depth }
+        Self { size, samples: sample_count, msaa, depth }
     }
 
     /// The pass's colour attachment and resolve target for a frame ending in `view`: the MSAA
@@ -639,6 +641,8 @@ impl SceneRenderer {
     /// of `size` pixels in [`COLOR_FORMAT`]) within `rect` (`[x, y, width, height]` in pixels;
     /// the rest of the surface is cleared to the background). No offscreen target and no
     /// second pass: the colour is resolved (or written, without MSAA) into the surface itself.
+    /// `shared`: attachments kept by the surface's owner for every viewer drawing into it one
+    /// after another (the page's WebGL2 canvas); `None`: this renderer's own.
     pub fn draw_into(
         &mut self,
         device: &wgpu::Device,
@@ -646,20 +650,32 @@ impl SceneRenderer {
         view: &wgpu::TextureView,
         size: [u32; 2],
         rect: [u32; 4],
+        shared: Option<&mut Option<Attachments>>,
     ) {
         let max = device.limits().max_texture_dimension_2d;
         let size = [size[0].clamp(1, max), size[1].clamp(1, max)];
-        if self.direct.as_ref().is_none_or(|d| d.size != size) {
-            self.direct = Some(Attachments::new(device, size, self.sample_count));
-        }
         // Within the surface and at least one pixel (a viewport outside it is a validation error).
         let x = rect[0].min(size[0] - 1);
         let y = rect[1].min(size[1] - 1);
         let rect = [x, y, rect[2].clamp(1, size[0] - x), rect[3].clamp(1, size[1] - y)];
-        if let Some(direct) = self.direct.take() {
-            let (color, resolve) = direct.colour(view);
-            self.encode(device, encoder, color, resolve, &direct.depth, Some(rect));
-            self.direct = Some(direct);
+        let mut shared = shared;
+        let taken = match shared.as_deref_mut() {
+            Some(slot) => {
+                // Drawing through a shared set from now on: this renderer's own is not needed.
+                self.direct = None;
+                slot.take()
+            }
+            None => self.direct.take(),
+        };
+        let attachments = match taken {
+            Some(a) if a.size == size && a.samples == self.sample_count => a,
+            _ => Attachments::new(device, size, self.sample_count),
+        };
+        let (color, resolve) = attachments.colour(view);
+        self.encode(device, encoder, color, resolve, &attachments.depth, Some(rect));
+        match shared {
+            Some(slot) => *slot = Some(attachments),
+            None => self.direct = Some(attachments),
         }
     }
 
