@@ -9,9 +9,10 @@
 // from requestAnimationFrame, which chromium paces to at most 60 a second (16.7 ms is the floor) and holds back while
 // the GPU process (SwiftShader here: the CPU emulates the GPU) has not finished the previous frames, so the figure
 // includes the GPU's work. The runs alternate three.js and Kloub per cell, so both see the same machine load.
+// KLOUB_BENCH_EVAL: a function body run on the element `v` before measuring, e.g. "v.setGrid(false)".
 // KLOUB_BACKENDS (webgl2,webgpu), KLOUB_BENCH_CASES ("Fox:1,Fox:10,Fox:50,CesiumMan:1,CesiumMan:10,CesiumMan:50").
 import { createServer } from 'node:http';
-import { readFileSync, statSync } from 'node:fs';
+import { readFileSync, readdirSync, statSync } from 'node:fs';
 import { extname, join, resolve } from 'node:path';
 import { ROOT, openBrowser, startServer } from '../tests/browser/lib.mjs';
 
@@ -20,8 +21,8 @@ const BACKENDS = (process.env.KLOUB_BACKENDS ?? 'webgl2,webgpu').split(',');
 const MODELS = { Fox: ['Fox.glb', 'Run'], CesiumMan: ['CesiumMan/CesiumMan.glb', null] };
 const CASES = (process.env.KLOUB_BENCH_CASES ?? 'Fox:1,Fox:10,Fox:50,CesiumMan:1,CesiumMan:10,CesiumMan:50')
   .split(',').map((c) => { const [model, n] = c.split(':'); return { model, n: Number(n) }; });
-const WIDTH = 800;
-const HEIGHT = 600;
+const WIDTH = Number(process.env.KLOUB_BENCH_WIDTH ?? 800);
+const HEIGHT = Number(process.env.KLOUB_BENCH_HEIGHT ?? 600);
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 
 // The three.js page: N clones in a square grid one model size apart, framed like Kloub's copies, each with its mixer.
@@ -99,13 +100,34 @@ function startThreeServer() {
   return new Promise((ok) => server.listen(0, '127.0.0.1', () => ok({ url: `http://127.0.0.1:${server.address().port}`, stop: () => server.close() })));
 }
 
-/** Frames counted by `count()` (in the page) over SECONDS after the warm-up: ms per frame. */
+/** CPU time (ms) used so far by every chromium process (the GPU process is where SwiftShader draws). */
+function browserCpuMs() {
+  let ticks = 0;
+  for (const pid of readdirSync('/proc')) {
+    if (!/^[0-9]+$/.test(pid)) continue;
+    let stat;
+    try { stat = readFileSync(`/proc/${pid}/stat`, 'utf8'); } catch { continue; }
+    const close = stat.lastIndexOf(')');
+    if (!/chrom/.test(stat.slice(stat.indexOf('(') + 1, close))) continue;
+    const fields = stat.slice(close + 2).split(' ');
+    ticks += Number(fields[11]) + Number(fields[12]);
+  }
+  return ticks * 10; // USER_HZ is 100 on Linux
+}
+
+/**
+ * Frames counted by `count()` (in the page) over SECONDS after the warm-up: wall ms per frame, and CPU ms per frame
+ * summed over the browser's processes (what the frame costs the machine, including SwiftShader's GPU work; unlike
+ * the wall time it is not rounded up to the 16.7 ms vsync).
+ */
 async function measure(page, count) {
   await sleep(2000);
   const [t0, f0] = await page.evaluate(count);
+  const c0 = browserCpuMs();
   await sleep(SECONDS * 1000);
   const [t1, f1] = await page.evaluate(count);
-  return f1 > f0 ? (t1 - t0) / (f1 - f0) : Infinity;
+  const c1 = browserCpuMs();
+  return f1 > f0 ? { wall: (t1 - t0) / (f1 - f0), cpu: (c1 - c0) / (f1 - f0) } : { wall: Infinity, cpu: Infinity };
 }
 
 async function three(page, base, backend, { model, n }) {
@@ -137,6 +159,10 @@ async function kloub(page, base, backend, { model, n }) {
     && document.querySelector('kloub-viewer').dataset.clips !== '[]', null, { timeout: 120000 });
   const used = await page.evaluate(() => document.querySelector('kloub-viewer').dataset.backend);
   if (used !== backend) throw new Error(`Kloub used ${used}, not ${backend}`);
+  if (process.env.KLOUB_BENCH_EVAL) {
+    // An experiment on the element before measuring (e.g. `v.setGrid(false)`), to see what a part of the frame costs.
+    await page.evaluate((body) => new Function('v', body)(document.querySelector('kloub-viewer')), process.env.KLOUB_BENCH_EVAL);
+  }
   if (n > 1) {
     await page.evaluate((n) => document.querySelector('kloub-viewer').setCopies(n), n);
     await page.waitForFunction((n) => document.querySelector('kloub-viewer').dataset.copies === String(n), n, { timeout: 30000 });
@@ -156,7 +182,7 @@ try {
         const t = await three(ctx.page, threeServer.url, backend, c);
         const k = await kloub(ctx.page, kloubServer.url, backend, c);
         rows.push([backend, `${c.model} ×${c.n}`, t, k]);
-        console.error(`bench-frame: ${backend} ${c.model} ×${c.n}: three.js ${t.toFixed(1)} ms, Kloub ${k.toFixed(1)} ms`);
+        console.error(`bench-frame: ${backend} ${c.model} ×${c.n}: three.js ${t.wall.toFixed(1)} ms (CPU ${t.cpu.toFixed(1)}), Kloub ${k.wall.toFixed(1)} ms (CPU ${k.cpu.toFixed(1)})`);
       }
     } finally {
       await ctx.close();
@@ -166,8 +192,8 @@ try {
   kloubServer.stop();
   threeServer.stop();
 }
-console.log(`| Backend (SwiftShader) | Case (${WIDTH}×${HEIGHT}) | three.js r187 ms | Kloub ms | Kloub / three.js |`);
-console.log('|---|---|---:|---:|---:|');
+console.log(`| Backend (SwiftShader) | Case (${WIDTH}×${HEIGHT}) | three.js r187 ms | Kloub ms | Kloub / three.js | three.js CPU ms | Kloub CPU ms | CPU ratio |`);
+console.log('|---|---|---:|---:|---:|---:|---:|---:|');
 for (const [backend, name, t, k] of rows) {
-  console.log(`| ${backend} | ${name} | ${t.toFixed(1)} | ${k.toFixed(1)} | ${(k / t).toFixed(2)} |`);
+  console.log(`| ${backend} | ${name} | ${t.wall.toFixed(1)} | ${k.wall.toFixed(1)} | ${(k.wall / t.wall).toFixed(2)} | ${t.cpu.toFixed(1)} | ${k.cpu.toFixed(1)} | ${(k.cpu / t.cpu).toFixed(2)} |`);
 }

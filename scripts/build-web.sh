@@ -19,7 +19,8 @@ mkdir -p "$DIST"
 wasm-bindgen --target web --no-typescript --out-dir target/wasm-bindgen "$WASM_IN"
 
 # wasm-opt is the slow step (~1.5 min cold): skip it when its input did not change.
-sum=$(sha256sum target/wasm-bindgen/kloub_web_bg.wasm | cut -d' ' -f1)
+# The mode is part of the key: a quick KLOUB_WASM_OPT=0 build must not pass for an optimised one.
+sum="$(sha256sum target/wasm-bindgen/kloub_web_bg.wasm | cut -d' ' -f1) opt=${KLOUB_WASM_OPT:-1}"
 if [ "$(cat "$DIST/.wasm-opt-input" 2>/dev/null || true)" != "$sum" ] || [ ! -f "$DIST/kloub_web_bg.wasm" ]; then
   if [ "${KLOUB_WASM_OPT:-1}" = 1 ]; then
     node_modules/.bin/wasm-opt -Oz --enable-bulk-memory --enable-nontrapping-float-to-int \

@@ -192,5 +192,5 @@ fn fs_main(in: VsOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f
     if (flags & MATERIAL_UNLIT) == 0u {
         rgb = shade(color.rgb, n) + material.emissive.rgb;
     }
-    return vec4<f32>(rgb, color.a);
+    return scene_output(vec4<f32>(rgb, color.a));
 }

@@ -270,3 +270,44 @@ fn gpu_skinning_matches_cpu_reference() {
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
+
+/// The WebGL2 canvas's target: plain `Rgba8Unorm` with the shaders encoding sRGB
+/// (`SRGB_ENCODE`) draws the picture the sRGB target does; a transparent background leaves
+/// alpha 0 around the model and 255 on it.
+#[test]
+fn plain_target_encodes_srgb_like_the_srgb_target_and_transparent_leaves_alpha() {
+    use kloub_web::render::SceneRenderer;
+    use kloub_web::render::uniforms::{Background, Look};
+    let offscreen = Offscreen::new().expect("a wgpu adapter");
+    let asset = load("khronos/CesiumMan/glTF-Binary/CesiumMan.glb");
+    let (mut instance, camera) = pose(&asset, Some(0), 0.5, None);
+    // Single-sampled: a multisampled edge resolves in gamma space on the plain target (up to
+    // ~45 levels apart on 1 % of the pixels), which is not what this compares.
+    let (device, queue) = (offscreen.device(), offscreen.queue());
+    let mut srgb = SceneRenderer::new(device, queue, 1);
+    srgb.set_asset(device, queue, &asset).expect("uploading");
+    let mut plain = SceneRenderer::with_format(device, queue, 1, wgpu::TextureFormat::Rgba8Unorm);
+    plain.set_asset(device, queue, &asset).expect("uploading");
+    assert_eq!(plain.format(), wgpu::TextureFormat::Rgba8Unorm);
+    // The grid blends in gamma space on the plain target (as the browser does): compared without it.
+    srgb.set_grid(false);
+    plain.set_grid(false);
+    let a = offscreen.render(&mut srgb, &asset, &mut instance, &camera, 192, 192).expect("rendering");
+    let b = offscreen.render(&mut plain, &asset, &mut instance, &camera, 192, 192).expect("rendering");
+    let comparison = compare(&a, &b, 2);
+    eprintln!(
+        "plain vs sRGB target: {:.3}% of pixels differ by more than 2, largest {}",
+        comparison.differing_fraction * 100.0,
+        comparison.largest_channel_diff
+    );
+    // Rounding only: the shader's encoding is the hardware's.
+    assert!(comparison.differing_fraction < 0.001, "{:.3}% differ", comparison.differing_fraction * 100.0);
+
+    for renderer in [&mut srgb, &mut plain] {
+        renderer.set_look(Look { background: Background::Transparent, ..Look::default() });
+        let image = offscreen.render(renderer, &asset, &mut instance, &camera, 192, 192).expect("rendering");
+        let opaque = image.pixels().filter(|p| p.0[3] == 255).count() as f64 / (192.0 * 192.0);
+        assert_eq!(image.get_pixel(0, 0).0, [0, 0, 0, 0], "a corner is not transparent");
+        assert!((0.02..0.9).contains(&opaque), "{:.1}% of the pixels are opaque", opaque * 100.0);
+    }
+}

@@ -39,10 +39,17 @@ fn translate_for_webgl2(module: &naga::Module, info: &ModuleInfo) -> Result<(), 
         writer_flags: glsl::WriterFlags::ADJUST_COORDINATE_SPACE,
         ..Default::default()
     };
-    // Every specialisation the renderer builds: the overrides' defaults, and each skinning method
-    // with and without the heatmap (`PipelineKey` in web/src/render/pipelines.rs).
-    let specialised = module.overrides.iter().any(|(_, o)| o.name.as_deref() == Some("SKIN_METHOD"));
+    // Every specialisation the renderer builds: the overrides' defaults, each skinning method
+    // with and without the heatmap (`PipelineKey` in web/src/render/pipelines.rs), and the
+    // fragment shaders encoding sRGB themselves (`SRGB_ENCODE`, the WebGL2 canvas).
+    let has = |name: &str| module.overrides.iter().any(|(_, o)| o.name.as_deref() == Some(name));
+    let specialised = has("SKIN_METHOD");
     let mut variants = vec![naga::back::PipelineConstants::default()];
+    if has("SRGB_ENCODE") {
+        let mut constants = naga::back::PipelineConstants::default();
+        constants.insert("SRGB_ENCODE".to_owned(), 1.0);
+        variants.push(constants);
+    }
     if specialised {
         for method in 0..5 {
             for heatmap in 0..2 {
@@ -65,9 +72,16 @@ fn translate_for_webgl2(module: &naga::Module, info: &ModuleInfo) -> Result<(), 
             let pipeline =
                 glsl::PipelineOptions { shader_stage: entry.stage, entry_point: entry.name.clone(), multiview: None };
             let mut out = String::new();
-            glsl::Writer::new(&mut out, &module, &info, &options, &pipeline, naga::proc::BoundsCheckPolicies::default())
-                .and_then(|mut writer| writer.write())
-                .map_err(|e| format!("entry point {}: GLSL ES 3.00 with {constants:?}: {e}", entry.name))?;
+            glsl::Writer::new(
+                &mut out,
+                &module,
+                &info,
+                &options,
+                &pipeline,
+                naga::proc::BoundsCheckPolicies::default(),
+            )
+            .and_then(|mut writer| writer.write())
+            .map_err(|e| format!("entry point {}: GLSL ES 3.00 with {constants:?}: {e}", entry.name))?;
         }
     }
     Ok(())

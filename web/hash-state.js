@@ -1,6 +1,6 @@
 // The view <-> URL hash, version 1:
 //   "#v=1&src=URL&clip=NAME&t=SECONDS&paused=1&speed=X&layer=CLIP@ROOT:WEIGHT&skinning=M&path=P&camera=6 numbers
-//    &loop=once|pingpong&overlays=skeleton,bounds,…&bg=grey|light&light=outdoor|flat|rim&grid=0&heatmap=1&copies=N
+//    &loop=once|pingpong&overlays=skeleton,bounds,…&bg=grey|light|transparent&light=outdoor|flat|rim&grid=0&heatmap=1&copies=N
 //    &fade=SECONDS,EASING,OUTGOING&blend=[[clip,weight],…]&ik=[{effector,depth,target,solver,…},…]
 //    &morphs=[[node,target,weight],…]"
 // Only values that differ from the viewer's defaults are written, so a default view has no hash. Reading ignores
@@ -13,7 +13,7 @@ export const HASH_VERSION = 1;
 
 const LOOPS = ['once', 'repeat', 'pingpong'];
 const OVERLAYS = ['skeleton', 'bounds', 'wireframe', 'normals', 'bodies'];
-const BACKGROUNDS = ['dark', 'grey', 'light'];
+const BACKGROUNDS = ['dark', 'grey', 'light', 'transparent'];
 const LIGHTING = ['studio', 'outdoor', 'flat', 'rim'];
 const SKINNING = ['rigid', 'lbs', 'dqs', 'sjb'];
 const PATHS = ['gpu', 'compute', 'cpu'];

@@ -22,6 +22,8 @@ export type SkinningMethod = 'rigid' | 'lbs' | 'dqs' | 'sjb';
 export type SkinningPath = 'gpu' | 'compute' | 'cpu';
 export type LoopMode = 'once' | 'repeat' | 'pingpong';
 export type Backend = 'auto' | 'webgpu' | 'webgl2';
+/** `transparent`: the page shows through the canvas around the model. */
+export type Background = 'dark' | 'grey' | 'light' | 'transparent';
 
 /** One model of the Samples menu's library: the shape of `kloub serve`'s `/api/assets` entries. */
 export interface KloubSample {
@@ -85,7 +87,7 @@ export interface KloubViewerState {
   /** The selected joint's name. */
   joint?: string;
   lighting?: 'studio' | 'outdoor' | 'flat' | 'rim';
-  background?: 'dark' | 'grey' | 'light';
+  background?: Background;
   /** While a model downloads: `RECEIVED/TOTAL` bytes. */
   progress?: string;
   ragdoll?: '' | 'simulating' | 'resting' | 'blending';
@@ -117,6 +119,10 @@ export declare class KloubViewer extends HTMLElement {
   skinning: SkinningMethod;
   /** Side panel and menus shown (attribute `controls`). */
   controls: boolean;
+  /** Behind the model (attribute `background`): default `transparent` without `controls`, `dark` with them. */
+  background: Background;
+  /** The ground grid (attribute `grid`; `grid="false"` turns it off): by default on with `controls` only. */
+  grid: boolean;
   /* Attribute `min-pixel-ratio`: the lowest resolution (canvas pixels per CSS pixel, default 0.5) a viewer without
      `controls` may drop to while frames are slow. */
   /** The renderer in use; choose it with the `backend` attribute (auto | webgpu | webgl2). */
@@ -181,7 +187,7 @@ export declare class KloubViewer extends HTMLElement {
   /** Holds morph target `target` (index or name) of the mesh on node `node` at `weight`; null lets the clip drive it. */
   setMorphWeight(node: string, target: number | string, weight: number | null): void;
   setLighting(name: 'studio' | 'outdoor' | 'flat' | 'rim'): void;
-  setBackground(name: 'dark' | 'grey' | 'light'): void;
+  setBackground(name: Background): void;
   /** Downloads the view as `<model>.png`. */
   screenshot(): void;
   /** Shows or hides the ground grid. */

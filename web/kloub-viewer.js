@@ -131,7 +131,7 @@ const SKINNING = ['rigid', 'lbs', 'dqs', 'sjb'];
 const SKINNING_PATHS = ['gpu', 'compute', 'cpu'];
 const IK_SOLVERS = ['ccd', 'twobone', 'fabrik', 'dls'];
 const LIGHTING = ['studio', 'outdoor', 'flat', 'rim'];
-const BACKGROUNDS = ['dark', 'grey', 'light'];
+const BACKGROUNDS = ['dark', 'grey', 'light', 'transparent'];
 const EASINGS = ['smoothstep', 'linear'];
 const OUTGOING = ['freeze', 'keep', 'sync'];
 /** Argument bounds of the page API (README, "Embedding"). */
@@ -231,7 +231,7 @@ async function droppedFiles(dataTransfer) {
 export class KloubViewer extends HTMLElement {
   static observedAttributes = [
     'src', 'autoplay', 'animation-name', 'speed', 'loop', 'crossfade-duration', 'layer-clip', 'layer-root',
-    'skinning', 'backend', 'controls', 'min-pixel-ratio',
+    'skinning', 'backend', 'controls', 'min-pixel-ratio', 'background', 'grid',
   ];
 
   #viewer = null;
@@ -430,7 +430,13 @@ export class KloubViewer extends HTMLElement {
           break;
         }
         case 'skinning': if (value) viewer.setSkinning(value); break;
-        case 'controls': viewer.setPanels(value !== null); break;
+        case 'controls':
+          viewer.setPanels(value !== null);
+          if (!this.hasAttribute('background')) viewer.setBackground(this.#background());
+          if (!this.hasAttribute('grid')) viewer.setGrid(this.grid);
+          break;
+        case 'background': viewer.setBackground(this.#background()); break;
+        case 'grid': viewer.setGrid(this.grid); break;
         case 'backend': this.#remount(); break;
         default: break;
       }
@@ -460,6 +466,8 @@ export class KloubViewer extends HTMLElement {
       };
       const backend = this.getAttribute('backend');
       viewer.setPanels(this.hasAttribute('controls'));
+      viewer.setBackground(this.#background());
+      viewer.setGrid(this.grid);
       const src = revive ? (revive.src || (this.#files ? null : this.getAttribute('src'))) : this.getAttribute('src');
       if (revive && src) this.#reviveOnLoad(revive);
       await viewer.mount(this.#canvas, this, this.shadowRoot, emit, backend === 'auto' ? null : backend, src);
@@ -492,6 +500,10 @@ export class KloubViewer extends HTMLElement {
     const once = () => {
       this.removeEventListener('load', once);
       applyView(this, view, (key, e) => console.warn(`kloub: after recovery, ${key} could not be restored: ${e.message}`));
+      // The hash leaves out what equals the app's defaults; an embedded viewer's defaults differ (no grid, no
+      // background), so these two are restored as they were.
+      if (snapshot.grid === 'true' || snapshot.grid === 'false') this.setGrid(snapshot.grid === 'true');
+      if (BACKGROUNDS.includes(snapshot.background)) this.setBackground(snapshot.background);
       if (snapshot.playing === 'true') this.play();
       else if (snapshot.playing === 'false') this.pause();
     };
@@ -587,6 +599,15 @@ export class KloubViewer extends HTMLElement {
     }
     this.#due = now + next;
     return [this.#due, 1];
+  }
+
+  /** The `background` attribute, or the default: `transparent` for an embedded viewer (the page shows through, as
+   *  with model-viewer), `dark` for the app (`controls`). An unknown value is warned about and the default used. */
+  #background() {
+    const value = this.getAttribute('background');
+    if (value !== null && BACKGROUNDS.includes(value)) return value;
+    if (value !== null) console.warn(`kloub-viewer: background "${value}" is not one of ${BACKGROUNDS.join(', ')}`);
+    return this.hasAttribute('controls') ? 'dark' : 'transparent';
   }
 
   #minPixelRatio() {
@@ -686,6 +707,14 @@ export class KloubViewer extends HTMLElement {
 
   get src() { return this.getAttribute('src') ?? ''; }
   set src(value) { this.setAttribute('src', url('src', 'value', value)); }
+  /** The ground grid: the `grid` attribute (present: on, `grid="false"`: off), by default on with `controls` only. */
+  get grid() {
+    const value = this.getAttribute('grid');
+    return value === null ? this.hasAttribute('controls') : value !== 'false';
+  }
+  set grid(on) { this.setAttribute('grid', bool('grid', 'on', on) ? '' : 'false'); }
+  get background() { return this.#background(); }
+  set background(name) { this.setAttribute('background', oneOf('background', 'name', name, BACKGROUNDS)); }
   get autoplay() { return this.hasAttribute('autoplay'); }
   set autoplay(on) { this.toggleAttribute('autoplay', Boolean(on)); }
   get animationName() { return this.dataset.clip ?? ''; }

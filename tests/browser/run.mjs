@@ -352,7 +352,15 @@ for (const backend of BACKENDS) {
     assert(of('left', 'timeupdate').some(([, , d]) => d.currentTime === 0.25), 'no timeupdate at the seek');
     assert(of('left', 'load')[0][2].name === 'default.glb', `load detail ${JSON.stringify(of('left', 'load')[0][2])}`);
     // The two canvases show different poses.
-    const [a, b] = [await viewportShot(page, '#left'), await viewportShot(page, '#right')];
+    // Each in view in turn (the page may be shorter than both; a screenshot shows only what is in view). The left
+    // one is paused and was in view all along; the right one plays, and draws again once scrolled into view.
+    const shoot = async (id, playing) => {
+      await page.locator(`#${id}`).scrollIntoViewIfNeeded();
+      const f = await page.evaluate((id) => Number(document.getElementById(id).dataset.frames), id);
+      if (playing) await page.waitForFunction(([id, f]) => Number(document.getElementById(id).dataset.frames) >= f + 2, [id, f], { timeout: 30000 });
+      return viewportShot(page, `#${id}`);
+    };
+    const [a, b] = [await shoot('left', false), await shoot('right', true)];
     savePng(a, `${backend}-embed-left.png`);
     savePng(b, `${backend}-embed-right.png`);
     assert(nonBackgroundFraction(a) > 0.02 && nonBackgroundFraction(b) > 0.02, 'a viewer shows nothing');
@@ -360,6 +368,46 @@ for (const backend of BACKENDS) {
     await page.evaluate(() => { const v = document.getElementById('left'); v.setAttribute('animation-name', 'Survey'); v.speed = 2; });
     await waitForDataset(page, () => document.getElementById('left').dataset.clip === 'Survey' && document.getElementById('left').dataset.speed === '2.000', 'the attribute changes');
     assert((await page.evaluate(() => document.getElementById('right').dataset.clip)) === 'Run', 'the other viewer changed too');
+  });
+
+  test(`${backend}: a <kloub-viewer> without background shows the page around the model; background and grid attributes change that`, async (ctx) => {
+    const { page } = ctx;
+    await page.goto(`${ctx.url}/embed.html`);
+    await page.evaluate((backend) => {
+      document.body.innerHTML = '';
+      document.body.style.cssText = 'margin:0;background:rgb(200,30,30)';
+      const v = document.createElement('kloub-viewer');
+      v.setAttribute('backend', backend);
+      v.setAttribute('src', '/assets/Fox.glb');
+      v.setAttribute('min-pixel-ratio', '1');
+      v.style.cssText = 'width:400px;height:300px';
+      document.body.append(v);
+    }, backend);
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.status === 'ready' && Number(document.querySelector('kloub-viewer').dataset.frames) > 0, 'the viewer');
+    const ds = await dataset(page);
+    assert(ds.background === 'transparent' && ds.grid === 'false', `defaults without controls: background ${ds.background}, grid ${ds.grid}`);
+    const red = (img) => {
+      let n = 0;
+      for (let i = 0; i < img.data.length; i += 4) if (Math.abs(img.data[i] - 200) < 8 && img.data[i + 1] < 40 && img.data[i + 2] < 40) n++;
+      return n / (img.width * img.height);
+    };
+    const shot = await viewportShot(page);
+    savePng(shot, `${backend}-transparent.png`);
+    // The page's red all around the model, and the model itself (not red) in the middle.
+    assert(red(shot) > 0.6 && red(shot) < 0.99, `red (the page) on ${(red(shot) * 100).toFixed(1)}% of the viewer`);
+    assert(nonBackgroundFraction(shot) > 0.02, 'no model over the page');
+    // A background covers the page; the grid attribute draws the ground grid over it.
+    await page.evaluate(() => { const v = document.querySelector('kloub-viewer'); v.setAttribute('background', 'light'); v.grid = true; });
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.background === 'light' && document.querySelector('kloub-viewer').dataset.grid === 'true', 'background and grid');
+    // The frame that mirrored the change drew it; one more makes sure it is on screen.
+    await page.evaluate(() => { const v = document.querySelector('kloub-viewer'); const c = v.camera; c[0] += 0.01; v.camera = c; });
+    await waitFrames(page, 1);
+    const light = await viewportShot(page);
+    assert(red(light) < 0.001, `the page shows through a light background on ${(red(light) * 100).toFixed(2)}%`);
+    assert((await page.evaluate(() => document.querySelector('kloub-viewer').background)) === 'light', 'the background property');
+    // Removing the attribute goes back to the default.
+    await page.evaluate(() => document.querySelector('kloub-viewer').removeAttribute('background'));
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.background === 'transparent', 'the default background');
   });
 
   test(`${backend}: 50 viewers on one page all animate through one shared device, none errs`, async (ctx) => {

@@ -19,7 +19,7 @@ use crate::ik::IkState;
 use crate::load::{self, Inbox, LoadedModel};
 use crate::model::{LayerDraft, Model};
 use crate::overlay::{self, Overlays, Projection, nearest_within};
-use crate::render::{Camera, SceneRenderer, display_msaa};
+use crate::render::{Camera, SceneRenderer, display_msaa, scene_format};
 use crate::ui;
 
 /// What to do at start-up.
@@ -343,7 +343,12 @@ impl App {
         let backend = backend_name(gpu.adapter.get_info().backend);
         log::info!("kloub: rendering with {backend} ({:?})", gpu.adapter.get_info().name);
         install_fonts(ctx);
-        let scene = SceneRenderer::new(&gpu.device, &gpu.queue, display_msaa(&gpu.adapter));
+        let scene = SceneRenderer::with_format(
+            &gpu.device,
+            &gpu.queue,
+            display_msaa(&gpu.adapter),
+            scene_format(gpu.adapter.get_info().backend),
+        );
         let mut app = Self {
             gpu,
             backend,
@@ -405,7 +410,12 @@ impl App {
     /// When the model cannot be uploaded to the new device (it is then dropped, as a failed
     /// load would be).
     pub fn replace_gpu(&mut self, gpu: egui_wgpu::RenderState) -> Result<(), String> {
-        let mut scene = SceneRenderer::new(&gpu.device, &gpu.queue, display_msaa(&gpu.adapter));
+        let mut scene = SceneRenderer::with_format(
+            &gpu.device,
+            &gpu.queue,
+            display_msaa(&gpu.adapter),
+            scene_format(gpu.adapter.get_info().backend),
+        );
         scene.set_grid(self.scene.grid());
         scene.set_heatmap(self.scene.heatmap());
         scene.set_look(self.scene.look());
@@ -498,6 +508,16 @@ impl App {
         let Some(rect) = self.scene_rect.take() else { return false };
         self.scene.draw_into(&self.gpu.device, encoder, view, size, rect, shared);
         true
+    }
+
+    /// Whether the view's background is transparent (the page shows through the canvas).
+    pub fn transparent(&self) -> bool {
+        !self.scene.look().background.is_drawn()
+    }
+
+    /// The colour format [`App::draw_scene`] draws into (see `render::scene_format`).
+    pub fn scene_format(&self) -> wgpu::TextureFormat {
+        self.scene.format()
     }
 
     /// The values last mirrored into the element's `data-*` attributes (kept natively too, for tests).
@@ -1459,6 +1479,8 @@ impl App {
         let (width, height) = pending.size();
         self.screenshot = None;
         let png = result.and_then(|pixels| {
+            let mut pixels = pixels;
+            crate::render::readback::unpremultiply(&mut pixels);
             let image = image::RgbaImage::from_raw(width, height, pixels).ok_or("screenshot: size mismatch")?;
             let mut out = std::io::Cursor::new(Vec::new());
             image.write_to(&mut out, image::ImageFormat::Png).map_err(|e| format!("screenshot: {e}"))?;

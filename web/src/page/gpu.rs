@@ -351,13 +351,15 @@ async fn make(kind: GpuKind) -> Result<Gpu, String> {
     Ok(Gpu { kind, instance, adapter, device, queue, format, gl, lost, generation })
 }
 
-/// The WebGL2 surface's format: the scene's sRGB format, which the scene draws into straight
-/// (WebGL2 has no sRGB views of a plain texture; egui converts its colours for an sRGB target).
+/// The WebGL2 surface's format: plain `Rgba8Unorm`, which the scene draws into straight with
+/// its shaders encoding sRGB (`render::scene_format`). wgpu presents that with a blit, where an
+/// sRGB surface takes a full-screen shader pass more per frame; WebGL2 has no sRGB views of a
+/// plain texture. egui, like the browser, blends in gamma space on such a target.
 fn pick_format(surface: &wgpu::Surface<'_>, adapter: &wgpu::Adapter) -> Result<wgpu::TextureFormat, String> {
-    let formats = surface.get_capabilities(adapter).formats;
-    if formats.contains(&crate::render::texture::COLOR_FORMAT) {
-        Ok(crate::render::texture::COLOR_FORMAT)
+    let format = crate::render::scene_format(wgpu::Backend::Gl);
+    if surface.get_capabilities(adapter).formats.contains(&format) {
+        Ok(format)
     } else {
-        Err(format!("the WebGL2 canvas takes no {:?} surface", crate::render::texture::COLOR_FORMAT))
+        Err(format!("the WebGL2 canvas takes no {format:?} surface"))
     }
 }

@@ -76,7 +76,9 @@ fn output(gpu: &Gpu, canvas: &web_sys::HtmlCanvasElement) -> Result<Output, Stri
                 height: canvas.height().max(1),
                 present_mode: wgpu::PresentMode::Fifo,
                 desired_maximum_frame_latency: 2,
-                alpha_mode: wgpu::CompositeAlphaMode::Auto,
+                // For the transparent background: every browser's WebGPU canvas takes premultiplied
+                // alpha (wgpu lists only `Opaque` in its capabilities there, yet maps this one).
+                alpha_mode: wgpu::CompositeAlphaMode::PreMultiplied,
                 // The scene draws through an sRGB view of the same texture; egui draws through
                 // the plain one (it blends in gamma space, as the browser composites).
                 view_formats: vec![crate::render::texture::COLOR_FORMAT],
@@ -266,14 +268,15 @@ impl View {
         };
         if let Some(frame) = frame {
             let view = frame.texture.create_view(&wgpu::TextureViewDescriptor::default());
-            // The scene straight into the canvas (an sRGB view of it), then egui over it.
-            let scene_view = if frame.texture.format() == crate::render::texture::COLOR_FORMAT {
+            // The scene straight into the canvas (WebGPU: an sRGB view of it; WebGL2: the
+            // canvas's own format, the shaders encoding sRGB), then egui over it.
+            let scene_format = self.app.scene_format();
+            let scene_view = if frame.texture.format() == scene_format {
                 view.clone()
             } else {
-                frame.texture.create_view(&wgpu::TextureViewDescriptor {
-                    format: Some(crate::render::texture::COLOR_FORMAT),
-                    ..Default::default()
-                })
+                frame
+                    .texture
+                    .create_view(&wgpu::TextureViewDescriptor { format: Some(scene_format), ..Default::default() })
             };
             let surface_size = [frame.texture.width(), frame.texture.height()];
             // On WebGL2 every viewer draws into the page's one surface: one set of attachments.
@@ -283,6 +286,9 @@ impl View {
             let clear = self.ctx.global_style().visuals.extreme_bg_color.to_normalized_gamma_f32();
             let load = if drew_scene {
                 wgpu::LoadOp::Load
+            } else if self.app.transparent() {
+                // No model yet on a transparent viewer: the page shows through from the start.
+                wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT)
             } else {
                 wgpu::LoadOp::Clear(wgpu::Color {
                     r: f64::from(clear[0]),

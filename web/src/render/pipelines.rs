@@ -14,20 +14,24 @@ pub fn topology(topology: Topology) -> wgpu::PrimitiveTopology {
 }
 
 use super::mesh::{ATTRIBUTE_STRIDE, GEOMETRY_STRIDE, PIVOT_STRIDE, SKIN_STRIDE};
-use super::texture::COLOR_FORMAT;
 use super::uniforms::{DrawUniform, FrameUniform, MaterialUniform};
 
 /// Depth buffer format.
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
-/// `shaders/skinning.wgsl` + `shaders/mesh.wgsl`: the mesh pipelines (vertex-shader skinning).
-pub const MESH_WGSL: &str =
-    concat!(include_str!("../../../shaders/skinning.wgsl"), include_str!("../../../shaders/mesh.wgsl"));
+/// `shaders/skinning.wgsl` + `shaders/output.wgsl` + `shaders/mesh.wgsl`: the mesh pipelines
+/// (vertex-shader skinning).
+pub const MESH_WGSL: &str = concat!(
+    include_str!("../../../shaders/skinning.wgsl"),
+    include_str!("../../../shaders/output.wgsl"),
+    include_str!("../../../shaders/mesh.wgsl")
+);
 /// `shaders/skinning.wgsl` + `shaders/skin_compute.wgsl`: compute skinning (not on WebGL2).
 pub const SKIN_COMPUTE_WGSL: &str =
     concat!(include_str!("../../../shaders/skinning.wgsl"), include_str!("../../../shaders/skin_compute.wgsl"));
-/// `shaders/environment.wgsl`.
-pub const ENVIRONMENT_WGSL: &str = include_str!("../../../shaders/environment.wgsl");
+/// `shaders/output.wgsl` + `shaders/environment.wgsl`.
+pub const ENVIRONMENT_WGSL: &str =
+    concat!(include_str!("../../../shaders/output.wgsl"), include_str!("../../../shaders/environment.wgsl"));
 
 /// Every shader module the renderer compiles: name, WGSL source, whether it runs on WebGL2.
 pub const SHADER_MODULES: [(&str, &str, bool); 3] =
@@ -168,6 +172,7 @@ pub const SKIN_FROM_DRAW: u32 = 4;
 /// Shader modules and pipelines for one sample count.
 pub struct Pipelines {
     sample_count: u32,
+    format: wgpu::TextureFormat,
     mesh_module: wgpu::ShaderModule,
     mesh_layout: wgpu::PipelineLayout,
     /// Background gradient (full-screen triangle).
@@ -187,7 +192,7 @@ fn depth_state(compare: wgpu::CompareFunction, write: bool) -> Option<wgpu::Dept
     })
 }
 
-fn color_target(blend: bool) -> [Option<wgpu::ColorTargetState>; 1] {
+fn color_target(format: wgpu::TextureFormat, blend: bool) -> [Option<wgpu::ColorTargetState>; 1] {
     let blend = blend.then_some(wgpu::BlendState {
         color: wgpu::BlendComponent {
             src_factor: wgpu::BlendFactor::SrcAlpha,
@@ -200,12 +205,20 @@ fn color_target(blend: bool) -> [Option<wgpu::ColorTargetState>; 1] {
             operation: wgpu::BlendOperation::Add,
         },
     });
-    [Some(wgpu::ColorTargetState { format: COLOR_FORMAT, blend, write_mask: wgpu::ColorWrites::ALL })]
+    [Some(wgpu::ColorTargetState { format, blend, write_mask: wgpu::ColorWrites::ALL })]
+}
+
+/// The fragment stage's override constants for a target in `format` (`SRGB_ENCODE` in
+/// shaders/output.wgsl: the shader encodes sRGB where the target does not).
+fn output_constants(format: wgpu::TextureFormat) -> [(&'static str, f64); 1] {
+    [("SRGB_ENCODE", if format.is_srgb() { 0.0 } else { 1.0 })]
 }
 
 impl Pipelines {
-    /// Compiles the shaders and the environment pipelines for `sample_count` samples.
-    pub fn new(device: &wgpu::Device, layouts: &Layouts, sample_count: u32) -> Self {
+    /// Compiles the shaders and the environment pipelines for `sample_count` samples of
+    /// `format` (an sRGB format, or a plain one the shaders encode sRGB into).
+    pub fn new(device: &wgpu::Device, layouts: &Layouts, sample_count: u32, format: wgpu::TextureFormat) -> Self {
+        let output = output_constants(format);
         let mesh_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("kloub mesh.wgsl"),
             source: wgpu::ShaderSource::Wgsl(MESH_WGSL.into()),
@@ -240,8 +253,8 @@ impl Pipelines {
                 fragment: Some(wgpu::FragmentState {
                     module: &env_module,
                     entry_point: Some(fs),
-                    compilation_options: Default::default(),
-                    targets: &color_target(blend),
+                    compilation_options: wgpu::PipelineCompilationOptions { constants: &output, ..Default::default() },
+                    targets: &color_target(format, blend),
                 }),
                 multiview_mask: None,
                 cache: None,
@@ -256,7 +269,7 @@ impl Pipelines {
         );
         let grid =
             environment("kloub grid", "vs_grid", "fs_grid", depth_state(wgpu::CompareFunction::LessEqual, false), true);
-        Self { sample_count, mesh_module, mesh_layout, background, grid, mesh: HashMap::new() }
+        Self { sample_count, format, mesh_module, mesh_layout, background, grid, mesh: HashMap::new() }
     }
 
     /// Builds the mesh pipeline of `key` if it does not exist yet.
@@ -275,6 +288,7 @@ impl Pipelines {
             ("SKIN_METHOD", f64::from(key.skinning.min(SKIN_FROM_DRAW))),
             ("HEATMAP", f64::from(u8::from(key.heatmap))),
         ];
+        let output = output_constants(self.format);
         let compilation_options = match key.vertex {
             VertexPath::Static => wgpu::PipelineCompilationOptions::default(),
             VertexPath::Skinned => wgpu::PipelineCompilationOptions { constants: &constants, ..Default::default() },
@@ -299,8 +313,8 @@ impl Pipelines {
             fragment: Some(wgpu::FragmentState {
                 module: &self.mesh_module,
                 entry_point: Some("fs_main"),
-                compilation_options: Default::default(),
-                targets: &color_target(key.blend),
+                compilation_options: wgpu::PipelineCompilationOptions { constants: &output, ..Default::default() },
+                targets: &color_target(self.format, key.blend),
             }),
             multiview_mask: None,
             cache: None,

@@ -78,3 +78,29 @@ impl PendingReadback {
         }))
     }
 }
+
+/// Turns premultiplied RGBA8 pixels (what the scene leaves where its background is
+/// transparent) into the straight alpha an image file holds. Opaque pixels are unchanged.
+pub fn unpremultiply(pixels: &mut [u8]) {
+    for px in pixels.chunks_exact_mut(4) {
+        let a = u32::from(px[3]);
+        if a == 255 {
+            continue;
+        }
+        for c in &mut px[..3] {
+            *c = (u32::from(*c) * 255 + a / 2).checked_div(a).map_or(0, |v| v.min(255) as u8);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::unpremultiply;
+
+    #[test]
+    fn unpremultiply_restores_straight_alpha_and_keeps_opaque_pixels() {
+        let mut pixels = [10, 20, 30, 255, 64, 32, 0, 128, 9, 9, 9, 0, 200, 100, 50, 100];
+        unpremultiply(&mut pixels);
+        assert_eq!(pixels, [10, 20, 30, 255, 128, 64, 0, 128, 0, 0, 0, 0, 255, 255, 128, 100]);
+    }
+}

@@ -89,6 +89,19 @@ pub fn display_msaa(adapter: &wgpu::Adapter) -> u32 {
     }
 }
 
+/// The colour format a viewer's scene draws into on a device whose canvas surfaces are in
+/// `surface_format` on `backend`: `Rgba8Unorm` (shaders encode sRGB) where the browser's
+/// WebGL2 canvas is drawn into, since wgpu presents an sRGB WebGL2 surface through an extra
+/// full-screen shader pass (measured in BENCHMARKS.md, "Frame cost"); [`COLOR_FORMAT`]
+/// everywhere else (WebGPU draws through an sRGB view of its canvas texture).
+pub fn scene_format(backend: wgpu::Backend) -> wgpu::TextureFormat {
+    if cfg!(target_arch = "wasm32") && backend == wgpu::Backend::Gl {
+        wgpu::TextureFormat::Rgba8Unorm
+    } else {
+        COLOR_FORMAT
+    }
+}
+
 /// 4× when the adapter can multisample the colour and depth formats, else 1.
 pub fn msaa_samples(adapter: &wgpu::Adapter) -> u32 {
     let supports = |format| adapter.get_texture_format_features(format).flags.sample_count_supported(4);
@@ -122,18 +135,19 @@ fn attachment(
 pub struct Attachments {
     size: [u32; 2],
     samples: u32,
+    format: wgpu::TextureFormat,
     msaa: Option<wgpu::TextureView>,
     depth: wgpu::TextureView,
 }
 
 impl Attachments {
-    fn new(device: &wgpu::Device, size: [u32; 2], sample_count: u32) -> Self {
+    fn new(device: &wgpu::Device, size: [u32; 2], sample_count: u32, format: wgpu::TextureFormat) -> Self {
         let view = |t: wgpu::Texture| t.create_view(&wgpu::TextureViewDescriptor::default());
         let none = wgpu::TextureUsages::empty();
-        let msaa = (sample_count > 1)
-            .then(|| view(attachment(device, "kloub scene msaa", size, COLOR_FORMAT, sample_count, none)));
+        let msaa =
+            (sample_count > 1).then(|| view(attachment(device, "kloub scene msaa", size, format, sample_count, none)));
         let depth = view(attachment(device, "kloub scene depth", size, DEPTH_FORMAT, sample_count, none));
-        Self { size, samples: sample_count, msaa, depth }
+        Self { size, samples: sample_count, format, msaa, depth }
     }
 
     /// The pass's colour attachment and resolve target for a frame ending in `view`: the MSAA
@@ -154,11 +168,11 @@ struct Target {
 }
 
 impl Target {
-    fn new(device: &wgpu::Device, size: [u32; 2], sample_count: u32) -> Self {
+    fn new(device: &wgpu::Device, size: [u32; 2], sample_count: u32, format: wgpu::TextureFormat) -> Self {
         let usage = wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC;
-        let texture = attachment(device, "kloub scene colour", size, COLOR_FORMAT, 1, usage);
+        let texture = attachment(device, "kloub scene colour", size, format, 1, usage);
         let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
-        Self { texture, view, attachments: Attachments::new(device, size, sample_count) }
+        Self { texture, view, attachments: Attachments::new(device, size, sample_count, format) }
     }
 }
 
@@ -248,6 +262,9 @@ pub struct RenderTimes {
 /// See the [module docs](super) for the frame flow and how the app and the tests use it.
 pub struct SceneRenderer {
     sample_count: u32,
+    /// The colour format drawn into ([`COLOR_FORMAT`], or `Rgba8Unorm` with the shaders
+    /// encoding sRGB: see [`SceneRenderer::with_format`]).
+    format: wgpu::TextureFormat,
     draw_stride: u64,
     layouts: Layouts,
     pipelines: Pipelines,
@@ -279,11 +296,26 @@ pub struct SceneRenderer {
 
 impl SceneRenderer {
     /// Creates the pipelines and shared resources. `sample_count` is 1 or 4
-    /// (see [`msaa_samples`]); anything else is treated as 1.
+    /// (see [`msaa_samples`]); anything else is treated as 1. Draws into [`COLOR_FORMAT`].
     pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, sample_count: u32) -> Self {
+        Self::with_format(device, queue, sample_count, COLOR_FORMAT)
+    }
+
+    /// [`SceneRenderer::new`] drawing into `format`: [`COLOR_FORMAT`] (the hardware encodes
+    /// sRGB and blends in linear space), or `Rgba8Unorm`, where the shaders encode sRGB
+    /// themselves and blending happens in gamma space, as three.js and the browser do. The
+    /// WebGL2 canvas uses the latter: wgpu presents an sRGB surface there with an extra
+    /// full-screen shader pass ([`scene_format`]); any other format is taken as `COLOR_FORMAT`.
+    pub fn with_format(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        sample_count: u32,
+        format: wgpu::TextureFormat,
+    ) -> Self {
         let sample_count = if sample_count == 4 { 4 } else { 1 };
+        let format = if format == wgpu::TextureFormat::Rgba8Unorm { format } else { COLOR_FORMAT };
         let layouts = Layouts::new(device);
-        let pipelines = Pipelines::new(device, &layouts, sample_count);
+        let pipelines = Pipelines::new(device, &layouts, sample_count, format);
         let frame_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("kloub frame"),
             size: size_of::<FrameUniform>() as u64,
@@ -296,6 +328,7 @@ impl SceneRenderer {
         let empty = GpuScene::empty(device, queue, &layouts, &frame_buffer, draw_stride);
         Self {
             sample_count,
+            format,
             draw_stride,
             layouts,
             pipelines,
@@ -507,6 +540,11 @@ impl SceneRenderer {
         self.ground = ground;
     }
 
+    /// The colour format the scene draws into (see [`SceneRenderer::with_format`]).
+    pub fn format(&self) -> wgpu::TextureFormat {
+        self.format
+    }
+
     /// Sample count of the scene pipelines (1 or 4).
     pub fn sample_count(&self) -> u32 {
         self.sample_count
@@ -563,7 +601,7 @@ impl SceneRenderer {
         let max = device.limits().max_texture_dimension_2d;
         let size = [size[0].clamp(1, max), size[1].clamp(1, max)];
         if self.target.as_ref().is_none_or(|t| t.attachments.size != size) {
-            self.target = Some(Target::new(device, size, self.sample_count));
+            self.target = Some(Target::new(device, size, self.sample_count, self.format));
             self.target_version += 1;
         }
         self.prepare_copies(device, queue, asset, instances, offsets, camera, size[0] as f32 / size[1] as f32)?;
@@ -668,8 +706,8 @@ impl SceneRenderer {
             None => self.direct.take(),
         };
         let attachments = match taken {
-            Some(a) if a.size == size && a.samples == self.sample_count => a,
-            _ => Attachments::new(device, size, self.sample_count),
+            Some(a) if a.size == size && a.samples == self.sample_count && a.format == self.format => a,
+            _ => Attachments::new(device, size, self.sample_count, self.format),
         };
         let (color, resolve) = attachments.colour(view);
         self.encode(device, encoder, color, resolve, &attachments.depth, Some(rect));
@@ -711,7 +749,7 @@ impl SceneRenderer {
                     depth_slice: None,
                     resolve_target,
                     ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(FrameUniform::clear_color(self.look.background)),
+                        load: wgpu::LoadOp::Clear(FrameUniform::clear_color(self.look.background, self.format)),
                         store: if resolve_target.is_some() { wgpu::StoreOp::Discard } else { wgpu::StoreOp::Store },
                     },
                 })],
@@ -729,8 +767,10 @@ impl SceneRenderer {
                 pass.set_scissor_rect(x, y, w, h);
             }
             pass.set_bind_group(0, &scene.frame_bind_group, &[]);
-            pass.set_pipeline(&self.pipelines.background);
-            pass.draw(0..3, 0..1);
+            if self.look.background.is_drawn() {
+                pass.set_pipeline(&self.pipelines.background);
+                pass.draw(0..3, 0..1);
+            }
 
             let draws = scene.draws.len();
             let opaque = (0..copies * draws).filter(|slot| scene.draws.get(slot % draws).is_some_and(|d| !d.blend));

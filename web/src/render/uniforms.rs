@@ -123,18 +123,22 @@ pub enum Background {
     Grey,
     /// Near white.
     Light,
+    /// None: what is behind the canvas shows through (the page, as with model-viewer). The
+    /// canvas holds premultiplied alpha; the background pass is not drawn.
+    Transparent,
 }
 
 impl Background {
     /// Every choice, in menu order.
-    pub const ALL: [Background; 3] = [Background::Dark, Background::Grey, Background::Light];
+    pub const ALL: [Background; 4] = [Background::Dark, Background::Grey, Background::Light, Background::Transparent];
 
-    /// The page name: `dark`, `grey`, `light`.
+    /// The page name: `dark`, `grey`, `light`, `transparent`.
     pub fn name(self) -> &'static str {
         match self {
             Background::Dark => "dark",
             Background::Grey => "grey",
             Background::Light => "light",
+            Background::Transparent => "transparent",
         }
     }
 
@@ -146,15 +150,21 @@ impl Background {
         Self::ALL
             .into_iter()
             .find(|b| b.name() == name)
-            .ok_or_else(|| format!("background {name:?}: expected \"dark\", \"grey\" or \"light\""))
+            .ok_or_else(|| format!("background {name:?}: expected \"dark\", \"grey\", \"light\" or \"transparent\""))
     }
 
-    /// Top and bottom colours (linear RGB).
+    /// Whether the background pass is drawn (not for [`Background::Transparent`]).
+    pub fn is_drawn(self) -> bool {
+        self != Background::Transparent
+    }
+
+    /// Top and bottom colours (linear RGB, alpha).
     fn colors(self) -> ([f32; 4], [f32; 4]) {
         match self {
             Background::Dark => ([0.05, 0.055, 0.065, 1.0], [0.012, 0.013, 0.016, 1.0]),
             Background::Grey => ([0.2, 0.21, 0.22, 1.0], [0.09, 0.095, 0.1, 1.0]),
             Background::Light => ([0.9, 0.9, 0.92, 1.0], [0.62, 0.63, 0.65, 1.0]),
+            Background::Transparent => ([0.0; 4], [0.0; 4]),
         }
     }
 }
@@ -198,9 +208,21 @@ impl FrameUniform {
     }
 
     /// The clear colour matching the bottom of `background`'s gradient.
-    pub fn clear_color(background: Background) -> wgpu::Color {
+    /// In `format`: linear for an sRGB target, sRGB-encoded for `Rgba8Unorm` (what the shaders
+    /// write there; see `SceneRenderer::with_format`).
+    pub fn clear_color(background: Background, format: wgpu::TextureFormat) -> wgpu::Color {
         let bottom = background.colors().1;
-        wgpu::Color { r: f64::from(bottom[0]), g: f64::from(bottom[1]), b: f64::from(bottom[2]), a: 1.0 }
+        let encode = |c: f32| {
+            let c = f64::from(c);
+            if format.is_srgb() {
+                c
+            } else if c <= 0.003_130_8 {
+                c * 12.92
+            } else {
+                1.055 * c.powf(1.0 / 2.4) - 0.055
+            }
+        };
+        wgpu::Color { r: encode(bottom[0]), g: encode(bottom[1]), b: encode(bottom[2]), a: f64::from(bottom[3]) }
     }
 }
 
