@@ -100,19 +100,23 @@ function startThreeServer() {
   return new Promise((ok) => server.listen(0, '127.0.0.1', () => ok({ url: `http://127.0.0.1:${server.address().port}`, stop: () => server.close() })));
 }
 
-/** CPU time (ms) used so far by every chromium process (the GPU process is where SwiftShader draws). */
+/** CPU time (ms) used so far by every chromium process, and by the GPU process alone (where SwiftShader draws). */
 function browserCpuMs() {
   let ticks = 0;
+  let gpu = 0;
   for (const pid of readdirSync('/proc')) {
     if (!/^[0-9]+$/.test(pid)) continue;
     let stat;
-    try { stat = readFileSync(`/proc/${pid}/stat`, 'utf8'); } catch { continue; }
+    let cmd;
+    try { stat = readFileSync(`/proc/${pid}/stat`, 'utf8'); cmd = readFileSync(`/proc/${pid}/cmdline`, 'utf8'); } catch { continue; }
     const close = stat.lastIndexOf(')');
     if (!/chrom/.test(stat.slice(stat.indexOf('(') + 1, close))) continue;
     const fields = stat.slice(close + 2).split(' ');
-    ticks += Number(fields[11]) + Number(fields[12]);
+    const t = Number(fields[11]) + Number(fields[12]);
+    ticks += t;
+    if (cmd.includes('--type=gpu-process')) gpu += t;
   }
-  return ticks * 10; // USER_HZ is 100 on Linux
+  return { all: ticks * 10, gpu: gpu * 10 }; // USER_HZ is 100 on Linux
 }
 
 /**
@@ -127,7 +131,10 @@ async function measure(page, count) {
   await sleep(SECONDS * 1000);
   const [t1, f1] = await page.evaluate(count);
   const c1 = browserCpuMs();
-  return f1 > f0 ? { wall: (t1 - t0) / (f1 - f0), cpu: (c1 - c0) / (f1 - f0) } : { wall: Infinity, cpu: Infinity };
+  const frames = f1 - f0;
+  return frames > 0
+    ? { wall: (t1 - t0) / frames, cpu: (c1.all - c0.all) / frames, gpu: (c1.gpu - c0.gpu) / frames }
+    : { wall: Infinity, cpu: Infinity, gpu: Infinity };
 }
 
 async function three(page, base, backend, { model, n }) {
@@ -182,7 +189,7 @@ try {
         const t = await three(ctx.page, threeServer.url, backend, c);
         const k = await kloub(ctx.page, kloubServer.url, backend, c);
         rows.push([backend, `${c.model} ×${c.n}`, t, k]);
-        console.error(`bench-frame: ${backend} ${c.model} ×${c.n}: three.js ${t.wall.toFixed(1)} ms (CPU ${t.cpu.toFixed(1)}), Kloub ${k.wall.toFixed(1)} ms (CPU ${k.cpu.toFixed(1)})`);
+        console.error(`bench-frame: ${backend} ${c.model} ×${c.n}: three.js ${t.wall.toFixed(1)} ms (CPU ${t.cpu.toFixed(1)}, GPU process ${t.gpu.toFixed(1)}), Kloub ${k.wall.toFixed(1)} ms (CPU ${k.cpu.toFixed(1)}, GPU process ${k.gpu.toFixed(1)})`);
       }
     } finally {
       await ctx.close();

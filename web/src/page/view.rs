@@ -297,7 +297,9 @@ impl View {
                     a: 1.0,
                 })
             };
-            {
+            // Nothing of egui's over the scene (an embedded viewer without panels or notes): no
+            // second pass over the canvas.
+            if !(drew_scene && primitives.is_empty()) {
                 let pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                     label: Some("kloub egui"),
                     color_attachments: &[Some(wgpu::RenderPassColorAttachment {
