@@ -119,8 +119,11 @@ export declare class KloubViewer extends HTMLElement {
   skinning: SkinningMethod;
   /** Side panel and menus shown (attribute `controls`). */
   controls: boolean;
-  /** Behind the model (attribute `background`): default `transparent` without `controls`, `dark` with them. */
-  background: Background;
+  /** Behind the model (attribute `background`): a theme or any CSS colour (painted behind the transparent canvas);
+   *  default `transparent` without `controls`, `dark` with them. */
+  background: Background | string;
+  /** The accessible name (attribute `alt`); without `controls` the element has the role `img`. */
+  alt: string;
   /** The ground grid (attribute `grid`; `grid="false"` turns it off): by default on with `controls` only. */
   grid: boolean;
   /* Attribute `min-pixel-ratio`: the lowest resolution (canvas pixels per CSS pixel, default 0.5) a viewer without

@@ -231,10 +231,12 @@ async function droppedFiles(dataTransfer) {
 export class KloubViewer extends HTMLElement {
   static observedAttributes = [
     'src', 'autoplay', 'animation-name', 'speed', 'loop', 'crossfade-duration', 'layer-clip', 'layer-root',
-    'skinning', 'backend', 'controls', 'min-pixel-ratio', 'background', 'grid',
+    'skinning', 'backend', 'controls', 'min-pixel-ratio', 'background', 'grid', 'alt',
   ];
 
   #viewer = null;
+  /** ElementInternals: the element's role and accessible name, without touching its attributes. */
+  #internals;
   #canvas;
   #mounting = null;
   #pendingTime = null;
@@ -258,6 +260,7 @@ export class KloubViewer extends HTMLElement {
 
   constructor() {
     super();
+    this.#internals = this.attachInternals();
     const root = this.attachShadow({ mode: 'open' });
     const style = document.createElement('style');
     style.textContent = STYLE;
@@ -380,6 +383,21 @@ export class KloubViewer extends HTMLElement {
     const canvas = this.#newCanvas();
     this.#canvas.replaceWith(canvas);
     this.#canvas = canvas;
+    this.#present();
+  }
+
+  /** What the page sees of the element besides its pixels: `role="img"` named by `alt` for an embedded viewer (with
+   *  `controls` it is an application of its own), and a CSS colour `background` behind the transparent canvas. */
+  #present() {
+    this.#internals.role = this.hasAttribute('controls') ? null : 'img';
+    this.#internals.ariaLabel = this.getAttribute('alt');
+    this.#canvas.style.backgroundColor = this.#cssBackground() ?? '';
+  }
+
+  /** The `background` attribute when it is a CSS colour (not one of the themes), else null. */
+  #cssBackground() {
+    const value = this.getAttribute('background');
+    return value !== null && !BACKGROUNDS.includes(value) && CSS.supports('color', value) ? value : null;
   }
 
   connectedCallback() {
@@ -389,6 +407,7 @@ export class KloubViewer extends HTMLElement {
     }
     visibility.observe(this);
     sizes.observe(this);
+    this.#present();
     if (!this.#mounting) this.#mounting = this.#mount();
   }
 
@@ -410,6 +429,7 @@ export class KloubViewer extends HTMLElement {
   }
 
   attributeChangedCallback(name, old, value) {
+    if (name === 'alt' || name === 'controls' || name === 'background') this.#present();
     const viewer = this.#viewer;
     if (!viewer || old === value) return;
     try {
@@ -606,7 +626,9 @@ export class KloubViewer extends HTMLElement {
   #background() {
     const value = this.getAttribute('background');
     if (value !== null && BACKGROUNDS.includes(value)) return value;
-    if (value !== null) console.warn(`kloub-viewer: background "${value}" is not one of ${BACKGROUNDS.join(', ')}`);
+    // A CSS colour is painted behind the canvas (see #present), which the scene leaves transparent.
+    if (this.#cssBackground() !== null) return 'transparent';
+    if (value !== null) console.warn(`kloub-viewer: background "${value}" is neither one of ${BACKGROUNDS.join(', ')} nor a CSS colour`);
     return this.hasAttribute('controls') ? 'dark' : 'transparent';
   }
 
@@ -713,8 +735,16 @@ export class KloubViewer extends HTMLElement {
     return value === null ? this.hasAttribute('controls') : value !== 'false';
   }
   set grid(on) { this.setAttribute('grid', bool('grid', 'on', on) ? '' : 'false'); }
-  get background() { return this.#background(); }
-  set background(name) { this.setAttribute('background', oneOf('background', 'name', name, BACKGROUNDS)); }
+  get background() { return this.#cssBackground() ?? this.#background(); }
+  set background(value) {
+    if (typeof value !== 'string' || !(BACKGROUNDS.includes(value) || CSS.supports('color', value))) {
+      throw new RangeError(`background: expected one of ${BACKGROUNDS.join(', ')} or a CSS colour, got ${describe(value)}`);
+    }
+    this.setAttribute('background', value);
+  }
+  /** The accessible name (attribute `alt`). */
+  get alt() { return this.getAttribute('alt') ?? ''; }
+  set alt(value) { this.setAttribute('alt', str('alt', 'value', value)); }
   get autoplay() { return this.hasAttribute('autoplay'); }
   set autoplay(on) { this.toggleAttribute('autoplay', Boolean(on)); }
   get animationName() { return this.dataset.clip ?? ''; }

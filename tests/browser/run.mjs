@@ -370,7 +370,7 @@ for (const backend of BACKENDS) {
     assert((await page.evaluate(() => document.getElementById('right').dataset.clip)) === 'Run', 'the other viewer changed too');
   });
 
-  test(`${backend}: a <kloub-viewer> without background shows the page around the model; background and grid attributes change that`, async (ctx) => {
+  test(`${backend}: a <kloub-viewer> without background shows the page around the model; background (a theme or a CSS colour), grid and alt attributes`, async (ctx) => {
     const { page } = ctx;
     await page.goto(`${ctx.url}/embed.html`);
     await page.evaluate((backend) => {
@@ -405,9 +405,33 @@ for (const backend of BACKENDS) {
     const light = await viewportShot(page);
     assert(red(light) < 0.001, `the page shows through a light background on ${(red(light) * 100).toFixed(2)}%`);
     assert((await page.evaluate(() => document.querySelector('kloub-viewer').background)) === 'light', 'the background property');
+    // A CSS colour is painted behind the canvas, which the scene leaves transparent.
+    await page.evaluate(() => { const v = document.querySelector('kloub-viewer'); v.background = 'rgb(30, 200, 30)'; v.grid = false; });
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.background === 'transparent' && document.querySelector('kloub-viewer').dataset.grid === 'false', 'a CSS colour background');
+    await page.evaluate(() => { const v = document.querySelector('kloub-viewer'); const c = v.camera; c[0] -= 0.01; v.camera = c; });
+    await waitFrames(page, 1);
+    const green = await viewportShot(page);
+    let g = 0;
+    for (let i = 0; i < green.data.length; i += 4) if (Math.abs(green.data[i] - 30) < 8 && Math.abs(green.data[i + 1] - 200) < 8) g++;
+    assert(g / (green.width * green.height) > 0.6, `the CSS colour shows on ${(100 * g / (green.width * green.height)).toFixed(1)}%`);
+    assert((await page.evaluate(() => document.querySelector('kloub-viewer').background)) === 'rgb(30, 200, 30)', 'the background property with a colour');
+    const thrown = await page.evaluate(() => { try { document.querySelector('kloub-viewer').background = 'no-such-colour'; return null; } catch (e) { return e.name; } });
+    assert(thrown === 'RangeError', `an unknown background threw ${thrown}`);
     // Removing the attribute goes back to the default.
     await page.evaluate(() => document.querySelector('kloub-viewer').removeAttribute('background'));
     await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.background === 'transparent', 'the default background');
+    // alt names the element in the browser's accessibility tree, as an image; with controls it is no image.
+    await page.evaluate(() => { document.querySelector('kloub-viewer').alt = 'A fox standing'; });
+    const images = async () => {
+      const cdp = await page.context().newCDPSession(page);
+      const { nodes } = await cdp.send('Accessibility.getFullAXTree');
+      await cdp.detach();
+      return nodes.filter((n) => n.role?.value === 'image').map((n) => n.name?.value);
+    };
+    const named = await images();
+    assert(named.includes('A fox standing'), `images in the accessibility tree: ${JSON.stringify(named)}`);
+    await page.evaluate(() => document.querySelector('kloub-viewer').setAttribute('controls', ''));
+    assert(!(await images()).includes('A fox standing'), 'with controls the element is still an image');
   });
 
   test(`${backend}: 50 viewers on one page all animate through one shared device, none errs`, async (ctx) => {
