@@ -16,6 +16,10 @@ export interface KloubViewerEventMap {
   loop: CustomEvent<{ count: number }>;
   /** A `loop="once"` clip reached its end and stopped. */
   finished: CustomEvent<Record<string, never>>;
+  /** While a model loads: 0–1 (the download to 0.95), and 1 just before its `load`. */
+  progress: CustomEvent<{ totalProgress: number }>;
+  /** The `poster` went away (the model's first frame, or `dismissPoster()`). */
+  'poster-dismissed': CustomEvent<Record<string, never>>;
 }
 
 export type SkinningMethod = 'rigid' | 'lbs' | 'dqs' | 'sjb';
@@ -49,7 +53,7 @@ export interface KloubSample {
  * Values are strings, as in `HTMLElement.dataset`.
  */
 export interface KloubViewerState {
-  status?: 'loading' | 'ready' | 'error' | 'lost';
+  status?: 'waiting' | 'loading' | 'ready' | 'error' | 'lost';
   error?: string;
   backend?: 'webgpu' | 'webgl2';
   model?: string;
@@ -124,6 +128,15 @@ export declare class KloubViewer extends HTMLElement {
   background: Background | string;
   /** The accessible name (attribute `alt`); without `controls` the element has the role `img`. */
   alt: string;
+  /** When the model is fetched (attribute `loading`): `auto` and `eager` at once, `lazy` once the element nears the
+   *  viewport (until then `data-status` is `waiting` and nothing is fetched). */
+  loading: 'auto' | 'lazy' | 'eager';
+  /** An image shown until the model's first frame (attribute `poster`). */
+  poster: string;
+  /** `auto`: the poster goes at the model's first frame; `manual`: only at `dismissPoster()` (attribute `reveal`). */
+  reveal: 'auto' | 'manual';
+  /** Hides the poster (fires `poster-dismissed`). */
+  dismissPoster(): void;
   /** The ground grid (attribute `grid`; `grid="false"` turns it off): by default on with `controls` only. */
   grid: boolean;
   /* Attribute `min-pixel-ratio`: the lowest resolution (canvas pixels per CSS pixel, default 0.5) a viewer without

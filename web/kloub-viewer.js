@@ -21,6 +21,7 @@ const TICK = Symbol('tick');
 const SHOW = Symbol('show');
 const REVIVE = Symbol('revive');
 const SIZE = Symbol('size');
+const NEAR = Symbol('near');
 
 /**
  * The wasm module's exports, instantiated once per page (and again after a panic: a new instance from the same
@@ -104,6 +105,10 @@ function adapt(now) {
 const visibility = new IntersectionObserver((entries) => {
   for (const entry of entries) entry.target[SHOW](entry.isIntersecting);
 });
+/** `loading="lazy"` elements: mounted (module, viewer, model download) once they come within half a screen. */
+const nearby = new IntersectionObserver((entries) => {
+  for (const entry of entries) if (entry.isIntersecting) entry.target[NEAR]();
+}, { rootMargin: '50% 0px' });
 const sizes = new ResizeObserver((entries) => {
   for (const entry of entries) entry.target[SIZE](entry.contentRect.width, entry.contentRect.height);
 });
@@ -124,6 +129,8 @@ canvas { display: block; width: 100%; height: 100%; outline: none; touch-action:
 .kloub-loading { position: absolute; inset: 0; display: flex; align-items: center; justify-content: center;
   font: 14px system-ui, sans-serif; color: #888; pointer-events: none; }
 :host(:not([data-status="loading"])) .kloub-loading { display: none; }
+.kloub-poster { position: absolute; inset: 0; width: 100%; height: 100%; object-fit: contain; pointer-events: none; }
+.kloub-poster[hidden] { display: none; }
 `;
 
 const LOOP_MODES = new Set(['once', 'repeat', 'pingpong']);
@@ -231,10 +238,15 @@ async function droppedFiles(dataTransfer) {
 export class KloubViewer extends HTMLElement {
   static observedAttributes = [
     'src', 'autoplay', 'animation-name', 'speed', 'loop', 'crossfade-duration', 'layer-clip', 'layer-root',
-    'skinning', 'backend', 'controls', 'min-pixel-ratio', 'background', 'grid', 'alt',
+    'skinning', 'backend', 'controls', 'min-pixel-ratio', 'background', 'grid', 'alt', 'loading', 'poster', 'reveal',
   ];
 
   #viewer = null;
+  /** `loading="lazy"`: the element has come near the viewport (it mounts from then on). */
+  #near = false;
+  /** The `poster` image, shown until the first frame of a model (or `dismissPoster()` with `reveal="manual"`). */
+  #poster;
+  #posterDismissed = false;
   /** ElementInternals: the element's role and accessible name, without touching its attributes. */
   #internals;
   #canvas;
@@ -287,7 +299,12 @@ export class KloubViewer extends HTMLElement {
       return input;
     });
     this.#canvas = this.#newCanvas();
-    root.append(style, this.#canvas, loading, this.#note, ...this.#pickers);
+    this.#poster = document.createElement('img');
+    this.#poster.className = 'kloub-poster';
+    this.#poster.setAttribute('part', 'poster');
+    this.#poster.alt = '';
+    this.#poster.hidden = true;
+    root.append(style, this.#canvas, this.#poster, loading, this.#note, ...this.#pickers);
     // Drops are read here (folders too) and handed over whole; capture runs before the canvas's own handler.
     const drag = (on) => (event) => {
       if (!this.hasAttribute('controls') || !event.dataTransfer) return;
@@ -408,13 +425,45 @@ export class KloubViewer extends HTMLElement {
     visibility.observe(this);
     sizes.observe(this);
     this.#present();
-    if (!this.#mounting) this.#mounting = this.#mount();
+    this.#showPoster();
+    if (this.#mounting) return;
+    if (this.getAttribute('loading') === 'lazy' && !this.#near) {
+      // Nothing is fetched (module, model) until the element nears the viewport.
+      this.dataset.status = 'waiting';
+      nearby.observe(this);
+      return;
+    }
+    this.#mounting = this.#mount();
+  }
+
+  /** A `loading="lazy"` element came near the viewport (or stopped being lazy): mount it now. */
+  [NEAR]() {
+    nearby.unobserve(this);
+    this.#near = true;
+    if (this.isConnected && !this.#mounting && !this.#teardown) this.#mounting = this.#mount();
+  }
+
+  /** Shows the `poster` image while no model has been revealed yet. */
+  #showPoster() {
+    const src = this.getAttribute('poster');
+    if (src && this.#poster.getAttribute('src') !== src) this.#poster.src = src;
+    this.#poster.hidden = !src || this.#posterDismissed;
+  }
+
+  /** Hides the poster for good and says so (`poster-dismissed`), once. */
+  dismissPoster() {
+    if (this.#posterDismissed) return;
+    this.#posterDismissed = true;
+    const shown = !this.#poster.hidden;
+    this.#poster.hidden = true;
+    if (shown) this.dispatchEvent(new CustomEvent('poster-dismissed', { detail: {} }));
   }
 
   disconnectedCallback() {
     // Moving the element within the page reconnects it at once: only a real removal stops the viewer.
     this.#teardown = setTimeout(() => {
       this.#teardown = null;
+      nearby.unobserve(this);
       visibility.unobserve(this);
       sizes.unobserve(this);
       this.#unmount();
@@ -430,6 +479,8 @@ export class KloubViewer extends HTMLElement {
 
   attributeChangedCallback(name, old, value) {
     if (name === 'alt' || name === 'controls' || name === 'background') this.#present();
+    if (name === 'poster') this.#showPoster();
+    if (name === 'loading' && value !== 'lazy' && this.isConnected && !this.#mounting) this[NEAR]();
     const viewer = this.#viewer;
     if (!viewer || old === value) return;
     try {
@@ -685,7 +736,12 @@ export class KloubViewer extends HTMLElement {
     let data;
     switch (type) {
       case 'error': data = { message: detail }; break;
-      case 'load': data = { name: detail }; break;
+      case 'load':
+        data = { name: detail };
+        // The first frame of a model is on screen: the poster goes, unless the page reveals it itself.
+        if (this.getAttribute('reveal') !== 'manual') queueMicrotask(() => this.dismissPoster());
+        break;
+      case 'progress': data = { totalProgress: Number(detail) }; break;
       case 'timeupdate': this.#pendingTime = null; data = { currentTime: Number(detail) }; break;
       case 'loop': data = { count: Number(detail) }; break;
       default: data = {};
@@ -742,6 +798,16 @@ export class KloubViewer extends HTMLElement {
     }
     this.setAttribute('background', value);
   }
+  /** When the model is fetched (attribute `loading`): `auto` and `eager` at once, `lazy` when the element nears
+   *  the viewport. */
+  get loading() { const v = this.getAttribute('loading'); return v === 'lazy' || v === 'eager' ? v : 'auto'; }
+  set loading(value) { this.setAttribute('loading', oneOf('loading', 'value', value, ['auto', 'lazy', 'eager'])); }
+  /** An image shown until the model's first frame (attribute `poster`). */
+  get poster() { return this.getAttribute('poster') ?? ''; }
+  set poster(value) { this.setAttribute('poster', url('poster', 'value', value)); }
+  /** `auto`: the poster goes at the model's first frame; `manual`: at `dismissPoster()` (attribute `reveal`). */
+  get reveal() { return this.getAttribute('reveal') === 'manual' ? 'manual' : 'auto'; }
+  set reveal(value) { this.setAttribute('reveal', oneOf('reveal', 'value', value, ['auto', 'manual'])); }
   /** The accessible name (attribute `alt`). */
   get alt() { return this.getAttribute('alt') ?? ''; }
   set alt(value) { this.setAttribute('alt', str('alt', 'value', value)); }

@@ -2,6 +2,7 @@
 // Prints one line per test and closes with "browser: N passed, M failed"; exits 1 on any failure.
 import { copyFileSync, mkdirSync, mkdtempSync, readFileSync, rmSync, writeFileSync } from 'node:fs';
 import { tmpdir } from 'node:os';
+import { PNG } from 'pngjs';
 import { basename, join } from 'node:path';
 import {
   ROOT, SHARED, control, dataset, diffFraction, dropFiles, makeZip, nonBackgroundFraction, openBrowser, pageUrl, recordEvents,
@@ -1023,6 +1024,63 @@ test('<kloub-viewer>: a panic inside the module: every viewer comes back from it
   // Methods reach the new instance.
   await page.evaluate(() => document.getElementById('left').setSkinning('sjb'));
   await waitForDataset(page, () => document.getElementById('left').dataset.skinning === 'sjb', 'a method call after the recovery');
+});
+
+test('<kloub-viewer>: loading="lazy" fetches only the models near the view; poster until the first frame (reveal manual: until dismissPoster); progress reaches 1 before load', async (ctx) => {
+  const { page } = ctx;
+  const fetched = new Set();
+  page.on('request', (r) => { const m = /Fox\.glb\?lazy=(\d+)/.exec(r.url()); if (m) fetched.add(Number(m[1])); });
+  await page.setViewportSize({ width: 800, height: 600 });
+  await page.goto(`${ctx.url}/embed.html`);
+  const posterShown = await page.evaluate(() => {
+    document.body.innerHTML = '';
+    document.body.style.margin = '0';
+    window.__events = [];
+    for (let i = 0; i < 30; i++) {
+      const v = document.createElement('kloub-viewer');
+      v.id = `v${i}`;
+      v.setAttribute('loading', 'lazy');
+      v.setAttribute('src', `/assets/Fox.glb?lazy=${i}`);
+      v.style.cssText = 'width:300px;height:250px;margin-bottom:150px';
+      for (const type of ['progress', 'load', 'poster-dismissed']) v.addEventListener(type, (e) => window.__events.push([i, type, e.detail]));
+      document.body.append(v);
+    }
+    // A poster (a red image) on the first: shown at once, before any frame.
+    const red = document.createElement('canvas');
+    red.width = 4; red.height = 3;
+    const g = red.getContext('2d'); g.fillStyle = 'rgb(220, 20, 20)'; g.fillRect(0, 0, 4, 3);
+    const first = document.getElementById('v0');
+    first.poster = red.toDataURL('image/png');
+    first.reveal = 'manual';
+    const img = first.shadowRoot.querySelector('.kloub-poster');
+    return !img.hidden && img.getAttribute('src').startsWith('data:image/png');
+  });
+  assert(posterShown, 'the poster is not shown before the first frame');
+  await page.waitForFunction(() => ['v0', 'v1'].every((id) => document.getElementById(id).dataset.status === 'ready'), null, { timeout: 60000 });
+  await page.waitForFunction(() => window.__events.some(([i, t]) => i === 0 && t === 'load'), null, { timeout: 30000 });
+  // 400 px per element, 600 px of view plus half a screen below: the first three at most.
+  const early = [...fetched].sort((a, b) => a - b);
+  assert(early.length >= 2 && early.every((i) => i <= 3), `fetched before scrolling: ${early}`);
+  const far = await page.evaluate(() => document.getElementById('v29').dataset.status);
+  assert(far === 'waiting', `the last viewer's status before scrolling: ${far}`);
+  // progress: 0..1, never down, 1 right before load.
+  const events = await page.evaluate(() => window.__events.filter(([i]) => i === 0));
+  const progress = events.filter(([, t]) => t === 'progress').map(([, , d]) => d.totalProgress);
+  assert(progress.length > 0 && progress.every((p, k) => p >= 0 && p <= 1 && (k === 0 || p >= progress[k - 1])), `progress ${progress}`);
+  const loadAt = events.findIndex(([, t]) => t === 'load');
+  assert(loadAt > 0 && events[loadAt - 1][1] === 'progress' && events[loadAt - 1][2].totalProgress === 1, `events ${JSON.stringify(events)}`);
+  // reveal="manual": the poster stays over the model until dismissPoster().
+  const shot = PNG.sync.read(await page.screenshot({ clip: { x: 0, y: 0, width: 300, height: 250 } }));
+  const centre = ((125 * 300) + 150) * 4;
+  assert(shot.data[centre] > 200 && shot.data[centre + 1] < 40, `the poster is not on screen after load: ${[...shot.data.slice(centre, centre + 3)]}`);
+  await page.evaluate(() => document.getElementById('v0').dismissPoster());
+  const after = await page.evaluate(() => ({ hidden: document.getElementById('v0').shadowRoot.querySelector('.kloub-poster').hidden, events: window.__events.filter(([i, t]) => i === 0 && t === 'poster-dismissed').length }));
+  assert(after.hidden && after.events === 1, `after dismissPoster: ${JSON.stringify(after)}`);
+  // Scrolled to the end, the last ones load.
+  await page.evaluate(() => document.getElementById('v29').scrollIntoView());
+  await page.waitForFunction(() => document.getElementById('v29').dataset.status === 'ready', null, { timeout: 60000 });
+  assert(fetched.has(29), 'the last model was not fetched after scrolling to it');
+  assert(fetched.size < 30, `every model was fetched (${fetched.size}), not only those scrolled past`);
 });
 
 test('<kloub-viewer>: only viewers in view draw; out of view an autoplaying one draws nothing and comes back where it would be; a paused one draws nothing', async (ctx) => {

@@ -167,6 +167,8 @@ pub struct App {
     announce_load: bool,
     /// Whether the main clock ran at the last report (`play`/`pause` events).
     reported_playing: bool,
+    /// The last `progress` event's value (0–1) for the model being loaded; negative: none yet.
+    reported_progress: f64,
 
     /// Where each IK target was drawn last frame, in points (for `dataset.ikTarget`).
     ik_markers: Vec<Pos2>,
@@ -389,6 +391,7 @@ impl App {
             drop_hint: false,
             announce_load: false,
             reported_playing: false,
+            reported_progress: -1.0,
         };
         app.controls.set_repaint(ctx.clone());
         app.controls.set_supports_compute(app.scene.supports_compute());
@@ -1589,7 +1592,7 @@ impl App {
         let progress = self.inbox.progress().filter(|_| self.status == Status::Loading);
         d.set(
             Key::Progress,
-            &progress.map_or(String::new(), |p| {
+            &progress.as_ref().map_or(String::new(), |p| {
                 format!("{}/{}", p.received, p.total.map_or(String::new(), |t| t.to_string()))
             }),
         );
@@ -1644,8 +1647,24 @@ impl App {
         if model.is_some() && time_moved {
             d.host().emit("timeupdate", d.get(Key::Time).unwrap_or(""));
         }
+        // model-viewer's `progress`: the download's share (to 0.95; the rest is decoding and the first frame)
+        // while a model loads, in steps of at least 1 %, then 1 just before its `load`.
+        let download = progress
+            .as_ref()
+            .and_then(|p| p.total.filter(|&t| t > 0).map(|t| (p.received as f64 / t as f64).min(1.0) * 0.95));
+        if let Some(fraction) = download
+            && (self.reported_progress < 0.0 || fraction - self.reported_progress >= 0.01)
+        {
+            self.reported_progress = fraction;
+            d.host().emit("progress", &format!("{fraction:.4}"));
+        }
         if self.announce_load && self.frames > 0 {
             self.announce_load = false;
+            if self.reported_progress < 1.0 {
+                d.host().emit("progress", "1");
+            }
+            // The next load reports from 0 again.
+            self.reported_progress = -1.0;
             d.host().emit("load", model.map_or("", |m| m.name.as_str()));
         }
     }
