@@ -206,6 +206,11 @@ export declare class KloubViewer extends HTMLElement {
   setBackground(name: Background): void;
   /** Downloads the view as `<model>.png`. */
   screenshot(): void;
+  /** The current frame at the canvas's size in device pixels, transparent where the background is; no download
+   *  (model-viewer's `toBlob`; `idealAspect` is not supported). */
+  toBlob(options?: { mimeType?: string; qualityArgument?: number }): Promise<Blob>;
+  /** The current frame as a data URL (default `image/png`). */
+  toDataURL(type?: string, encoderOptions?: number): string;
   /** Shows or hides the ground grid. */
   setGrid(on: boolean): void;
   /** Shows 1 to 100 characters in a grid, each 0.37 s behind the previous. */

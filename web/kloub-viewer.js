@@ -242,6 +242,8 @@ export class KloubViewer extends HTMLElement {
   ];
 
   #viewer = null;
+  /** Canvas pixels per CSS pixel of the last frame drawn. */
+  #ppp = 1;
   /** `loading="lazy"`: the element has come near the viewport (it mounts from then on). */
   #near = false;
   /** The `poster` image, shown until the first frame of a model (or `dismissPoster()` with `reveal="manual"`). */
@@ -663,6 +665,7 @@ export class KloubViewer extends HTMLElement {
     const dpr = window.devicePixelRatio || 1;
     const floor = Math.min(dpr, this.#minPixelRatio());
     const ppp = this.hasAttribute('controls') ? dpr : Math.max(floor, dpr * loop.scale);
+    this.#ppp = ppp;
     const next = viewer.frame(now, Math.max(1, Math.round(css[0] * ppp)), Math.max(1, Math.round(css[1] * ppp)), ppp);
     if (next < 0) {
       this.#onLost('the device is gone');
@@ -1035,6 +1038,50 @@ export class KloubViewer extends HTMLElement {
   }
   /** Downloads the view as `<model>.png`. */
   screenshot() { this.#call('screenshot', (v) => v.screenshot()); }
+
+  /**
+   * The view as it is now, at the canvas's size in device pixels, transparent where the background is (a CSS
+   * colour `background` is not in it), in a 2D canvas of its own. A frame is drawn now and copied in the same task:
+   * neither a WebGPU canvas nor the page's WebGL2 canvas keeps its pixels after the frame is shown.
+   */
+  #snapshot(method) {
+    this.#require();
+    if (this.#lost) throw new Error(`${method}: the graphics context is lost`);
+    this.#draw(performance.now());
+    // The page's only WebGL2 viewer shows the shared canvas (placed after its own) instead of its own; every viewer
+    // is drawn in the top-left corner of what it shows. The 3D view is `data-viewport` (CSS px) within it.
+    const shown = [...this.shadowRoot.querySelectorAll('canvas')].find((c) => c !== this.#canvas) ?? this.#canvas;
+    const [x, y, w, h] = (this.dataset.viewport ?? '').split(',').map(Number);
+    const ppp = this.#ppp;
+    const sx = Math.round((x || 0) * ppp);
+    const sy = Math.round((y || 0) * ppp);
+    const width = Math.max(1, Math.min(shown.width - sx, Math.round((w || this.#canvas.clientWidth) * ppp)));
+    const height = Math.max(1, Math.min(shown.height - sy, Math.round((h || this.#canvas.clientHeight) * ppp)));
+    const copy = document.createElement('canvas');
+    copy.width = width;
+    copy.height = height;
+    copy.getContext('2d').drawImage(shown, sx, sy, width, height, 0, 0, width, height);
+    return copy;
+  }
+
+  /** The current frame as an image Blob (model-viewer's `toBlob`; default `image/png`), without downloading. */
+  toBlob(options = {}) {
+    const m = 'toBlob';
+    if (options === null || typeof options !== 'object') throw new TypeError(`${m}: options must be an object`);
+    const { mimeType = 'image/png', qualityArgument } = options;
+    str(m, 'mimeType', mimeType);
+    if (qualityArgument !== undefined) num(m, 'qualityArgument', qualityArgument, { min: 0, max: 1 });
+    const copy = this.#snapshot(m);
+    return new Promise((resolve, reject) => copy.toBlob(
+      (blob) => (blob ? resolve(blob) : reject(new Error(`${m}: the browser made no ${mimeType} image`))), mimeType, qualityArgument));
+  }
+
+  /** The current frame as a data URL (model-viewer's `toDataURL`; default `image/png`). */
+  toDataURL(type = 'image/png', encoderOptions = undefined) {
+    str('toDataURL', 'type', type);
+    if (encoderOptions !== undefined) num('toDataURL', 'encoderOptions', encoderOptions, { min: 0, max: 1 });
+    return this.#snapshot('toDataURL').toDataURL(type, encoderOptions);
+  }
   setCopies(n) {
     num('setCopies', 'n', n, { min: 1, max: MAX_COPIES, integer: true });
     this.#call('setCopies', (v) => v.setCopies(n));

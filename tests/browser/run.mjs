@@ -371,7 +371,7 @@ for (const backend of BACKENDS) {
     assert((await page.evaluate(() => document.getElementById('right').dataset.clip)) === 'Run', 'the other viewer changed too');
   });
 
-  test(`${backend}: a <kloub-viewer> without background shows the page around the model; background (a theme or a CSS colour), grid and alt attributes`, async (ctx) => {
+  test(`${backend}: a <kloub-viewer> without background shows the page around the model; background (a theme or a CSS colour), grid and alt attributes; toBlob and toDataURL`, async (ctx) => {
     const { page } = ctx;
     await page.goto(`${ctx.url}/embed.html`);
     await page.evaluate((backend) => {
@@ -397,6 +397,19 @@ for (const backend of BACKENDS) {
     // The page's red all around the model, and the model itself (not red) in the middle.
     assert(red(shot) > 0.6 && red(shot) < 0.99, `red (the page) on ${(red(shot) * 100).toFixed(1)}% of the viewer`);
     assert(nonBackgroundFraction(shot) > 0.02, 'no model over the page');
+    // toBlob / toDataURL: the frame at the element's size, transparent where the background is, no download.
+    const blob = await page.evaluate(async () => {
+      const b = await document.querySelector('kloub-viewer').toBlob();
+      return { type: b.type, size: b.size };
+    });
+    assert(blob.type === 'image/png' && blob.size > 1000, `toBlob: ${JSON.stringify(blob)}`);
+    const dataUrl = await page.evaluate(() => document.querySelector('kloub-viewer').toDataURL());
+    const png = PNG.sync.read(Buffer.from(dataUrl.replace(/^data:image\/png;base64,/, ''), 'base64'));
+    let opaque = 0;
+    for (let i = 3; i < png.data.length; i += 4) if (png.data[i] === 255) opaque++;
+    const opaqueShare = opaque / (png.width * png.height);
+    assert(png.width === 400 && png.height === 300, `toDataURL: ${png.width}×${png.height}`);
+    assert(png.data[3] === 0 && opaqueShare > 0.02 && opaqueShare < 0.9, `toDataURL: corner alpha ${png.data[3]}, ${(opaqueShare * 100).toFixed(1)}% opaque`);
     // A background covers the page; the grid attribute draws the ground grid over it.
     await page.evaluate(() => { const v = document.querySelector('kloub-viewer'); v.setAttribute('background', 'light'); v.grid = true; });
     await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.background === 'light' && document.querySelector('kloub-viewer').dataset.grid === 'true', 'background and grid');
@@ -633,8 +646,12 @@ for (const backend of BACKENDS) {
         setGrid: [true], setOverlays: [{ skeleton: false }], stopRagdoll: [0], setRagdollOptions: [{ gravity: 9.81 }],
         selectJoint: ['b_Head_05'], setMorphWeight: ['fox', 0, 0.5], setLighting: ['studio'], setBackground: ['dark'],
         setCopies: [1], loadSample: ['Fox'], setCandyPose: [0, 0], load: [[]],
+        toBlob: [{ mimeType: 'image/png', qualityArgument: 0.9 }], toDataURL: ['image/png', 0.9],
       };
-      const setters = { currentTime: 0.1, speed: 1, camera: [0.5, 0.3, 200, 0, 30, 0], loop: 'repeat', skinning: 'lbs', animationName: 'Walk', src: '/models/default.glb' };
+      const setters = {
+        currentTime: 0.1, speed: 1, camera: [0.5, 0.3, 200, 0, 30, 0], loop: 'repeat', skinning: 'lbs', animationName: 'Walk', src: '/models/default.glb',
+        background: 'dark', grid: true, alt: 'a model', loading: 'eager', reveal: 'auto',
+      };
       const calls = [];
       for (const [method, args] of Object.entries(valid)) {
         for (let pos = 0; pos < args.length; pos++) {
