@@ -20,6 +20,8 @@ export interface KloubViewerEventMap {
   progress: CustomEvent<{ totalProgress: number }>;
   /** The `poster` went away (the model's first frame, or `dismissPoster()`). */
   'poster-dismissed': CustomEvent<Record<string, never>>;
+  /** The camera moved (after the frame that shows it). */
+  'camera-change': CustomEvent<{ source: 'user-interaction' | 'none' }>;
 }
 
 export type SkinningMethod = 'rigid' | 'lbs' | 'dqs' | 'sjb';
@@ -137,6 +139,9 @@ export declare class KloubViewer extends HTMLElement {
   reveal: 'auto' | 'manual';
   /** Hides the poster (fires `poster-dismissed`). */
   dismissPoster(): void;
+  /* Attributes without properties: `camera-controls` (user orbit/zoom/pan and keys; otherwise the view takes no
+     input), `camera-orbit` ("θ φ r", deg/rad, m/cm/mm/%, auto), `camera-target` ("x y z", auto), `auto-rotate`,
+     `auto-rotate-delay` (ms, default 3000), `rotation-per-second` (default π/32 rad). */
   /** The ground grid (attribute `grid`; `grid="false"` turns it off): by default on with `controls` only. */
   grid: boolean;
   /* Attribute `min-pixel-ratio`: the lowest resolution (canvas pixels per CSS pixel, default 0.5) a viewer without

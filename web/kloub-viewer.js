@@ -119,10 +119,50 @@ document.addEventListener('visibilitychange', () => {
 /** Modifier bits of an input event: 1 Alt, 2 Ctrl, 4 Shift, 8 Meta. */
 const modifierBits = (e) => (e.altKey ? 1 : 0) | (e.ctrlKey ? 2 : 0) | (e.shiftKey ? 4 : 0) | (e.metaKey ? 8 : 0);
 
+/** A CSS-style angle (`30deg`, `0.5rad`, a bare number is radians) in radians, or null for `auto`. */
+function parseAngle(attr, token) {
+  if (token === 'auto') return null;
+  const m = /^(-?(?:\d+\.?\d*|\.\d+)(?:e[-+]?\d+)?)(deg|rad)?$/i.exec(token);
+  if (!m) throw new RangeError(`${attr}: "${token}" is not an angle (e.g. 30deg, 0.5rad, auto)`);
+  const v = Number(m[1]);
+  return (m[2] ?? 'rad').toLowerCase() === 'deg' ? (v * Math.PI) / 180 : v;
+}
+/** A length (`2m`, `150cm`, `20mm`, a bare number is metres, `%` of `auto`) in metres, or null for `auto`. */
+function parseLength(attr, token, auto) {
+  if (token === 'auto') return null;
+  const m = /^(-?(?:\d+\.?\d*|\.\d+)(?:e[-+]?\d+)?)(m|cm|mm|%)?$/i.exec(token);
+  if (!m) throw new RangeError(`${attr}: "${token}" is not a length (e.g. 2m, 150cm, 50%, auto)`);
+  const v = Number(m[1]);
+  switch ((m[2] ?? 'm').toLowerCase()) {
+    case 'cm': return v / 100;
+    case 'mm': return v / 1000;
+    case '%': return (v / 100) * auto;
+    default: return v;
+  }
+}
+/** model-viewer's `camera-orbit` ("θ φ r", any of them `auto`) over the framed camera `[yaw, pitch, distance, …]`. */
+function parseOrbit(text, framed) {
+  const t = String(text).trim().split(/\s+/);
+  if (t.length > 3 || t[0] === '') throw new RangeError(`camera-orbit: "${text}": expected "θ φ r" (e.g. "30deg 75deg 2m")`);
+  const theta = parseAngle('camera-orbit', t[0] ?? 'auto');
+  const phi = parseAngle('camera-orbit', t[1] ?? 'auto');
+  const r = parseLength('camera-orbit', t[2] ?? 'auto', framed[2]);
+  if (r !== null && !(r > 0)) throw new RangeError(`camera-orbit: radius "${t[2]}": expected a positive length`);
+  // θ turns the eye from +Z towards +X (Kloub's yaw); φ is measured down from +Y (Kloub's pitch is up from the horizon).
+  return [theta ?? framed[0], phi === null ? framed[1] : Math.PI / 2 - phi, r ?? framed[2]];
+}
+/** model-viewer's `camera-target` ("x y z", lengths or `auto`) over the framed target. */
+function parseTarget(text, framed) {
+  const t = String(text).trim().split(/\s+/);
+  if (t.length !== 3) throw new RangeError(`camera-target: "${text}": expected "x y z" (e.g. "0m 1m 0m")`);
+  return t.map((token, i) => parseLength('camera-target', token, framed[3 + i]) ?? framed[3 + i]);
+}
+
 const STYLE = `
 :host { display: block; position: relative; width: 300px; height: 150px; overflow: hidden; }
 :host([hidden]) { display: none; }
-canvas { display: block; width: 100%; height: 100%; outline: none; touch-action: none; }
+canvas { display: block; width: 100%; height: 100%; outline: none; touch-action: auto; }
+:host([controls]) canvas, :host([camera-controls]) canvas { touch-action: none; }
 .kloub-note { position: absolute; inset: auto 0 0 0; padding: 6px 10px; font: 13px system-ui, sans-serif;
   color: #eee; background: rgba(20, 20, 20, 0.8); pointer-events: none; }
 .kloub-note[hidden] { display: none; }
@@ -239,11 +279,21 @@ export class KloubViewer extends HTMLElement {
   static observedAttributes = [
     'src', 'autoplay', 'animation-name', 'speed', 'loop', 'crossfade-duration', 'layer-clip', 'layer-root',
     'skinning', 'backend', 'controls', 'min-pixel-ratio', 'background', 'grid', 'alt', 'loading', 'poster', 'reveal',
+    'camera-controls', 'camera-orbit', 'camera-target', 'auto-rotate', 'auto-rotate-delay', 'rotation-per-second',
   ];
 
   #viewer = null;
   /** Canvas pixels per CSS pixel of the last frame drawn. */
   #ppp = 1;
+  /** The camera as the model was framed at its load ([yaw, pitch, distance, x, y, z]): `auto` in camera-orbit/target. */
+  #framed = null;
+  /** When the user last moved the camera (ms), for auto-rotate's delay; and whether input came since the last frame. */
+  #interacted = -Infinity;
+  #userInput = false;
+  /** The camera mirrored after the last frame, to fire `camera-change` when it moves. */
+  #lastCamera = '';
+  /** The time of the last frame drawn (auto-rotate's step). */
+  #lastDraw = 0;
   /** `loading="lazy"`: the element has come near the viewport (it mounts from then on). */
   #near = false;
   /** The `poster` image, shown until the first frame of a model (or `dismissPoster()` with `reveal="manual"`). */
@@ -333,6 +383,13 @@ export class KloubViewer extends HTMLElement {
     const input = (fn) => (event) => {
       const viewer = this.#viewer;
       if (!viewer || this.#lost) return;
+      // Without `controls` or `camera-controls` the view takes no input: the page keeps its scrolling and keys.
+      if (!this.#interactive() && event.type !== 'focus' && event.type !== 'blur') return;
+      if (event.type !== 'focus' && event.type !== 'blur' && event.type !== 'pointerleave'
+        && (event.type !== 'pointermove' || event.buttons !== 0)) {
+        this.#interacted = performance.now();
+        this.#userInput = true;
+      }
       // A press, release or key after other input not yet drawn: draw that input first, so that a quick press,
       // move and release (a drag between two animation frames) reaches the viewer as a drag, not as one click, and
       // keys typed right after a click on a text field reach the field the click focused.
@@ -409,6 +466,8 @@ export class KloubViewer extends HTMLElement {
    *  `controls` it is an application of its own), and a CSS colour `background` behind the transparent canvas. */
   #present() {
     this.#internals.role = this.hasAttribute('controls') ? null : 'img';
+    // A view that takes no input is no tab stop.
+    this.#canvas.tabIndex = this.#interactive() ? 0 : -1;
     this.#internals.ariaLabel = this.getAttribute('alt');
     this.#canvas.style.backgroundColor = this.#cssBackground() ?? '';
   }
@@ -482,6 +541,9 @@ export class KloubViewer extends HTMLElement {
   attributeChangedCallback(name, old, value) {
     if (name === 'alt' || name === 'controls' || name === 'background') this.#present();
     if (name === 'poster') this.#showPoster();
+    if (name === 'camera-orbit' || name === 'camera-target') this.#applyCameraAttributes();
+    if (name === 'auto-rotate' || name === 'auto-rotate-delay') { this.#interacted = performance.now(); this.#wake(0); }
+    if (name === 'camera-controls') this.#present();
     if (name === 'loading' && value !== 'lazy' && this.isConnected && !this.#mounting) this[NEAR]();
     const viewer = this.#viewer;
     if (!viewer || old === value) return;
@@ -666,13 +728,66 @@ export class KloubViewer extends HTMLElement {
     const floor = Math.min(dpr, this.#minPixelRatio());
     const ppp = this.hasAttribute('controls') ? dpr : Math.max(floor, dpr * loop.scale);
     this.#ppp = ppp;
+    const rotating = this.#autoRotate(now);
     const next = viewer.frame(now, Math.max(1, Math.round(css[0] * ppp)), Math.max(1, Math.round(css[1] * ppp)), ppp);
     if (next < 0) {
       this.#onLost('the device is gone');
       return [Infinity, 0];
     }
-    this.#due = now + next;
+    this.#lastDraw = now;
+    const camera = this.dataset.camera ?? '';
+    if (this.loaded && camera !== this.#lastCamera) {
+      const source = this.#userInput ? 'user-interaction' : 'none';
+      if (this.#lastCamera !== '') queueMicrotask(() => this.dispatchEvent(new CustomEvent('camera-change', { detail: { source } })));
+      this.#lastCamera = camera;
+    }
+    this.#userInput = false;
+    // Turning, the next frame is due at once; waiting for the delay, when it ends.
+    const wait = rotating === null ? next : rotating;
+    this.#due = now + Math.min(next, wait);
     return [this.#due, 1];
+  }
+
+  /** `controls` or `camera-controls`: the view takes pointer, wheel, touch and keys. */
+  #interactive() { return this.hasAttribute('controls') || this.hasAttribute('camera-controls'); }
+
+  /**
+   * `auto-rotate`: turns the camera about the target at `rotation-per-second` (default π/32 rad, as model-viewer),
+   * from `auto-rotate-delay` ms (default 3000) after the load or the user's last camera input. Returns null when
+   * not rotating, 0 when turning (the next frame is due now), else the ms left of the delay.
+   */
+  #autoRotate(now) {
+    if (!this.hasAttribute('auto-rotate') || !this.loaded || this.#framed === null) return null;
+    const delayAttr = Number(this.getAttribute('auto-rotate-delay') ?? 3000);
+    const delay = Number.isFinite(delayAttr) && delayAttr >= 0 ? delayAttr : 3000;
+    const left = this.#interacted + delay - now;
+    if (left > 0) return left;
+    let rate = Math.PI / 32;
+    const text = this.getAttribute('rotation-per-second');
+    if (text) {
+      try { rate = parseAngle('rotation-per-second', text.trim()) ?? rate; } catch (e) { console.warn(`kloub-viewer: ${e.message}`); }
+    }
+    const dt = Math.min(0.1, Math.max(0, (now - this.#lastDraw) / 1000));
+    const c = this.camera;
+    if (c.length === 6 && dt > 0) this.#viewer.setCamera(c[0] + rate * dt, c[1], c[2], c[3], c[4], c[5]);
+    return 0;
+  }
+
+  /** Applies `camera-orbit` and `camera-target` over the camera the model was framed with. */
+  #applyCameraAttributes() {
+    const framed = this.#framed;
+    if (!framed || !this.#viewer) return;
+    const orbit = this.getAttribute('camera-orbit');
+    const target = this.getAttribute('camera-target');
+    if (orbit === null && target === null) return;
+    try {
+      const [yaw, pitch, distance] = orbit === null ? framed.slice(0, 3) : parseOrbit(orbit, framed);
+      const [x, y, z] = target === null ? framed.slice(3) : parseTarget(target, framed);
+      this.#viewer.setCamera(yaw, pitch, distance, x, y, z);
+      this.#wake(0);
+    } catch (e) {
+      console.warn(`kloub-viewer: ${e.message}`);
+    }
   }
 
   /** The `background` attribute, or the default: `transparent` for an embedded viewer (the page shows through, as
@@ -741,6 +856,10 @@ export class KloubViewer extends HTMLElement {
       case 'error': data = { message: detail }; break;
       case 'load':
         data = { name: detail };
+        // The framing of the new model is what camera-orbit/camera-target's `auto` and `%` refer to.
+        this.#framed = this.camera.length === 6 ? this.camera : null;
+        this.#interacted = performance.now();
+        this.#applyCameraAttributes();
         // The first frame of a model is on screen: the poster goes, unless the page reveals it itself.
         if (this.getAttribute('reveal') !== 'manual') queueMicrotask(() => this.dismissPoster());
         break;

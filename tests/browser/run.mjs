@@ -1100,6 +1100,64 @@ test('<kloub-viewer>: loading="lazy" fetches only the models near the view; post
   assert(fetched.size < 30, `every model was fetched (${fetched.size}), not only those scrolled past`);
 });
 
+test('<kloub-viewer>: camera-orbit and camera-target over the framing; camera-controls gates input; auto-rotate turns and waits after interaction; camera-change says who moved it', async (ctx) => {
+  const { page } = ctx;
+  await page.setViewportSize({ width: 800, height: 600 });
+  await page.goto(`${ctx.url}/embed.html`);
+  await page.evaluate(() => {
+    document.body.innerHTML = '';
+    document.body.style.margin = '0';
+    window.__changes = [];
+    const v = document.createElement('kloub-viewer');
+    v.setAttribute('src', '/assets/Fox.glb');
+    v.style.cssText = 'width:400px;height:300px';
+    v.addEventListener('camera-change', (e) => window.__changes.push(e.detail.source));
+    document.body.append(v);
+  });
+  await waitForDataset(page, () => document.querySelector('kloub-viewer').loaded, 'the model');
+  const camera = () => page.evaluate(() => document.querySelector('kloub-viewer').camera);
+  const framed = await camera();
+  const near = (a, b, eps = 1e-3) => Math.abs(a - b) <= eps * Math.max(1, Math.abs(b));
+  await page.evaluate(() => document.querySelector('kloub-viewer').setAttribute('camera-orbit', '90deg 60deg 150%'));
+  await page.waitForFunction((d) => Math.abs(document.querySelector('kloub-viewer').camera[2] - 1.5 * d) < 1e-2 * d, framed[2], { timeout: 30000 });
+  let c = await camera();
+  assert(near(c[0], Math.PI / 2) && near(c[1], Math.PI / 6) && near(c[2], 1.5 * framed[2], 1e-3), `camera-orbit 90deg 60deg 150%: ${c} (framed ${framed})`);
+  await page.evaluate(() => document.querySelector('kloub-viewer').setAttribute('camera-target', '0m 50cm 0m'));
+  await page.waitForFunction(() => Math.abs(document.querySelector('kloub-viewer').camera[4] - 0.5) < 1e-3, null, { timeout: 30000 });
+  c = await camera();
+  assert(near(c[3], 0) && near(c[5], 0) && near(c[0], Math.PI / 2), `camera-target 0m 50cm 0m: ${c}`);
+  assert((await page.evaluate(() => window.__changes)).every((s) => s === 'none') && (await page.evaluate(() => window.__changes.length)) >= 2, 'camera-change for the attributes');
+  // Without camera-controls a drag leaves the camera alone.
+  const drag = async () => {
+    await page.mouse.move(200, 150);
+    await page.mouse.down();
+    for (let i = 1; i <= 8; i++) await page.mouse.move(200 + 10 * i, 150 + 4 * i);
+    await page.mouse.up();
+  };
+  const before = await camera();
+  const f0 = await page.evaluate(() => Number(document.querySelector('kloub-viewer').dataset.frames));
+  await drag();
+  // Whatever the drag did is drawn by the next frame (an attribute change asks for one).
+  await page.evaluate(() => document.querySelector('kloub-viewer').setAttribute('grid', 'false'));
+  await page.waitForFunction((f) => Number(document.querySelector('kloub-viewer').dataset.frames) > f, f0, { timeout: 30000 });
+  assert(JSON.stringify(await camera()) === JSON.stringify(before), `a drag without camera-controls moved the camera: ${before} → ${await camera()}`);
+  // With camera-controls it orbits, and camera-change says the user did it.
+  await page.evaluate(() => { document.querySelector('kloub-viewer').setAttribute('camera-controls', ''); window.__changes = []; });
+  await drag();
+  await page.waitForFunction((b) => document.querySelector('kloub-viewer').camera[0] !== b, before[0], { timeout: 30000 });
+  assert((await page.evaluate(() => window.__changes)).includes('user-interaction'), `camera-change sources after a drag: ${await page.evaluate(() => window.__changes)}`);
+  // auto-rotate: turns at rotation-per-second once the delay is over; a user drag holds it for the delay again.
+  await page.evaluate(() => { const v = document.querySelector('kloub-viewer'); v.setAttribute('rotation-per-second', '90deg'); v.setAttribute('auto-rotate-delay', '3000'); v.setAttribute('auto-rotate', ''); });
+  const y0 = (await camera())[0];
+  await page.waitForFunction((y) => document.querySelector('kloub-viewer').camera[0] > y + 0.3, y0, { timeout: 30000, polling: 100 });
+  await drag();
+  const held = (await camera())[0];
+  await sleep(1000);
+  const still = (await camera())[0];
+  assert(near(still, held, 1e-6), `auto-rotate kept turning within its delay after a drag: ${held} → ${still}`);
+  await page.waitForFunction((y) => document.querySelector('kloub-viewer').camera[0] > y + 0.1, still, { timeout: 30000, polling: 100 });
+});
+
 test('<kloub-viewer>: only viewers in view draw; out of view an autoplaying one draws nothing and comes back where it would be; a paused one draws nothing', async (ctx) => {
   const { page } = ctx;
   await page.goto(`${ctx.url}/embed.html`);
