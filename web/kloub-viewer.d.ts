@@ -141,7 +141,9 @@ export declare class KloubViewer extends HTMLElement {
   dismissPoster(): void;
   /* Attributes without properties: `camera-controls` (user orbit/zoom/pan and keys; otherwise the view takes no
      input), `camera-orbit` ("θ φ r", deg/rad, m/cm/mm/%, auto), `camera-target` ("x y z", auto), `auto-rotate`,
-     `auto-rotate-delay` (ms, default 3000), `rotation-per-second` (default π/32 rad). */
+     `auto-rotate-delay` (ms, default 3000), `rotation-per-second` (default π/32 rad), `min-camera-orbit` /
+     `max-camera-orbit` ("θ φ r", auto or ±Infinity: unbounded), `field-of-view` (auto: 45deg), `disable-zoom`,
+     `disable-pan`. */
   /** The ground grid (attribute `grid`; `grid="false"` turns it off): by default on with `controls` only. */
   grid: boolean;
   /* Attribute `min-pixel-ratio`: the lowest resolution (canvas pixels per CSS pixel, default 0.5) a viewer without

@@ -122,6 +122,7 @@ const modifierBits = (e) => (e.altKey ? 1 : 0) | (e.ctrlKey ? 2 : 0) | (e.shiftK
 /** A CSS-style angle (`30deg`, `0.5rad`, a bare number is radians) in radians, or null for `auto`. */
 function parseAngle(attr, token) {
   if (token === 'auto') return null;
+  if (/^[-+]?Infinity$/.test(token)) return token.startsWith('-') ? -Infinity : Infinity;
   const m = /^(-?(?:\d+\.?\d*|\.\d+)(?:e[-+]?\d+)?)(deg|rad)?$/i.exec(token);
   if (!m) throw new RangeError(`${attr}: "${token}" is not an angle (e.g. 30deg, 0.5rad, auto)`);
   const v = Number(m[1]);
@@ -280,6 +281,7 @@ export class KloubViewer extends HTMLElement {
     'src', 'autoplay', 'animation-name', 'speed', 'loop', 'crossfade-duration', 'layer-clip', 'layer-root',
     'skinning', 'backend', 'controls', 'min-pixel-ratio', 'background', 'grid', 'alt', 'loading', 'poster', 'reveal',
     'camera-controls', 'camera-orbit', 'camera-target', 'auto-rotate', 'auto-rotate-delay', 'rotation-per-second',
+    'min-camera-orbit', 'max-camera-orbit', 'field-of-view', 'disable-zoom', 'disable-pan',
   ];
 
   #viewer = null;
@@ -541,6 +543,7 @@ export class KloubViewer extends HTMLElement {
   attributeChangedCallback(name, old, value) {
     if (name === 'alt' || name === 'controls' || name === 'background') this.#present();
     if (name === 'poster') this.#showPoster();
+    if (['min-camera-orbit', 'max-camera-orbit', 'field-of-view', 'disable-zoom', 'disable-pan'].includes(name)) this.#applyLimits();
     if (name === 'camera-orbit' || name === 'camera-target') this.#applyCameraAttributes();
     if (name === 'auto-rotate' || name === 'auto-rotate-delay') { this.#interacted = performance.now(); this.#wake(0); }
     if (name === 'camera-controls') this.#present();
@@ -603,6 +606,7 @@ export class KloubViewer extends HTMLElement {
       viewer.setPanels(this.hasAttribute('controls'));
       viewer.setBackground(this.#background());
       viewer.setGrid(this.grid);
+      this.#applyLimits();
       const src = revive ? (revive.src || (this.#files ? null : this.getAttribute('src'))) : this.getAttribute('src');
       if (revive && src) this.#reviveOnLoad(revive);
       await viewer.mount(this.#canvas, this, this.shadowRoot, emit, backend === 'auto' ? null : backend, src);
@@ -773,6 +777,42 @@ export class KloubViewer extends HTMLElement {
     return 0;
   }
 
+  /**
+   * `min-camera-orbit` / `max-camera-orbit` ("θ φ r", `auto`: unbounded there; φ is measured down from +Y, so the
+   * smallest φ bounds the pitch from above; r in `%` of the framed distance once a model is framed),
+   * `field-of-view` (`auto`: 45°), `disable-zoom`, `disable-pan`: sent to the viewer, which holds every camera
+   * change (input, attributes, methods) inside them.
+   */
+  #applyLimits() {
+    const viewer = this.#viewer;
+    if (!viewer) return;
+    const framedDistance = this.#framed?.[2] ?? NaN;
+    const orbit = (attr) => {
+      const text = this.getAttribute(attr);
+      if (text === null) return [NaN, NaN, NaN];
+      try {
+        const t = text.trim().split(/\s+/);
+        if (t.length > 3 || t[0] === '') throw new RangeError(`${attr}: "${text}": expected "θ φ r"`);
+        const angle = (token) => parseAngle(attr, token ?? 'auto') ?? NaN;
+        const r = parseLength(attr, t[2] ?? 'auto', framedDistance);
+        return [angle(t[0]), angle(t[1]), r ?? NaN];
+      } catch (e) {
+        console.warn(`kloub-viewer: ${e.message}`);
+        return [NaN, NaN, NaN];
+      }
+    };
+    const [yawMin, phiMin, rMin] = orbit('min-camera-orbit');
+    const [yawMax, phiMax, rMax] = orbit('max-camera-orbit');
+    let fov = NaN;
+    const fovText = this.getAttribute('field-of-view');
+    if (fovText !== null) {
+      try { fov = parseAngle('field-of-view', fovText.trim()) ?? NaN; } catch (e) { console.warn(`kloub-viewer: ${e.message}`); }
+    }
+    viewer.setCameraLimits(yawMin, yawMax, Math.PI / 2 - phiMax, Math.PI / 2 - phiMin, rMin, rMax,
+      !this.hasAttribute('disable-zoom'), !this.hasAttribute('disable-pan'), fov);
+    this.#wake(0);
+  }
+
   /** Applies `camera-orbit` and `camera-target` over the camera the model was framed with. */
   #applyCameraAttributes() {
     const framed = this.#framed;
@@ -859,6 +899,7 @@ export class KloubViewer extends HTMLElement {
         // The framing of the new model is what camera-orbit/camera-target's `auto` and `%` refer to.
         this.#framed = this.camera.length === 6 ? this.camera : null;
         this.#interacted = performance.now();
+        this.#applyLimits();
         this.#applyCameraAttributes();
         // The first frame of a model is on screen: the poster goes, unless the page reveals it itself.
         if (this.getAttribute('reveal') !== 'manual') queueMicrotask(() => this.dismissPoster());

@@ -1100,7 +1100,7 @@ test('<kloub-viewer>: loading="lazy" fetches only the models near the view; post
   assert(fetched.size < 30, `every model was fetched (${fetched.size}), not only those scrolled past`);
 });
 
-test('<kloub-viewer>: camera-orbit and camera-target over the framing; camera-controls gates input; auto-rotate turns and waits after interaction; camera-change says who moved it', async (ctx) => {
+test('<kloub-viewer>: camera-orbit and camera-target over the framing; camera-controls gates input; auto-rotate turns and waits after interaction; camera-change says who moved it; min/max-camera-orbit, disable-zoom, field-of-view', async (ctx) => {
   const { page } = ctx;
   await page.setViewportSize({ width: 800, height: 600 });
   await page.goto(`${ctx.url}/embed.html`);
@@ -1156,6 +1156,45 @@ test('<kloub-viewer>: camera-orbit and camera-target over the framing; camera-co
   const still = (await camera())[0];
   assert(near(still, held, 1e-6), `auto-rotate kept turning within its delay after a drag: ${held} → ${still}`);
   await page.waitForFunction((y) => document.querySelector('kloub-viewer').camera[0] > y + 0.1, still, { timeout: 30000, polling: 100 });
+  // min/max-camera-orbit hold every change, camera-orbit's included.
+  await page.evaluate(() => {
+    const v = document.querySelector('kloub-viewer');
+    v.removeAttribute('auto-rotate');
+    v.setAttribute('min-camera-orbit', '-30deg auto auto');
+    v.setAttribute('max-camera-orbit', '30deg 80deg auto');
+    v.setAttribute('camera-orbit', '80deg 20deg auto');
+  });
+  await page.waitForFunction(() => Math.abs(document.querySelector('kloub-viewer').camera[0] - Math.PI / 6) < 1e-3, null, { timeout: 30000 });
+  c = await camera();
+  // φ at most 80deg: the pitch at least 10deg; φ 20deg asked for is within (pitch 70deg).
+  assert(near(c[1], (70 * Math.PI) / 180), `pitch within the limits: ${c}`);
+  await drag();
+  await sleep(300);
+  c = await camera();
+  assert(c[0] <= Math.PI / 6 + 1e-4 && c[0] >= -Math.PI / 6 - 1e-4, `a drag left the yaw limits: ${c}`);
+  // disable-zoom: the wheel no longer zooms (it did before).
+  const wheel = async () => {
+    const d = (await camera())[2];
+    const f = await page.evaluate(() => Number(document.querySelector('kloub-viewer').dataset.frames));
+    await page.mouse.move(200, 150);
+    await page.mouse.wheel(0, -400);
+    await page.evaluate(() => document.querySelector('kloub-viewer').setAttribute('grid', 'false'));
+    await page.waitForFunction((f) => Number(document.querySelector('kloub-viewer').dataset.frames) > f + 1, f, { timeout: 30000 });
+    return [d, (await camera())[2]];
+  };
+  const [d0, d1] = await wheel();
+  assert(d1 < d0, `the wheel did not zoom: ${d0} → ${d1}`);
+  await page.evaluate(() => document.querySelector('kloub-viewer').setAttribute('disable-zoom', ''));
+  const [d2, d3] = await wheel();
+  assert(d3 === d2, `disable-zoom: the wheel zoomed ${d2} → ${d3}`);
+  // field-of-view: a narrower lens at the same distance shows the model larger.
+  const cover = async () => nonBackgroundFraction(await viewportShot(page));
+  const wide = await cover();
+  const f1 = await page.evaluate(() => Number(document.querySelector('kloub-viewer').dataset.frames));
+  await page.evaluate(() => document.querySelector('kloub-viewer').setAttribute('field-of-view', '20deg'));
+  await page.waitForFunction((f) => Number(document.querySelector('kloub-viewer').dataset.frames) > f + 1, f1, { timeout: 30000 });
+  const narrow = await cover();
+  assert(narrow > 1.8 * wide, `field-of-view 20deg: the model covers ${(narrow * 100).toFixed(1)}% (45deg: ${(wide * 100).toFixed(1)}%)`);
 });
 
 test('<kloub-viewer>: only viewers in view draw; out of view an autoplaying one draws nothing and comes back where it would be; a paused one draws nothing', async (ctx) => {

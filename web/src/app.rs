@@ -768,6 +768,12 @@ impl App {
                 self.scene.set_grid(on);
                 return Ok(());
             }
+            Command::SetCameraLimits { limits, fov } => {
+                self.camera.limits = limits.sanitized();
+                self.camera.fov_y = fov.filter(|f| f.is_finite()).unwrap_or(45f32.to_radians());
+                self.camera.constrain();
+                return Ok(());
+            }
             Command::SetOverlays(overlays) => {
                 self.overlays = overlays;
                 return Ok(());
@@ -844,6 +850,7 @@ impl App {
             | Command::LoadUrl(_)
             | Command::SetSamples(_)
             | Command::SetGrid(_)
+            | Command::SetCameraLimits { .. }
             | Command::SetOverlays(_)
             | Command::Screenshot
             | Command::SetLighting(_)

@@ -121,6 +121,9 @@ pub enum Command {
     SetSamples(Vec<crate::samples::SampleEntry>),
     /// Places the camera: yaw and pitch (radians), distance, then the target point.
     SetCamera([f32; 6]),
+    /// Bounds the camera and what the user may do to it, and sets the vertical field of view
+    /// (radians; `None`: 45°). Kept across models.
+    SetCameraLimits { limits: crate::render::camera::CameraLimits, fov: Option<f32> },
     /// Shows or hides the ground grid (kept across models).
     SetGrid(bool),
     /// Holds morph target `target` of node `node` at `weight` (`None`: the clip drives it).

@@ -321,6 +321,35 @@ impl Viewer {
         Ok(())
     }
 
+    /// Bounds the camera (yaw, pitch in radians, distance in model units; NaN: no bound
+    /// there), lets the user zoom and pan or not, and sets the vertical field of view (radians;
+    /// NaN: 45°). The element's `min-camera-orbit`, `max-camera-orbit`, `disable-zoom`,
+    /// `disable-pan` and `field-of-view`.
+    #[wasm_bindgen(js_name = setCameraLimits)]
+    #[expect(clippy::too_many_arguments, reason = "flat numbers across the wasm boundary")]
+    pub fn set_camera_limits(
+        &self,
+        yaw_min: f32,
+        yaw_max: f32,
+        pitch_min: f32,
+        pitch_max: f32,
+        distance_min: f32,
+        distance_max: f32,
+        zoom: bool,
+        pan: bool,
+        fov: f32,
+    ) {
+        let limits = crate::render::camera::CameraLimits {
+            yaw: [yaw_min, yaw_max],
+            pitch: [pitch_min, pitch_max],
+            distance: [distance_min, distance_max],
+            zoom,
+            pan,
+        };
+        let fov = (fov.is_finite()).then(|| fov.clamp(1f32.to_radians(), 170f32.to_radians()));
+        self.controls.send_global(Command::SetCameraLimits { limits, fov });
+    }
+
     /// Shows or hides the ground grid.
     #[wasm_bindgen(js_name = setGrid)]
     pub fn set_grid(&self, on: bool) {

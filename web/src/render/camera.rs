@@ -21,6 +21,58 @@ pub struct Camera {
     pub fov_y: f32,
     /// Radius of the framed scene: sets the clipping planes and the zoom limits.
     pub radius: f32,
+    /// Where the camera may go and what the user may do to it.
+    pub limits: CameraLimits,
+}
+
+/// Bounds on the orbit (model-viewer's `min-camera-orbit` / `max-camera-orbit`) and whether the
+/// user may zoom and pan (`disable-zoom`, `disable-pan`). They hold for every change: input,
+/// [`Camera::orbit`], [`Camera::zoom`], [`Camera::pan_pixels`] and [`Camera::constrain`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraLimits {
+    /// Yaw range, radians; unbounded (`±∞`) wraps around.
+    pub yaw: [f32; 2],
+    /// Pitch range, radians (always within the camera's own ±(π/2 − 0.01)).
+    pub pitch: [f32; 2],
+    /// Distance range (model units), on top of the zoom's 1 %..100× of the framed radius.
+    pub distance: [f32; 2],
+    /// The wheel, pinch and keys may zoom.
+    pub zoom: bool,
+    /// Dragging with the right button, Shift or two fingers may pan.
+    pub pan: bool,
+}
+
+impl Default for CameraLimits {
+    fn default() -> Self {
+        Self {
+            yaw: [f32::NEG_INFINITY, f32::INFINITY],
+            pitch: [-MAX_PITCH, MAX_PITCH],
+            distance: [0.0, f32::INFINITY],
+            zoom: true,
+            pan: true,
+        }
+    }
+}
+
+impl CameraLimits {
+    /// Limits from untrusted numbers: NaN bounds become the defaults, swapped pairs are sorted.
+    pub fn sanitized(self) -> Self {
+        let d = Self::default();
+        let pair = |v: [f32; 2], default: [f32; 2]| {
+            let lo = if v[0].is_nan() { default[0] } else { v[0] };
+            let hi = if v[1].is_nan() { default[1] } else { v[1] };
+            if lo <= hi { [lo, hi] } else { [hi, lo] }
+        };
+        let pitch = pair(self.pitch, d.pitch);
+        let distance = pair(self.distance, d.distance);
+        Self {
+            yaw: pair(self.yaw, d.yaw),
+            pitch: [pitch[0].clamp(-MAX_PITCH, MAX_PITCH), pitch[1].clamp(-MAX_PITCH, MAX_PITCH)],
+            distance: [distance[0].max(0.0), distance[1].max(0.0)],
+            zoom: self.zoom,
+            pan: self.pan,
+        }
+    }
 }
 
 /// Largest pitch magnitude: just short of straight up or down, so `look_at` stays defined.
@@ -28,7 +80,15 @@ const MAX_PITCH: f32 = std::f32::consts::FRAC_PI_2 - 0.01;
 
 impl Default for Camera {
     fn default() -> Self {
-        Self { target: Vec3::ZERO, yaw: 0.5, pitch: 0.25, distance: 3.0, fov_y: 45f32.to_radians(), radius: 1.0 }
+        Self {
+            target: Vec3::ZERO,
+            yaw: 0.5,
+            pitch: 0.25,
+            distance: 3.0,
+            fov_y: 45f32.to_radians(),
+            radius: 1.0,
+            limits: CameraLimits::default(),
+        }
     }
 }
 
@@ -84,6 +144,7 @@ impl Camera {
         self.target = 0.5 * (min + max);
         self.radius = radius;
         self.distance = radius * 1.05 / (0.5 * self.fov()).sin();
+        self.constrain();
     }
 
     /// Turns the eye around the target by `yaw` and `pitch` radians.
@@ -91,8 +152,22 @@ impl Camera {
         if !yaw.is_finite() || !pitch.is_finite() {
             return;
         }
-        self.yaw = (self.yaw + yaw).rem_euclid(std::f32::consts::TAU);
-        self.pitch = (self.pitch + pitch).clamp(-MAX_PITCH, MAX_PITCH);
+        self.yaw += yaw;
+        self.pitch += pitch;
+        self.constrain();
+    }
+
+    /// Brings yaw, pitch and distance within [`Camera::limits`] (an unbounded yaw wraps to
+    /// `0..2π`).
+    pub fn constrain(&mut self) {
+        let l = self.limits;
+        self.yaw = if l.yaw[0].is_finite() || l.yaw[1].is_finite() {
+            self.yaw.clamp(l.yaw[0], l.yaw[1])
+        } else {
+            self.yaw.rem_euclid(std::f32::consts::TAU)
+        };
+        self.pitch = self.pitch.clamp(l.pitch[0].max(-MAX_PITCH), l.pitch[1].min(MAX_PITCH));
+        self.distance = self.distance.clamp(l.distance[0].max(1e-4), l.distance[1].max(1e-4));
     }
 
     /// Orbit from a pointer drag of `dx, dy` pixels in a viewport `height` pixels tall:
@@ -106,7 +181,7 @@ impl Camera {
     /// Moves the target in the view plane so the point under the pointer follows a drag of
     /// `dx, dy` pixels in a viewport `height` pixels tall.
     pub fn pan_pixels(&mut self, dx: f32, dy: f32, height: f32) {
-        if !dx.is_finite() || !dy.is_finite() {
+        if !dx.is_finite() || !dy.is_finite() || !self.limits.pan {
             return;
         }
         let per_pixel = 2.0 * self.distance * (0.5 * self.fov()).tan() / height.max(1.0);
@@ -118,10 +193,11 @@ impl Camera {
 
     /// Multiplies the distance by `factor` (< 1 zooms in), within 1 % to 100× the framed radius.
     pub fn zoom(&mut self, factor: f32) {
-        if !factor.is_finite() || factor <= 0.0 {
+        if !factor.is_finite() || factor <= 0.0 || !self.limits.zoom {
             return;
         }
         self.distance = (self.distance * factor).clamp(self.radius * 0.01, self.radius * 100.0);
+        self.constrain();
     }
 
     /// Zoom from a scroll of `delta` points (positive = away from the user = zoom in).
@@ -183,5 +259,49 @@ mod tests {
         // Looking down −Z with +X to the right: dragging right moves the target left.
         assert!(camera.target.x < 0.0);
         assert!(camera.target.y.abs() < 1e-6 && camera.target.z.abs() < 1e-6);
+    }
+
+    #[test]
+    fn limits_bound_orbit_zoom_and_pan() {
+        let mut camera = Camera { yaw: 0.0, pitch: 0.0, distance: 4.0, ..Camera::default() };
+        camera.limits =
+            CameraLimits { yaw: [-0.5, 0.5], pitch: [0.1, 0.6], distance: [2.0, 5.0], zoom: true, pan: false }
+                .sanitized();
+        camera.constrain();
+        assert_eq!(camera.pitch, 0.1, "pitch raised to its minimum");
+        camera.orbit(2.0, 2.0);
+        assert_eq!((camera.yaw, camera.pitch), (0.5, 0.6), "a bounded yaw clamps instead of wrapping");
+        camera.orbit(-5.0, 0.0);
+        assert_eq!(camera.yaw, -0.5);
+        camera.zoom(10.0);
+        assert_eq!(camera.distance, 5.0);
+        camera.zoom(0.01);
+        assert_eq!(camera.distance, 2.0);
+        let target = camera.target;
+        camera.pan_pixels(50.0, 20.0, 100.0);
+        assert_eq!(camera.target, target, "panning is off");
+        camera.limits.zoom = false;
+        camera.zoom(1.2);
+        assert_eq!(camera.distance, 2.0, "zooming is off");
+        // Unbounded yaw wraps as before.
+        camera.limits = CameraLimits::default();
+        camera.orbit(std::f32::consts::TAU + 0.25, 0.0);
+        assert!((camera.yaw - (-0.25f32).rem_euclid(std::f32::consts::TAU)).abs() < 1e-5, "{}", camera.yaw);
+    }
+
+    #[test]
+    fn untrusted_limits_are_sorted_and_nan_means_unbounded() {
+        let l = CameraLimits {
+            yaw: [1.0, -1.0],
+            pitch: [f32::NAN, 10.0],
+            distance: [f32::NAN, -3.0],
+            zoom: false,
+            pan: true,
+        }
+        .sanitized();
+        assert_eq!(l.yaw, [-1.0, 1.0]);
+        assert_eq!(l.pitch, [-MAX_PITCH, MAX_PITCH]);
+        assert_eq!(l.distance, [0.0, 0.0]);
+        assert!(!l.zoom && l.pan);
     }
 }
