@@ -1197,6 +1197,39 @@ test('<kloub-viewer>: camera-orbit and camera-target over the framing; camera-co
   assert(narrow > 1.8 * wide, `field-of-view 20deg: the model covers ${(narrow * 100).toFixed(1)}% (45deg: ${(wide * 100).toFixed(1)}%)`);
 });
 
+test('<kloub-viewer>: a model is framed whole and centred at 4:3, 1:1 and 9:16', async (ctx) => {
+  const { page } = ctx;
+  await page.setViewportSize({ width: 800, height: 600 });
+  await page.goto(`${ctx.url}/embed.html`);
+  const report = [];
+  for (const model of ['Fox.glb', 'CesiumMan/CesiumMan.glb', 'Knight/Knight.glb']) {
+    for (const [w, h] of [[400, 300], [300, 300], [225, 400]]) {
+      await page.evaluate(({ model, w, h }) => {
+        document.body.innerHTML = '';
+        document.body.style.cssText = 'margin:0;background:#fff';
+        const v = document.createElement('kloub-viewer');
+        v.setAttribute('src', `/assets/${model}`);
+        v.setAttribute('min-pixel-ratio', '1');
+        v.style.cssText = `width:${w}px;height:${h}px;border:0;border-radius:0`;
+        document.body.append(v);
+      }, { model, w, h });
+      await waitForDataset(page, () => document.querySelector('kloub-viewer').loaded, model);
+      await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
+      const shot = await viewportShot(page);
+      const [x0, y0, x1, y1] = contentBox(shot);
+      const box = [x0, y0, x1, y1].map((v) => v.toFixed(3)).join(', ');
+      const name = `${model.split('/').pop()} at ${w}×${h}`;
+      report.push(`${name}: ${box}`);
+      // Whole (not cut by an edge), not a speck, and about centred: the box of the silhouette, not of the bounds
+      // (a fox's tail or a raised arm moves it off the bounds' centre, which is the view's centre by construction).
+      assert(x0 > 0.005 && y0 > 0.005 && x1 < 0.995 && y1 < 0.995, `${name} touches an edge: ${box}`);
+      assert(Math.max(x1 - x0, y1 - y0) > 0.3, `${name} is framed too small: ${box}`);
+      assert(Math.abs((x0 + x1) / 2 - 0.5) < 0.1 && Math.abs((y0 + y1) / 2 - 0.5) < 0.1, `${name} is off centre: ${box}`);
+    }
+  }
+  console.log(`     framing: ${report.join('; ')}`);
+});
+
 test('<kloub-viewer>: only viewers in view draw; out of view an autoplaying one draws nothing and comes back where it would be; a paused one draws nothing', async (ctx) => {
   const { page } = ctx;
   await page.goto(`${ctx.url}/embed.html`);

@@ -661,7 +661,7 @@ impl App {
             .set_asset(&self.gpu.device, &self.gpu.queue, &model.asset)
             .map_err(|e| format!("{}: {e}", model.name))?;
         if let Some((min, max)) = model.grid_bounds() {
-            self.camera.frame_to_fit(min, max);
+            self.camera.frame_to_fit_aspect(min, max, view_aspect(self.viewport_rect));
         }
         log::info!(
             "kloub: showing {} ({} clips, {} warnings)",
@@ -946,7 +946,7 @@ impl App {
             Command::SetCopies(n) => {
                 model.set_copies(n);
                 if let Some((min, max)) = model.grid_bounds() {
-                    self.camera.frame_to_fit(min, max);
+                    self.camera.frame_to_fit_aspect(min, max, view_aspect(self.viewport_rect));
                 }
             }
             Command::SetCandyPose { twist, bend } => {
@@ -1522,7 +1522,7 @@ impl App {
         let Some(model) = &mut self.model else { return };
         let clip = model.animator.main().clip;
         if let Some((min, max)) = model.animated_bounds(clip) {
-            self.camera.frame_to_fit(min, max);
+            self.camera.frame_to_fit_aspect(min, max, view_aspect(self.viewport_rect));
         }
         // Restore the animated pose the bounds sampling overwrote.
         self.evaluate();
@@ -1819,4 +1819,9 @@ mod tests {
         fps.update(0.0);
         assert!((fps.fps() - 50.0).abs() < 1e-3);
     }
+}
+
+/// Width / height of the 3D view's rectangle (1 before it has a size): what framing fits the model to.
+fn view_aspect(rect: egui::Rect) -> f32 {
+    if rect.width() > 0.0 && rect.height() > 0.0 { rect.width() / rect.height() } else { 1.0 }
 }

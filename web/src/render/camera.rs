@@ -135,15 +135,26 @@ impl Camera {
     }
 
     /// Aims at the centre of the box `min..max` and backs off until its bounding sphere fits
-    /// the vertical field of view (with a small margin). Keeps yaw and pitch.
+    /// the vertical field of view (with a small margin). Keeps yaw and pitch. For a view at
+    /// least as wide as it is tall; [`Camera::frame_to_fit_aspect`] for any shape.
     pub fn frame_to_fit(&mut self, min: Vec3, max: Vec3) {
+        self.frame_to_fit_aspect(min, max, 1.0);
+    }
+
+    /// [`Camera::frame_to_fit`] for a view of `aspect` = width / height: the sphere fits the
+    /// narrower of the vertical and horizontal fields of view, so a tall, narrow view (a phone
+    /// held upright) shows all of the model too, centred.
+    pub fn frame_to_fit_aspect(&mut self, min: Vec3, max: Vec3, aspect: f32) {
         if !min.is_finite() || !max.is_finite() {
             return;
         }
+        let aspect = if aspect.is_finite() && aspect > 0.0 { aspect.min(1.0) } else { 1.0 };
         let radius = (0.5 * (max - min).length()).max(1e-3);
         self.target = 0.5 * (min + max);
         self.radius = radius;
-        self.distance = radius * 1.05 / (0.5 * self.fov()).sin();
+        let vertical = self.fov();
+        let horizontal = 2.0 * ((0.5 * vertical).tan() * aspect).atan();
+        self.distance = radius * 1.05 / (0.5 * vertical.min(horizontal)).sin();
         self.constrain();
     }
 
@@ -303,5 +314,30 @@ mod tests {
         assert_eq!(l.pitch, [-MAX_PITCH, MAX_PITCH]);
         assert_eq!(l.distance, [0.0, 0.0]);
         assert!(!l.zoom && l.pan);
+    }
+
+    #[test]
+    fn a_tall_view_frames_the_whole_sphere_across_its_width() {
+        let (min, max) = (Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 2.0, 1.0));
+        let mut wide = Camera::default();
+        wide.frame_to_fit_aspect(min, max, 16.0 / 9.0);
+        let mut square = Camera::default();
+        square.frame_to_fit(min, max);
+        assert_eq!(wide.distance, square.distance, "as wide as tall or wider: the vertical fit");
+        let mut tall = Camera::default();
+        tall.frame_to_fit_aspect(min, max, 9.0 / 16.0);
+        assert!(tall.distance > square.distance * 1.5, "{} vs {}", tall.distance, square.distance);
+        // Every corner of the box projects inside the tall view.
+        let vp = tall.view_proj(9.0 / 16.0);
+        for corner in 0..8 {
+            let p = Vec3::new(
+                if corner & 1 == 0 { min.x } else { max.x },
+                if corner & 2 == 0 { min.y } else { max.y },
+                if corner & 4 == 0 { min.z } else { max.z },
+            );
+            let clip = vp * p.extend(1.0);
+            let ndc = clip.truncate() / clip.w;
+            assert!(ndc.x.abs() <= 1.0 && ndc.y.abs() <= 1.0, "corner {p} at {ndc}");
+        }
     }
 }
