@@ -1798,6 +1798,11 @@ impl App {
     }
 }
 
+/// Width / height of the 3D view's rectangle (1 before it has a size): what framing fits the model to.
+fn view_aspect(rect: egui::Rect) -> f32 {
+    if rect.width() > 0.0 && rect.height() > 0.0 { rect.width() / rect.height() } else { 1.0 }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1819,9 +1824,4 @@ mod tests {
         fps.update(0.0);
         assert!((fps.fps() - 50.0).abs() < 1e-3);
     }
-}
-
-/// Width / height of the 3D view's rectangle (1 before it has a size): what framing fits the model to.
-fn view_aspect(rect: egui::Rect) -> f32 {
-    if rect.width() > 0.0 && rect.height() > 0.0 { rect.width() / rect.height() } else { 1.0 }
 }
