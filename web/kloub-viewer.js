@@ -281,7 +281,7 @@ export class KloubViewer extends HTMLElement {
     'src', 'autoplay', 'animation-name', 'speed', 'loop', 'crossfade-duration', 'layer-clip', 'layer-root',
     'skinning', 'backend', 'controls', 'min-pixel-ratio', 'background', 'grid', 'alt', 'loading', 'poster', 'reveal',
     'camera-controls', 'camera-orbit', 'camera-target', 'auto-rotate', 'auto-rotate-delay', 'rotation-per-second',
-    'min-camera-orbit', 'max-camera-orbit', 'field-of-view', 'disable-zoom', 'disable-pan',
+    'min-camera-orbit', 'max-camera-orbit', 'field-of-view', 'disable-zoom', 'disable-pan', 'animation-crossfade-duration',
   ];
 
   #viewer = null;
@@ -558,7 +558,7 @@ export class KloubViewer extends HTMLElement {
         case 'animation-name': if (value && this.loaded) this.crossfadeTo(value, this.#crossfadeSeconds()); break;
         case 'speed': viewer.setSpeed(this.speed); break;
         case 'loop': viewer.setLoop(loopMode(value)); break;
-        case 'crossfade-duration': viewer.setCrossfadeDuration(this.#crossfadeSeconds()); break;
+        case 'crossfade-duration': case 'animation-crossfade-duration': viewer.setCrossfadeDuration(this.#crossfadeSeconds()); break;
         case 'layer-clip': case 'layer-root': {
           if (!this.loaded) break;
           const clip = this.getAttribute('layer-clip');
@@ -619,7 +619,9 @@ export class KloubViewer extends HTMLElement {
       }
       mounted.add(this);
       if (this.#samples.length > 0) viewer.setSamples(JSON.stringify(this.#samples));
-      if (this.hasAttribute('crossfade-duration')) viewer.setCrossfadeDuration(this.#crossfadeSeconds());
+      if (this.hasAttribute('crossfade-duration') || this.hasAttribute('animation-crossfade-duration')) {
+        viewer.setCrossfadeDuration(this.#crossfadeSeconds());
+      }
       if (this.hasAttribute('skinning')) viewer.setSkinning(this.getAttribute('skinning'));
       if (revive && !src && this.#files) {
         this.#reviveOnLoad(revive);
@@ -885,8 +887,11 @@ export class KloubViewer extends HTMLElement {
       loopMode(this.getAttribute('loop')), layerClip, layerRoot);
   }
 
+  /** `crossfade-duration` (seconds), else model-viewer's `animation-crossfade-duration` (milliseconds); 0.3 s. */
   #crossfadeSeconds() {
-    const s = Number(this.getAttribute('crossfade-duration'));
+    const text = this.getAttribute('crossfade-duration');
+    const ms = this.getAttribute('animation-crossfade-duration');
+    const s = text !== null ? Number(text) : ms !== null ? Number(ms) / 1000 : NaN;
     return Number.isFinite(s) && s >= 0 ? Math.min(s, MAX_SECONDS) : 0.3;
   }
 

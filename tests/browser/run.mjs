@@ -434,6 +434,9 @@ for (const backend of BACKENDS) {
     // Removing the attribute goes back to the default.
     await page.evaluate(() => document.querySelector('kloub-viewer').removeAttribute('background'));
     await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.background === 'transparent', 'the default background');
+    // model-viewer's animation-crossfade-duration is in milliseconds.
+    await page.evaluate(() => document.querySelector('kloub-viewer').setAttribute('animation-crossfade-duration', '750'));
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.transition.startsWith('0.750,'), 'animation-crossfade-duration');
     // alt names the element in the browser's accessibility tree, as an image; with controls it is no image.
     await page.evaluate(() => { document.querySelector('kloub-viewer').alt = 'A fox standing'; });
     const images = async () => {
