@@ -143,7 +143,8 @@ export declare class KloubViewer extends HTMLElement {
      input), `camera-orbit` ("θ φ r", deg/rad, m/cm/mm/%, auto), `camera-target` ("x y z", auto), `auto-rotate`,
      `auto-rotate-delay` (ms, default 3000), `rotation-per-second` (default π/32 rad), `min-camera-orbit` /
      `max-camera-orbit` ("θ φ r", auto or ±Infinity: unbounded), `field-of-view` (auto: 45deg), `disable-zoom`,
-     `disable-pan`. */
+     `disable-pan`, `interaction-prompt` (auto | none), `interaction-prompt-threshold` (ms, default 3000),
+     `animation-crossfade-duration` (ms). */
   /** The ground grid (attribute `grid`; `grid="false"` turns it off): by default on with `controls` only. */
   grid: boolean;
   /* Attribute `min-pixel-ratio`: the lowest resolution (canvas pixels per CSS pixel, default 0.5) a viewer without

@@ -172,6 +172,11 @@ canvas { display: block; width: 100%; height: 100%; outline: none; touch-action:
 :host(:not([data-status="loading"])) .kloub-loading { display: none; }
 .kloub-poster { position: absolute; inset: 0; width: 100%; height: 100%; object-fit: contain; pointer-events: none; }
 .kloub-poster[hidden] { display: none; }
+.kloub-prompt { position: absolute; left: 50%; bottom: 12px; transform: translateX(-50%); padding: 4px 12px;
+  border-radius: 12px; font: 13px system-ui, sans-serif; color: #fff; background: rgba(0, 0, 0, 0.55);
+  pointer-events: none; white-space: nowrap; animation: kloub-nudge 2s ease-in-out infinite; }
+.kloub-prompt[hidden] { display: none; }
+@keyframes kloub-nudge { 0%, 100% { transform: translateX(-50%); } 50% { transform: translateX(calc(-50% + 8px)); } }
 `;
 
 const LOOP_MODES = new Set(['once', 'repeat', 'pingpong']);
@@ -282,6 +287,7 @@ export class KloubViewer extends HTMLElement {
     'skinning', 'backend', 'controls', 'min-pixel-ratio', 'background', 'grid', 'alt', 'loading', 'poster', 'reveal',
     'camera-controls', 'camera-orbit', 'camera-target', 'auto-rotate', 'auto-rotate-delay', 'rotation-per-second',
     'min-camera-orbit', 'max-camera-orbit', 'field-of-view', 'disable-zoom', 'disable-pan', 'animation-crossfade-duration',
+    'interaction-prompt', 'interaction-prompt-threshold',
   ];
 
   #viewer = null;
@@ -301,6 +307,10 @@ export class KloubViewer extends HTMLElement {
   /** The `poster` image, shown until the first frame of a model (or `dismissPoster()` with `reveal="manual"`). */
   #poster;
   #posterDismissed = false;
+  /** The interaction prompt (a hint to drag), its timer, and whether the user has moved the camera yet. */
+  #prompt;
+  #promptTimer = null;
+  #userMoved = false;
   /** ElementInternals: the element's role and accessible name, without touching its attributes. */
   #internals;
   #canvas;
@@ -358,7 +368,13 @@ export class KloubViewer extends HTMLElement {
     this.#poster.setAttribute('part', 'poster');
     this.#poster.alt = '';
     this.#poster.hidden = true;
-    root.append(style, this.#canvas, this.#poster, loading, this.#note, ...this.#pickers);
+    this.#prompt = document.createElement('div');
+    this.#prompt.className = 'kloub-prompt';
+    this.#prompt.setAttribute('part', 'interaction-prompt');
+    this.#prompt.setAttribute('aria-hidden', 'true');
+    this.#prompt.textContent = '⟲ Drag to turn · scroll or pinch to zoom';
+    this.#prompt.hidden = true;
+    root.append(style, this.#canvas, this.#poster, this.#prompt, loading, this.#note, ...this.#pickers);
     // Drops are read here (folders too) and handed over whole; capture runs before the canvas's own handler.
     const drag = (on) => (event) => {
       if (!this.hasAttribute('controls') || !event.dataTransfer) return;
@@ -391,6 +407,8 @@ export class KloubViewer extends HTMLElement {
         && (event.type !== 'pointermove' || event.buttons !== 0)) {
         this.#interacted = performance.now();
         this.#userInput = true;
+        this.#userMoved = true;
+        this.#prompt.hidden = true;
       }
       // A press, release or key after other input not yet drawn: draw that input first, so that a quick press,
       // move and release (a drag between two animation frames) reaches the viewer as a drag, not as one click, and
@@ -547,6 +565,7 @@ export class KloubViewer extends HTMLElement {
     if (name === 'camera-orbit' || name === 'camera-target') this.#applyCameraAttributes();
     if (name === 'auto-rotate' || name === 'auto-rotate-delay') { this.#interacted = performance.now(); this.#wake(0); }
     if (name === 'camera-controls') this.#present();
+    if (['camera-controls', 'controls', 'interaction-prompt', 'interaction-prompt-threshold'].includes(name)) this.#schedulePrompt();
     if (name === 'loading' && value !== 'lazy' && this.isConnected && !this.#mounting) this[NEAR]();
     const viewer = this.#viewer;
     if (!viewer || old === value) return;
@@ -754,6 +773,28 @@ export class KloubViewer extends HTMLElement {
     return [this.#due, 1];
   }
 
+  /**
+   * model-viewer's `interaction-prompt` (`auto`, the default, or `none`): with `camera-controls` (and without the
+   * app's panels), a hint to drag shows after `interaction-prompt-threshold` ms (default 3000) from the load without
+   * the user moving the camera, and goes for good at the first input.
+   */
+  #schedulePrompt() {
+    clearTimeout(this.#promptTimer);
+    this.#promptTimer = null;
+    const wanted = this.hasAttribute('camera-controls') && !this.hasAttribute('controls')
+      && this.getAttribute('interaction-prompt') !== 'none' && !this.#userMoved && this.loaded;
+    if (!wanted) {
+      this.#prompt.hidden = true;
+      return;
+    }
+    const t = Number(this.getAttribute('interaction-prompt-threshold') ?? 3000);
+    const delay = Number.isFinite(t) && t >= 0 ? Math.min(t, 600000) : 3000;
+    this.#promptTimer = setTimeout(() => {
+      this.#promptTimer = null;
+      if (!this.#userMoved && this.isConnected) this.#prompt.hidden = false;
+    }, delay);
+  }
+
   /** `controls` or `camera-controls`: the view takes pointer, wheel, touch and keys. */
   #interactive() { return this.hasAttribute('controls') || this.hasAttribute('camera-controls'); }
 
@@ -906,6 +947,7 @@ export class KloubViewer extends HTMLElement {
         this.#interacted = performance.now();
         this.#applyLimits();
         this.#applyCameraAttributes();
+        this.#schedulePrompt();
         // The first frame of a model is on screen: the poster goes, unless the page reveals it itself.
         if (this.getAttribute('reveal') !== 'manual') queueMicrotask(() => this.dismissPoster());
         break;

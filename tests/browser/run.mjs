@@ -1233,6 +1233,38 @@ test('<kloub-viewer>: a model is framed whole and centred at 4:3, 1:1 and 9:16',
   console.log(`     framing: ${report.join('; ')}`);
 });
 
+test('<kloub-viewer>: interaction-prompt shows a hint to drag after its threshold, gone at the first drag; none shows nothing', async (ctx) => {
+  const { page } = ctx;
+  await page.setViewportSize({ width: 800, height: 600 });
+  await page.goto(`${ctx.url}/embed.html`);
+  await page.evaluate(() => {
+    document.body.innerHTML = '';
+    document.body.style.margin = '0';
+    for (const [id, prompt] of [['a', null], ['b', 'none']]) {
+      const v = document.createElement('kloub-viewer');
+      v.id = id;
+      v.setAttribute('src', '/assets/Fox.glb');
+      v.setAttribute('camera-controls', '');
+      v.setAttribute('interaction-prompt-threshold', '300');
+      if (prompt) v.setAttribute('interaction-prompt', prompt);
+      v.style.cssText = 'display:inline-block;width:380px;height:280px;border:0';
+      document.body.append(v);
+    }
+  });
+  const shown = (id) => page.evaluate((id) => !document.getElementById(id).shadowRoot.querySelector('.kloub-prompt').hidden, id);
+  await waitForDataset(page, () => ['a', 'b'].every((id) => document.getElementById(id).loaded), 'both models');
+  await page.waitForFunction(() => !document.getElementById('a').shadowRoot.querySelector('.kloub-prompt').hidden, null, { timeout: 30000 });
+  await sleep(500);
+  assert(!(await shown('b')), 'interaction-prompt="none" showed the prompt');
+  await page.mouse.move(150, 140);
+  await page.mouse.down();
+  await page.mouse.move(190, 150);
+  await page.mouse.up();
+  assert(!(await shown('a')), 'the prompt stayed after a drag');
+  await sleep(600);
+  assert(!(await shown('a')), 'the prompt came back after the user had moved the camera');
+});
+
 test('<kloub-viewer>: only viewers in view draw; out of view an autoplaying one draws nothing and comes back where it would be; a paused one draws nothing', async (ctx) => {
   const { page } = ctx;
   await page.goto(`${ctx.url}/embed.html`);
