@@ -1,0 +1,270 @@
+//! Applying the commands of the page, the panels and the keyboard to the viewer.
+
+use super::*;
+
+impl App {
+    /// Applies one command to the shown model (the side panel's actions go through here too).
+    pub(super) fn apply(&mut self, command: Command) -> Result<(), String> {
+        match command {
+            Command::SetSkinning(method) => {
+                self.skinning = method;
+                if let Some(model) = &mut self.model {
+                    model.instance.set_skinning(&model.asset, method);
+                    model.sync_copies();
+                }
+                return Ok(());
+            }
+            Command::SetSkinningPath(path) => {
+                return self.scene.set_skinning_path(path);
+            }
+            Command::SetHeatmap(on) => {
+                self.scene.set_heatmap(on);
+                return Ok(());
+            }
+            Command::SetPanels(on) => {
+                self.panels = on;
+                return Ok(());
+            }
+            Command::SetTransitionDuration(seconds) => {
+                self.transition.duration = seconds.max(0.0);
+                return Ok(());
+            }
+            Command::SetTransition { easing, outgoing } => {
+                self.transition.easing = easing.unwrap_or(self.transition.easing);
+                self.transition.outgoing = outgoing.unwrap_or(self.transition.outgoing);
+                return Ok(());
+            }
+            Command::SetDropHint(on) => {
+                self.drop_hint = on;
+                return Ok(());
+            }
+            Command::SetGrid(on) => {
+                self.scene.set_grid(on);
+                return Ok(());
+            }
+            Command::SetCameraLimits { limits, fov } => {
+                self.camera.limits = limits.sanitized();
+                self.camera.fov_y = fov.filter(|f| f.is_finite()).unwrap_or(45f32.to_radians());
+                self.camera.constrain();
+                return Ok(());
+            }
+            Command::SetOverlays(overlays) => {
+                self.overlays = overlays;
+                return Ok(());
+            }
+            Command::Screenshot => {
+                self.screenshot();
+                return Ok(());
+            }
+            Command::SetLighting(lighting) => {
+                self.scene.set_look(crate::render::uniforms::Look { lighting, ..self.scene.look() });
+                return Ok(());
+            }
+            Command::SetBackground(background) => {
+                self.scene.set_look(crate::render::uniforms::Look { background, ..self.scene.look() });
+                return Ok(());
+            }
+            Command::SetSamples(samples) => {
+                self.samples = samples;
+                return Ok(());
+            }
+            Command::LoadUrl(url) => {
+                self.pending += 1;
+                self.status = Status::Loading;
+                if let Some(ctx) = self.controls.repaint_context() {
+                    load::fetch_into(url, self.inbox.clone(), ctx);
+                }
+                return Ok(());
+            }
+            Command::ShowModel(i) => {
+                let Some(library) = &self.library else { return Ok(()) };
+                let Some(name) = library.models.get(i) else { return Ok(()) };
+                let loaded = load::import_model(&library.files, Some(name))?;
+                self.install(loaded, None)?;
+                if let Some(library) = &mut self.library {
+                    library.shown = Some(i);
+                }
+                return Ok(());
+            }
+            Command::LoadSample(Sample::CandyWrapper) => {
+                let panel = CandyPanel::new();
+                let loaded = panel.model();
+                self.install(loaded, Some(panel))?;
+                self.status = Status::Ready;
+                self.last_error.clear();
+                self.error_window = None;
+                return Ok(());
+            }
+            _ => {}
+        }
+        let Some(model) = &mut self.model else { return Ok(()) };
+        // Copies replay the main animator: only commands that change it need a re-sync.
+        let animates = matches!(
+            command,
+            Command::Play
+                | Command::Pause
+                | Command::PlayClip(_)
+                | Command::CrossfadeTo { .. }
+                | Command::Seek(_)
+                | Command::SetSpeed(_)
+                | Command::SetLoop(_)
+                | Command::SetLayer { .. }
+                | Command::SetBlend(_)
+                | Command::SetCandyPose { .. }
+        );
+        match command {
+            Command::SetSkinning(_)
+            | Command::SetSkinningPath(_)
+            | Command::SetHeatmap(_)
+            | Command::LoadSample(_)
+            | Command::SetPanels(_)
+            | Command::SetTransitionDuration(_)
+            | Command::SetTransition { .. }
+            | Command::SetDropHint(_)
+            | Command::LoadUrl(_)
+            | Command::SetSamples(_)
+            | Command::SetGrid(_)
+            | Command::SetCameraLimits { .. }
+            | Command::SetOverlays(_)
+            | Command::Screenshot
+            | Command::SetLighting(_)
+            | Command::SetBackground(_)
+            | Command::ShowModel(_) => {}
+            Command::SelectJoint(node) => model.selected_joint = node,
+            Command::StartRagdoll => model.start_ragdoll()?,
+            Command::StopRagdoll => model.ragdoll = None,
+            Command::RagdollToAnimation(seconds) => {
+                if let Some(ragdoll) = &mut model.ragdoll {
+                    ragdoll.blend_back = Some((0.0, seconds.max(0.0)));
+                }
+            }
+            Command::SetRagdollOptions { gravity, damping } => {
+                model.ragdoll_options.gravity = gravity;
+                model.ragdoll_options.damping = damping;
+                let options = model.ragdoll_options;
+                if let Some(ragdoll) = &mut model.ragdoll {
+                    ragdoll.ragdoll.set_options(options);
+                }
+            }
+            Command::SetMorph { node, target, weight } => {
+                let n = model.asset.nodes.get(node as usize).ok_or_else(|| format!("node {node} does not exist"))?;
+                if target >= n.weights.len() {
+                    return Err(format!(
+                        "{}: morph target {target} of {} does not exist",
+                        model.name,
+                        model.node_name(node)
+                    ));
+                }
+                let start = model.asset.weight_offsets.get(node as usize).copied().unwrap_or(0) as usize;
+                if let Some(slot) = model.morph_overrides.get_mut(start + target) {
+                    *slot = weight.map(|w| if w.is_finite() { w } else { 0.0 });
+                }
+            }
+            Command::SetCamera([yaw, pitch, distance, x, y, z]) => {
+                self.camera.yaw = yaw;
+                self.camera.pitch = pitch;
+                self.camera.distance = distance;
+                self.camera.target = Vec3::new(x, y, z);
+                self.camera.orbit(0.0, 0.0);
+            }
+            Command::SetIk { effector, depth, target } => match effector {
+                Some(effector) => {
+                    let existing = model.ik.iter().position(|g| g.effector() == effector);
+                    let like = existing.or(model.ik.len().checked_sub(1)).and_then(|i| model.ik.get(i));
+                    let state = model.ik_goal(effector, depth, target.map(Vec3::from), like)?;
+                    match existing {
+                        Some(i) => {
+                            model.ik[i] = state;
+                            model.ik_selected = i;
+                        }
+                        None => {
+                            model.ik.push(state);
+                            model.ik_selected = model.ik.len() - 1;
+                        }
+                    }
+                }
+                None => {
+                    model.ik.clear();
+                    model.ik_selected = 0;
+                }
+            },
+            Command::SetIkSolver { effector, solver, pole, softness, accelerate, iterations } => {
+                let name = model.node_name(effector);
+                let ik = model
+                    .ik
+                    .iter_mut()
+                    .find(|g| g.effector() == effector)
+                    .ok_or_else(|| format!("no IK goal on {name}: set its target first"))?;
+                if solver == kloub_core::job::ik::IkSolver::TwoBone && ik.depth() != 2 {
+                    return Err(format!("two-bone needs 2 joints above {name}, not {}", ik.depth()));
+                }
+                ik.solver = solver;
+                ik.pole = pole.map(Vec3::from);
+                ik.softness = softness.unwrap_or(ik.softness);
+                ik.accelerate = accelerate.unwrap_or(ik.accelerate);
+                ik.iterations = iterations.unwrap_or(ik.iterations);
+            }
+            Command::ReplaceIk { goal, effector, depth } => {
+                if let Some(old) = model.ik.get(goal) {
+                    let state = model.ik_goal(effector, depth, Some(old.target), Some(old))?;
+                    model.ik[goal] = state;
+                    model.ik_selected = goal;
+                }
+            }
+            Command::RemoveIk(goal) => {
+                if goal < model.ik.len() {
+                    model.ik.remove(goal);
+                    model.ik_selected = model.ik_selected.min(model.ik.len().saturating_sub(1));
+                }
+            }
+            Command::SetCopies(n) => {
+                model.set_copies(n);
+                if let Some((min, max)) = model.grid_bounds() {
+                    self.camera.frame_to_fit_aspect(min, max, view_aspect(self.viewport_rect));
+                }
+            }
+            Command::SetCandyPose { twist, bend } => {
+                if let Some(candy) = &mut model.candy {
+                    candy.twist = twist.clamp(-360.0, 360.0);
+                    candy.bend = bend.clamp(-180.0, 180.0);
+                    candy.manual = true;
+                    model.set_playing(false);
+                }
+            }
+            Command::Play => model.set_playing(true),
+            Command::Pause => model.set_playing(false),
+            Command::PlayClip(clip) => model.play_clip(clip, self.transition)?,
+            Command::CrossfadeTo { clip, seconds } => {
+                model.play_clip(clip, Crossfade { duration: seconds, ..self.transition })?;
+            }
+            Command::Seek(t) => model.seek(t),
+            Command::SetSpeed(speed) => model.set_speed(speed),
+            Command::SetLoop(mode) => model.set_loop_mode(mode),
+            Command::SetLayer { clip, root, weight } => {
+                match clip {
+                    Some(clip) => {
+                        model.layer.enabled = true;
+                        model.layer.clip = clip;
+                        model.layer.root = root;
+                        model.layer.weight = weight;
+                    }
+                    None => model.layer.enabled = false,
+                }
+                model.sync_layer()?;
+            }
+            Command::SetBlend(weights) => {
+                model.blend_weights.iter_mut().for_each(|w| *w = 0.0);
+                for (clip, weight) in weights {
+                    if let Some(w) = model.blend_weights.get_mut(clip) {
+                        *w = weight;
+                    }
+                }
+                model.apply_blend()?;
+            }
+        }
+        if animates && !model.copies.is_empty() {
+            model.sync_copies();
+        }
+        Ok(())
+    }
+}
