@@ -1265,6 +1265,33 @@ test('<kloub-viewer>: interaction-prompt shows a hint to drag after its threshol
   assert(!(await shown('a')), 'the prompt came back after the user had moved the camera');
 });
 
+test('the app at a phone\'s width (390×844): the view keeps the full width; the panel is a sheet that opens and closes', async (ctx) => {
+  const { page } = ctx;
+  await page.setViewportSize({ width: 390, height: 844 });
+  await openApp(ctx, 'webgpu');
+  let ds = await dataset(page);
+  const width = await page.evaluate(() => document.querySelector('kloub-viewer').getBoundingClientRect().width);
+  const [, , vw] = ds.viewport.split(',').map(Number);
+  assert(ds.panel === 'closed' && Math.abs(vw - width) < 1, `closed: panel ${ds.panel}, view ${vw} of ${width} px`);
+  const closed = await viewportShot(page);
+  savePng(closed, 'phone-closed.png');
+  const [x0, , x1] = contentBox(closed);
+  assert(nonBackgroundFraction(closed) > 0.02 && x1 - x0 > 0.3, `the model across the width: box ${x0.toFixed(3)}..${x1.toFixed(3)}`);
+  // The button in the view's corner opens the sheet; its close button closes it.
+  await page.mouse.click(30, 24);
+  await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.panel === 'open', 'the sheet to open');
+  const open = await viewportShot(page);
+  savePng(open, 'phone-open.png');
+  assert(diffFraction(closed, open) > 0.2, 'the sheet is not over the view');
+  await page.mouse.click(50, 16);
+  await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.panel === 'closed', 'the sheet to close');
+  // Back to a wide window: the panel is beside the view again.
+  await page.setViewportSize({ width: 1200, height: 800 });
+  await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.panel === 'side', 'the side panel');
+  ds = await dataset(page);
+  assert(Number(ds.viewport.split(',')[0]) > 100, `the view beside the panel: ${ds.viewport}`);
+});
+
 test('<kloub-viewer>: only viewers in view draw; out of view an autoplaying one draws nothing and comes back where it would be; a paused one draws nothing', async (ctx) => {
   const { page } = ctx;
   await page.goto(`${ctx.url}/embed.html`);

@@ -148,6 +148,8 @@ pub struct App {
     ik_drag: Option<IkHandle>,
     /// Whether the side panel and menus show.
     panels: bool,
+    /// On a narrow element (below [`NARROW`] points) the panel is a sheet over the view: open or not.
+    sheet_open: bool,
     /// Overlays drawn over the model.
     overlays: Overlays,
     overlay_scratch: overlay::OverlayScratch,
@@ -257,6 +259,9 @@ fn smooth(mean: f32, value: f32) -> f32 {
     }
 }
 
+/// Below this width (points: CSS pixels) the side panel is a sheet opened over the view.
+const NARROW: f32 = 700.0;
+
 /// The largest frame step the clock takes (a background tab resumes without a jump).
 const MAX_DT: f32 = 0.25;
 
@@ -312,6 +317,7 @@ impl App {
             ik_markers: Vec::new(),
             ik_pole_markers: Vec::new(),
             panels: config.panels,
+            sheet_open: false,
             library: None,
             samples: Vec::new(),
             shown_url: None,
@@ -1002,15 +1008,57 @@ impl App {
                 .as_deref()
                 .and_then(|url| self.samples.iter().position(|s| s.is_shown_from(url))),
         };
-        let actions = if self.panels {
+        // A phone's width: the panel becomes a sheet the user opens over the full-width view.
+        let narrow = ui.available_width() < NARROW;
+        let actions = if !self.panels {
+            ui::PanelActions::default()
+        } else if !narrow {
             egui::Panel::left("controls")
                 .resizable(true)
                 .default_size(270.0)
                 .show(ui, |ui| ui::side_panel(ui, &state, self.model.as_mut(), &mut self.transition, &mut self.panel))
                 .inner
+        } else if self.sheet_open {
+            let screen = ui.max_rect();
+            let width = (screen.width() - 40.0).clamp(200.0, 360.0);
+            let (model, transition, memory) = (self.model.as_mut(), &mut self.transition, &mut self.panel);
+            let mut close = false;
+            let actions = egui::Area::new(egui::Id::unique("kloub-sheet"))
+                .order(egui::Order::Foreground)
+                .fixed_pos(screen.min)
+                .show(&ctx, |ui| {
+                    egui::Frame::side_top_panel(ui.style()).show(ui, |ui| {
+                        ui.set_width(width);
+                        ui.set_height(screen.height() - 12.0);
+                        ui.horizontal(|ui| {
+                            close = ui.button("Close panel").clicked();
+                        });
+                        ui::side_panel(ui, &state, model, transition, memory)
+                    })
+                })
+                .inner
+                .inner;
+            self.sheet_open = !close;
+            actions
         } else {
+            let screen = ui.max_rect();
+            egui::Area::new(egui::Id::unique("kloub-sheet-button"))
+                .order(egui::Order::Foreground)
+                .fixed_pos(screen.min + egui::vec2(8.0, 8.0))
+                .show(&ctx, |ui| {
+                    if ui.add(egui::Button::new("Panel").min_size(egui::vec2(44.0, 32.0))).clicked() {
+                        self.sheet_open = true;
+                    }
+                });
             ui::PanelActions::default()
         };
+        let panel = match (self.panels, narrow, self.sheet_open) {
+            (false, ..) => "",
+            (true, false, _) => "side",
+            (true, true, true) => "open",
+            (true, true, false) => "closed",
+        };
+        self.dataset.set(Key::Panel, panel);
         if actions.frame {
             self.frame_model();
         }

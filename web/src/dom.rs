@@ -67,7 +67,7 @@ pub enum Key {
     Progress,
     /// The lighting preset: `"studio"` | `"outdoor"` | `"flat"` | `"rim"`.
     Lighting,
-    /// The background: `"dark"` | `"grey"` | `"light"`.
+    /// The background: `"dark"` | `"grey"` | `"light"` | `"transparent"`.
     Background,
     /// The ragdoll: `"simulating"` | `"resting"` | `"blending"` (back to the animation); `""` off.
     Ragdoll,
@@ -87,11 +87,14 @@ pub enum Key {
     /// The models of a drop (or zip archive) holding several, a JSON array of file names, which
     /// the panel lists to switch between; `""` for one model.
     Models,
+    /// The side panel: `"side"` (beside the view), `"open"` / `"closed"` (the sheet of a narrow
+    /// element, over the view), `""` without panels.
+    Panel,
 }
 
 impl Key {
     /// Every key, in a fixed order.
-    pub const ALL: [Key; 37] = [
+    pub const ALL: [Key; 38] = [
         Key::Backend,
         Key::Status,
         Key::Model,
@@ -129,6 +132,7 @@ impl Key {
         Key::IkGoals,
         Key::Morphs,
         Key::Models,
+        Key::Panel,
     ];
 
     /// The dataset property name (`dataset.<name>` in JS).
@@ -142,6 +146,7 @@ impl Key {
             Key::Error => "error",
             Key::Frames => "frames",
             Key::Viewport => "viewport",
+            Key::Panel => "panel",
             Key::Time => "time",
             Key::Playing => "playing",
             Key::Crossfade => "crossfade",
