@@ -1265,7 +1265,7 @@ test('<kloub-viewer>: interaction-prompt shows a hint to drag after its threshol
   assert(!(await shown('a')), 'the prompt came back after the user had moved the camera');
 });
 
-test('the app at a phone\'s width (390×844): the view keeps the full width; the panel is a sheet that opens and closes', async (ctx) => {
+test('the app at a phone\'s width (390×844): the view keeps the full width; the panel is a sheet that opens and closes; one finger orbits, a pinch zooms', async (ctx) => {
   const { page } = ctx;
   await page.setViewportSize({ width: 390, height: 844 });
   await openApp(ctx, 'webgpu');
@@ -1285,6 +1285,23 @@ test('the app at a phone\'s width (390×844): the view keeps the full width; the
   assert(diffFraction(closed, open) > 0.2, 'the sheet is not over the view');
   await page.mouse.click(50, 16);
   await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.panel === 'closed', 'the sheet to close');
+  // Touch (Chromium's touch emulation): one finger orbits, two fingers pinching apart zoom in.
+  const cdp = await page.context().newCDPSession(page);
+  await cdp.send('Emulation.setTouchEmulationEnabled', { enabled: true, maxTouchPoints: 5 });
+  await control(page, 'pause');
+  const touch = async (type, points) => cdp.send('Input.dispatchTouchEvent', { type, touchPoints: points.map(([x, y], id) => ({ x, y, id })) });
+  const cam0 = await page.evaluate(() => document.querySelector('kloub-viewer').camera);
+  await touch('touchStart', [[200, 500]]);
+  for (let i = 1; i <= 8; i++) { await touch('touchMove', [[200 + 12 * i, 500]]); await sleep(30); }
+  await touch('touchEnd', []);
+  await page.waitForFunction((y) => Math.abs(document.querySelector('kloub-viewer').camera[0] - y) > 0.1, cam0[0], { timeout: 30000 });
+  const cam1 = await page.evaluate(() => document.querySelector('kloub-viewer').camera);
+  await touch('touchStart', [[180, 500], [220, 500]]);
+  for (let i = 1; i <= 8; i++) { await touch('touchMove', [[180 - 10 * i, 500], [220 + 10 * i, 500]]); await sleep(30); }
+  await touch('touchEnd', []);
+  await page.waitForFunction((d) => document.querySelector('kloub-viewer').camera[2] < d * 0.9, cam1[2], { timeout: 30000 });
+  await cdp.send('Emulation.setTouchEmulationEnabled', { enabled: false });
+  await cdp.detach();
   // Back to a wide window: the panel is beside the view again.
   await page.setViewportSize({ width: 1200, height: 800 });
   await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.panel === 'side', 'the side panel');
