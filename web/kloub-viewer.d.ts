@@ -106,7 +106,7 @@ export interface KloubViewerState {
   frames?: string;
   /** The 3D view's rectangle in CSS pixels of the canvas, `x,y,width,height`. */
   viewport?: string;
-  /** The panel: beside the view, or (narrower than 700 CSS px) a sheet over it, open or closed. */
+  /** The panel: beside the view, or (narrower than 600 CSS px) a sheet over it, open or closed. */
   panel?: '' | 'side' | 'open' | 'closed';
 }
 

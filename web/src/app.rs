@@ -259,8 +259,9 @@ fn smooth(mean: f32, value: f32) -> f32 {
     }
 }
 
-/// Below this width (points: CSS pixels) the side panel is a sheet opened over the view.
-const NARROW: f32 = 700.0;
+/// Below this width (points: CSS pixels) the side panel is a sheet opened over the view: phones
+/// (360–430 wide upright) and narrow embeds; from a small tablet or laptop window up, a side panel.
+const NARROW: f32 = 600.0;
 
 /// The largest frame step the clock takes (a background tab resumes without a jump).
 const MAX_DT: f32 = 0.25;
@@ -964,6 +965,11 @@ impl App {
     /// (the whole canvas).
     pub fn frame(&mut self, ui: &mut egui::Ui) {
         let ctx = ui.ctx().clone();
+        // Before the first 3D view is laid out, a model that arrives is framed for the whole area
+        // (exactly the view's shape without panels).
+        if !(self.viewport_rect.width() > 0.0 && self.viewport_rect.height() > 0.0) {
+            self.viewport_rect = ui.max_rect();
+        }
         self.receive();
         self.take_drops(&ctx);
         // egui may run extra layout passes for one painted frame: the clock moves once.
