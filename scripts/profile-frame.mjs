@@ -4,7 +4,7 @@
 //   KLOUB_BACKENDS=webgl2|webgpu  N=copies  KLOUB_BENCH_EVAL='v.setGrid(true)'  TOP=40
 //   node scripts/profile-frame.mjs   (after scripts/build-web.sh and cargo build -p kloub-server)
 import { readFileSync, readdirSync } from 'node:fs';
-import { openBrowser, startServer } from '../tests/browser/lib.mjs';
+import { openBrowser, startServer, viewersPage } from '../tests/browser/lib.mjs';
 
 /** CPU ms used so far by chromium's processes, by process type (--type=…; the browser process has none). */
 function cpuByType() {
@@ -27,19 +27,10 @@ const server = await startServer();
 const ctx = await openBrowser();
 const page = ctx.page;
 await page.setViewportSize({ width: 840, height: 640 });
-await page.goto(`${server.url}/embed.html`);
-await page.evaluate(({ backend }) => {
-  document.body.innerHTML = '';
-  document.body.style.margin = '0';
-  const v = document.createElement('kloub-viewer');
-  v.setAttribute('backend', backend);
-  v.setAttribute('src', '/assets/Fox.glb');
-  v.setAttribute('autoplay', '');
-  v.setAttribute('animation-name', 'Run');
-  v.setAttribute('min-pixel-ratio', '1');
-  v.style.cssText = 'width:800px;height:600px;border:0';
-  document.body.append(v);
-}, { backend });
+await viewersPage(page, server.url, [{
+  attrs: { backend, src: '/assets/Fox.glb', autoplay: '', 'animation-name': 'Run', 'min-pixel-ratio': '1' },
+  style: 'width:800px;height:600px;border:0',
+}]);
 await page.waitForFunction(() => document.querySelector('kloub-viewer').dataset.status === 'ready', null, { timeout: 120000 });
 if (n > 1) await page.evaluate((n) => document.querySelector('kloub-viewer').setCopies(n), n);
 if (process.env.KLOUB_BENCH_EVAL) await page.evaluate((body) => new Function('v', body)(document.querySelector('kloub-viewer')), process.env.KLOUB_BENCH_EVAL);

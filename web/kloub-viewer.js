@@ -141,14 +141,17 @@ function parseLength(attr, token, auto) {
     default: return v;
   }
 }
+/** An orbit attribute's "θ φ r" (missing ones `auto`): [θ, φ, r] in radians and metres, null where `auto`; `%` of
+ *  r is of `distance`. */
+function orbitTokens(attr, text, distance) {
+  const t = String(text).trim().split(/\s+/);
+  if (t.length > 3 || t[0] === '') throw new RangeError(`${attr}: "${text}": expected "θ φ r" (e.g. "30deg 75deg 2m")`);
+  return [parseAngle(attr, t[0] ?? 'auto'), parseAngle(attr, t[1] ?? 'auto'), parseLength(attr, t[2] ?? 'auto', distance)];
+}
 /** model-viewer's `camera-orbit` ("θ φ r", any of them `auto`) over the framed camera `[yaw, pitch, distance, …]`. */
 function parseOrbit(text, framed) {
-  const t = String(text).trim().split(/\s+/);
-  if (t.length > 3 || t[0] === '') throw new RangeError(`camera-orbit: "${text}": expected "θ φ r" (e.g. "30deg 75deg 2m")`);
-  const theta = parseAngle('camera-orbit', t[0] ?? 'auto');
-  const phi = parseAngle('camera-orbit', t[1] ?? 'auto');
-  const r = parseLength('camera-orbit', t[2] ?? 'auto', framed[2]);
-  if (r !== null && !(r > 0)) throw new RangeError(`camera-orbit: radius "${t[2]}": expected a positive length`);
+  const [theta, phi, r] = orbitTokens('camera-orbit', text, framed[2]);
+  if (r !== null && !(r > 0)) throw new RangeError(`camera-orbit: radius "${text}": expected a positive length`);
   // θ turns the eye from +Z towards +X (Kloub's yaw); φ is measured down from +Y (Kloub's pitch is up from the horizon).
   return [theta ?? framed[0], phi === null ? framed[1] : Math.PI / 2 - phi, r ?? framed[2]];
 }
@@ -302,6 +305,8 @@ export class KloubViewer extends HTMLElement {
   #lastCamera = '';
   /** The time of the last frame drawn (auto-rotate's step). */
   #lastDraw = 0;
+  /** `auto-rotate-delay` (ms) and `rotation-per-second` (rad), read when they change, not every frame. */
+  #rotation = { delay: 3000, rate: Math.PI / 32 };
   /** `loading="lazy"`: the element has come near the viewport (it mounts from then on). */
   #near = false;
   /** The `poster` image, shown until the first frame of a model (or `dismissPoster()` with `reveal="manual"`). */
@@ -559,12 +564,12 @@ export class KloubViewer extends HTMLElement {
   }
 
   attributeChangedCallback(name, old, value) {
-    if (name === 'alt' || name === 'controls' || name === 'background') this.#present();
+    if (['alt', 'controls', 'camera-controls', 'background'].includes(name)) this.#present();
     if (name === 'poster') this.#showPoster();
     if (['min-camera-orbit', 'max-camera-orbit', 'field-of-view', 'disable-zoom', 'disable-pan'].includes(name)) this.#applyLimits();
     if (name === 'camera-orbit' || name === 'camera-target') this.#applyCameraAttributes();
+    if (name === 'auto-rotate-delay' || name === 'rotation-per-second') this.#readRotation();
     if (name === 'auto-rotate' || name === 'auto-rotate-delay') { this.#interacted = performance.now(); this.#wake(0); }
-    if (name === 'camera-controls') this.#present();
     if (['camera-controls', 'controls', 'interaction-prompt', 'interaction-prompt-threshold'].includes(name)) this.#schedulePrompt();
     if (name === 'loading' && value !== 'lazy' && this.isConnected && !this.#mounting) this[NEAR]();
     const viewer = this.#viewer;
@@ -805,15 +810,9 @@ export class KloubViewer extends HTMLElement {
    */
   #autoRotate(now) {
     if (!this.hasAttribute('auto-rotate') || !this.loaded || this.#framed === null) return null;
-    const delayAttr = Number(this.getAttribute('auto-rotate-delay') ?? 3000);
-    const delay = Number.isFinite(delayAttr) && delayAttr >= 0 ? delayAttr : 3000;
+    const { delay, rate } = this.#rotation;
     const left = this.#interacted + delay - now;
     if (left > 0) return left;
-    let rate = Math.PI / 32;
-    const text = this.getAttribute('rotation-per-second');
-    if (text) {
-      try { rate = parseAngle('rotation-per-second', text.trim()) ?? rate; } catch (e) { console.warn(`kloub-viewer: ${e.message}`); }
-    }
     const dt = Math.min(0.1, Math.max(0, (now - this.#lastDraw) / 1000));
     const c = this.camera;
     if (c.length === 6 && dt > 0) this.#viewer.setCamera(c[0] + rate * dt, c[1], c[2], c[3], c[4], c[5]);
@@ -834,11 +833,7 @@ export class KloubViewer extends HTMLElement {
       const text = this.getAttribute(attr);
       if (text === null) return [NaN, NaN, NaN];
       try {
-        const t = text.trim().split(/\s+/);
-        if (t.length > 3 || t[0] === '') throw new RangeError(`${attr}: "${text}": expected "θ φ r"`);
-        const angle = (token) => parseAngle(attr, token ?? 'auto') ?? NaN;
-        const r = parseLength(attr, t[2] ?? 'auto', framedDistance);
-        return [angle(t[0]), angle(t[1]), r ?? NaN];
+        return orbitTokens(attr, text, framedDistance).map((v) => v ?? NaN);
       } catch (e) {
         console.warn(`kloub-viewer: ${e.message}`);
         return [NaN, NaN, NaN];
@@ -854,6 +849,17 @@ export class KloubViewer extends HTMLElement {
     viewer.setCameraLimits(yawMin, yawMax, Math.PI / 2 - phiMax, Math.PI / 2 - phiMin, rMin, rMax,
       !this.hasAttribute('disable-zoom'), !this.hasAttribute('disable-pan'), fov);
     this.#wake(0);
+  }
+
+  /** Reads `auto-rotate-delay` and `rotation-per-second` (an unreadable one warns once and keeps its default). */
+  #readRotation() {
+    const delay = Number(this.getAttribute('auto-rotate-delay') ?? 3000);
+    let rate = Math.PI / 32;
+    const text = this.getAttribute('rotation-per-second');
+    if (text) {
+      try { rate = parseAngle('rotation-per-second', text.trim()) ?? rate; } catch (e) { console.warn(`kloub-viewer: ${e.message}`); }
+    }
+    this.#rotation = { delay: Number.isFinite(delay) && delay >= 0 ? delay : 3000, rate };
   }
 
   /** Applies `camera-orbit` and `camera-target` over the camera the model was framed with. */

@@ -230,3 +230,22 @@ export async function viewerEvents(page, id = null) {
   const all = await page.evaluate(() => window.__kloubEvents ?? []);
   return id === null ? all : all.filter(([v]) => v === id);
 }
+
+/**
+ * Opens the server's embed.html and puts `viewers` in place of its body: each `{ id, attrs, style }` becomes a
+ * `<kloub-viewer>` with those attributes and inline style; `bodyStyle` is the body's inline style.
+ */
+export async function viewersPage(page, url, viewers, bodyStyle = 'margin:0') {
+  await page.goto(`${url}/embed.html`);
+  await page.evaluate(({ viewers, bodyStyle }) => {
+    document.body.innerHTML = '';
+    document.body.style.cssText = bodyStyle;
+    for (const { id, attrs = {}, style = '' } of viewers) {
+      const v = document.createElement('kloub-viewer');
+      if (id) v.id = id;
+      for (const [name, value] of Object.entries(attrs)) v.setAttribute(name, value);
+      v.style.cssText = style;
+      document.body.append(v);
+    }
+  }, { viewers, bodyStyle });
+}

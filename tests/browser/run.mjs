@@ -6,7 +6,7 @@ import { PNG } from 'pngjs';
 import { basename, join } from 'node:path';
 import {
   ROOT, SHARED, control, dataset, diffFraction, dropFiles, makeZip, nonBackgroundFraction, openBrowser, pageUrl, recordEvents,
-  savePng, startServer, startStatic, viewerEvents, viewportShot, waitForDataset, waitFrames,
+  savePng, startServer, startStatic, viewerEvents, viewersPage, viewportShot, waitForDataset, waitFrames,
 } from './lib.mjs';
 
 const BACKENDS = (process.env.KLOUB_BACKENDS ?? 'webgpu,webgl2').split(',');
@@ -373,17 +373,8 @@ for (const backend of BACKENDS) {
 
   test(`${backend}: a <kloub-viewer> without background shows the page around the model; background (a theme or a CSS colour), grid and alt attributes; toBlob and toDataURL`, async (ctx) => {
     const { page } = ctx;
-    await page.goto(`${ctx.url}/embed.html`);
-    await page.evaluate((backend) => {
-      document.body.innerHTML = '';
-      document.body.style.cssText = 'margin:0;background:rgb(200,30,30)';
-      const v = document.createElement('kloub-viewer');
-      v.setAttribute('backend', backend);
-      v.setAttribute('src', '/assets/Fox.glb');
-      v.setAttribute('min-pixel-ratio', '1');
-      v.style.cssText = 'width:400px;height:300px';
-      document.body.append(v);
-    }, backend);
+    await viewersPage(page, ctx.url, [{ attrs: { backend, src: '/assets/Fox.glb', 'min-pixel-ratio': '1' }, style: 'width:400px;height:300px' }],
+      'margin:0;background:rgb(200,30,30)');
     await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.status === 'ready' && Number(document.querySelector('kloub-viewer').dataset.frames) > 0, 'the viewer');
     const ds = await dataset(page);
     assert(ds.background === 'transparent' && ds.grid === 'false', `defaults without controls: background ${ds.background}, grid ${ds.grid}`);
@@ -1106,16 +1097,11 @@ test('<kloub-viewer>: loading="lazy" fetches only the models near the view; post
 test('<kloub-viewer>: camera-orbit and camera-target over the framing; camera-controls gates input; auto-rotate turns and waits after interaction; camera-change says who moved it; min/max-camera-orbit, disable-zoom, field-of-view', async (ctx) => {
   const { page } = ctx;
   await page.setViewportSize({ width: 800, height: 600 });
-  await page.goto(`${ctx.url}/embed.html`);
+  await viewersPage(page, ctx.url, [{ attrs: { src: '/assets/Fox.glb' }, style: 'width:400px;height:300px' }]);
+  // No camera-change can come before the model is shown and a camera attribute changes it.
   await page.evaluate(() => {
-    document.body.innerHTML = '';
-    document.body.style.margin = '0';
     window.__changes = [];
-    const v = document.createElement('kloub-viewer');
-    v.setAttribute('src', '/assets/Fox.glb');
-    v.style.cssText = 'width:400px;height:300px';
-    v.addEventListener('camera-change', (e) => window.__changes.push(e.detail.source));
-    document.body.append(v);
+    document.querySelector('kloub-viewer').addEventListener('camera-change', (e) => window.__changes.push(e.detail.source));
   });
   await waitForDataset(page, () => document.querySelector('kloub-viewer').loaded, 'the model');
   const camera = () => page.evaluate(() => document.querySelector('kloub-viewer').camera);
@@ -1203,19 +1189,11 @@ test('<kloub-viewer>: camera-orbit and camera-target over the framing; camera-co
 test('<kloub-viewer>: a model is framed whole and centred at 4:3, 1:1 and 9:16', async (ctx) => {
   const { page } = ctx;
   await page.setViewportSize({ width: 800, height: 600 });
-  await page.goto(`${ctx.url}/embed.html`);
   const report = [];
   for (const model of ['Fox.glb', 'CesiumMan/CesiumMan.glb', 'Knight/Knight.glb']) {
     for (const [w, h] of [[400, 300], [300, 300], [225, 400]]) {
-      await page.evaluate(({ model, w, h }) => {
-        document.body.innerHTML = '';
-        document.body.style.cssText = 'margin:0;background:#fff';
-        const v = document.createElement('kloub-viewer');
-        v.setAttribute('src', `/assets/${model}`);
-        v.setAttribute('min-pixel-ratio', '1');
-        v.style.cssText = `width:${w}px;height:${h}px;border:0;border-radius:0`;
-        document.body.append(v);
-      }, { model, w, h });
+      await viewersPage(page, ctx.url, [{ attrs: { src: `/assets/${model}`, 'min-pixel-ratio': '1' }, style: `width:${w}px;height:${h}px;border:0;border-radius:0` }],
+        'margin:0;background:#fff');
       await waitForDataset(page, () => document.querySelector('kloub-viewer').loaded, model);
       await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
       const shot = await viewportShot(page);
@@ -1236,21 +1214,9 @@ test('<kloub-viewer>: a model is framed whole and centred at 4:3, 1:1 and 9:16',
 test('<kloub-viewer>: interaction-prompt shows a hint to drag after its threshold, gone at the first drag; none shows nothing', async (ctx) => {
   const { page } = ctx;
   await page.setViewportSize({ width: 800, height: 600 });
-  await page.goto(`${ctx.url}/embed.html`);
-  await page.evaluate(() => {
-    document.body.innerHTML = '';
-    document.body.style.margin = '0';
-    for (const [id, prompt] of [['a', null], ['b', 'none']]) {
-      const v = document.createElement('kloub-viewer');
-      v.id = id;
-      v.setAttribute('src', '/assets/Fox.glb');
-      v.setAttribute('camera-controls', '');
-      v.setAttribute('interaction-prompt-threshold', '300');
-      if (prompt) v.setAttribute('interaction-prompt', prompt);
-      v.style.cssText = 'display:inline-block;width:380px;height:280px;border:0';
-      document.body.append(v);
-    }
-  });
+  const attrs = { src: '/assets/Fox.glb', 'camera-controls': '', 'interaction-prompt-threshold': '300' };
+  const style = 'display:inline-block;width:380px;height:280px;border:0';
+  await viewersPage(page, ctx.url, [{ id: 'a', attrs, style }, { id: 'b', attrs: { ...attrs, 'interaction-prompt': 'none' }, style }]);
   const shown = (id) => page.evaluate((id) => !document.getElementById(id).shadowRoot.querySelector('.kloub-prompt').hidden, id);
   await waitForDataset(page, () => ['a', 'b'].every((id) => document.getElementById(id).loaded), 'both models');
   await page.waitForFunction(() => !document.getElementById('a').shadowRoot.querySelector('.kloub-prompt').hidden, null, { timeout: 30000 });

@@ -288,12 +288,7 @@ impl App {
         let backend = backend_name(gpu.adapter.get_info().backend);
         log::info!("kloub: rendering with {backend} ({:?})", gpu.adapter.get_info().name);
         install_fonts(ctx);
-        let scene = SceneRenderer::with_format(
-            &gpu.device,
-            &gpu.queue,
-            display_msaa(&gpu.adapter),
-            scene_format(gpu.adapter.get_info().backend),
-        );
+        let scene = new_scene(&gpu);
         let mut app = Self {
             gpu,
             backend,
@@ -357,12 +352,7 @@ impl App {
     /// When the model cannot be uploaded to the new device (it is then dropped, as a failed
     /// load would be).
     pub fn replace_gpu(&mut self, gpu: egui_wgpu::RenderState) -> Result<(), String> {
-        let mut scene = SceneRenderer::with_format(
-            &gpu.device,
-            &gpu.queue,
-            display_msaa(&gpu.adapter),
-            scene_format(gpu.adapter.get_info().backend),
-        );
+        let mut scene = new_scene(&gpu);
         scene.set_grid(self.scene.grid());
         scene.set_heatmap(self.scene.heatmap());
         scene.set_look(self.scene.look());
@@ -1124,6 +1114,17 @@ impl App {
 /// Width / height of the 3D view's rectangle (1 before it has a size): what framing fits the model to.
 fn view_aspect(rect: egui::Rect) -> f32 {
     if rect.width() > 0.0 && rect.height() > 0.0 { rect.width() / rect.height() } else { 1.0 }
+}
+
+/// A scene renderer for the view on `gpu`: its multisampling and the colour format its canvas
+/// is drawn in (both rebuilt the same way when the device is replaced).
+fn new_scene(gpu: &egui_wgpu::RenderState) -> SceneRenderer {
+    SceneRenderer::with_format(
+        &gpu.device,
+        &gpu.queue,
+        display_msaa(&gpu.adapter),
+        scene_format(gpu.adapter.get_info().backend),
+    )
 }
 
 #[cfg(test)]

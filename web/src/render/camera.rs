@@ -221,21 +221,28 @@ impl Camera {
 mod tests {
     use super::*;
 
-    #[test]
-    fn frame_to_fit_puts_the_box_in_view() {
-        let mut camera = Camera::default();
-        let (min, max) = (Vec3::new(-1.0, 0.0, -0.5), Vec3::new(1.0, 2.0, 0.5));
-        camera.frame_to_fit(min, max);
-        assert_eq!(camera.target, Vec3::new(0.0, 1.0, 0.0));
-        let vp = camera.view_proj(1.0);
-        for corner in 0..8 {
+    /// The eight corners of the box `min..max` and where `camera` puts them in normalized
+    /// device coordinates for a view of `aspect`.
+    fn corners_in_ndc(camera: &Camera, aspect: f32, min: Vec3, max: Vec3) -> impl Iterator<Item = (Vec3, Vec3)> {
+        let vp = camera.view_proj(aspect);
+        (0..8).map(move |corner| {
             let p = Vec3::new(
                 if corner & 1 == 0 { min.x } else { max.x },
                 if corner & 2 == 0 { min.y } else { max.y },
                 if corner & 4 == 0 { min.z } else { max.z },
             );
             let clip = vp * p.extend(1.0);
-            let ndc = clip.truncate() / clip.w;
+            (p, clip.truncate() / clip.w)
+        })
+    }
+
+    #[test]
+    fn frame_to_fit_puts_the_box_in_view() {
+        let mut camera = Camera::default();
+        let (min, max) = (Vec3::new(-1.0, 0.0, -0.5), Vec3::new(1.0, 2.0, 0.5));
+        camera.frame_to_fit(min, max);
+        assert_eq!(camera.target, Vec3::new(0.0, 1.0, 0.0));
+        for (p, ndc) in corners_in_ndc(&camera, 1.0, min, max) {
             assert!(ndc.x.abs() <= 1.0 && ndc.y.abs() <= 1.0, "corner {p} at {ndc}");
             assert!(ndc.z > 0.0 && ndc.z < 1.0, "corner {p} depth {}", ndc.z);
         }
@@ -328,15 +335,7 @@ mod tests {
         tall.frame_to_fit_aspect(min, max, 9.0 / 16.0);
         assert!(tall.distance > square.distance * 1.5, "{} vs {}", tall.distance, square.distance);
         // Every corner of the box projects inside the tall view.
-        let vp = tall.view_proj(9.0 / 16.0);
-        for corner in 0..8 {
-            let p = Vec3::new(
-                if corner & 1 == 0 { min.x } else { max.x },
-                if corner & 2 == 0 { min.y } else { max.y },
-                if corner & 4 == 0 { min.z } else { max.z },
-            );
-            let clip = vp * p.extend(1.0);
-            let ndc = clip.truncate() / clip.w;
+        for (p, ndc) in corners_in_ndc(&tall, 9.0 / 16.0, min, max) {
             assert!(ndc.x.abs() <= 1.0 && ndc.y.abs() <= 1.0, "corner {p} at {ndc}");
         }
     }
