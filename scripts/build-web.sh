@@ -36,7 +36,7 @@ fi
 install_if_changed() { cmp -s "$1" "$2/$(basename "$1")" || cp "$1" "$2/"; }
 install_if_changed target/wasm-bindgen/kloub_web.js "$DIST"
 # The element (the npm package's entry), its types, the app page built on it, and the embedding example.
-for f in kloub-viewer.js kloub-viewer.d.ts hash-state.js index.html app.js style.css embed.html embed.js; do
+for f in kloub-viewer.js kloub-viewer.d.ts hash-state.js accessibility.js index.html app.js style.css embed.html embed.js; do
   install_if_changed "web/$f" "$DIST"
 done
 rm -f "$DIST/boot.js" "$DIST"/boot.js.*
@@ -53,7 +53,7 @@ cat > "$DIST/package.json.new" <<JSON
   "module": "./kloub-viewer.js",
   "types": "./kloub-viewer.d.ts",
   "exports": { ".": { "types": "./kloub-viewer.d.ts", "default": "./kloub-viewer.js" }, "./kloub_web_bg.wasm": "./kloub_web_bg.wasm" },
-  "files": ["kloub-viewer.js", "kloub-viewer.d.ts", "hash-state.js", "kloub_web.js", "kloub_web_bg.wasm"],
+  "files": ["kloub-viewer.js", "kloub-viewer.d.ts", "hash-state.js", "accessibility.js", "kloub_web.js", "kloub_web_bg.wasm"],
   "sideEffects": ["./kloub-viewer.js"]
 }
 JSON
@@ -66,7 +66,7 @@ import { join } from 'node:path';
 import zlib from 'node:zlib';
 const [dist, quality] = process.argv.slice(2);
 const C = zlib.constants;
-for (const name of ['index.html', 'app.js', 'hash-state.js', 'kloub-viewer.js', 'embed.html', 'embed.js', 'style.css', 'kloub_web.js', 'kloub_web_bg.wasm']) {
+for (const name of ['index.html', 'app.js', 'hash-state.js', 'accessibility.js', 'kloub-viewer.js', 'embed.html', 'embed.js', 'style.css', 'kloub_web.js', 'kloub_web_bg.wasm']) {
   const file = join(dist, name);
   if (!existsSync(file)) continue;
   const mtime = statSync(file).mtimeMs;

@@ -9,6 +9,7 @@
 // ...; see kloub-viewer.d.ts) and reported by events: load, error, play, pause, timeupdate, loop,
 // finished. The wasm module is loaded once per page, on the first connected element.
 import { viewToHash, hashToView, applyView } from './hash-state.js';
+import { AccessibilityMirror, ACCESSIBILITY_STYLE } from './accessibility.js';
 
 // ---- the page runtime: one module instance, one frame loop, shared by every element ----
 
@@ -115,6 +116,12 @@ const sizes = new ResizeObserver((entries) => {
 document.addEventListener('visibilitychange', () => {
   for (const element of mounted) element[SHOW](null);
 });
+/** The page's motion preference: no UI animations in the panels when reduced. */
+const reducedMotion = window.matchMedia('(prefers-reduced-motion: reduce)');
+const MOTION = Symbol('motion');
+reducedMotion.addEventListener?.('change', () => {
+  for (const element of mounted) element[MOTION]();
+});
 
 /** Modifier bits of an input event: 1 Alt, 2 Ctrl, 4 Shift, 8 Meta. */
 const modifierBits = (e) => (e.altKey ? 1 : 0) | (e.ctrlKey ? 2 : 0) | (e.shiftKey ? 4 : 0) | (e.metaKey ? 8 : 0);
@@ -163,7 +170,7 @@ function parseTarget(text, framed) {
 }
 
 const STYLE = `
-:host { display: block; position: relative; width: 300px; height: 150px; overflow: hidden; }
+:host { display: block; position: relative; width: 300px; height: 150px; overflow: clip; }
 :host([hidden]) { display: none; }
 canvas { display: block; width: 100%; height: 100%; outline: none; touch-action: auto; }
 :host([controls]) canvas, :host([camera-controls]) canvas { touch-action: none; }
@@ -179,6 +186,9 @@ canvas { display: block; width: 100%; height: 100%; outline: none; touch-action:
   border-radius: 12px; font: 13px system-ui, sans-serif; color: #fff; background: rgba(0, 0, 0, 0.55);
   pointer-events: none; white-space: nowrap; animation: kloub-nudge 2s ease-in-out infinite; }
 .kloub-prompt[hidden] { display: none; }
+.kloub-live { position: absolute; width: 1px; height: 1px; margin: -1px; padding: 0; overflow: hidden;
+  clip-path: inset(50%); white-space: nowrap; border: 0; }
+@media (prefers-reduced-motion: reduce) { .kloub-prompt { animation: none; } }
 @keyframes kloub-nudge { 0%, 100% { transform: translateX(-50%); } 50% { transform: translateX(calc(-50% + 8px)); } }
 `;
 
@@ -319,6 +329,10 @@ export class KloubViewer extends HTMLElement {
   /** ElementInternals: the element's role and accessible name, without touching its attributes. */
   #internals;
   #canvas;
+  /** The panels mirrored for assistive technology and the keyboard (with `controls`). */
+  #a11y;
+  /** Announcements for screen readers (an aria-live region). */
+  #live;
   #mounting = null;
   #pendingTime = null;
   #teardown = null;
@@ -344,7 +358,7 @@ export class KloubViewer extends HTMLElement {
     this.#internals = this.attachInternals();
     const root = this.attachShadow({ mode: 'open' });
     const style = document.createElement('style');
-    style.textContent = STYLE;
+    style.textContent = STYLE + ACCESSIBILITY_STYLE;
     const loading = document.createElement('div');
     loading.className = 'kloub-loading';
     loading.textContent = 'Loading…';
@@ -379,7 +393,28 @@ export class KloubViewer extends HTMLElement {
     this.#prompt.setAttribute('aria-hidden', 'true');
     this.#prompt.textContent = '⟲ Drag to turn · scroll or pinch to zoom';
     this.#prompt.hidden = true;
-    root.append(style, this.#canvas, this.#poster, this.#prompt, loading, this.#note, ...this.#pickers);
+    this.#live = document.createElement('div');
+    this.#live.className = 'kloub-live';
+    this.#live.setAttribute('role', 'status');
+    this.#live.setAttribute('aria-live', 'polite');
+    root.append(style, this.#canvas, this.#poster, this.#prompt, loading, this.#note, this.#live, ...this.#pickers);
+    // The panels' mirror goes before the view: Tab walks the panel, then the 3D view.
+    this.#a11y = new AccessibilityMirror(root, (id, action, number, text) => {
+      const viewer = this.#viewer;
+      if (!viewer || this.#lost) return;
+      viewer.accessibilityAction(id, action, number ?? undefined, text ?? undefined);
+      this.#inputPending = true;
+      this.#wake(0);
+    }, (key) => {
+      const viewer = this.#viewer;
+      if (!viewer || this.#lost) return;
+      viewer.key(key, key, true, 0);
+      viewer.key(key, key, false, 0);
+      this.#inputPending = true;
+      this.#wake(0);
+    });
+    root.insertBefore(this.#a11y.root, this.#canvas);
+    this.#announcer();
     // Drops are read here (folders too) and handed over whole; capture runs before the canvas's own handler.
     const drag = (on) => (event) => {
       if (!this.hasAttribute('controls') || !event.dataTransfer) return;
@@ -461,11 +496,23 @@ export class KloubViewer extends HTMLElement {
       viewer.wheel(event.deltaX, event.deltaY, event.deltaMode, modifierBits(event));
     }), { passive: false });
     const key = (pressed) => input((viewer, event) => {
+      // With the panels mirrored, Tab walks the page's focus order (the panel's controls, the view) instead of
+      // egui's; Escape leaves the view once nothing of egui's (a menu, the help) is open to close.
+      if (event.key === 'Tab' && this.hasAttribute('controls')) return;
+      const popup = this.#a11y.root.querySelector('[data-popup]');
       if (viewer.key(event.key, event.code, pressed, modifierBits(event))) event.preventDefault();
+      if (pressed && event.key === 'Escape' && !popup) {
+        const first = this.#a11y.root.querySelector('button, input');
+        if (first) first.focus();
+        else canvas.blur();
+      }
     });
     canvas.addEventListener('keydown', key(true));
     canvas.addEventListener('keyup', key(false));
-    canvas.addEventListener('focus', input((viewer) => viewer.focus(true)));
+    canvas.addEventListener('focus', input((viewer) => {
+      viewer.focus(true);
+      viewer.releaseFocus();
+    }));
     canvas.addEventListener('blur', input((viewer) => viewer.focus(false)));
     canvas.addEventListener('paste', input((viewer, event) => {
       const text = event.clipboardData?.getData('text/plain');
@@ -494,7 +541,65 @@ export class KloubViewer extends HTMLElement {
     // A view that takes no input is no tab stop.
     this.#canvas.tabIndex = this.#interactive() ? 0 : -1;
     this.#internals.ariaLabel = this.getAttribute('alt');
+    this.#labelCanvas();
     this.#canvas.style.backgroundColor = this.#cssBackground() ?? '';
+  }
+
+  /** The 3D view's name for assistive technology: what it shows and the keys it takes (it is a tab stop only with
+   *  `controls` or `camera-controls`). */
+  #labelCanvas() {
+    const canvas = this.#canvas;
+    if (!this.#interactive()) {
+      canvas.removeAttribute('role');
+      canvas.removeAttribute('aria-label');
+      canvas.removeAttribute('aria-roledescription');
+      return;
+    }
+    const model = this.dataset.model;
+    const what = this.getAttribute('alt') || (model ? `3D view of ${model}` : '3D view');
+    const keys = this.hasAttribute('controls')
+      ? 'Shift and the arrow keys turn the camera, plus and minus zoom, F frames the model; Space plays or pauses, '
+        + 'Left and Right step a frame, Up and Down change the clip; Escape leaves the view'
+      : 'Shift and the arrow keys turn the camera, plus and minus zoom; Escape leaves the view';
+    canvas.setAttribute('role', 'application');
+    canvas.setAttribute('aria-roledescription', '3D view');
+    canvas.setAttribute('aria-label', `${what}. ${keys}.`);
+  }
+
+  /** Says what happens to screen readers (an aria-live region): a model loaded, an error, the clip changed, the
+   *  ragdoll started or came to rest. */
+  #announcer() {
+    const say = (text) => {
+      // The same text twice is announced twice only if the region changes in between.
+      if (this.#live.textContent === text) this.#live.textContent = '';
+      queueMicrotask(() => { this.#live.textContent = text; });
+    };
+    this.addEventListener('load', (event) => {
+      let clips = 0;
+      try { clips = JSON.parse(this.dataset.clips ?? '[]').length; } catch { /* none */ }
+      const name = event.detail?.name || this.dataset.model || 'The model';
+      say(`${name} loaded: ${clips} ${clips === 1 ? 'clip' : 'clips'}.`);
+      this.#labelCanvas();
+    });
+    this.addEventListener('error', (event) => say(`Error: ${event.detail?.message ?? ''}`));
+    let clip = null;
+    let ragdoll = '';
+    new MutationObserver(() => {
+      const now = this.dataset.clip ?? '';
+      if (clip !== null && now !== clip && this.dataset.status === 'ready' && now !== '') say(`Playing ${now}.`);
+      clip = now;
+      const state = this.dataset.ragdoll ?? '';
+      if (state !== ragdoll) {
+        if (state === 'simulating') say('Ragdoll started.');
+        else if (state === 'resting') say('The ragdoll came to rest.');
+        ragdoll = state;
+      }
+    }).observe(this, { attributes: true, attributeFilter: ['data-clip', 'data-ragdoll'] });
+  }
+
+  [MOTION]() {
+    this.#viewer?.setReducedMotion(reducedMotion.matches);
+    this.#wake(0);
   }
 
   /** The `background` attribute when it is a CSS colour (not one of the themes), else null. */
@@ -559,6 +664,7 @@ export class KloubViewer extends HTMLElement {
 
   #unmount() {
     mounted.delete(this);
+    this.#a11y.clear();
     this.#viewer?.destroy();
     this.#viewer = null;
   }
@@ -594,6 +700,8 @@ export class KloubViewer extends HTMLElement {
         case 'skinning': if (value) viewer.setSkinning(value); break;
         case 'controls':
           viewer.setPanels(value !== null);
+          viewer.setAccessibility(value !== null);
+          if (value === null) this.#a11y.clear();
           if (!this.hasAttribute('background')) viewer.setBackground(this.#background());
           if (!this.hasAttribute('grid')) viewer.setGrid(this.grid);
           break;
@@ -642,6 +750,9 @@ export class KloubViewer extends HTMLElement {
         return;
       }
       mounted.add(this);
+      this.#a11y.clear();
+      viewer.setAccessibility(this.hasAttribute('controls'));
+      viewer.setReducedMotion(reducedMotion.matches);
       if (this.#samples.length > 0) viewer.setSamples(JSON.stringify(this.#samples));
       if (this.hasAttribute('crossfade-duration') || this.hasAttribute('animation-crossfade-duration')) {
         viewer.setCrossfadeDuration(this.#crossfadeSeconds());
@@ -765,6 +876,8 @@ export class KloubViewer extends HTMLElement {
       return [Infinity, 0];
     }
     this.#lastDraw = now;
+    const mirrored = viewer.takeAccessibility();
+    if (mirrored !== undefined) this.#a11y.apply(mirrored);
     const camera = this.dataset.camera ?? '';
     if (this.loaded && camera !== this.#lastCamera) {
       const source = this.#userInput ? 'user-interaction' : 'none';
@@ -1363,6 +1476,9 @@ export class KloubViewer extends HTMLElement {
   static async _testLoseDevices() { (await loadRuntime())._testLoseDevices(); }
   /** The page's shared WebGL2 canvas (null until a WebGL2 viewer mounts). */
   static async _testGlCanvas() { return (await loadRuntime())._testGlCanvas() ?? null; }
+
+  /** The ARIA role and name of every control of the panels as the viewer built them ([[role, name], …]). */
+  _testAccessibilityControls() { return JSON.parse(this.#viewer?._testAccessibilityControls() ?? '[]'); }
 
   /** Every mirrored state value (a copy of the data-* attributes). */
   get state() { return { ...this.dataset }; }

@@ -8,6 +8,7 @@ import {
   ROOT, SHARED, control, dataset, diffFraction, dropFiles, makeZip, nonBackgroundFraction, openBrowser, pageUrl, recordEvents,
   savePng, startServer, startStatic, viewerEvents, viewersPage, viewportShot, waitForDataset, waitFrames,
 } from './lib.mjs';
+import { registerAccessibilityTests } from './accessibility.mjs';
 
 const BACKENDS = (process.env.KLOUB_BACKENDS ?? 'webgpu,webgl2').split(',');
 const FOX = join(SHARED, 'khronos/Fox/glTF-Binary/Fox.glb');
@@ -1360,6 +1361,8 @@ test('hash-state.js: a view round-trips through the hash; malformed keys are dro
   const zero = hashToView('#camera=0,0,0,0,0,0');
   assert(zero.camera === undefined, 'a zero camera distance is refused');
 });
+
+registerAccessibilityTests(test, BACKENDS);
 
 const server = await startServer();
 let passed = 0;

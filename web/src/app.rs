@@ -196,7 +196,7 @@ const ORBIT_STEP: f32 = 15.0;
 const ZOOM_STEP: f32 = 1.25;
 
 /// Steps per second of the ←/→ frame step.
-const FRAME_RATE: f32 = 30.0;
+pub(crate) const FRAME_RATE: f32 = 30.0;
 
 /// What the help window lists.
 const SHORTCUTS: &[(&str, &str)] = &[
@@ -228,6 +228,34 @@ fn overlay_names(o: Overlays) -> String {
         (o.bodies, "bodies"),
     ];
     names.iter().filter(|(on, _)| *on).map(|(_, n)| *n).collect::<Vec<_>>().join(",")
+}
+
+/// The panels' look: egui's themes with text and controls at WCAG AA contrast (4.5:1, here
+/// 4.6 for rounding) against what they are drawn on — egui's weak text (2.3:1 in the dark
+/// theme) and some widget states fall below it.
+pub fn style_panels(ctx: &egui::Context) {
+    use crate::ui::{contrast, over};
+    /// `fg` moved towards black or white (whichever reads better on `bg`) until it reads.
+    fn readable(fg: egui::Color32, bg: egui::Color32) -> egui::Color32 {
+        let fg = over(fg, bg);
+        let target = if contrast(egui::Color32::WHITE, bg) > contrast(egui::Color32::BLACK, bg) {
+            egui::Color32::WHITE
+        } else {
+            egui::Color32::BLACK
+        };
+        (0..=20).map(|i| fg.lerp_to_gamma(target, i as f32 / 20.0)).find(|&c| contrast(c, bg) >= 4.6).unwrap_or(target)
+    }
+    ctx.all_styles_mut(|style| {
+        let v = &mut style.visuals;
+        let panel = v.panel_fill;
+        v.weak_text_color = Some(readable(v.weak_text_color(), panel));
+        let text = readable(v.text_color(), panel);
+        v.widgets.noninteractive.fg_stroke.color = text;
+        for w in [&mut v.widgets.inactive, &mut v.widgets.hovered, &mut v.widgets.active, &mut v.widgets.open] {
+            w.fg_stroke.color = readable(w.fg_stroke.color, w.weak_bg_fill);
+        }
+        v.selection.stroke.color = readable(v.selection.stroke.color, v.selection.bg_fill);
+    });
 }
 
 /// Gives egui its fonts: Ubuntu-Light for all text (monospace included: the panel has no
@@ -288,6 +316,7 @@ impl App {
         let backend = backend_name(gpu.adapter.get_info().backend);
         log::info!("kloub: rendering with {backend} ({:?})", gpu.adapter.get_info().name);
         install_fonts(ctx);
+        style_panels(ctx);
         let scene = new_scene(&gpu);
         let mut app = Self {
             gpu,

@@ -256,6 +256,61 @@ impl Viewer {
         self.with_input(|i| i.focus(on));
     }
 
+    fn with_view(&self, f: impl FnOnce(&mut View)) {
+        if let Ok(mut slot) = self.mounted.try_borrow_mut()
+            && let Some(m) = slot.as_mut()
+        {
+            f(&mut m.view);
+        }
+    }
+
+    /// Mirrors the panels' accessibility tree for the element (see [`Viewer::take_accessibility`]),
+    /// or stops.
+    #[wasm_bindgen(js_name = setAccessibility)]
+    pub fn set_accessibility(&self, on: bool) {
+        self.with_view(|v| v.set_accessibility(on));
+    }
+
+    /// What changed in the panels' accessibility tree with the last frame: JSON of the nodes
+    /// to create or update and the ids that went away (`undefined`: nothing).
+    #[wasm_bindgen(js_name = takeAccessibility)]
+    pub fn take_accessibility(&self) -> Option<String> {
+        let mut out = None;
+        self.with_view(|v| out = v.take_accessibility());
+        out
+    }
+
+    /// An action of assistive technology on a mirrored node: `click`, `focus`, `setValue`
+    /// (with `number` or `text`), `increment`, `decrement`, `scrollIntoView`. Returns whether
+    /// it was understood (it takes effect with the next frame).
+    #[wasm_bindgen(js_name = accessibilityAction)]
+    pub fn accessibility_action(&self, node: &str, action: &str, number: Option<f64>, text: Option<String>) -> bool {
+        let Some(request) = crate::page::a11y::action_request(node, action, number, text) else { return false };
+        self.with_input(|i| i.accessibility(request));
+        true
+    }
+
+    /// Test hook: every control of the panels' accessibility tree as egui built it, as JSON
+    /// `[[role, name], …]` (what the page's accessibility tree must list).
+    #[wasm_bindgen(js_name = _testAccessibilityControls)]
+    pub fn test_accessibility_controls(&self) -> String {
+        let mut out = "[]".to_owned();
+        self.with_view(|v| out = v.accessibility_controls());
+        out
+    }
+
+    /// No UI animations when the page prefers reduced motion.
+    #[wasm_bindgen(js_name = setReducedMotion)]
+    pub fn set_reduced_motion(&self, on: bool) {
+        self.with_view(|v| v.set_reduced_motion(on));
+    }
+
+    /// The keyboard moved to the 3D view: panel widgets let go of egui's focus.
+    #[wasm_bindgen(js_name = releaseFocus)]
+    pub fn release_focus(&self) {
+        self.with_view(View::release_focus);
+    }
+
     /// Stops the viewer and frees its GPU resources (the element left the page).
     pub fn destroy(&self) {
         if let Some(m) = self.mounted.borrow_mut().take() {

@@ -139,6 +139,11 @@ impl Input {
         !browser_shortcut && (text || matches!(active, egui::Key::Tab | egui::Key::Space) || active.name().len() > 1)
     }
 
+    /// A request of assistive technology (through the element's mirrored nodes).
+    pub fn accessibility(&mut self, request: egui::accesskit::ActionRequest) {
+        self.events.push(Event::AccessKitActionRequest(request));
+    }
+
     /// Text pasted into the viewer.
     pub fn paste(&mut self, text: String) {
         self.events.push(Event::Paste(text));

@@ -3,8 +3,9 @@
 //! (`web/kloub-viewer.js`) schedules frames (only for viewers in view that asked for one) and
 //! forwards input; [`crate::Viewer`] is its handle.
 //!
-//! [`input`] is platform-free; [`gpu`] and [`view`] exist on `wasm32` only.
+//! [`input`] and [`a11y`] are platform-free; [`gpu`] and [`view`] exist on `wasm32` only.
 
+pub mod a11y;
 #[cfg(target_arch = "wasm32")]
 pub mod gpu;
 pub mod input;

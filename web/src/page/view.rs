@@ -46,6 +46,14 @@ pub struct View {
     /// Counted in [`super::gpu::gl_views`].
     counted_gl: bool,
     cursor: egui::CursorIcon,
+    /// The panels' accessibility tree as the element mirrors it (`None`: not mirrored).
+    a11y: Option<super::a11y::Mirror>,
+    /// The mirror's changes from the last frame, until the element takes them.
+    a11y_out: Option<String>,
+    /// Reduced motion asked for by the page (`prefers-reduced-motion`): no UI animations.
+    reduced_motion: bool,
+    /// The keyboard moved to the 3D view: egui's focused widget lets go before the next frame.
+    release_focus: bool,
 }
 
 /// A new egui context and renderer for `gpu` (one per viewer: egui's textures are numbered
@@ -135,6 +143,10 @@ impl View {
             output,
             start: now_ms(),
             cursor: egui::CursorIcon::Default,
+            a11y: None,
+            a11y_out: None,
+            reduced_motion: false,
+            release_focus: false,
         })
     }
 
@@ -160,12 +172,55 @@ impl View {
         let render = render_state(&gpu);
         let ctx = egui::Context::default();
         crate::app::install_fonts(&ctx);
+        crate::app::style_panels(&ctx);
         self.app.replace_gpu(render.clone())?;
         self.app.set_context(&ctx);
         self.ctx = ctx;
         self.render = render;
         self.gpu = gpu;
+        let mirrored = self.a11y.is_some();
+        self.set_accessibility(mirrored);
+        self.set_reduced_motion(self.reduced_motion);
         Ok(())
+    }
+
+    /// Mirrors the panels' accessibility tree for the element (on), or stops (off). Turning it
+    /// on sends the whole tree with the next frame.
+    pub fn set_accessibility(&mut self, on: bool) {
+        if on {
+            self.ctx.enable_accesskit();
+            self.a11y = Some(super::a11y::Mirror::default());
+        } else {
+            self.ctx.disable_accesskit();
+            self.a11y = None;
+        }
+        self.a11y_out = None;
+    }
+
+    /// The mirror's changes since the element last took them (JSON, see [`super::a11y`]).
+    pub fn take_accessibility(&mut self) -> Option<String> {
+        self.a11y_out.take()
+    }
+
+    /// Every control of the mirrored tree as `[[role, name], …]` (empty when not mirrored).
+    pub fn accessibility_controls(&self) -> String {
+        self.a11y.as_ref().map_or_else(|| "[]".to_owned(), super::a11y::Mirror::controls_json)
+    }
+
+    /// No UI animations (collapsing sections, scrolling) when the page prefers reduced motion.
+    pub fn set_reduced_motion(&mut self, on: bool) {
+        self.reduced_motion = on;
+        let default = egui::Style::default();
+        self.ctx.all_styles_mut(|style| {
+            style.animation_time = if on { 0.0 } else { default.animation_time };
+            style.scroll_animation = if on { egui::style::ScrollAnimation::none() } else { default.scroll_animation };
+        });
+    }
+
+    /// The keyboard focus moved to the 3D view: no panel widget keeps egui's focus (keys go to
+    /// the view's shortcuts).
+    pub fn release_focus(&mut self) {
+        self.release_focus = true;
     }
 
     /// Draws a frame at `now` (ms) on a canvas of `width` × `height` pixels, `ppp` pixels
@@ -185,9 +240,23 @@ impl View {
         }
         let size = egui::vec2(width as f32, height as f32) / ppp;
         let raw = self.input.take(size, ppp, (now - self.start) / 1000.0);
+        if std::mem::take(&mut self.release_focus) {
+            self.ctx.memory_mut(|m| {
+                if let Some(id) = m.focused() {
+                    m.surrender_focus(id);
+                }
+            });
+        }
         let app = &mut self.app;
         let output = self.ctx.run_ui(raw, |ui| app.frame(ui));
         self.platform(&output.platform_output);
+        if let (Some(mirror), Some(update)) = (self.a11y.as_mut(), output.platform_output.accesskit_update.as_ref()) {
+            if self.a11y_out.is_some() {
+                // The element did not take the last changes: start over with the whole tree.
+                mirror.reset();
+            }
+            self.a11y_out = mirror.update(update);
+        }
         let next = output.viewport_output.get(&egui::ViewportId::ROOT).map_or(Next::Idle, |v| {
             if v.repaint_delay == std::time::Duration::MAX {
                 Next::Idle

@@ -1,0 +1,127 @@
+//! The skinning section: method and path, the deviation heatmap, SJB's fallbacks, and the candy
+//! wrapper's sample.
+
+use kloub_core::job::dqs::SkinningMethod;
+
+use crate::candy::{CandyPanel, TABLE_BENDS};
+use crate::control::Command;
+use crate::render::SkinningPath;
+
+use super::{PanelActions, PanelState};
+
+/// Skinning method and path, and SJB's fallback count.
+pub(super) fn skinning_panel(ui: &mut egui::Ui, state: &PanelState<'_>, actions: &mut PanelActions) {
+    ui.strong("Skinning");
+    let shown =
+        egui::ComboBox::from_id_salt("skinning method").selected_text(method_label(state.skinning)).show_ui(ui, |ui| {
+            for method in SkinningMethod::ALL {
+                let response = ui.selectable_label(state.skinning == method, method_label(method));
+                if response.on_hover_text(method_hint(method)).clicked() && state.skinning != method {
+                    actions.commands.push(Command::SetSkinning(method));
+                }
+            }
+        });
+    super::named_combo(&shown, "Skinning method");
+    super::radio_row(ui, "Skinning path", |ui| {
+        for path in SkinningPath::ALL.into_iter().filter(|&p| p != SkinningPath::Compute || state.compute) {
+            if ui.radio(state.skinning_path == path, path.label()).clicked() && state.skinning_path != path {
+                actions.commands.push(Command::SetSkinningPath(path));
+            }
+        }
+    });
+    let mut heatmap = state.heatmap;
+    let reference = if state.skinning == SkinningMethod::Linear { "DQS" } else { "LBS" };
+    let toggle = ui
+        .add_enabled(state.skinning_path == SkinningPath::Gpu, egui::Checkbox::new(&mut heatmap, "Deviation heatmap"))
+        .on_hover_text(format!(
+            "Colours each vertex by its distance from {reference}'s result: blue none, red 2% of the model's size \
+             (vertex-shader path)"
+        ));
+    if toggle.changed() {
+        actions.commands.push(Command::SetHeatmap(heatmap));
+    }
+    if state.skinning == SkinningMethod::SphericalJointBlend {
+        let (vertices, fallbacks) =
+            state.sjb_fallbacks.iter().fold((0, 0), |(v, f), &(_, vertices, fallbacks)| (v + vertices, f + fallbacks));
+        ui.label(format!("{fallbacks} of {vertices} vertices share no joint centre and use DQS"))
+            .on_hover_text(sjb_breakdown(state.sjb_fallbacks));
+    }
+}
+
+pub(super) fn method_label(method: SkinningMethod) -> &'static str {
+    match method {
+        SkinningMethod::Rigid => "Rigid (strongest joint)",
+        SkinningMethod::Linear => "Linear blend (LBS)",
+        SkinningMethod::DualQuaternion => "Dual quaternion (DQS)",
+        SkinningMethod::SphericalJointBlend => "Spherical joint blend (SJB)",
+    }
+}
+
+pub(super) fn method_hint(method: SkinningMethod) -> &'static str {
+    match method {
+        SkinningMethod::Rigid => "Each vertex follows its strongest joint only: rigid parts, cracks at joints",
+        SkinningMethod::Linear => {
+            "Blends the joint matrices: the glTF reference; collapses under twist, loses volume when bent"
+        }
+        SkinningMethod::DualQuaternion => {
+            "Blends rigid transforms as dual quaternions: keeps volume under twist and bend"
+        }
+        SkinningMethod::SphericalJointBlend => {
+            "Rotates vertices about their shared joint centre (Hejl); vertices whose joints share no centre use DQS"
+        }
+    }
+}
+
+pub(super) fn sjb_breakdown(draws: &[(usize, usize, usize)]) -> String {
+    let lines: Vec<String> =
+        draws.iter().map(|(mesh, vertices, fallbacks)| format!("mesh {mesh}: {fallbacks} of {vertices}")).collect();
+    lines.join("\n")
+}
+
+/// The candy-wrapper sample: twist and bend sliders, quality per method, the volume table.
+pub(super) fn candy_panel(ui: &mut egui::Ui, candy: &CandyPanel, current: SkinningMethod, actions: &mut PanelActions) {
+    ui.strong("Candy wrapper");
+    let (mut twist, mut bend) = (candy.twist, candy.bend);
+    let twisted = ui.add(egui::Slider::new(&mut twist, -180.0..=180.0).suffix("°").text("twist")).changed();
+    let bent = ui.add(egui::Slider::new(&mut bend, 0.0..=150.0).suffix("°").text("bend")).changed();
+    if twisted || bent || (!candy.manual && ui.button("Pose by sliders").clicked()) {
+        actions.commands.push(Command::SetCandyPose { twist, bend });
+    }
+    if !candy.manual {
+        ui.weak("A clip poses the rig; move a slider to take over.");
+    }
+    egui::Grid::new("candy quality").striped(true).show(ui, |ui| {
+        ui.label("method");
+        ui.label("radius at joint")
+            .on_hover_text("Mean distance of the joint's cross-section from its centre, over the rest radius");
+        ui.label("volume").on_hover_text("Enclosed volume over the rest volume");
+        ui.end_row();
+        for (method, q) in SkinningMethod::ALL.into_iter().zip(&candy.quality) {
+            let name = method.name().to_uppercase();
+            if method == current {
+                ui.strong(name)
+            } else {
+                ui.label(name)
+            };
+            ui.label(format!("{:.0}%", q.radius_kept * 100.0));
+            ui.label(format!("{:.1}%", q.volume_ratio * 100.0));
+            ui.end_row();
+        }
+    });
+    egui::CollapsingHeader::new("Volume under bend").id_salt("candy volume table").show(ui, |ui| {
+        egui::Grid::new("candy volume").striped(true).show(ui, |ui| {
+            ui.label("bend");
+            for method in SkinningMethod::ALL {
+                ui.label(method.name().to_uppercase());
+            }
+            ui.end_row();
+            for (bend, row) in TABLE_BENDS.iter().zip(&candy.volume_table) {
+                ui.label(format!("{bend:.0}°"));
+                for v in row {
+                    ui.label(format!("{:.1}%", v * 100.0));
+                }
+                ui.end_row();
+            }
+        });
+    });
+}
