@@ -263,6 +263,11 @@ export function registerAccessibilityTests(test, BACKENDS) {
       await inMirror(page, (root) => root.querySelector('[role="option"][aria-label^="Walk"]').click());
       await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.clip === 'Walk', 'click() on the Walk option');
       await page.waitForFunction(() => /Playing Walk/.test(document.querySelector('kloub-viewer').shadowRoot.querySelector('[aria-live]').textContent), null, { timeout: 10000 });
+      await inMirror(page, (root) => root.querySelector('button[aria-label="Ragdoll"]:not([aria-expanded])').click());
+      await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.ragdoll === 'simulating', 'click() on Ragdoll');
+      await page.waitForFunction(() => /Ragdoll started/.test(document.querySelector('kloub-viewer').shadowRoot.querySelector('[aria-live]').textContent), null, { timeout: 10000 });
+      await inMirror(page, (root) => root.querySelector('button[aria-label="To animation"]').click());
+      await waitForDataset(page, () => (document.querySelector('kloub-viewer').dataset.ragdoll ?? '') === '', 'back to the animation', 30000);
       await inMirror(page, (root) => root.querySelector('button[aria-label="Transition"]').click());
       await page.waitForFunction(() => document.querySelector('kloub-viewer').shadowRoot
         .querySelector('button[aria-label="Transition"]').getAttribute('aria-expanded') === 'false', null, { timeout: 10000 });
