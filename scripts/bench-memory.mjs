@@ -62,26 +62,33 @@ function startModelViewerServer() {
   return new Promise((ok) => server.listen(0, '127.0.0.1', () => ok({ url: `http://127.0.0.1:${server.address().port}`, stop: () => server.close() })));
 }
 
-/** The summed PSS in bytes of every process of `browser` (the browser process and all its descendants). */
+/** The summed PSS in bytes of every process of `browser` (the browser process, found by the marker flag it was
+ *  launched with, and all its descendants). */
 function pss(browser) {
-  const root = browser.process?.()?.pid;
   const parent = new Map();
+  let root = 0;
   for (const pid of readdirSync('/proc')) {
     if (!/^[0-9]+$/.test(pid)) continue;
     try {
       const stat = readFileSync(`/proc/${pid}/stat`, 'utf8');
       parent.set(Number(pid), Number(stat.slice(stat.lastIndexOf(')') + 2).split(' ')[1]));
+      if (!root && readFileSync(`/proc/${pid}/cmdline`, 'utf8').split('\0').includes(`--kloub-bench=${browser.kloubMarker}`)) root = Number(pid);
     } catch { /* gone */ }
   }
   const mine = (pid) => { for (let p = pid, i = 0; p > 1 && i < 64; p = parent.get(p), i++) if (p === root) return true; return false; };
   let total = 0;
+  const kinds = {};
   for (const pid of parent.keys()) {
     if (!mine(pid)) continue;
     try {
       const m = readFileSync(`/proc/${pid}/smaps_rollup`, 'utf8').match(/^Pss:\s+(\d+) kB/m);
-      if (m) total += Number(m[1]) * 1024;
+      if (!m) continue;
+      total += Number(m[1]) * 1024;
+      const kind = readFileSync(`/proc/${pid}/cmdline`, 'utf8').match(/--type=([a-z-]+)/)?.[1] ?? 'browser';
+      kinds[kind] = (kinds[kind] ?? 0) + Number(m[1]) * 1024;
     } catch { /* gone or not readable */ }
   }
+  pss.kinds = kinds;
   return total;
 }
 
@@ -94,8 +101,12 @@ async function settle(page, browser) {
   return pss(browser);
 }
 
+let launches = 0;
 async function launch() {
-  const browser = await chromium.launch({ executablePath: process.env.KLOUB_CHROMIUM ?? '/usr/bin/chromium', headless: true, args: FLAGS });
+  // A flag chromium ignores, to find this browser's process tree.
+  const marker = `${process.pid}-${++launches}`;
+  const browser = await chromium.launch({ executablePath: process.env.KLOUB_CHROMIUM ?? '/usr/bin/chromium', headless: true, args: [...FLAGS, `--kloub-bench=${marker}`] });
+  browser.kloubMarker = marker;
   const page = await browser.newPage({ viewport: { width: 1280, height: 1000 } });
   page.on('pageerror', (e) => console.error(`bench-memory: page error: ${e.message}`));
   return { browser, page };
@@ -149,7 +160,9 @@ try {
           await sleep(1000);
           const used = (await settle(page, browser)) - blank;
           cells.push(used);
-          console.error(`bench-memory: ${impl.name} N=${n}: ${(used / MB).toFixed(1)} MB`);
+          const parts = Object.entries(pss.kinds).map(([k, v]) => `${k} ${(v / MB).toFixed(0)}`).join(', ');
+          const heap = impl.backend ? await page.evaluate(() => customElements.get('kloub-viewer')._testMemoryBytes?.()) : null;
+          console.error(`bench-memory: ${impl.name} N=${n}: ${(used / MB).toFixed(1)} MB (with the blank page's: ${parts} MB${heap ? `; wasm memory ${(heap / MB).toFixed(0)} MB` : ''})`);
         } catch (e) {
           cells.push(NaN);
           console.error(`bench-memory: ${impl.name} N=${n}: ${e.message.split('\n')[0]}`);

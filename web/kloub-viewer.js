@@ -1472,6 +1472,10 @@ export class KloubViewer extends HTMLElement {
       // The trap that ends the instance; the panic handler has already started the recovery.
     }
   }
+  /** What the page's viewers share: { models: { url: { fetches, decodes } }, uploads, kits, liveModels }. */
+  static async _testCounters() { return JSON.parse((await loadRuntime())._testCounters()); }
+  /** The size of the module's linear memory in bytes (null before it loaded). */
+  static _testMemoryBytes() { return runtime === null ? null : loadRuntime().then((glue) => glue._testMemoryBytes()); }
   /** Loses every GPU device of the page (WebGPU device.destroy(), WebGL2 WEBGL_lose_context). */
   static async _testLoseDevices() { (await loadRuntime())._testLoseDevices(); }
   /** The page's shared WebGL2 canvas (null until a WebGL2 viewer mounts). */

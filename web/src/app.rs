@@ -399,7 +399,7 @@ impl App {
         let result = match &self.model {
             Some(model) => self
                 .scene
-                .set_asset(&self.gpu.device, &self.gpu.queue, &model.asset)
+                .set_shared_asset(&self.gpu.device, &self.gpu.queue, &model.asset)
                 .map_err(|e| format!("{}: {e}", model.name)),
             None => Ok(()),
         };
@@ -530,7 +530,28 @@ impl App {
         }
         for delivery in arrived {
             self.pending = self.pending.saturating_sub(1);
-            let result = match delivery.files {
+            // A download shared with the page's other viewers: the model another viewer already
+            // decoded from it, else its files (the first to get here decodes them for all).
+            let files = match (delivery.files, delivery.shared, &delivery.url) {
+                (Ok(_), Some(shared), Some(url)) => {
+                    if let Some(model) = crate::shared::cached(url) {
+                        let result = self.install(model, None);
+                        self.finish_receive(result, Some((None, Some(url.clone()))));
+                        continue;
+                    }
+                    if shared.is_empty() {
+                        // It was shown when this viewer asked, and no more: download it again.
+                        if let Some(ctx) = self.controls.repaint_context() {
+                            self.pending += 1;
+                            load::fetch_into(url.clone(), self.inbox.clone(), ctx);
+                        }
+                        continue;
+                    }
+                    Ok(std::rc::Rc::unwrap_or_clone(shared))
+                }
+                (files, _, _) => files,
+            };
+            let result = match files {
                 // A sidecar alone edits the shown model's joint settings.
                 Ok(files) if !files.is_empty() && files.iter().all(|f| load::is_sidecar_name(&f.name)) => {
                     self.apply_sidecar(&files)
@@ -546,33 +567,49 @@ impl App {
                         }
                     };
                     let models = load::model_names(&files);
+                    let url = delivery.url.as_deref();
                     let result = load::import_model(&files, None).and_then(|mut m| {
                         m.warnings.splice(0..0, notes);
+                        // One model from a URL: the page's other viewers of that URL take this one.
+                        if let Some(url) = url
+                            && models.len() <= 1
+                        {
+                            crate::shared::remember(url, &m);
+                        }
                         self.install(m, None)
                     });
-                    if result.is_ok() {
-                        self.library = (models.len() > 1).then(|| {
-                            let names: Vec<&str> = models.iter().map(|m| load::base_name(m)).collect();
-                            let models_json = serde_json::Value::from(names).to_string();
-                            Library { files, models, models_json, shown: Some(0) }
-                        });
-                        self.shown_url = delivery.url;
-                    }
-                    result
+                    let library = (models.len() > 1).then(|| {
+                        let names: Vec<&str> = models.iter().map(|m| load::base_name(m)).collect();
+                        let models_json = serde_json::Value::from(names).to_string();
+                        Library { files, models, models_json, shown: Some(0) }
+                    });
+                    self.finish_receive(result, Some((library, delivery.url)));
+                    continue;
                 }
                 Err(message) => Err(message),
             };
-            match result {
-                Ok(()) => {
-                    self.status = Status::Ready;
-                    self.last_error.clear();
-                    self.error_window = None;
-                }
-                Err(message) => self.fail(message),
-            }
+            self.finish_receive(result, None);
         }
         if self.pending > 0 || !self.parsing.is_empty() {
             self.status = Status::Loading;
+        }
+    }
+
+    /// The end of one delivery: on success `shown` (the delivery's library of several models,
+    /// and its URL; `None` for a sidecar) becomes the shown one and the status is ready; on
+    /// failure the error is shown (the model stays).
+    fn finish_receive(&mut self, result: Result<(), String>, shown: Option<(Option<Library>, Option<String>)>) {
+        match result {
+            Ok(()) => {
+                if let Some((library, url)) = shown {
+                    self.library = library;
+                    self.shown_url = url;
+                }
+                self.status = Status::Ready;
+                self.last_error.clear();
+                self.error_window = None;
+            }
+            Err(message) => self.fail(message),
         }
     }
 
@@ -621,7 +658,7 @@ impl App {
         model.evaluate().map_err(|e| format!("{}: {e}", model.name))?;
         model.set_copies(copies);
         self.scene
-            .set_asset(&self.gpu.device, &self.gpu.queue, &model.asset)
+            .set_shared_asset(&self.gpu.device, &self.gpu.queue, &model.asset)
             .map_err(|e| format!("{}: {e}", model.name))?;
         if let Some((min, max)) = model.grid_bounds() {
             self.camera.frame_to_fit_aspect(min, max, view_aspect(self.viewport_rect));
@@ -646,6 +683,9 @@ impl App {
         self.controls.publish(model.clip_names.clone(), nodes, morphs);
         self.reported_playing = model.is_playing();
         self.model = Some(model);
+        // The model shown before may have been the last of its kind on the page: its shared GPU
+        // part goes now.
+        crate::render::scene::release_unused_uploads(None);
         self.announce_load = true;
         Ok(())
     }

@@ -318,6 +318,8 @@ impl Viewer {
             gpu::unlisten(self.id);
             WAKERS.with(|w| w.borrow_mut().retain(|(i, _)| *i != self.id));
             drop(m);
+            // Its model may have been the last of its kind on the page.
+            crate::render::scene::release_unused_uploads(None);
         }
     }
 
@@ -371,7 +373,12 @@ impl Viewer {
             return Err(range_error("loadFiles: names and contents differ in length"));
         }
         let files = names.into_iter().zip(contents).map(|(name, bytes)| SourceFile { name, bytes: bytes.to_vec() });
-        self.inbox.push(Delivery { origin: "dropped files".to_owned(), url: None, files: Ok(files.collect()) });
+        self.inbox.push(Delivery {
+            origin: "dropped files".to_owned(),
+            url: None,
+            files: Ok(files.collect()),
+            shared: None,
+        });
         self.controls.wake();
         Ok(())
     }
@@ -795,6 +802,30 @@ pub fn set_panic_handler(handler: Option<js_sys::Function>) {
 }
 
 /// For tests: panics inside the module (as a bug would), so recovery can be checked.
+/// Test hook: what the page's viewers share, as JSON: per model URL the downloads started and
+/// the imports done, the assets uploaded to a GPU, the pipeline kits built, and the decoded
+/// models still shown.
+#[wasm_bindgen(js_name = _testCounters)]
+pub fn test_counters() -> String {
+    let models: serde_json::Map<String, serde_json::Value> = crate::shared::counts()
+        .into_iter()
+        .map(|(url, c)| (url, serde_json::json!({ "fetches": c.fetches, "decodes": c.decodes })))
+        .collect();
+    serde_json::json!({
+        "models": models,
+        "uploads": crate::render::scene::uploads_made(),
+        "kits": crate::render::pipelines::kits_built(),
+        "liveModels": crate::shared::live_models(),
+    })
+    .to_string()
+}
+
+/// Test hook: the size of the module's linear memory in bytes (it grows, never shrinks).
+#[wasm_bindgen(js_name = _testMemoryBytes)]
+pub fn test_memory_bytes() -> f64 {
+    (core::arch::wasm32::memory_size(0) as f64) * 65536.0
+}
+
 #[wasm_bindgen(js_name = _testPanic)]
 pub fn test_panic(message: &str) {
     panic!("test panic: {message}");

@@ -27,6 +27,7 @@ pub mod page;
 pub mod ragdoll;
 pub mod render;
 pub mod samples;
+pub mod shared;
 pub mod ui;
 
 #[cfg(target_arch = "wasm32")]

@@ -26,8 +26,11 @@ pub struct Delivery {
     pub origin: String,
     /// The URL the files were fetched from (`None` for files from the user's disk).
     pub url: Option<String>,
-    /// The files, or the read error.
+    /// The files, or the read error (empty when they come as [`Delivery::shared`]).
     pub files: Result<Vec<SourceFile>, String>,
+    /// The files of a download the page's viewers share ([`crate::shared`]); empty when the
+    /// model was already shown by another viewer (take it from [`crate::shared::cached`]).
+    pub shared: Option<crate::shared::SharedFiles>,
 }
 
 /// A successfully imported model.
@@ -35,8 +38,8 @@ pub struct Delivery {
 pub struct LoadedModel {
     /// Display name: the model file's name.
     pub name: String,
-    /// The imported asset.
-    pub asset: Asset,
+    /// The imported asset (shared by every viewer of the page that shows the same URL).
+    pub asset: std::sync::Arc<Asset>,
     /// Defects the importer repaired.
     pub warnings: Vec<Warning>,
     /// A `<model>.kloub.json` sidecar dropped with the model (joint limits, stiffness).
@@ -176,7 +179,7 @@ pub fn import_model(files: &[SourceFile], wanted: Option<&str>) -> Result<Loaded
             format!("{display}: {}: {}", e.pointer, e.message)
         }
     })?;
-    Ok(LoadedModel { name: display, asset: imported.asset, warnings: imported.warnings, sidecar })
+    Ok(LoadedModel { name: display, asset: std::sync::Arc::new(imported.asset), warnings: imported.warnings, sidecar })
 }
 
 /// Most external files a `.gltf` fetched from a URL may name.
@@ -187,10 +190,30 @@ const MAX_SIBLINGS: usize = 1024;
 /// the import budget); a `.zip` is expanded when the delivery is imported.
 #[cfg(target_arch = "wasm32")]
 pub fn fetch_into(url: String, inbox: Inbox, ctx: egui::Context) {
-    wasm_bindgen_futures::spawn_local(async move {
-        let files = fetch_model(&url, &inbox, &ctx).await;
-        inbox.push(Delivery { url: Some(url.clone()), origin: url, files });
+    // Another viewer of the page shows it: no download, no import.
+    if crate::shared::cached(&url).is_some() {
+        inbox.push(Delivery {
+            url: Some(url.clone()),
+            origin: url,
+            files: Ok(Vec::new()),
+            shared: Some(std::rc::Rc::new(Vec::new())),
+        });
         ctx.request_repaint();
+        return;
+    }
+    // Another viewer is downloading it: its delivery comes with that one.
+    if !crate::shared::join_fetch(&url, &inbox, &ctx) {
+        return;
+    }
+    wasm_bindgen_futures::spawn_local(async move {
+        let (files, shared) = match fetch_model(&url, &inbox, &ctx).await {
+            Ok(files) => (Ok(Vec::new()), Some(std::rc::Rc::new(files))),
+            Err(e) => (Err(e), None),
+        };
+        for (inbox, ctx) in crate::shared::finish_fetch(&url) {
+            inbox.push(Delivery { url: Some(url.clone()), origin: url.clone(), files: files.clone(), shared: shared.clone() });
+            ctx.request_repaint();
+        }
     });
 }
 
@@ -300,7 +323,7 @@ pub fn expand_archives(files: Vec<SourceFile>) -> Result<(Vec<SourceFile>, Vec<W
 #[cfg(not(target_arch = "wasm32"))]
 pub fn fetch_into(url: String, inbox: Inbox, ctx: egui::Context) {
     let files = Err(format!("{url}: fetching URLs is only available in the browser"));
-    inbox.push(Delivery { url: Some(url.clone()), origin: url, files });
+    inbox.push(Delivery { url: Some(url.clone()), origin: url, files, shared: None });
     ctx.request_repaint();
 }
 
@@ -576,7 +599,7 @@ pub fn read_dropped_into(dropped: Vec<egui::DroppedFileHandle>, inbox: Inbox, ct
                 }
             }
         }
-        inbox.push(Delivery { origin, url: None, files: error.map_or(Ok(files), Err) });
+        inbox.push(Delivery { origin, url: None, files: error.map_or(Ok(files), Err), shared: None });
         ctx.request_repaint();
     });
     #[cfg(not(target_arch = "wasm32"))]
@@ -588,7 +611,7 @@ pub fn read_dropped_into(dropped: Vec<egui::DroppedFileHandle>, inbox: Inbox, ct
                 file.bytes().map(|bytes| SourceFile { name: name.clone(), bytes }).map_err(|e| format!("{name}: {e}"))
             })
             .collect();
-        inbox.push(Delivery { origin, url: None, files });
+        inbox.push(Delivery { origin, url: None, files, shared: None });
         ctx.request_repaint();
     }
 }
@@ -781,8 +804,8 @@ mod tests {
     #[test]
     fn inbox_is_fifo() {
         let inbox = Inbox::default();
-        inbox.push(Delivery { origin: "a".into(), url: None, files: Ok(Vec::new()) });
-        inbox.push(Delivery { origin: "b".into(), url: None, files: Err("x".into()) });
+        inbox.push(Delivery { origin: "a".into(), url: None, files: Ok(Vec::new()), shared: None });
+        inbox.push(Delivery { origin: "b".into(), url: None, files: Err("x".into()), shared: None });
         let got: Vec<String> = inbox.take().into_iter().map(|d| d.origin).collect();
         assert_eq!(got, ["a", "b"]);
         assert!(inbox.take().is_empty());

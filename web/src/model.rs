@@ -39,7 +39,7 @@ pub struct Model {
     /// Display name (the file name).
     pub name: String,
     /// The imported asset.
-    pub asset: Asset,
+    pub asset: std::sync::Arc<Asset>,
     /// Pose, world matrices and palettes, evaluated every frame.
     pub instance: Instance,
     /// What plays: tracks, crossfade, layers.

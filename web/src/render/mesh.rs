@@ -76,7 +76,8 @@ pub fn interleave(positions: &[[f32; 3]], normals: &[[f32; 3]], out: &mut Vec<Ge
     );
 }
 
-/// A primitive's buffers on the GPU.
+/// A primitive's buffers on the GPU (a clone is the same buffers).
+#[derive(Clone)]
 pub struct GpuPrimitive {
     /// Rest positions and normals.
     pub geometry: wgpu::Buffer,

@@ -33,6 +33,7 @@ pub struct MorphSlot {
 }
 
 /// The texture and where each (mesh, primitive) went.
+#[derive(Clone)]
 pub struct MorphTexture {
     view: wgpu::TextureView,
     slots: HashMap<(usize, usize), MorphSlot>,

@@ -95,6 +95,7 @@ fn texture_entry(
 }
 
 /// The bind group layouts shared by all pipelines.
+#[derive(Clone)]
 pub struct Layouts {
     /// Group 0: frame uniform + joint palette texture + morph texture.
     pub frame: wgpu::BindGroupLayout,
@@ -170,6 +171,7 @@ pub struct PipelineKey {
 pub const SKIN_FROM_DRAW: u32 = 4;
 
 /// Shader modules and pipelines for one sample count.
+#[derive(Clone)]
 pub struct Pipelines {
     sample_count: u32,
     format: wgpu::TextureFormat,
@@ -272,9 +274,18 @@ impl Pipelines {
         Self { sample_count, format, mesh_module, mesh_layout, background, grid, mesh: HashMap::new() }
     }
 
-    /// Builds the mesh pipeline of `key` if it does not exist yet.
+    /// Builds the mesh pipeline of `key` if it does not exist yet (here, or in the device's
+    /// shared kit: another viewer of the page may have built it).
     pub fn prepare(&mut self, device: &wgpu::Device, key: PipelineKey) {
         if self.mesh.contains_key(&key) {
+            return;
+        }
+        let (format, samples) = (self.format, self.sample_count);
+        let built = KITS.with(|kits| {
+            kits.borrow().iter().find(|k| k.matches(device, format, samples)).and_then(|k| k.pipelines.mesh.get(&key).cloned())
+        });
+        if let Some(pipeline) = built {
+            self.mesh.insert(key, pipeline);
             return;
         }
         let skinned = skinned_buffers();
@@ -318,6 +329,11 @@ impl Pipelines {
             }),
             multiview_mask: None,
             cache: None,
+        });
+        KITS.with(|kits| {
+            if let Some(kit) = kits.borrow_mut().iter_mut().find(|k| k.matches(device, format, samples)) {
+                kit.pipelines.mesh.insert(key, pipeline.clone());
+            }
         });
         self.mesh.insert(key, pipeline);
     }
@@ -369,6 +385,7 @@ pub fn supports_compute(device: &wgpu::Device) -> bool {
 pub const SKIN_WORKGROUP: u32 = 64;
 
 /// The compute skinning pipeline and its bind group layouts (see skin_compute.wgsl).
+#[derive(Clone)]
 pub struct ComputeKit {
     /// Group 0: palette and morph textures.
     pub textures: wgpu::BindGroupLayout,
@@ -440,4 +457,76 @@ impl ComputeKit {
         });
         Some(Self { textures, empty_group, draw, io, pipeline })
     }
+}
+
+/// What every renderer of a device draws with, built once per device, colour format and sample
+/// count and shared by every viewer of the page (wgpu's handles are reference counted: a clone
+/// is the same GPU object). Compiling the shaders and pipelines per viewer cost each one its
+/// own programs in the GPU process.
+#[derive(Clone)]
+pub struct Kit {
+    /// The bind group layouts.
+    pub layouts: Layouts,
+    /// The environment pipelines and every mesh variant built so far.
+    pub pipelines: Pipelines,
+    /// Compute skinning, where the device has it.
+    pub compute: Option<ComputeKit>,
+    /// A 1×1 white texture (materials without a base colour texture).
+    pub white: wgpu::TextureView,
+}
+
+struct SharedKit {
+    device: wgpu::Device,
+    kit: Kit,
+}
+
+impl SharedKit {
+    fn matches(&self, device: &wgpu::Device, format: wgpu::TextureFormat, samples: u32) -> bool {
+        &self.device == device && self.kit.pipelines.format == format && self.kit.pipelines.sample_count == samples
+    }
+}
+
+impl std::ops::Deref for SharedKit {
+    type Target = Kit;
+    fn deref(&self) -> &Kit {
+        &self.kit
+    }
+}
+
+impl std::ops::DerefMut for SharedKit {
+    fn deref_mut(&mut self) -> &mut Kit {
+        &mut self.kit
+    }
+}
+
+thread_local! {
+    static KITS: std::cell::RefCell<Vec<SharedKit>> = const { std::cell::RefCell::new(Vec::new()) };
+    static KITS_BUILT: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
+/// The shared kit of `device` for `format` and `sample_count`, built on first use.
+pub fn kit(device: &wgpu::Device, queue: &wgpu::Queue, format: wgpu::TextureFormat, sample_count: u32) -> Kit {
+    if let Some(kit) =
+        KITS.with(|kits| kits.borrow().iter().find(|k| k.matches(device, format, sample_count)).map(|k| k.kit.clone()))
+    {
+        return kit;
+    }
+    let layouts = Layouts::new(device);
+    let pipelines = Pipelines::new(device, &layouts, sample_count, format);
+    let compute = ComputeKit::new(device);
+    let white = super::texture::white_texture(device, queue).create_view(&wgpu::TextureViewDescriptor::default());
+    let kit = Kit { layouts, pipelines, compute, white };
+    KITS.with(|kits| kits.borrow_mut().push(SharedKit { device: device.clone(), kit: kit.clone() }));
+    KITS_BUILT.with(|n| n.set(n.get() + 1));
+    kit
+}
+
+/// Forgets the kits of `device` (it was lost: its pipelines are of no use).
+pub fn forget_device(device: &wgpu::Device) {
+    KITS.with(|kits| kits.borrow_mut().retain(|k| &k.device != device));
+}
+
+/// How many kits were built on this thread (tests: one per device, format and sample count).
+pub fn kits_built() -> usize {
+    KITS_BUILT.with(std::cell::Cell::get)
 }

@@ -16,7 +16,7 @@ use super::palette::PaletteTexture;
 use super::pipelines::{
     ComputeKit, DEPTH_FORMAT, Layouts, PipelineKey, Pipelines, SKIN_FROM_DRAW, SKIN_WORKGROUP, VertexPath, topology,
 };
-use super::texture::{COLOR_FORMAT, SamplerKey, upload_image, white_texture};
+use super::texture::{COLOR_FORMAT, SamplerKey, upload_image};
 use super::uniforms::{DrawUniform, FrameUniform, Ground, MaterialUniform, skin_code};
 
 #[cfg(not(target_arch = "wasm32"))]
@@ -231,6 +231,45 @@ struct GpuScene {
     compute: Option<(wgpu::BindGroup, wgpu::BindGroup)>,
 }
 
+/// What of an asset lives on the GPU the same for every viewer: its meshes, materials (with
+/// their textures), morph targets and SJB centres (per draw, in the order of the scene's draws).
+/// A clone is the same GPU objects.
+#[derive(Clone)]
+struct Uploaded {
+    primitives: Vec<Vec<Option<GpuPrimitive>>>,
+    materials: Vec<wgpu::BindGroup>,
+    pivots: Vec<Option<(wgpu::Buffer, usize)>>,
+    morphs: MorphTexture,
+}
+
+/// An asset's static GPU part on a device, while any viewer shows the asset.
+struct SharedUpload {
+    asset: std::sync::Weak<Asset>,
+    device: wgpu::Device,
+    /// Whether its streams are readable by compute skinning.
+    storage: bool,
+    uploaded: Uploaded,
+}
+
+thread_local! {
+    static UPLOADS: std::cell::RefCell<Vec<SharedUpload>> = const { std::cell::RefCell::new(Vec::new()) };
+    static UPLOADS_MADE: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
+/// How many assets were uploaded to a GPU on this thread (each shared one counts once per
+/// device while it lives).
+pub fn uploads_made() -> usize {
+    UPLOADS_MADE.with(std::cell::Cell::get)
+}
+
+/// Releases the shared GPU parts of assets no viewer shows any more (and of `lost`, a device
+/// that was lost, if given).
+pub fn release_unused_uploads(lost: Option<&wgpu::Device>) {
+    UPLOADS.with(|uploads| {
+        uploads.borrow_mut().retain(|u| u.asset.strong_count() > 0 && lost.is_none_or(|d| &u.device != d));
+    });
+}
+
 /// Per-frame scratch space, kept to avoid allocating every frame.
 #[derive(Default)]
 struct Scratch {
@@ -314,8 +353,8 @@ impl SceneRenderer {
     ) -> Self {
         let sample_count = if sample_count == 4 { 4 } else { 1 };
         let format = if format == wgpu::TextureFormat::Rgba8Unorm { format } else { COLOR_FORMAT };
-        let layouts = Layouts::new(device);
-        let pipelines = Pipelines::new(device, &layouts, sample_count, format);
+        let super::pipelines::Kit { layouts, pipelines, compute, white } =
+            super::pipelines::kit(device, queue, format, sample_count);
         let frame_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("kloub frame"),
             size: size_of::<FrameUniform>() as u64,
@@ -324,7 +363,6 @@ impl SceneRenderer {
         });
         let align = u64::from(device.limits().min_uniform_buffer_offset_alignment).max(1);
         let draw_stride = (size_of::<DrawUniform>() as u64).div_ceil(align) * align;
-        let white = white_texture(device, queue).create_view(&wgpu::TextureViewDescriptor::default());
         let empty = GpuScene::empty(device, queue, &layouts, &frame_buffer, draw_stride);
         Self {
             sample_count,
@@ -346,7 +384,7 @@ impl SceneRenderer {
             ground: Ground::default(),
             scratch: Scratch::default(),
             times: RenderTimes::default(),
-            compute: ComputeKit::new(device),
+            compute,
             heatmap: None,
             grid: true,
             look: super::uniforms::Look::default(),
@@ -357,13 +395,66 @@ impl SceneRenderer {
     /// texture sized for all skins) and places the ground under its rest pose. On error the
     /// previous asset stays loaded.
     pub fn set_asset(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, asset: &Asset) -> Result<(), String> {
+        self.upload_asset(device, queue, asset, None).map(|_| ())
+    }
+
+    /// [`SceneRenderer::set_asset`] for an asset other viewers of the page may show too: what
+    /// does not change per viewer (meshes, materials with their textures, morph targets, SJB
+    /// centres) is uploaded once per device and shared while any viewer shows the asset; each
+    /// viewer keeps only its own palette, uniforms and deformed streams.
+    pub fn set_shared_asset(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        asset: &std::sync::Arc<Asset>,
+    ) -> Result<(), String> {
         let storage = self.compute.is_some();
-        let mut primitives = Vec::with_capacity(asset.meshes.len());
-        for mesh in &asset.meshes {
-            primitives.push(mesh.primitives.iter().map(|p| GpuPrimitive::new(device, p, storage)).collect::<Vec<_>>());
+        let cached = UPLOADS.with(|uploads| {
+            let mut uploads = uploads.borrow_mut();
+            uploads.retain(|u| u.asset.strong_count() > 0);
+            uploads
+                .iter()
+                .find(|u| u.storage == storage && &u.device == device && std::ptr::eq(u.asset.as_ptr(), &**asset))
+                .map(|u| u.uploaded.clone())
+        });
+        let fresh = cached.is_none();
+        let uploaded = self.upload_asset(device, queue, asset, cached)?;
+        if fresh {
+            UPLOADS.with(|uploads| {
+                uploads.borrow_mut().push(SharedUpload {
+                    asset: std::sync::Arc::downgrade(asset),
+                    device: device.clone(),
+                    storage,
+                    uploaded,
+                });
+            });
         }
-        let materials = self.upload_materials(device, queue, asset)?;
-        let default_material = materials.len() - 1;
+        Ok(())
+    }
+
+    /// Builds the GPU scene of `asset`, from `uploaded` (its static part, already on this
+    /// device) or uploading it; returns the static part.
+    fn upload_asset(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        asset: &Asset,
+        uploaded: Option<Uploaded>,
+    ) -> Result<Uploaded, String> {
+        let storage = self.compute.is_some();
+        let (primitives, materials) = match &uploaded {
+            Some(u) => (u.primitives.clone(), u.materials.clone()),
+            None => {
+                UPLOADS_MADE.with(|n| n.set(n.get() + 1));
+                let mut primitives = Vec::with_capacity(asset.meshes.len());
+                for mesh in &asset.meshes {
+                    primitives
+                        .push(mesh.primitives.iter().map(|p| GpuPrimitive::new(device, p, storage)).collect::<Vec<_>>());
+                }
+                (primitives, self.upload_materials(device, queue, asset)?)
+            }
+        };
+        let default_material = materials.len().saturating_sub(1);
 
         let mut skin_base = Vec::with_capacity(asset.skins.len());
         let mut joints = 0u32;
@@ -393,17 +484,21 @@ impl SceneRenderer {
                 let material_index = primitive.material.map(|m| m as usize).filter(|&m| m < default_material);
                 let material = material_index.and_then(|m| asset.materials.get(m));
                 let skin = node.skin.map(|s| s as usize).filter(|&s| s < asset.skins.len() && primitive.is_skinned());
-                let plan = skin
-                    .and_then(|s| asset.skins.get(s))
-                    .map(|s| SjbPlan::build(s, &parents, &primitive.joints, &primitive.weights));
+                let pivots = match uploaded.as_ref().map(|u| u.pivots.get(draws.len()).cloned().flatten()) {
+                    Some(shared) => shared,
+                    None => skin.and_then(|s| asset.skins.get(s)).map(|s| {
+                        let plan = SjbPlan::build(s, &parents, &primitive.joints, &primitive.weights);
+                        (pivot_buffer(device, &plan, primitive.positions.len(), storage), plan.fallbacks)
+                    }),
+                };
                 draws.push(DrawItem {
                     node: node_index,
                     mesh: mesh_index,
                     primitive: p,
                     skin,
                     morph: None,
-                    pivots: plan.as_ref().map(|plan| pivot_buffer(device, plan, primitive.positions.len(), storage)),
-                    sjb_fallbacks: plan.map_or(0, |p| p.fallbacks),
+                    sjb_fallbacks: pivots.as_ref().map_or(0, |p| p.1),
+                    pivots: pivots.map(|p| p.0),
                     material: material_index.unwrap_or(default_material),
                     blend: material.is_some_and(|m| m.alpha == AlphaMode::Blend),
                     double_sided: material.is_some_and(|m| m.double_sided),
@@ -416,8 +511,21 @@ impl SceneRenderer {
                 });
             }
         }
-        let morphs =
-            MorphTexture::new(device, queue, asset, draws.iter().filter(|d| d.morphed).map(|d| (d.mesh, d.primitive)));
+        let morphs = match &uploaded {
+            Some(u) => u.morphs.clone(),
+            None => MorphTexture::new(
+                device,
+                queue,
+                asset,
+                draws.iter().filter(|d| d.morphed).map(|d| (d.mesh, d.primitive)),
+            ),
+        };
+        let shared = Uploaded {
+            primitives: primitives.clone(),
+            materials: materials.clone(),
+            pivots: draws.iter().map(|d| d.pivots.clone().map(|p| (p, d.sjb_fallbacks))).collect(),
+            morphs: morphs.clone(),
+        };
         for draw in &mut draws {
             draw.morph = morphs.slot(draw.mesh, draw.primitive);
         }
@@ -449,7 +557,7 @@ impl SceneRenderer {
             diagonal,
             compute,
         });
-        Ok(())
+        Ok(shared)
     }
 
     /// Per skinned draw of the loaded asset: `(mesh, vertices, vertices without a shared joint
