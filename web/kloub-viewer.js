@@ -1472,7 +1472,7 @@ export class KloubViewer extends HTMLElement {
       // The trap that ends the instance; the panic handler has already started the recovery.
     }
   }
-  /** What the page's viewers share: { models: { url: { fetches, decodes } }, uploads, kits, liveModels }. */
+  /** What the page's viewers share: { models: { url: { fetches, decodes } }, uploads, kits, liveModels, liveUploads }. */
   static async _testCounters() { return JSON.parse((await loadRuntime())._testCounters()); }
   /** The size of the module's linear memory in bytes (null before it loaded). */
   static _testMemoryBytes() { return runtime === null ? null : loadRuntime().then((glue) => glue._testMemoryBytes()); }

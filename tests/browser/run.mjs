@@ -9,6 +9,7 @@ import {
   savePng, startServer, startStatic, viewerEvents, viewersPage, viewportShot, waitForDataset, waitFrames,
 } from './lib.mjs';
 import { registerAccessibilityTests } from './accessibility.mjs';
+import { registerMemoryTests } from './memory.mjs';
 
 const BACKENDS = (process.env.KLOUB_BACKENDS ?? 'webgpu,webgl2').split(',');
 const FOX = join(SHARED, 'khronos/Fox/glTF-Binary/Fox.glb');
@@ -1363,6 +1364,7 @@ test('hash-state.js: a view round-trips through the hash; malformed keys are dro
 });
 
 registerAccessibilityTests(test, BACKENDS);
+registerMemoryTests(test, BACKENDS);
 
 const server = await startServer();
 let passed = 0;

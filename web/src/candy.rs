@@ -58,7 +58,12 @@ impl CandyPanel {
 
     /// A loadable model of the rig.
     pub fn model(&self) -> LoadedModel {
-        LoadedModel { name: "Candy wrapper".into(), asset: std::sync::Arc::new(self.rig.asset.clone()), warnings: Vec::new(), sidecar: None }
+        LoadedModel {
+            name: "Candy wrapper".into(),
+            asset: std::sync::Arc::new(self.rig.asset.clone()),
+            warnings: Vec::new(),
+            sidecar: None,
+        }
     }
 
     /// Poses `instance` by the sliders (when [`CandyPanel::manual`]).

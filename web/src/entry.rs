@@ -317,9 +317,13 @@ impl Viewer {
             dom::unregister(&m.host);
             gpu::unlisten(self.id);
             WAKERS.with(|w| w.borrow_mut().retain(|(i, _)| *i != self.id));
+            let gpu = m.view.gpu().clone();
             drop(m);
             // Its model may have been the last of its kind on the page.
             crate::render::scene::release_unused_uploads(None);
+            // wgpu frees dropped resources when the device is polled (each frame submits; a page
+            // whose last viewer went away submits nothing more): free them now.
+            let _ = gpu.device.poll(wgpu::PollType::Poll);
         }
     }
 
@@ -816,6 +820,7 @@ pub fn test_counters() -> String {
         "uploads": crate::render::scene::uploads_made(),
         "kits": crate::render::pipelines::kits_built(),
         "liveModels": crate::shared::live_models(),
+        "liveUploads": crate::render::scene::live_uploads(),
     })
     .to_string()
 }

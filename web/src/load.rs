@@ -211,7 +211,12 @@ pub fn fetch_into(url: String, inbox: Inbox, ctx: egui::Context) {
             Err(e) => (Err(e), None),
         };
         for (inbox, ctx) in crate::shared::finish_fetch(&url) {
-            inbox.push(Delivery { url: Some(url.clone()), origin: url.clone(), files: files.clone(), shared: shared.clone() });
+            inbox.push(Delivery {
+                url: Some(url.clone()),
+                origin: url.clone(),
+                files: files.clone(),
+                shared: shared.clone(),
+            });
             ctx.request_repaint();
         }
     });

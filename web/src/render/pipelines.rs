@@ -282,7 +282,10 @@ impl Pipelines {
         }
         let (format, samples) = (self.format, self.sample_count);
         let built = KITS.with(|kits| {
-            kits.borrow().iter().find(|k| k.matches(device, format, samples)).and_then(|k| k.pipelines.mesh.get(&key).cloned())
+            kits.borrow()
+                .iter()
+                .find(|k| k.matches(device, format, samples))
+                .and_then(|k| k.pipelines.mesh.get(&key).cloned())
         });
         if let Some(pipeline) = built {
             self.mesh.insert(key, pipeline);

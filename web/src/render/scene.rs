@@ -262,6 +262,11 @@ pub fn uploads_made() -> usize {
     UPLOADS_MADE.with(std::cell::Cell::get)
 }
 
+/// How many assets' static GPU parts are held for the viewers that show them.
+pub fn live_uploads() -> usize {
+    UPLOADS.with(|uploads| uploads.borrow().iter().filter(|u| u.asset.strong_count() > 0).count())
+}
+
 /// Releases the shared GPU parts of assets no viewer shows any more (and of `lost`, a device
 /// that was lost, if given).
 pub fn release_unused_uploads(lost: Option<&wgpu::Device>) {
@@ -448,8 +453,9 @@ impl SceneRenderer {
                 UPLOADS_MADE.with(|n| n.set(n.get() + 1));
                 let mut primitives = Vec::with_capacity(asset.meshes.len());
                 for mesh in &asset.meshes {
-                    primitives
-                        .push(mesh.primitives.iter().map(|p| GpuPrimitive::new(device, p, storage)).collect::<Vec<_>>());
+                    primitives.push(
+                        mesh.primitives.iter().map(|p| GpuPrimitive::new(device, p, storage)).collect::<Vec<_>>(),
+                    );
                 }
                 (primitives, self.upload_materials(device, queue, asset)?)
             }
