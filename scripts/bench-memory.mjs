@@ -24,7 +24,7 @@ const byKind = (now, then = {}) => Object.entries(now).map(([k, v]) => `${k} ${(
 /** N viewers of Fox at w×h on `backend` on the (emptied) embed page, resolved when each drew its model. */
 async function kloubPage(page, base, backend, n, { w = 160, h = 120 } = {}) {
   await page.goto(`${base}/embed.html`);
-  await page.evaluate(() => { document.body.innerHTML = ''; document.body.style.cssText = 'margin:0;display:flex;flex-wrap:wrap'; });
+  await page.evaluate(() => { document.body.innerHTML = ''; document.body.style.cssText = 'margin:0;max-width:none;display:flex;flex-wrap:wrap'; });
   await addViewers(page, backend, n, w, h);
 }
 
@@ -52,6 +52,14 @@ async function modelViewerPage(page, base, n) {
   await sleep(500);
 }
 
+/** The browser on a blank page, once its processes have started (the GPU process and the network service come up
+ *  over the first seconds: measured too early, they would count as the page's). */
+async function blankPage(page, marker) {
+  await page.goto('about:blank');
+  await sleep(4000);
+  return settle(page, marker);
+}
+
 const wasmBytes = (page) => page.evaluate(() => customElements.get('kloub-viewer')?._testMemoryBytes?.() ?? null);
 
 const kloubServer = await startServer();
@@ -65,8 +73,7 @@ try {
       for (const n of COUNTS) {
         const { browser, page, marker } = await launchMarked();
         try {
-          await page.goto('about:blank');
-          const blank = await settle(page, marker);
+          const blank = await blankPage(page, marker);
           if (impl.backend) await kloubPage(page, kloubServer.url, impl.backend, n);
           else await modelViewerPage(page, pages.url, n);
           await sleep(1000);
@@ -112,8 +119,7 @@ try {
     for (const impl of impls.filter((i) => i.backend)) {
       const { browser, page, marker } = await launchMarked();
       try {
-        await page.goto('about:blank');
-        const blank = await settle(page, marker);
+        const blank = await blankPage(page, marker);
         // The module loaded (one viewer mounted, then removed): what a page with the element and no viewer costs.
         await kloubPage(page, kloubServer.url, impl.backend, 1);
         await page.evaluate(() => document.querySelector('kloub-viewer').remove());

@@ -62,6 +62,10 @@ pub struct Gpu {
     lost: Arc<AtomicBool>,
     /// Numbered in creation order (a viewer knows whether it was moved to a new one).
     pub generation: u32,
+    /// The render state every viewer's app is made with (its egui renderer is used only
+    /// off the page, where the app draws the scene into an egui texture; on the page each
+    /// viewer paints egui with a renderer of its own, made when it first has something to paint).
+    pub render: egui_wgpu::RenderState,
 }
 
 impl Gpu {
@@ -353,7 +357,16 @@ async fn make(kind: GpuKind) -> Result<Gpu, String> {
         gl.surface.configure(&device, &gl.config.borrow());
     }
     log::info!("kloub: page device {generation} ({kind:?}, {:?})", adapter.get_info().name);
-    Ok(Gpu { kind, instance, adapter, device, queue, format, gl, lost, generation })
+    let renderer = egui_wgpu::Renderer::new(&device, format, egui_wgpu::RendererOptions::default());
+    let render = egui_wgpu::RenderState {
+        adapter: adapter.clone(),
+        instance: instance.clone(),
+        device: device.clone(),
+        queue: queue.clone(),
+        target_format: format,
+        renderer: Arc::new(egui::mutex::RwLock::new(renderer)),
+    };
+    Ok(Gpu { kind, instance, adapter, device, queue, format, gl, lost, generation, render })
 }
 
 /// The WebGL2 surface's format: plain `Rgba8Unorm`, which the scene draws into straight with

@@ -2,7 +2,6 @@
 //! there (a WebGPU surface of its own, or a copy from the page's WebGL2 canvas).
 
 use std::rc::Rc;
-use std::sync::Arc;
 
 use wasm_bindgen::JsCast;
 
@@ -38,7 +37,11 @@ pub struct View {
     /// Input since the last frame.
     pub input: Input,
     gpu: Rc<Gpu>,
-    render: egui_wgpu::RenderState,
+    /// Paints egui's output; made when there first is some (an embedded viewer without panels
+    /// or notes never needs one: no pipeline of its own in the GPU process).
+    painter: Option<egui_wgpu::Renderer>,
+    /// egui's texture changes (its font atlas) while there is no painter yet.
+    pending_textures: egui::TexturesDelta,
     canvas: web_sys::HtmlCanvasElement,
     output: Output,
     /// The time origin (ms, `performance.now()`).
@@ -54,20 +57,6 @@ pub struct View {
     reduced_motion: bool,
     /// The keyboard moved to the 3D view: egui's focused widget lets go before the next frame.
     release_focus: bool,
-}
-
-/// A new egui context and renderer for `gpu` (one per viewer: egui's textures are numbered
-/// per context).
-fn render_state(gpu: &Gpu) -> egui_wgpu::RenderState {
-    let renderer = egui_wgpu::Renderer::new(&gpu.device, gpu.format, egui_wgpu::RendererOptions::default());
-    egui_wgpu::RenderState {
-        adapter: gpu.adapter.clone(),
-        instance: gpu.instance.clone(),
-        device: gpu.device.clone(),
-        queue: gpu.queue.clone(),
-        target_format: gpu.format,
-        renderer: Arc::new(egui::mutex::RwLock::new(renderer)),
-    }
 }
 
 fn output(gpu: &Gpu, canvas: &web_sys::HtmlCanvasElement) -> Result<Output, String> {
@@ -125,8 +114,7 @@ impl View {
     ) -> Result<View, String> {
         let output = output(&gpu, &canvas)?;
         let ctx = egui::Context::default();
-        let render = render_state(&gpu);
-        let mut app = make(&ctx, render.clone());
+        let mut app = make(&ctx, gpu.render.clone());
         app.set_direct(true);
         let counted_gl = gpu.kind == GpuKind::Gl;
         if counted_gl {
@@ -138,7 +126,8 @@ impl View {
             ctx,
             input: Input::default(),
             gpu,
-            render,
+            painter: None,
+            pending_textures: egui::TexturesDelta::default(),
             canvas,
             output,
             start: now_ms(),
@@ -169,14 +158,15 @@ impl View {
             super::gpu::count_gl_view(true);
         }
         self.canvas = canvas;
-        let render = render_state(&gpu);
         let ctx = egui::Context::default();
         crate::app::install_fonts(&ctx);
         crate::app::style_panels(&ctx);
-        self.app.replace_gpu(render.clone())?;
+        self.app.replace_gpu(gpu.render.clone())?;
         self.app.set_context(&ctx);
         self.ctx = ctx;
-        self.render = render;
+        // The new context sends its textures again, to a painter for the new device.
+        self.painter = None;
+        self.pending_textures.clear();
         self.gpu = gpu;
         let mirrored = self.a11y.is_some();
         self.set_accessibility(mirrored);
@@ -280,14 +270,29 @@ impl View {
         let screen = egui_wgpu::ScreenDescriptor { size_in_pixels: size, pixels_per_point: ppp };
         let mut encoder =
             gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("kloub frame") });
-        let commands = {
-            let mut renderer = self.render.renderer.write();
-            for (id, deltas) in textures.set.drain() {
-                for delta in deltas {
-                    renderer.update_texture(&gpu.device, &gpu.queue, id, &delta);
+        // Nothing of egui's to paint and no painter yet: its texture changes wait for one.
+        let painter = if primitives.is_empty() && self.painter.is_none() {
+            self.pending_textures.append(std::mem::take(&mut textures));
+            None
+        } else {
+            let painter = self.painter.get_or_insert_with(|| {
+                egui_wgpu::Renderer::new(&gpu.device, gpu.format, egui_wgpu::RendererOptions::default())
+            });
+            let mut waiting = std::mem::take(&mut self.pending_textures);
+            waiting.append(std::mem::take(&mut textures));
+            textures = waiting;
+            Some(painter)
+        };
+        let commands = match painter {
+            Some(renderer) => {
+                for (id, deltas) in textures.set.drain() {
+                    for delta in deltas {
+                        renderer.update_texture(&gpu.device, &gpu.queue, id, &delta);
+                    }
                 }
+                renderer.update_buffers(&gpu.device, &gpu.queue, &mut encoder, primitives, &screen)
             }
-            renderer.update_buffers(&gpu.device, &gpu.queue, &mut encoder, primitives, &screen)
+            None => Vec::new(),
         };
         let frame = match &mut self.output {
             Output::Surface { surface, config } => {
@@ -382,8 +387,9 @@ impl View {
                     occlusion_query_set: None,
                     multiview_mask: None,
                 });
-                let renderer = self.render.renderer.read();
-                renderer.render(&mut pass.forget_lifetime(), primitives, &screen);
+                if let Some(renderer) = &self.painter {
+                    renderer.render(&mut pass.forget_lifetime(), primitives, &screen);
+                }
             }
             gpu.queue.submit(commands.into_iter().chain(std::iter::once(encoder.finish())));
             gpu.queue.present(frame);
@@ -399,10 +405,12 @@ impl View {
         } else {
             gpu.queue.submit(commands.into_iter().chain(std::iter::once(encoder.finish())));
         }
-        let mut renderer = self.render.renderer.write();
-        for id in &textures.free {
-            renderer.free_texture(id);
+        if let Some(renderer) = &mut self.painter {
+            for id in &textures.free {
+                renderer.free_texture(id);
+            }
         }
+        textures.clear();
     }
 
     /// What egui asks of the page: the cursor, copied text, links to open.
@@ -449,6 +457,8 @@ impl View {
 
 impl Drop for View {
     fn drop(&mut self) {
+        // Changes never painted go with the viewer.
+        self.pending_textures.clear();
         self.release_gl();
     }
 }
