@@ -7,7 +7,7 @@ cd "$(dirname "$0")/.."
 DIST=web/dist
 printf '%-22s %10s %10s %10s\n' file raw gzip brotli
 total=(0 0 0)
-for f in kloub-viewer.js kloub_web.js kloub_web_bg.wasm; do
+for f in kloub-viewer.js accessibility.js kloub_web.js kloub_web_bg.wasm; do
   raw=$(stat -c %s "$DIST/$f"); gz=$(stat -c %s "$DIST/$f.gz"); br=$(stat -c %s "$DIST/$f.br")
   printf '%-22s %10d %10d %10d\n' "$f" "$raw" "$gz" "$br"
   total=($((total[0] + raw)) $((total[1] + gz)) $((total[2] + br)))

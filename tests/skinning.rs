@@ -155,3 +155,45 @@ fn candy_wrapper_matches_on(offscreen: &Offscreen) {
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
+
+/// The page's viewers of one model on one device share its upload (meshes, textures, morph
+/// targets, SJB centres) and the device's pipelines, and draw exactly what a viewer with its own
+/// upload draws; the shared upload goes when the last of them does.
+#[test]
+fn viewers_sharing_a_device_share_one_upload_and_draw_the_same_pixels() {
+    use kloub_web::render::scene;
+    let offscreen = Offscreen::new().expect("a wgpu adapter");
+    let (device, queue) = (offscreen.device(), offscreen.queue());
+    let asset = std::sync::Arc::new(load("threejs/RobotExpressive/RobotExpressive.glb"));
+    let format = kloub_web::render::texture::COLOR_FORMAT;
+    // A key no other test uses: caches are per thread, tests may share one.
+    let share = Some(0xC0FFEE);
+    let (uploads, kits) = (scene::uploads_made(), kloub_web::render::pipelines::kits_built());
+    let mut first = SceneRenderer::shared(device, queue, 1, format, share);
+    first.set_shared_asset(device, queue, &asset).expect("uploading");
+    let mut second = SceneRenderer::shared(device, queue, 1, format, share);
+    second.set_shared_asset(device, queue, &asset).expect("sharing");
+    assert_eq!(scene::uploads_made() - uploads, 1, "one upload for two viewers");
+    assert_eq!(kloub_web::render::pipelines::kits_built() - kits, 1, "one pipeline kit for the device");
+    let mut own = SceneRenderer::shared(device, queue, 1, format, None);
+    own.set_shared_asset(device, queue, &asset).expect("uploading its own");
+    assert_eq!(scene::uploads_made() - uploads, 2, "a renderer outside the page shares nothing");
+
+    let mut instance = Instance::new(&asset);
+    instance.evaluate(&asset, Some(0), 0.4).expect("sampling");
+    instance.update(&asset).expect("updating");
+    let (min, max) = instance.scene_bounds(&asset).expect("drawable");
+    let mut camera = kloub_web::render::Camera::default();
+    camera.frame_to_fit_aspect(min, max, 1.0);
+    let shots: Vec<_> = [&mut first, &mut second, &mut own]
+        .into_iter()
+        .map(|r| offscreen.render(r, &asset, &mut instance, &camera, 96, 96).expect("rendering"))
+        .collect();
+    assert!(shots[0].pixels().any(|p| p.0 != shots[0].get_pixel(0, 0).0), "the model is drawn");
+    assert!(shots[0] == shots[1] && shots[1] == shots[2], "shared and own uploads draw the same pixels");
+
+    assert_eq!(scene::live_uploads(), 1);
+    drop((first, second, own, asset));
+    scene::release_unused_uploads(None);
+    assert_eq!(scene::live_uploads(), 0, "the shared upload goes with the last viewer of the model");
+}

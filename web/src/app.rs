@@ -41,6 +41,9 @@ pub struct AppConfig {
     pub host: crate::dom::Host,
     /// Show the side panel and menus (the element's `controls` attribute).
     pub panels: bool,
+    /// The page's key of the shared device: pipelines and model uploads are shared with the
+    /// device's other viewers (`None`: nothing is shared).
+    pub share: Option<u32>,
 }
 
 impl Default for AppConfig {
@@ -51,6 +54,7 @@ impl Default for AppConfig {
             inbox: Inbox::default(),
             host: crate::dom::Host::default(),
             panels: true,
+            share: None,
         }
     }
 }
@@ -317,7 +321,7 @@ impl App {
         log::info!("kloub: rendering with {backend} ({:?})", gpu.adapter.get_info().name);
         install_fonts(ctx);
         style_panels(ctx);
-        let scene = new_scene(&gpu);
+        let scene = new_scene(&gpu, config.share);
         let mut app = Self {
             gpu,
             backend,
@@ -380,8 +384,8 @@ impl App {
     /// # Errors
     /// When the model cannot be uploaded to the new device (it is then dropped, as a failed
     /// load would be).
-    pub fn replace_gpu(&mut self, gpu: egui_wgpu::RenderState) -> Result<(), String> {
-        let mut scene = new_scene(&gpu);
+    pub fn replace_gpu(&mut self, gpu: egui_wgpu::RenderState, share: Option<u32>) -> Result<(), String> {
+        let mut scene = new_scene(&gpu, share);
         scene.set_grid(self.scene.grid());
         scene.set_heatmap(self.scene.heatmap());
         scene.set_look(self.scene.look());
@@ -1187,12 +1191,13 @@ fn view_aspect(rect: egui::Rect) -> f32 {
 
 /// A scene renderer for the view on `gpu`: its multisampling and the colour format its canvas
 /// is drawn in (both rebuilt the same way when the device is replaced).
-fn new_scene(gpu: &egui_wgpu::RenderState) -> SceneRenderer {
-    SceneRenderer::with_format(
+fn new_scene(gpu: &egui_wgpu::RenderState, share: Option<u32>) -> SceneRenderer {
+    SceneRenderer::shared(
         &gpu.device,
         &gpu.queue,
         display_msaa(&gpu.adapter),
         scene_format(gpu.adapter.get_info().backend),
+        share,
     )
 }
 

@@ -116,6 +116,7 @@ impl Viewer {
                     inbox,
                     host: host.clone(),
                     panels: true,
+                    share: Some(gpu.generation),
                 };
                 View::new(gpu, canvas, |ctx, render| {
                     watch_repaints(id, ctx);

@@ -216,8 +216,8 @@ async fn shared_kind(kind: GpuKind) -> Result<Rc<Gpu>, String> {
                 let mut d = d.borrow_mut();
                 // The device this one replaces was lost: what was built and uploaded on it goes.
                 for old in d.iter().filter(|g| g.kind == kind) {
-                    crate::render::pipelines::forget_device(&old.device);
-                    crate::render::scene::release_unused_uploads(Some(&old.device));
+                    crate::render::pipelines::forget_device(old.generation);
+                    crate::render::scene::release_unused_uploads(Some(old.generation));
                 }
                 d.retain(|g| g.kind != kind);
                 d.push(gpu.clone());

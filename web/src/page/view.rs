@@ -161,7 +161,7 @@ impl View {
         let ctx = egui::Context::default();
         crate::app::install_fonts(&ctx);
         crate::app::style_panels(&ctx);
-        self.app.replace_gpu(gpu.render.clone())?;
+        self.app.replace_gpu(gpu.render.clone(), Some(gpu.generation))?;
         self.app.set_context(&ctx);
         self.ctx = ctx;
         // The new context sends its textures again, to a painter for the new device.

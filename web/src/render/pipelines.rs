@@ -173,6 +173,9 @@ pub const SKIN_FROM_DRAW: u32 = 4;
 /// Shader modules and pipelines for one sample count.
 #[derive(Clone)]
 pub struct Pipelines {
+    /// The page device's sharing key ([`kit`]): variants built here are offered to the other
+    /// viewers of the device, and theirs taken (`None`: nothing shared).
+    share: Option<u32>,
     sample_count: u32,
     format: wgpu::TextureFormat,
     mesh_module: wgpu::ShaderModule,
@@ -271,7 +274,7 @@ impl Pipelines {
         );
         let grid =
             environment("kloub grid", "vs_grid", "fs_grid", depth_state(wgpu::CompareFunction::LessEqual, false), true);
-        Self { sample_count, format, mesh_module, mesh_layout, background, grid, mesh: HashMap::new() }
+        Self { share: None, sample_count, format, mesh_module, mesh_layout, background, grid, mesh: HashMap::new() }
     }
 
     /// Builds the mesh pipeline of `key` if it does not exist yet (here, or in the device's
@@ -280,11 +283,11 @@ impl Pipelines {
         if self.mesh.contains_key(&key) {
             return;
         }
-        let (format, samples) = (self.format, self.sample_count);
+        let (share, format, samples) = (self.share, self.format, self.sample_count);
         let built = KITS.with(|kits| {
             kits.borrow()
                 .iter()
-                .find(|k| k.matches(device, format, samples))
+                .find(|k| k.matches(share, format, samples))
                 .and_then(|k| k.pipelines.mesh.get(&key).cloned())
         });
         if let Some(pipeline) = built {
@@ -334,7 +337,7 @@ impl Pipelines {
             cache: None,
         });
         KITS.with(|kits| {
-            if let Some(kit) = kits.borrow_mut().iter_mut().find(|k| k.matches(device, format, samples)) {
+            if let Some(kit) = kits.borrow_mut().iter_mut().find(|k| k.matches(share, format, samples)) {
                 kit.pipelines.mesh.insert(key, pipeline.clone());
             }
         });
@@ -479,13 +482,15 @@ pub struct Kit {
 }
 
 struct SharedKit {
-    device: wgpu::Device,
+    /// The device's sharing key (wgpu compares devices by an id that another instance reuses:
+    /// the page numbers its devices instead).
+    share: u32,
     kit: Kit,
 }
 
 impl SharedKit {
-    fn matches(&self, device: &wgpu::Device, format: wgpu::TextureFormat, samples: u32) -> bool {
-        &self.device == device && self.kit.pipelines.format == format && self.kit.pipelines.sample_count == samples
+    fn matches(&self, share: Option<u32>, format: wgpu::TextureFormat, samples: u32) -> bool {
+        share == Some(self.share) && self.kit.pipelines.format == format && self.kit.pipelines.sample_count == samples
     }
 }
 
@@ -507,26 +512,37 @@ thread_local! {
     static KITS_BUILT: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
 }
 
-/// The shared kit of `device` for `format` and `sample_count`, built on first use.
-pub fn kit(device: &wgpu::Device, queue: &wgpu::Queue, format: wgpu::TextureFormat, sample_count: u32) -> Kit {
+/// The kit of `device` for `format` and `sample_count`: with `share` (the page's key of the
+/// device), the one every viewer of the device shares, built on first use; without, a kit of
+/// its own.
+pub fn kit(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    format: wgpu::TextureFormat,
+    sample_count: u32,
+    share: Option<u32>,
+) -> Kit {
     if let Some(kit) =
-        KITS.with(|kits| kits.borrow().iter().find(|k| k.matches(device, format, sample_count)).map(|k| k.kit.clone()))
+        KITS.with(|kits| kits.borrow().iter().find(|k| k.matches(share, format, sample_count)).map(|k| k.kit.clone()))
     {
         return kit;
     }
     let layouts = Layouts::new(device);
-    let pipelines = Pipelines::new(device, &layouts, sample_count, format);
+    let mut pipelines = Pipelines::new(device, &layouts, sample_count, format);
+    pipelines.share = share;
     let compute = ComputeKit::new(device);
     let white = super::texture::white_texture(device, queue).create_view(&wgpu::TextureViewDescriptor::default());
     let kit = Kit { layouts, pipelines, compute, white };
-    KITS.with(|kits| kits.borrow_mut().push(SharedKit { device: device.clone(), kit: kit.clone() }));
     KITS_BUILT.with(|n| n.set(n.get() + 1));
+    if let Some(share) = share {
+        KITS.with(|kits| kits.borrow_mut().push(SharedKit { share, kit: kit.clone() }));
+    }
     kit
 }
 
-/// Forgets the kits of `device` (it was lost: its pipelines are of no use).
-pub fn forget_device(device: &wgpu::Device) {
-    KITS.with(|kits| kits.borrow_mut().retain(|k| &k.device != device));
+/// Forgets the kits of the device `share` names (it was lost: its pipelines are of no use).
+pub fn forget_device(share: u32) {
+    KITS.with(|kits| kits.borrow_mut().retain(|k| k.share != share));
 }
 
 /// How many kits were built on this thread (tests: one per device, format and sample count).

@@ -245,7 +245,8 @@ struct Uploaded {
 /// An asset's static GPU part on a device, while any viewer shows the asset.
 struct SharedUpload {
     asset: std::sync::Weak<Asset>,
-    device: wgpu::Device,
+    /// The page's key of the device it is on.
+    share: u32,
     /// Whether its streams are readable by compute skinning.
     storage: bool,
     uploaded: Uploaded,
@@ -267,11 +268,11 @@ pub fn live_uploads() -> usize {
     UPLOADS.with(|uploads| uploads.borrow().iter().filter(|u| u.asset.strong_count() > 0).count())
 }
 
-/// Releases the shared GPU parts of assets no viewer shows any more (and of `lost`, a device
-/// that was lost, if given).
-pub fn release_unused_uploads(lost: Option<&wgpu::Device>) {
+/// Releases the shared GPU parts of assets no viewer shows any more (and those on `lost`, the
+/// key of a device that was lost, if given).
+pub fn release_unused_uploads(lost: Option<u32>) {
     UPLOADS.with(|uploads| {
-        uploads.borrow_mut().retain(|u| u.asset.strong_count() > 0 && lost.is_none_or(|d| &u.device != d));
+        uploads.borrow_mut().retain(|u| u.asset.strong_count() > 0 && lost != Some(u.share));
     });
 }
 
@@ -305,6 +306,8 @@ pub struct RenderTimes {
 ///
 /// See the [module docs](super) for the frame flow and how the app and the tests use it.
 pub struct SceneRenderer {
+    /// The page's key of the device (`None`: nothing is shared with other renderers).
+    share: Option<u32>,
     sample_count: u32,
     /// The colour format drawn into ([`COLOR_FORMAT`], or `Rgba8Unorm` with the shaders
     /// encoding sRGB: see [`SceneRenderer::with_format`]).
@@ -356,10 +359,23 @@ impl SceneRenderer {
         sample_count: u32,
         format: wgpu::TextureFormat,
     ) -> Self {
+        Self::shared(device, queue, sample_count, format, None)
+    }
+
+    /// [`SceneRenderer::with_format`] for one of the page's viewers on the device `share`
+    /// names: the pipelines are the device's kit, and [`SceneRenderer::set_shared_asset`]
+    /// shares uploads with the device's other renderers (`None`: nothing is shared).
+    pub fn shared(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        sample_count: u32,
+        format: wgpu::TextureFormat,
+        share: Option<u32>,
+    ) -> Self {
         let sample_count = if sample_count == 4 { 4 } else { 1 };
         let format = if format == wgpu::TextureFormat::Rgba8Unorm { format } else { COLOR_FORMAT };
         let super::pipelines::Kit { layouts, pipelines, compute, white } =
-            super::pipelines::kit(device, queue, format, sample_count);
+            super::pipelines::kit(device, queue, format, sample_count, share);
         let frame_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("kloub frame"),
             size: size_of::<FrameUniform>() as u64,
@@ -370,6 +386,7 @@ impl SceneRenderer {
         let draw_stride = (size_of::<DrawUniform>() as u64).div_ceil(align) * align;
         let empty = GpuScene::empty(device, queue, &layouts, &frame_buffer, draw_stride);
         Self {
+            share,
             sample_count,
             format,
             draw_stride,
@@ -413,13 +430,14 @@ impl SceneRenderer {
         queue: &wgpu::Queue,
         asset: &std::sync::Arc<Asset>,
     ) -> Result<(), String> {
+        let Some(share) = self.share else { return self.set_asset(device, queue, asset) };
         let storage = self.compute.is_some();
         let cached = UPLOADS.with(|uploads| {
             let mut uploads = uploads.borrow_mut();
             uploads.retain(|u| u.asset.strong_count() > 0);
             uploads
                 .iter()
-                .find(|u| u.storage == storage && &u.device == device && std::ptr::eq(u.asset.as_ptr(), &**asset))
+                .find(|u| u.storage == storage && u.share == share && std::ptr::eq(u.asset.as_ptr(), &**asset))
                 .map(|u| u.uploaded.clone())
         });
         let fresh = cached.is_none();
@@ -428,7 +446,7 @@ impl SceneRenderer {
             UPLOADS.with(|uploads| {
                 uploads.borrow_mut().push(SharedUpload {
                     asset: std::sync::Arc::downgrade(asset),
-                    device: device.clone(),
+                    share,
                     storage,
                     uploaded,
                 });
