@@ -185,15 +185,18 @@ export async function loopRun(server, backend, loads) {
   const mark = marker();
   const profile = mkdtempSync(`${tmpdir()}/kloub-memory-`);
   const args = [...FLAGS, `--kloub-bench=${mark}`, `--user-data-dir=${profile}`, '--js-flags=--expose-gc', '--window-size=400,300'];
+  // Each chromium runs in a process group of its own: stopping it stops its GPU and renderer processes too.
+  const start = (url) => spawn(CHROMIUM, [...args, url], { stdio: 'ignore', detached: true });
+  const signal = (child, sig) => { try { process.kill(-child.pid, sig); } catch { /* gone */ } };
   const kill = (child) => new Promise((ok) => {
-    if (child.exitCode !== null) { ok(); return; }
-    child.once('exit', ok);
-    child.kill('SIGTERM');
-    setTimeout(() => child.kill('SIGKILL'), 3000);
+    if (child.exitCode !== null) { signal(child, 'SIGKILL'); ok(); return; }
+    child.once('exit', () => { signal(child, 'SIGKILL'); ok(); });
+    signal(child, 'SIGTERM');
+    setTimeout(() => signal(child, 'SIGKILL'), 3000);
   });
   try {
     // The blank browser first, then the same profile with the loop page.
-    const blankChild = spawn(CHROMIUM, [...args, 'about:blank'], { stdio: 'ignore' });
+    const blankChild = start('about:blank');
     await sleep(3000);
     const blank = pss(mark);
     await kill(blankChild);
@@ -207,7 +210,7 @@ export async function loopRun(server, backend, loads) {
       };
     });
     const url = `${server.url}/loop.html?impl=${backend ? 'kloub' : 'mv'}&backend=${backend ?? ''}&loads=${loads}`;
-    const child = spawn(CHROMIUM, [...args, url], { stdio: 'ignore' });
+    const child = start(url);
     try {
       await done;
     } finally {
@@ -218,7 +221,12 @@ export async function loopRun(server, backend, loads) {
     return { after20: marks['20'].total - blank.total, last: marks.last.total - blank.total, growth: `${growth} MB` };
   } finally {
     server.onMark = () => {};
-    rmSync(profile, { recursive: true, force: true });
+    // A process of the browser may still be writing its profile for a moment.
+    try {
+      rmSync(profile, { recursive: true, force: true, maxRetries: 10, retryDelay: 200 });
+    } catch (e) {
+      console.warn(`     could not remove ${profile}: ${e.message}`);
+    }
   }
 }
 
