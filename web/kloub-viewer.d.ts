@@ -106,6 +106,8 @@ export interface KloubViewerState {
   frames?: string;
   /** The 3D view's rectangle in CSS pixels of the canvas, `x,y,width,height`. */
   viewport?: string;
+  /** The box the camera frames (the model over its clips, with its copies), `minx,miny,minz,maxx,maxy,maxz`. */
+  bounds?: string;
   /** The panel: beside the view, or (narrower than 600 CSS px) a sheet over it, open or closed. */
   panel?: '' | 'side' | 'open' | 'closed';
 }
@@ -219,6 +221,11 @@ export declare class KloubViewer extends HTMLElement {
   /** The current frame at the canvas's size in device pixels, transparent where the background is; no download
    *  (model-viewer's `toBlob`; `idealAspect` is not supported). */
   toBlob(options?: { mimeType?: string; qualityArgument?: number }): Promise<Blob>;
+  /** The centre of the box the camera frames (the model over its clips, with its copies), world units; null
+   *  without a model (model-viewer's method of the same name). */
+  getBoundingBoxCenter(): { x: number; y: number; z: number } | null;
+  /** The size of that box; null without a model (model-viewer's `getDimensions()`). */
+  getDimensions(): { x: number; y: number; z: number } | null;
   /** The current frame as a data URL (default `image/png`). */
   toDataURL(type?: string, encoderOptions?: number): string;
   /** Shows or hides the ground grid. */

@@ -258,6 +258,11 @@ function vec3(method, arg, value) {
   return Array.from(value, (v, i) => num(method, `${arg}[${i}]`, v));
 }
 
+/** A point or size as model-viewer returns them: `{ x, y, z }`, printed as `"xm ym zm"`. */
+function vector3(x, y, z) {
+  return Object.freeze({ x, y, z, toString() { return `${x}m ${y}m ${z}m`; } });
+}
+
 /** The loop attribute's mode: absent or "" repeats, "false" plays once. */
 function loopMode(value) {
   if (value === null || value === '' || value === 'true') return 'repeat';
@@ -1453,6 +1458,21 @@ export class KloubViewer extends HTMLElement {
   }
   /** The camera as [yaw, pitch, distance, targetX, targetY, targetZ] (radians, model units). */
   get camera() { return (this.dataset.camera ?? '').split(',').filter((v) => v !== '').map(Number); }
+  /** model-viewer's `getBoundingBoxCenter()`: the centre of the box the camera frames (the model over its clips), in
+   *  world units, or null without a model. */
+  getBoundingBoxCenter() {
+    const b = this.#bounds();
+    return b && vector3((b[0] + b[3]) / 2, (b[1] + b[4]) / 2, (b[2] + b[5]) / 2);
+  }
+  /** model-viewer's `getDimensions()`: the size of that box, or null without a model. */
+  getDimensions() {
+    const b = this.#bounds();
+    return b && vector3(b[3] - b[0], b[4] - b[1], b[5] - b[2]);
+  }
+  #bounds() {
+    const b = (this.dataset.bounds ?? '').split(',').map(Number);
+    return b.length === 6 && b.every(Number.isFinite) ? b : null;
+  }
   set camera(values) {
     const m = 'camera';
     if (!Array.isArray(values) && !ArrayBuffer.isView(values)) throw new TypeError(`${m}: expected [yaw, pitch, distance, x, y, z], got ${describe(values)}`);

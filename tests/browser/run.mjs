@@ -1039,19 +1039,20 @@ test('<kloub-viewer>: a panic inside the module: every viewer comes back from it
   await waitForDataset(page, () => document.getElementById('left').dataset.skinning === 'sjb', 'a method call after the recovery');
 });
 
-test('<kloub-viewer>: loading="lazy" fetches only the models near the view; poster until the first frame (reveal manual: until dismissPoster); progress reaches 1 before load', async (ctx) => {
+for (const backend of BACKENDS) test(`${backend}: <kloub-viewer>: loading="lazy" fetches only the models near the view; poster until the first frame (reveal manual: until dismissPoster); progress reaches 1 before load`, async (ctx) => {
   const { page } = ctx;
   const fetched = new Set();
   page.on('request', (r) => { const m = /Fox\.glb\?lazy=(\d+)/.exec(r.url()); if (m) fetched.add(Number(m[1])); });
   await page.setViewportSize({ width: 800, height: 600 });
   await page.goto(`${ctx.url}/embed.html`);
-  const posterShown = await page.evaluate(() => {
+  const posterShown = await page.evaluate((b) => {
     document.body.innerHTML = '';
     document.body.style.margin = '0';
     window.__events = [];
     for (let i = 0; i < 30; i++) {
       const v = document.createElement('kloub-viewer');
       v.id = `v${i}`;
+      v.setAttribute('backend', b);
       v.setAttribute('loading', 'lazy');
       v.setAttribute('src', `/assets/Fox.glb?lazy=${i}`);
       v.style.cssText = 'width:300px;height:250px;margin-bottom:150px';
@@ -1067,7 +1068,7 @@ test('<kloub-viewer>: loading="lazy" fetches only the models near the view; post
     first.reveal = 'manual';
     const img = first.shadowRoot.querySelector('.kloub-poster');
     return !img.hidden && img.getAttribute('src').startsWith('data:image/png');
-  });
+  }, backend);
   assert(posterShown, 'the poster is not shown before the first frame');
   await page.waitForFunction(() => ['v0', 'v1'].every((id) => document.getElementById(id).dataset.status === 'ready'), null, { timeout: 60000 });
   await page.waitForFunction(() => window.__events.some(([i, t]) => i === 0 && t === 'load'), null, { timeout: 30000 });
@@ -1096,10 +1097,10 @@ test('<kloub-viewer>: loading="lazy" fetches only the models near the view; post
   assert(fetched.size < 30, `every model was fetched (${fetched.size}), not only those scrolled past`);
 });
 
-test('<kloub-viewer>: camera-orbit and camera-target over the framing; camera-controls gates input; auto-rotate turns and waits after interaction; camera-change says who moved it; min/max-camera-orbit, disable-zoom, field-of-view', async (ctx) => {
+for (const backend of BACKENDS) test(`${backend}: <kloub-viewer>: camera-orbit and camera-target over the framing; camera-controls gates input; auto-rotate turns and waits after interaction; camera-change says who moved it; min/max-camera-orbit, disable-zoom, field-of-view`, async (ctx) => {
   const { page } = ctx;
   await page.setViewportSize({ width: 800, height: 600 });
-  await viewersPage(page, ctx.url, [{ attrs: { src: '/assets/Fox.glb' }, style: 'width:400px;height:300px' }]);
+  await viewersPage(page, ctx.url, [{ attrs: { src: '/assets/Fox.glb', backend }, style: 'width:400px;height:300px' }]);
   // No camera-change can come before the model is shown and a camera attribute changes it.
   await page.evaluate(() => {
     window.__changes = [];
@@ -1188,35 +1189,67 @@ test('<kloub-viewer>: camera-orbit and camera-target over the framing; camera-co
   assert(narrow > 1.8 * wide, `field-of-view 20deg: the model covers ${(narrow * 100).toFixed(1)}% (45deg: ${(wide * 100).toFixed(1)}%)`);
 });
 
-test('<kloub-viewer>: a model is framed whole and centred at 4:3, 1:1 and 9:16', async (ctx) => {
-  const { page } = ctx;
-  await page.setViewportSize({ width: 800, height: 600 });
-  const report = [];
-  for (const model of ['Fox.glb', 'CesiumMan/CesiumMan.glb', 'Knight/Knight.glb']) {
-    for (const [w, h] of [[400, 300], [300, 300], [225, 400]]) {
-      await viewersPage(page, ctx.url, [{ attrs: { src: `/assets/${model}`, 'min-pixel-ratio': '1' }, style: `width:${w}px;height:${h}px;border:0;border-radius:0` }],
-        'margin:0;background:#fff');
-      await waitForDataset(page, () => document.querySelector('kloub-viewer').loaded, model);
-      await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
-      const shot = await viewportShot(page);
-      const [x0, y0, x1, y1] = contentBox(shot);
-      const box = [x0, y0, x1, y1].map((v) => v.toFixed(3)).join(', ');
-      const name = `${model.split('/').pop()} at ${w}×${h}`;
-      report.push(`${name}: ${box}`);
-      // Whole (not cut by an edge), not a speck, and about centred: the box of the silhouette, not of the bounds
-      // (a fox's tail or a raised arm moves it off the bounds' centre, which is the view's centre by construction).
-      assert(x0 > 0.005 && y0 > 0.005 && x1 < 0.995 && y1 < 0.995, `${name} touches an edge: ${box}`);
-      assert(Math.max(x1 - x0, y1 - y0) > 0.3, `${name} is framed too small: ${box}`);
-      assert(Math.abs((x0 + x1) / 2 - 0.5) < 0.1 && Math.abs((y0 + y1) / 2 - 0.5) < 0.1, `${name} is off centre: ${box}`);
-    }
-  }
-  console.log(`     framing: ${report.join('; ')}`);
-});
+/** Where `point` lands in a view of `aspect` (width / height) seen by `camera` ([yaw, pitch, distance, x, y, z],
+ *  an orbit around the target, Y up) with a vertical field of view of `fovDeg`: [x, y] from the view's centre as
+ *  fractions of its width and height (−0.5 … 0.5). Written here from the definition, not taken from the viewer. */
+function projectFraction(point, camera, fovDeg, aspect) {
+  const [yaw, pitch, distance, ...target] = camera;
+  const eye = [target[0] + distance * Math.sin(yaw) * Math.cos(pitch), target[1] + distance * Math.sin(pitch), target[2] + distance * Math.cos(yaw) * Math.cos(pitch)];
+  const sub = (a, b) => a.map((v, i) => v - b[i]);
+  const dot = (a, b) => a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+  const cross = (a, b) => [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+  const norm = (a) => { const l = Math.hypot(...a); return a.map((v) => v / l); };
+  const forward = norm(sub(target, eye));
+  const right = norm(cross(forward, [0, 1, 0]));
+  const up = cross(right, forward);
+  const v = sub(point, eye);
+  const depth = dot(v, forward);
+  const t = Math.tan((fovDeg * Math.PI) / 360);
+  return [dot(v, right) / (depth * t * aspect) / 2, dot(v, up) / (depth * t) / 2];
+}
 
-test('<kloub-viewer>: interaction-prompt shows a hint to drag after its threshold, gone at the first drag; none shows nothing', async (ctx) => {
+for (const backend of BACKENDS) {
+  test(`${backend}: <kloub-viewer>: a model is framed whole and centred at 4:3, 1:1 and 9:16 (its bounds' centre within 2 % of the element's)`, async (ctx) => {
+    const { page } = ctx;
+    await page.setViewportSize({ width: 800, height: 600 });
+    const report = [];
+    for (const model of ['Fox.glb', 'CesiumMan/CesiumMan.glb', 'Knight/Knight.glb']) {
+      for (const [w, h] of [[400, 300], [300, 300], [225, 400]]) {
+        await viewersPage(page, ctx.url, [{ attrs: { src: `/assets/${model}`, 'min-pixel-ratio': '1', backend }, style: `width:${w}px;height:${h}px;border:0;border-radius:0` }],
+          'margin:0;background:#fff');
+        await waitForDataset(page, () => document.querySelector('kloub-viewer').loaded, model);
+        await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
+        const name = `${model.split('/').pop()} at ${w}×${h}`;
+        // The bounds' centre, projected from the camera the element reports, lands on the element's centre: the
+        // view fills the element (no panel, no offset) and the camera aims at the bounds.
+        const { centre, camera, view, used } = await page.evaluate(() => {
+          const v = document.querySelector('kloub-viewer');
+          const c = v.getBoundingBoxCenter();
+          return { centre: [c.x, c.y, c.z], camera: v.camera, view: v.dataset.viewport.split(',').map(Number), used: v.dataset.backend };
+        });
+        assert(used === backend, `${name}: drawn with ${used}`);
+        assert(Math.abs(view[0]) < 1 && Math.abs(view[1]) < 1 && Math.abs(view[2] - w) < 1 && Math.abs(view[3] - h) < 1, `${name}: the view is ${view}, not the element`);
+        const [fx, fy] = projectFraction(centre, camera, 45, w / h);
+        assert(Math.abs(fx) <= 0.02 && Math.abs(fy) <= 0.02, `${name}: the bounds' centre is ${(fx * 100).toFixed(1)} %, ${(fy * 100).toFixed(1)} % off the element's centre`);
+        const shot = await viewportShot(page);
+        const [x0, y0, x1, y1] = contentBox(shot);
+        const box = [x0, y0, x1, y1].map((v) => v.toFixed(3)).join(', ');
+        report.push(`${name}: ${box}`);
+        // Whole (not cut by an edge), not a speck, and about centred: the box of the silhouette, not of the bounds
+        // (a fox's tail or a raised arm moves it off the bounds' centre, which is the view's centre by construction).
+        assert(x0 > 0.005 && y0 > 0.005 && x1 < 0.995 && y1 < 0.995, `${name} touches an edge: ${box}`);
+        assert(Math.max(x1 - x0, y1 - y0) > 0.3, `${name} is framed too small: ${box}`);
+        assert(Math.abs((x0 + x1) / 2 - 0.5) < 0.1 && Math.abs((y0 + y1) / 2 - 0.5) < 0.1, `${name} is off centre: ${box}`);
+      }
+    }
+    console.log(`     framing (${backend}): ${report.join('; ')}`);
+  });
+}
+
+for (const backend of BACKENDS) test(`${backend}: <kloub-viewer>: interaction-prompt shows a hint to drag after its threshold, gone at the first drag; none shows nothing`, async (ctx) => {
   const { page } = ctx;
   await page.setViewportSize({ width: 800, height: 600 });
-  const attrs = { src: '/assets/Fox.glb', 'camera-controls': '', 'interaction-prompt-threshold': '300' };
+  const attrs = { src: '/assets/Fox.glb', 'camera-controls': '', 'interaction-prompt-threshold': '300', backend };
   const style = 'display:inline-block;width:380px;height:280px;border:0';
   await viewersPage(page, ctx.url, [{ id: 'a', attrs, style }, { id: 'b', attrs: { ...attrs, 'interaction-prompt': 'none' }, style }]);
   const shown = (id) => page.evaluate((id) => !document.getElementById(id).shadowRoot.querySelector('.kloub-prompt').hidden, id);
@@ -1233,23 +1266,23 @@ test('<kloub-viewer>: interaction-prompt shows a hint to drag after its threshol
   assert(!(await shown('a')), 'the prompt came back after the user had moved the camera');
 });
 
-test('the app at a phone\'s width (390×844): the view keeps the full width; the panel is a sheet that opens and closes; one finger orbits, a pinch zooms', async (ctx) => {
+for (const backend of BACKENDS) test(`${backend}: the app at a phone's width (390×844): the view keeps the full width; the panel is a sheet that opens and closes; one finger orbits, a pinch zooms`, async (ctx) => {
   const { page } = ctx;
   await page.setViewportSize({ width: 390, height: 844 });
-  await openApp(ctx, 'webgpu');
+  await openApp(ctx, backend);
   let ds = await dataset(page);
   const width = await page.evaluate(() => document.querySelector('kloub-viewer').getBoundingClientRect().width);
   const [, , vw] = ds.viewport.split(',').map(Number);
   assert(ds.panel === 'closed' && Math.abs(vw - width) < 1, `closed: panel ${ds.panel}, view ${vw} of ${width} px`);
   const closed = await viewportShot(page);
-  savePng(closed, 'phone-closed.png');
+  savePng(closed, `${backend}-phone-closed.png`);
   const [x0, , x1] = contentBox(closed);
   assert(nonBackgroundFraction(closed) > 0.02 && x1 - x0 > 0.3, `the model across the width: box ${x0.toFixed(3)}..${x1.toFixed(3)}`);
   // The button in the view's corner opens the sheet; its close button closes it.
   await page.mouse.click(30, 24);
   await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.panel === 'open', 'the sheet to open');
   const open = await viewportShot(page);
-  savePng(open, 'phone-open.png');
+  savePng(open, `${backend}-phone-open.png`);
   assert(diffFraction(closed, open) > 0.2, 'the sheet is not over the view');
   await page.mouse.click(50, 16);
   await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.panel === 'closed', 'the sheet to close');

@@ -23,6 +23,9 @@ pub enum Key {
     /// The 3D viewport's rectangle in CSS pixels of the canvas, `"x,y,width,height"` (for
     /// screenshots of the view alone).
     Viewport,
+    /// The box the camera frames (the shown model over its clips, with its copies), world
+    /// units, `"minx,miny,minz,maxx,maxy,maxz"`; `""` without a model.
+    Bounds,
     /// The main clock's time in seconds, three decimals (`""` without a model).
     Time,
     /// `"true"` while the main clock runs, else `"false"`.
@@ -94,7 +97,7 @@ pub enum Key {
 
 impl Key {
     /// Every key, in a fixed order.
-    pub const ALL: [Key; 38] = [
+    pub const ALL: [Key; 39] = [
         Key::Backend,
         Key::Status,
         Key::Model,
@@ -103,6 +106,7 @@ impl Key {
         Key::Error,
         Key::Frames,
         Key::Viewport,
+        Key::Bounds,
         Key::Time,
         Key::Playing,
         Key::Crossfade,
@@ -146,6 +150,7 @@ impl Key {
             Key::Error => "error",
             Key::Frames => "frames",
             Key::Viewport => "viewport",
+            Key::Bounds => "bounds",
             Key::Panel => "panel",
             Key::Time => "time",
             Key::Playing => "playing",

@@ -80,6 +80,10 @@ impl App {
             c.yaw, c.pitch, c.distance, c.target.x, c.target.y, c.target.z
         );
         d.set(Key::Camera, &camera);
+        let bounds = model.and_then(Model::grid_bounds).map_or(String::new(), |(min, max)| {
+            format!("{:.5},{:.5},{:.5},{:.5},{:.5},{:.5}", min.x, min.y, min.z, max.x, max.y, max.z)
+        });
+        d.set(Key::Bounds, &bounds);
         d.set(Key::Frames, &self.frames.to_string());
 
         let playing = model.is_some_and(Model::is_playing);
