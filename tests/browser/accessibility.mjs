@@ -3,18 +3,15 @@
 // announcements, and the embedded viewer's role. Registered by run.mjs.
 import { readFileSync } from 'node:fs';
 import { join } from 'node:path';
-import { ROOT, control, pageUrl, waitForDataset } from './lib.mjs';
+import { ROOT, control, openApp, waitForDataset } from './lib.mjs';
 
 const AXE = readFileSync(join(ROOT, 'node_modules/axe-core/axe.min.js'), 'utf8');
 
 function assert(cond, msg) { if (!cond) throw new Error(msg); }
 
-async function openApp(ctx, backend) {
-  await ctx.page.goto(pageUrl(ctx.url, backend));
-  await waitForDataset(ctx.page, () => {
-    const d = document.querySelector('kloub-viewer').dataset;
-    return d.status === 'ready' && (d.model ?? '') !== '';
-  }, 'the default model to be ready');
+/** Opens the app for `backend` and waits until the panels' mirror lists the default model's clips. */
+async function openMirroredApp(ctx, backend) {
+  await openApp(ctx, backend);
   await mirrorReady(ctx.page);
 }
 
@@ -102,7 +99,7 @@ export function registerAccessibilityTests(test, BACKENDS) {
   for (const backend of BACKENDS) {
     test(`${backend}: axe-core finds no critical or serious violation on the app (every section open, IK on) nor on embed.html`, async (ctx) => {
       const { page } = ctx;
-      await openApp(ctx, backend);
+      await openMirroredApp(ctx, backend);
       await turnOnIk(page);
       await openEverySection(page);
       const expanded = await inMirror(page, (root) => root.querySelectorAll('button[aria-expanded="true"]').length);
@@ -123,7 +120,7 @@ export function registerAccessibilityTests(test, BACKENDS) {
 
     test(`${backend}: Chromium's accessibility tree lists every control egui drew in the panel, with names and values`, async (ctx) => {
       const { page } = ctx;
-      await openApp(ctx, backend);
+      await openMirroredApp(ctx, backend);
       await control(page, 'pause');
       await turnOnIk(page);
       await openEverySection(page);
@@ -177,7 +174,7 @@ export function registerAccessibilityTests(test, BACKENDS) {
 
     test(`${backend}: keyboard only: play a named clip, speed 2×, scrub to half the clip, DQS, the skeleton overlay`, async (ctx) => {
       const { page } = ctx;
-      await openApp(ctx, backend);
+      await openMirroredApp(ctx, backend);
       // From the top of the page: Tab enters the panel first.
       const run = await tabTo(page, { name: /^Run/, role: 'option' });
       assert(run.outline === 'solid' && parseFloat(run.outlineWidth) >= 2, `a visible focus ring: ${run.outline} ${run.outlineWidth}`);
@@ -237,7 +234,7 @@ export function registerAccessibilityTests(test, BACKENDS) {
 
     test(`${backend}: a screen reader's actions on the mirrored nodes change the viewer; announcements through a live region`, async (ctx) => {
       const { page } = ctx;
-      await openApp(ctx, backend);
+      await openMirroredApp(ctx, backend);
       const live = () => page.evaluate(() => document.querySelector('kloub-viewer').shadowRoot.querySelector('[aria-live]').textContent);
       await page.waitForFunction(() => /loaded: 3 clips/.test(document.querySelector('kloub-viewer').shadowRoot.querySelector('[aria-live]').textContent), null, { timeout: 10000 });
       await inMirror(page, (root) => root.querySelector('button[aria-label="Pause"]').click());

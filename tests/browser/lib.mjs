@@ -115,6 +115,18 @@ export function pageUrl(base, backend) {
   return backend === 'webgl2' ? `${base}/?backend=gl` : `${base}/`;
 }
 
+/** Opens the app for `backend` and waits for the default model; resolves to its dataset. */
+export async function openApp(ctx, backend) {
+  await ctx.page.goto(pageUrl(ctx.url, backend));
+  await waitForDataset(ctx.page, () => {
+    const d = document.querySelector('kloub-viewer').dataset;
+    return d.status === 'ready' && (d.model ?? '') !== '';
+  }, 'the default model to be ready');
+  const ds = await dataset(ctx.page);
+  if (ds.backend !== backend) throw new Error(`expected backend ${backend}, page reports ${ds.backend}`);
+  return ds;
+}
+
 /** Waits until `predicate(arg)` holds (evaluated in the page); on timeout the error shows the dataset. */
 export async function waitForDataset(page, predicate, what, timeout = 60000, arg = null) {
   try {

@@ -5,7 +5,7 @@ import { tmpdir } from 'node:os';
 import { PNG } from 'pngjs';
 import { basename, join } from 'node:path';
 import {
-  ROOT, SHARED, control, dataset, diffFraction, dropFiles, makeZip, nonBackgroundFraction, openBrowser, pageUrl, recordEvents,
+  ROOT, SHARED, control, openApp, dataset, diffFraction, dropFiles, makeZip, nonBackgroundFraction, openBrowser, pageUrl, recordEvents,
   savePng, startServer, startStatic, viewerEvents, viewersPage, viewportShot, waitForDataset, waitFrames,
 } from './lib.mjs';
 import { registerAccessibilityTests } from './accessibility.mjs';
@@ -58,17 +58,6 @@ const test = (name, fn) => { if (!only || only.test(name)) tests.push({ name, fn
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 function assert(cond, msg) { if (!cond) throw new Error(msg); }
 
-/** Opens the app for `backend` and waits for the default model. */
-async function openApp(ctx, backend) {
-  await ctx.page.goto(pageUrl(ctx.url, backend));
-  await waitForDataset(ctx.page, () => {
-    const d = document.querySelector('kloub-viewer').dataset;
-    return d.status === 'ready' && (d.model ?? '') !== '';
-  }, 'the default model to be ready');
-  const ds = await dataset(ctx.page);
-  assert(ds.backend === backend, `expected backend ${backend}, page reports ${ds.backend}`);
-  return ds;
-}
 
 /** Drops `path` and waits until it is the shown, ready model. */
 async function dropModel(page, path) {
