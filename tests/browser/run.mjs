@@ -1263,6 +1263,7 @@ for (const backend of BACKENDS) test(`${backend}: the app at a phone's width (39
   const width = await page.evaluate(() => document.querySelector('kloub-viewer').getBoundingClientRect().width);
   const [, , vw] = ds.viewport.split(',').map(Number);
   assert(ds.panel === 'closed' && Math.abs(vw - width) < 1, `closed: panel ${ds.panel}, view ${vw} of ${width} px`);
+  await waitFrames(page, 2);
   const closed = await viewportShot(page);
   savePng(closed, `${backend}-phone-closed.png`);
   const [x0, , x1] = contentBox(closed);
@@ -1270,6 +1271,8 @@ for (const backend of BACKENDS) test(`${backend}: the app at a phone's width (39
   // The button in the view's corner opens the sheet; its close button closes it.
   await page.mouse.click(30, 24);
   await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.panel === 'open', 'the sheet to open');
+  // data-panel changes during the frame that draws the sheet: the page shows it once that frame is presented.
+  await waitFrames(page, 2);
   const open = await viewportShot(page);
   savePng(open, `${backend}-phone-open.png`);
   assert(diffFraction(closed, open) > 0.2, 'the sheet is not over the view');
