@@ -10,7 +10,7 @@
 //
 // KLOUB_BENCH_COUNTS (default "1,8,16,50"), KLOUB_BACKENDS (webgl2,webgpu), KLOUB_BENCH_LOADS (default 100),
 // KLOUB_BENCH_PARTS ("table,loop,remove").
-import { startServer } from '../tests/browser/lib.mjs';
+import { startServer, viewersPage } from '../tests/browser/lib.mjs';
 import { MB, launchMarked, loopRun, settle, startPageServer } from '../tests/browser/memory.mjs';
 
 const COUNTS = (process.env.KLOUB_BENCH_COUNTS ?? '1,8,16,50').split(',').map(Number);
@@ -23,11 +23,12 @@ const byKind = (now, then = {}) => Object.entries(now).map(([k, v]) => `${k} ${(
 
 /** N viewers of Fox at w×h on `backend` on the (emptied) embed page, resolved when each drew its model. */
 async function kloubPage(page, base, backend, n, { w = 160, h = 120 } = {}) {
-  await page.goto(`${base}/embed.html`);
-  await page.evaluate(() => { document.body.innerHTML = ''; document.body.style.cssText = 'margin:0;max-width:none;display:flex;flex-wrap:wrap'; });
-  await addViewers(page, backend, n, w, h);
+  const viewer = { attrs: { backend, src: '/assets/Fox.glb', autoplay: '' }, style: `width:${w}px;height:${h}px` };
+  await viewersPage(page, base, Array(n).fill(viewer), 'margin:0;max-width:none;display:flex;flex-wrap:wrap');
+  await allDrawn(page);
 }
 
+/** Adds `n` viewers of Fox to the page as it is (the module stays loaded), resolved when each drew its model. */
 async function addViewers(page, backend, n, w = 160, h = 120) {
   await page.evaluate(({ n, backend, w, h }) => {
     for (let i = 0; i < n; i++) {
@@ -39,7 +40,12 @@ async function addViewers(page, backend, n, w = 160, h = 120) {
       document.body.append(v);
     }
   }, { n, backend, w, h });
-  await page.waitForFunction(() => [...document.querySelectorAll('kloub-viewer')].every((v) => v.dataset.status === 'ready'
+  await allDrawn(page);
+}
+
+/** Waits until every viewer of the page shows its model and drew twice. */
+function allDrawn(page) {
+  return page.waitForFunction(() => [...document.querySelectorAll('kloub-viewer')].every((v) => v.dataset.status === 'ready'
     && (v.dataset.model ?? '') !== '' && Number(v.dataset.frames) >= 2), null, { timeout: 300000, polling: 200 });
 }
 

@@ -60,9 +60,6 @@ export class AccessibilityMirror {
     this.root.remove();
   }
 
-  /** The mirrored element of a node id, if any. */
-  element(id) { return this.nodes.get(id)?.el ?? null; }
-
   /** The element that has the keyboard focus inside the mirror, if any. */
   focused() {
     const active = this.root.getRootNode().activeElement;

@@ -10,12 +10,12 @@ import { PNG } from 'pngjs';
 export const ROOT = resolve(import.meta.dirname, '../..');
 export const SHARED = process.env.KLOUB_SHARED_ASSETS ?? resolve(ROOT, 'tests/assets');
 
-const BASE_FLAGS = [
+export const BASE_FLAGS = [
   '--headless', '--no-sandbox', '--disable-quic', '--no-first-run', '--disable-background-networking',
   '--disable-component-update', '--disable-sync', '--enable-unsafe-swiftshader',
 ];
 // All four are needed for WebGPU on SwiftShader (see TOOLCHAIN.md).
-const WEBGPU_FLAGS = ['--enable-unsafe-webgpu', '--use-angle=swiftshader', '--enable-features=Vulkan', '--use-vulkan=swiftshader'];
+export const WEBGPU_FLAGS = ['--enable-unsafe-webgpu', '--use-angle=swiftshader', '--enable-features=Vulkan', '--use-vulkan=swiftshader'];
 
 /** Starts `kloub serve` on a free loopback port (the sample library, or `assets`); resolves to { url, stop() }. */
 export async function startServer({ assets = join(ROOT, 'web/assets'), args = [] } = {}) {

@@ -8,7 +8,7 @@ import { mkdtempSync, readFileSync, readdirSync, rmSync, statSync } from 'node:f
 import { tmpdir } from 'node:os';
 import { extname, resolve } from 'node:path';
 import { chromium } from 'playwright-core';
-import { ROOT, nonBackgroundFraction, viewportShot } from './lib.mjs';
+import { BASE_FLAGS, ROOT, WEBGPU_FLAGS, nonBackgroundFraction, viewportShot } from './lib.mjs';
 
 export const MB = 1024 * 1024;
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
@@ -18,12 +18,7 @@ const CHROMIUM = process.env.KLOUB_CHROMIUM ?? '/usr/bin/chromium';
 export const CYCLE = ['Knight/Knight.glb', 'Fox.glb', 'RobotExpressive/RobotExpressive.glb', 'CesiumMan/CesiumMan.glb'];
 
 /** The browser tests' chromium flags (lib.mjs) and a raised WebGL context limit, as the issue measured. */
-export const FLAGS = [
-  '--headless', '--no-sandbox', '--disable-quic', '--no-first-run', '--disable-background-networking',
-  '--disable-component-update', '--disable-sync', '--enable-unsafe-swiftshader',
-  '--enable-unsafe-webgpu', '--use-angle=swiftshader', '--enable-features=Vulkan', '--use-vulkan=swiftshader',
-  '--max-active-webgl-contexts=64',
-];
+export const FLAGS = [...BASE_FLAGS, ...WEBGPU_FLAGS, '--max-active-webgl-contexts=64'];
 
 /**
  * The summed PSS (bytes) of the browser launched with `--kloub-bench=<marker>` and all its descendants, and the same

@@ -80,7 +80,6 @@ pub fn aria_role(role: Role) -> (&'static str, Kind) {
 }
 
 /// What the element needs of one node (compared frame to frame).
-#[derive(Debug, Clone, PartialEq)]
 struct Entry {
     json: Value,
     hash: u64,
@@ -271,12 +270,14 @@ impl Mirror {
         let root = update.tree.as_ref().map(|t| t.root).or(self.root)?;
         let mut changed = Vec::new();
         let mut controls = Vec::with_capacity(self.controls.len());
-        let mut seen: HashMap<NodeId, u64> = HashMap::with_capacity(nodes.len());
+        // The mirrored nodes of this tree and what they were sent as; every node visited.
+        let mut sent: HashMap<NodeId, u64> = HashMap::with_capacity(nodes.len());
+        let mut visited: std::collections::HashSet<NodeId> = std::collections::HashSet::with_capacity(nodes.len());
         // Depth first from the root, in the order egui laid the widgets out (the reading and
         // tab order); a node reached twice (a malformed tree) is taken once.
         let mut stack: Vec<(NodeId, Option<NodeId>, &'static str)> = vec![(root, None, "")];
         while let Some((id, parent, context)) = stack.pop() {
-            if seen.contains_key(&id) {
+            if !visited.insert(id) {
                 continue;
             }
             let Some(node) = nodes.get(&id) else { continue };
@@ -284,41 +285,30 @@ impl Mirror {
             // The nearest ancestor's role that gives its children theirs (list box, menu).
             let child_context = if kind == Kind::Group && !role.is_empty() { role } else { context };
             // Children of a skipped node go to its parent; controls hold no other nodes (a
-            // control inside a control is not allowed): theirs follow them as siblings.
-            let mirrored = kind != Kind::Skip || id == root;
-            let mut own_children = Vec::new();
-            let child_parent =
-                if kind == Kind::Control || (kind == Kind::Skip && id != root) { parent } else { Some(id) };
-            for child in node.children() {
-                if nodes.contains_key(child) && !seen.contains_key(child) {
-                    own_children.push(*child);
-                }
-            }
-            let listed: Vec<NodeId> = if kind == Kind::Control || (kind == Kind::Skip && id != root) {
-                Vec::new()
-            } else {
-                expand_skipped(&own_children, &nodes)
-            };
-            if mirrored {
+            // control inside a control is not allowed): theirs follow them as siblings. The
+            // root is always mirrored (the element's container).
+            let holds_children = id == root || matches!(kind, Kind::Group | Kind::Text);
+            let children: Vec<NodeId> =
+                node.children().iter().copied().filter(|c| nodes.contains_key(c) && !visited.contains(c)).collect();
+            if id == root || kind != Kind::Skip {
+                let listed = if holds_children { expand_skipped(&children, &nodes) } else { Vec::new() };
                 let e = entry(&mut controls, id, node, parent, context, &listed, &nodes);
                 if self.sent.get(&id) != Some(&e.hash) {
                     changed.push(e.json);
                 }
-                seen.insert(id, e.hash);
-            } else {
-                seen.insert(id, 0);
+                sent.insert(id, e.hash);
             }
-            for child in own_children.iter().rev() {
+            let child_parent = if holds_children { Some(id) } else { parent };
+            for child in children.iter().rev() {
                 stack.push((*child, child_parent, child_context));
             }
         }
         let removed: Vec<Value> =
-            self.sent.keys().filter(|id| !seen.contains_key(id)).map(|id| json!(id.0.to_string())).collect();
-        seen.retain(|_, hash| *hash != 0);
+            self.sent.keys().filter(|id| !sent.contains_key(id)).map(|id| json!(id.0.to_string())).collect();
         let focus = Some(update.focus);
         let focus_moved = focus != self.focus;
         let root_moved = Some(root) != self.root;
-        self.sent = seen;
+        self.sent = sent;
         self.controls = controls;
         self.focus = focus;
         self.root = Some(root);
