@@ -521,7 +521,8 @@ impl App {
         // import blocks the frame; small ones are imported at once.
         let mut arrived = std::mem::take(&mut self.parsing);
         for delivery in self.inbox.take() {
-            let bytes: usize = delivery.files.as_ref().map_or(0, |f| f.iter().map(|f| f.bytes.len()).sum());
+            // A download shared with other viewers counts too (its files come as `shared`).
+            let bytes: usize = delivery.contents().iter().map(|f| f.bytes.len()).sum();
             if bytes >= PARSE_NOTICE_BYTES {
                 self.parsing.push(delivery);
             } else {
@@ -857,7 +858,7 @@ impl App {
                 egui::Frame::popup(ui.style()).show(ui, |ui| {
                     ui.set_width(320.0);
                     let mb = |b: u64| b as f64 / 1_048_576.0;
-                    let parsing = self.parsing.first().and_then(|d| d.files.as_ref().ok()).map(|files| {
+                    let parsing = self.parsing.first().map(load::Delivery::contents).map(|files| {
                         let bytes: usize = files.iter().map(|f| f.bytes.len()).sum();
                         let name = files.iter().find(|f| load::is_model_name(&f.name)).or(files.first());
                         (name.map_or("files", |f| load::base_name(&f.name)).to_owned(), bytes)

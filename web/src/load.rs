@@ -33,6 +33,18 @@ pub struct Delivery {
     pub shared: Option<crate::shared::SharedFiles>,
 }
 
+impl Delivery {
+    /// The delivered files: the shared download's when there is one, else its own (empty on
+    /// a read error).
+    pub fn contents(&self) -> &[SourceFile] {
+        match (&self.shared, &self.files) {
+            (Some(shared), _) => shared,
+            (None, Ok(files)) => files,
+            (None, Err(_)) => &[],
+        }
+    }
+}
+
 /// A successfully imported model.
 #[derive(Debug)]
 pub struct LoadedModel {
@@ -814,5 +826,21 @@ mod tests {
         let got: Vec<String> = inbox.take().into_iter().map(|d| d.origin).collect();
         assert_eq!(got, ["a", "b"]);
         assert!(inbox.take().is_empty());
+    }
+
+    #[test]
+    fn a_shared_download_s_files_are_its_contents() {
+        let file = SourceFile { name: "Knight.glb".into(), bytes: vec![7; 10] };
+        let shared = Delivery {
+            origin: "u".into(),
+            url: Some("u".into()),
+            files: Ok(Vec::new()),
+            shared: Some(std::rc::Rc::new(vec![file.clone()])),
+        };
+        assert_eq!(shared.contents(), std::slice::from_ref(&file), "sized for the parsing notice like any other");
+        let own = Delivery { origin: "d".into(), url: None, files: Ok(vec![file.clone()]), shared: None };
+        assert_eq!(own.contents().len(), 1);
+        let failed = Delivery { origin: "e".into(), url: None, files: Err("x".into()), shared: None };
+        assert!(failed.contents().is_empty());
     }
 }
