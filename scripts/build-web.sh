@@ -14,27 +14,39 @@ WASM_IN=target/wasm32-unknown-unknown/$PROFILE/kloub_web.wasm
 # WebAssembly SIMD (every browser with WebGPU or WebGL2 2021+ has it): glam's vector math uses it, ~1.3x faster
 # per-frame animation in BENCHMARKS.md. Set only for the wasm target, so host build scripts are unaffected.
 export CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUSTFLAGS="${CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUSTFLAGS:--C target-feature=+simd128}"
-cargo build --profile "$PROFILE" --target wasm32-unknown-unknown -p kloub-web --lib
 mkdir -p "$DIST"
-wasm-bindgen --target web --no-typescript --out-dir target/wasm-bindgen "$WASM_IN"
-
-# wasm-opt is the slow step (~1.5 min cold): skip it when its input did not change.
-# The mode is part of the key: a quick KLOUB_WASM_OPT=0 build must not pass for an optimised one.
-sum="$(sha256sum target/wasm-bindgen/kloub_web_bg.wasm | cut -d' ' -f1) opt=${KLOUB_WASM_OPT:-1}"
-if [ "$(cat "$DIST/.wasm-opt-input" 2>/dev/null || true)" != "$sum" ] || [ ! -f "$DIST/kloub_web_bg.wasm" ]; then
-  if [ "${KLOUB_WASM_OPT:-1}" = 1 ]; then
-    node_modules/.bin/wasm-opt -Oz --enable-bulk-memory --enable-nontrapping-float-to-int \
-      --enable-sign-ext --enable-mutable-globals --enable-reference-types --enable-multivalue --enable-simd \
-      target/wasm-bindgen/kloub_web_bg.wasm -o "$DIST/kloub_web_bg.wasm"
-  else
-    cp target/wasm-bindgen/kloub_web_bg.wasm "$DIST/kloub_web_bg.wasm"
+# Three builds of kloub-web (see web/Cargo.toml's features), each bindgen'd under its own name:
+#   kloub_web        the full app: panels, ragdoll, WebGPU and WebGL2 (the element loads it for `controls`)
+#   kloub_widget     the light widget: the 3D view and the element's API, WebGPU only (the default)
+#   kloub_widget_gl  the light widget with WebGL2 (browsers without WebGPU)
+# Cargo keeps each feature set's artifacts, so switching between them rebuilds only what changed.
+build_one() { # name, cargo feature flags...
+  local name=$1; shift
+  cargo build --profile "$PROFILE" --target wasm32-unknown-unknown -p kloub-web --lib "$@"
+  wasm-bindgen --target web --no-typescript --out-name "$name" --out-dir target/wasm-bindgen "$WASM_IN"
+  # wasm-opt is the slow step (~1.5 min cold for the full app): skip it when its input did not change.
+  # The mode is part of the key: a quick KLOUB_WASM_OPT=0 build must not pass for an optimised one.
+  local sum stamp="$DIST/.wasm-opt-input-$name"
+  sum="$(sha256sum "target/wasm-bindgen/${name}_bg.wasm" | cut -d' ' -f1) opt=${KLOUB_WASM_OPT:-1}"
+  if [ "$(cat "$stamp" 2>/dev/null || true)" != "$sum" ] || [ ! -f "$DIST/${name}_bg.wasm" ]; then
+    if [ "${KLOUB_WASM_OPT:-1}" = 1 ]; then
+      node_modules/.bin/wasm-opt -Oz --enable-bulk-memory --enable-nontrapping-float-to-int \
+        --enable-sign-ext --enable-mutable-globals --enable-reference-types --enable-multivalue --enable-simd \
+        "target/wasm-bindgen/${name}_bg.wasm" -o "$DIST/${name}_bg.wasm"
+    else
+      cp "target/wasm-bindgen/${name}_bg.wasm" "$DIST/${name}_bg.wasm"
+    fi
+    echo "$sum" > "$stamp"
   fi
-  echo "$sum" > "$DIST/.wasm-opt-input"
-fi
+  cmp -s "target/wasm-bindgen/$name.js" "$DIST/$name.js" || cp "target/wasm-bindgen/$name.js" "$DIST/"
+}
+build_one kloub_web
+build_one kloub_widget --no-default-features
+build_one kloub_widget_gl --no-default-features --features webgl
+rm -f "$DIST/.wasm-opt-input"
 # Copy only on change: unchanged files keep their mtime, so neither the compression below nor the
 # server's embedding (server/build.rs) redo their work.
 install_if_changed() { cmp -s "$1" "$2/$(basename "$1")" || cp "$1" "$2/"; }
-install_if_changed target/wasm-bindgen/kloub_web.js "$DIST"
 # The element (the npm package's entry), its types, the app page built on it, and the embedding example.
 for f in kloub-viewer.js kloub-viewer.d.ts hash-state.js accessibility.js index.html app.js style.css embed.html embed.js; do
   install_if_changed "web/$f" "$DIST"
@@ -52,8 +64,8 @@ cat > "$DIST/package.json.new" <<JSON
   "main": "./kloub-viewer.js",
   "module": "./kloub-viewer.js",
   "types": "./kloub-viewer.d.ts",
-  "exports": { ".": { "types": "./kloub-viewer.d.ts", "default": "./kloub-viewer.js" }, "./kloub_web_bg.wasm": "./kloub_web_bg.wasm" },
-  "files": ["kloub-viewer.js", "kloub-viewer.d.ts", "hash-state.js", "accessibility.js", "kloub_web.js", "kloub_web_bg.wasm"],
+  "exports": { ".": { "types": "./kloub-viewer.d.ts", "default": "./kloub-viewer.js" }, "./kloub_web_bg.wasm": "./kloub_web_bg.wasm", "./kloub_widget_bg.wasm": "./kloub_widget_bg.wasm", "./kloub_widget_gl_bg.wasm": "./kloub_widget_gl_bg.wasm" },
+  "files": ["kloub-viewer.js", "kloub-viewer.d.ts", "hash-state.js", "accessibility.js", "kloub_web.js", "kloub_web_bg.wasm", "kloub_widget.js", "kloub_widget_bg.wasm", "kloub_widget_gl.js", "kloub_widget_gl_bg.wasm"],
   "sideEffects": ["./kloub-viewer.js"]
 }
 JSON
@@ -66,7 +78,7 @@ import { join } from 'node:path';
 import zlib from 'node:zlib';
 const [dist, quality] = process.argv.slice(2);
 const C = zlib.constants;
-for (const name of ['index.html', 'app.js', 'hash-state.js', 'accessibility.js', 'kloub-viewer.js', 'embed.html', 'embed.js', 'style.css', 'kloub_web.js', 'kloub_web_bg.wasm']) {
+for (const name of ['index.html', 'app.js', 'hash-state.js', 'accessibility.js', 'kloub-viewer.js', 'embed.html', 'embed.js', 'style.css', 'kloub_web.js', 'kloub_web_bg.wasm', 'kloub_widget.js', 'kloub_widget_bg.wasm', 'kloub_widget_gl.js', 'kloub_widget_gl_bg.wasm']) {
   const file = join(dist, name);
   if (!existsSync(file)) continue;
   const mtime = statSync(file).mtimeMs;
@@ -88,4 +100,5 @@ for (const name of ['index.html', 'app.js', 'hash-state.js', 'accessibility.js',
   console.error(`build-web: ${name}: ${data.length} B, gzip ${gz.length} B, brotli ${br.length} B (${Date.now() - started} ms)`);
 }
 EOF
-printf 'build-web: %s (%s bytes wasm)\n' "$DIST" "$(stat -c %s "$DIST/kloub_web_bg.wasm")" >&2
+printf 'build-web: %s (wasm: full %s, widget %s, widget with WebGL2 %s bytes)\n' "$DIST" \
+  "$(stat -c %s "$DIST/kloub_web_bg.wasm")" "$(stat -c %s "$DIST/kloub_widget_bg.wasm")" "$(stat -c %s "$DIST/kloub_widget_gl_bg.wasm")" >&2

@@ -7,20 +7,37 @@
 // Nothing is put on `window`: the module exports the class and registers the tag (once).
 // State is mirrored into the element's own data-* attributes (data-status, data-clip, data-time,
 // ...; see kloub-viewer.d.ts) and reported by events: load, error, play, pause, timeupdate, loop,
-// finished. The wasm module is loaded once per page, on the first connected element.
+// finished. The wasm module is loaded once per page, on the first connected element: the light widget build
+// (WebGPU only, or with WebGL2 where the browser has no WebGPU) unless the element has `controls`; the full app
+// (panels, ragdoll, IK handles, overlays) is loaded when an element or a method needs it, and every viewer of the
+// page moves over to it with its state.
 import { viewToHash, hashToView, applyView } from './hash-state.js';
 import { AccessibilityMirror, ACCESSIBILITY_STYLE } from './accessibility.js';
 
 // ---- the page runtime: one module instance, one frame loop, shared by every element ----
 
+/** The module's builds, lightest first (web/Cargo.toml's features). A page runs one at a time. */
+const BUILDS = ['widget', 'widget-gl', 'full'];
+/** Each build's glue module (literal imports, so that bundlers see them). */
+const GLUE = {
+  widget: (q) => (q ? import(`./kloub_widget.js?instance=${q}`) : import('./kloub_widget.js')),
+  'widget-gl': (q) => (q ? import(`./kloub_widget_gl.js?instance=${q}`) : import('./kloub_widget_gl.js')),
+  full: (q) => (q ? import(`./kloub_web.js?instance=${q}`) : import('./kloub_web.js')),
+};
+const WASM = { widget: 'kloub_widget_bg.wasm', 'widget-gl': 'kloub_widget_gl_bg.wasm', full: 'kloub_web_bg.wasm' };
+/** The build the page runs (null until the first element chose). */
+let build = null;
 let compiled = null;
 let runtime = null;
 let instance = 0;
+let webgpu = null;
 /** The elements whose viewer is mounted (the frame loop draws them). */
 const mounted = new Set();
 const TICK = Symbol('tick');
 const SHOW = Symbol('show');
 const REVIVE = Symbol('revive');
+const MOVE = Symbol('move');
+const NEEDS_FULL = Symbol('needsFull');
 const SIZE = Symbol('size');
 const NEAR = Symbol('near');
 
@@ -29,20 +46,59 @@ const NEAR = Symbol('near');
  * compiled module, so no download).
  */
 function loadRuntime() {
+  build ??= 'full';
   runtime ??= (async () => {
-    const wasmUrl = new URL('./kloub_web_bg.wasm', import.meta.url);
+    const wasmUrl = new URL(`./${WASM[build]}`, import.meta.url);
     compiled ??= await WebAssembly.compileStreaming(fetch(wasmUrl)).catch(async () => {
       const response = await fetch(wasmUrl);
       if (!response.ok) throw new Error(`${wasmUrl}: HTTP ${response.status}`);
       return WebAssembly.compile(await response.arrayBuffer());
     });
     // Each instance needs its own copy of the glue module (it keeps the instance in a module variable).
-    const glue = instance === 0 ? await import('./kloub_web.js') : await import(`./kloub_web.js?instance=${instance}`);
+    const glue = await GLUE[build](instance);
     await glue.default({ module_or_path: compiled });
     glue.setPanicHandler(onPanic);
     return glue;
   })();
   return runtime;
+}
+
+/** Whether the browser gives a WebGPU adapter (asked once). */
+function hasWebGpu() {
+  webgpu ??= (async () => {
+    try {
+      return Boolean(navigator.gpu) && (await navigator.gpu.requestAdapter()) !== null;
+    } catch {
+      return false;
+    }
+  })();
+  return webgpu;
+}
+
+/**
+ * The lightest build that serves `element`: the full app for `controls` (or a method that needs it), else the
+ * widget, with WebGL2 where the element asks for it or the browser has no WebGPU.
+ */
+async function buildFor(element) {
+  if (element.hasAttribute('controls') || element[NEEDS_FULL]) return 'full';
+  const backend = element.getAttribute('backend');
+  if (backend === 'webgl2' || backend === 'gl') return 'widget-gl';
+  if (backend === 'webgpu') return 'widget';
+  return (await hasWebGpu()) ? 'widget' : 'widget-gl';
+}
+
+/**
+ * Runs the page on `to` when it runs a lighter build (or none yet): the new build is downloaded while the old one
+ * keeps drawing, then every mounted viewer moves over with its state (model, clip, time, camera, settings).
+ */
+async function ensureBuild(to) {
+  if (build !== null && BUILDS.indexOf(to) <= BUILDS.indexOf(build)) return;
+  build = to;
+  runtime = null;
+  compiled = null;
+  await loadRuntime();
+  if (build !== to) return;
+  for (const element of [...mounted]) element[MOVE]();
 }
 
 const panics = [];
@@ -345,6 +401,12 @@ export class KloubViewer extends HTMLElement {
   #samples = [];
   /** The files of the last model loaded from files (to bring it back after a panic). */
   #files = null;
+  /** Calls that need the full app, made while the page ran the widget: applied once the viewer moved over. */
+  #afterMove = [];
+  /** Once the model is back after a move or a panic: restores the rest of the view. */
+  #onModelBack = null;
+  /** Moving to another build: the model's second `load` is not reported to the page. */
+  #moving = false;
   /** Scheduling: when the viewer wants its next frame (ms), whether it is in view, its CSS size. */
   #due = 0;
   #inView = true;
@@ -407,7 +469,7 @@ export class KloubViewer extends HTMLElement {
     this.#a11y = new AccessibilityMirror(root, (id, action, number, text) => {
       const viewer = this.#viewer;
       if (!viewer || this.#lost) return;
-      viewer.accessibilityAction(id, action, number ?? undefined, text ?? undefined);
+      viewer.accessibilityAction?.(id, action, number ?? undefined, text ?? undefined);
       this.#inputPending = true;
       this.#wake(0);
     }, (key) => {
@@ -516,7 +578,7 @@ export class KloubViewer extends HTMLElement {
     canvas.addEventListener('keyup', key(false));
     canvas.addEventListener('focus', input((viewer) => {
       viewer.focus(true);
-      viewer.releaseFocus();
+      viewer.releaseFocus?.();
     }));
     canvas.addEventListener('blur', input((viewer) => viewer.focus(false)));
     canvas.addEventListener('paste', input((viewer, event) => {
@@ -603,7 +665,7 @@ export class KloubViewer extends HTMLElement {
   }
 
   [MOTION]() {
-    this.#viewer?.setReducedMotion(reducedMotion.matches);
+    this.#viewer?.setReducedMotion?.(reducedMotion.matches);
     this.#wake(0);
   }
 
@@ -704,8 +766,13 @@ export class KloubViewer extends HTMLElement {
         }
         case 'skinning': if (value) viewer.setSkinning(value); break;
         case 'controls':
+          // The panels are the full app's: the page moves to it (this viewer with its state).
+          if (value !== null && build !== 'full') {
+            ensureBuild('full').catch((e) => this.#fail(`controls: the full app could not be loaded: ${e.message ?? e}`));
+            break;
+          }
           viewer.setPanels(value !== null);
-          viewer.setAccessibility(value !== null);
+          viewer.setAccessibility?.(value !== null);
           if (value === null) this.#a11y.clear();
           if (!this.hasAttribute('background')) viewer.setBackground(this.#background());
           if (!this.hasAttribute('grid')) viewer.setGrid(this.grid);
@@ -728,6 +795,8 @@ export class KloubViewer extends HTMLElement {
   async #mount(revive = null) {
     this.dataset.status = 'loading';
     try {
+      await ensureBuild(await buildFor(this));
+      const onBuild = build;
       const glue = await loadRuntime();
       const viewer = new glue.Viewer();
       this.#viewer = viewer;
@@ -755,9 +824,14 @@ export class KloubViewer extends HTMLElement {
         return;
       }
       mounted.add(this);
+      // The page moved to another build while this one started: move over too.
+      if (build !== onBuild) {
+        this[MOVE]();
+        return;
+      }
       this.#a11y.clear();
-      viewer.setAccessibility(this.hasAttribute('controls'));
-      viewer.setReducedMotion(reducedMotion.matches);
+      viewer.setAccessibility?.(this.hasAttribute('controls'));
+      viewer.setReducedMotion?.(reducedMotion.matches);
       if (this.#samples.length > 0) viewer.setSamples(JSON.stringify(this.#samples));
       if (this.hasAttribute('crossfade-duration') || this.hasAttribute('animation-crossfade-duration')) {
         viewer.setCrossfadeDuration(this.#crossfadeSeconds());
@@ -766,6 +840,10 @@ export class KloubViewer extends HTMLElement {
       if (revive && !src && this.#files) {
         this.#reviveOnLoad(revive);
         this.#loadFiles(this.#files).catch((e) => this.#fail(String(e)));
+      } else if (!src) {
+        // No model to wait for: what was asked of the full app applies now.
+        this.#moving = false;
+        this.#flushAfterMove();
       }
       this.#wake(0);
     } catch (e) {
@@ -778,8 +856,16 @@ export class KloubViewer extends HTMLElement {
   #reviveOnLoad(snapshot) {
     const view = hashToView(viewToHash(snapshot, null), () => {});
     if (snapshot.playing === 'true') delete view.paused;
-    const once = () => {
-      this.removeEventListener('load', once);
+    this.#onModelBack = () => {
+      this.#onModelBack = null;
+      // The clip first (a cut), then the time on it.
+      if (view.clip && view.clip !== this.dataset.clip) {
+        try {
+          this.crossfadeTo(view.clip, 0);
+        } catch (e) {
+          console.warn(`kloub: after recovery, clip could not be restored: ${e.message}`);
+        }
+      }
       applyView(this, view, (key, e) => console.warn(`kloub: after recovery, ${key} could not be restored: ${e.message}`));
       // The hash leaves out what equals the app's defaults; an embedded viewer's defaults differ (no grid, no
       // background), so these two are restored as they were.
@@ -787,8 +873,39 @@ export class KloubViewer extends HTMLElement {
       if (BACKGROUNDS.includes(snapshot.background)) this.setBackground(snapshot.background);
       if (snapshot.playing === 'true') this.play();
       else if (snapshot.playing === 'false') this.pause();
+      if (snapshot.skinning && snapshot.skinning !== this.getAttribute('skinning')) this.setSkinning(snapshot.skinning);
+      this.#flushAfterMove();
     };
-    this.addEventListener('load', once);
+  }
+
+  /** Applies the calls that waited for the full app. */
+  #flushAfterMove() {
+    const calls = this.#afterMove;
+    this.#afterMove = [];
+    for (const [method, fn] of calls) {
+      try {
+        this.#call(method, fn);
+      } catch (e) {
+        this.#fail(e instanceof Error ? e.message : String(e));
+      }
+    }
+  }
+
+  /**
+   * The page moved to another build (the full app): this viewer comes back on it from its state, without a second
+   * `load` event.
+   */
+  [MOVE]() {
+    if (!mounted.has(this)) return;
+    mounted.delete(this);
+    const snapshot = { ...this.dataset };
+    this.#a11y.clear();
+    this.#viewer?.destroy();
+    this.#viewer = null;
+    this.#replaceCanvas();
+    this.#lost = false;
+    this.#moving = true;
+    this.#mounting = this.#mount(snapshot);
   }
 
   [REVIVE](message, giveUp) {
@@ -881,7 +998,7 @@ export class KloubViewer extends HTMLElement {
       return [Infinity, 0];
     }
     this.#lastDraw = now;
-    const mirrored = viewer.takeAccessibility();
+    const mirrored = viewer.takeAccessibility?.();
     if (mirrored !== undefined) this.#a11y.apply(mirrored);
     const camera = this.dataset.camera ?? '';
     if (this.loaded && camera !== this.#lastCamera) {
@@ -1065,6 +1182,12 @@ export class KloubViewer extends HTMLElement {
     switch (type) {
       case 'error': data = { message: detail }; break;
       case 'load':
+        if (this.#onModelBack) this.#onModelBack();
+        if (this.#moving) {
+          this.#moving = false;
+          this.#applyLimits();
+          return;
+        }
         data = { name: detail };
         // The framing of the new model is what camera-orbit/camera-target's `auto` and `%` refer to.
         this.#framed = this.camera.length === 6 ? this.camera : null;
@@ -1094,9 +1217,19 @@ export class KloubViewer extends HTMLElement {
     return this.#viewer;
   }
 
-  /** Calls the viewer; what it throws reaches the page as an Error whose message starts with `method`. */
-  #call(method, fn) {
+  /**
+   * Calls the viewer; what it throws reaches the page as an Error whose message starts with `method`. `full`: the
+   * call needs the full app (IK handles, overlays, the ragdoll): on the widget build the full app is loaded first and
+   * the call applies once the model is back on it (an error then comes as an `error` event).
+   */
+  #call(method, fn, full = false) {
     const viewer = this.#require();
+    if (full && build !== 'full') {
+      this[NEEDS_FULL] = true;
+      this.#afterMove.push([method, fn]);
+      ensureBuild('full').catch((e) => this.#fail(`${method}: the full app could not be loaded: ${e.message ?? e}`));
+      return undefined;
+    }
     try {
       return fn(viewer);
     } catch (e) {
@@ -1204,7 +1337,7 @@ export class KloubViewer extends HTMLElement {
     const point = target === null || target === undefined ? [] : vec3(m, 'target', target);
     if (depth !== undefined && depth !== null) num(m, 'depth', depth, { min: 1, max: 31, integer: true });
     const [x, y, z] = point;
-    this.#call(m, (v) => v.setIkTarget(joint ?? null, x, y, z, depth ?? undefined));
+    this.#call(m, (v) => v.setIkTarget(joint ?? null, x, y, z, depth ?? undefined), true);
   }
   /**
    * The solver of `joint`'s IK goal ('ccd' | 'twobone' | 'fabrik' | 'dls') and its options:
@@ -1221,7 +1354,7 @@ export class KloubViewer extends HTMLElement {
     if (softness !== undefined) num(m, 'options.softness', softness, { min: 0, max: 0.5 });
     if (patternMove !== undefined) bool(m, 'options.patternMove', patternMove);
     if (iterations !== undefined) num(m, 'options.iterations', iterations, { min: 1, max: 128, integer: true });
-    this.#call(m, (v) => v.setIkSolver(joint, solver, x, y, z, softness, patternMove, iterations));
+    this.#call(m, (v) => v.setIkSolver(joint, solver, x, y, z, softness, patternMove, iterations), true);
   }
 
   /**
@@ -1324,14 +1457,14 @@ export class KloubViewer extends HTMLElement {
     obj(m, 'an object such as { skeleton: true }', overlays);
     const keys = ['skeleton', 'bounds', 'wireframe', 'normals', 'bodies'];
     const on = keys.map((k) => (overlays[k] === undefined ? false : bool(m, k, overlays[k])));
-    this.#call(m, (v) => v.setOverlays(...on));
+    this.#call(m, (v) => v.setOverlays(...on), true);
   }
   /** Drops the character as a ragdoll from the pose on screen. */
-  startRagdoll() { this.#call('startRagdoll', (v) => v.startRagdoll()); }
+  startRagdoll() { this.#call('startRagdoll', (v) => v.startRagdoll(), true); }
   /** Ends the ragdoll: at once, or blending back to the animation over `seconds`. */
   stopRagdoll(seconds) {
     if (seconds !== undefined && seconds !== null) num('stopRagdoll', 'seconds', seconds, { min: 0, max: MAX_SECONDS });
-    this.#call('stopRagdoll', (v) => v.stopRagdoll(seconds ?? undefined));
+    this.#call('stopRagdoll', (v) => v.stopRagdoll(seconds ?? undefined), true);
   }
   /** Ragdoll gravity (m/s² for a person-sized body) and damping. */
   setRagdollOptions(options = {}) {
@@ -1340,12 +1473,12 @@ export class KloubViewer extends HTMLElement {
     const { gravity = 9.81, damping = 0.5 } = options;
     num(m, 'gravity', gravity, { min: -1000, max: 1000 });
     num(m, 'damping', damping, { min: 0, max: 1000 });
-    this.#call(m, (v) => v.setRagdollOptions(gravity, damping));
+    this.#call(m, (v) => v.setRagdollOptions(gravity, damping), true);
   }
   /** Selects a joint by name (axes drawn, channels plotted in the panel); null clears. */
   selectJoint(name) {
     optStr('selectJoint', 'name', name);
-    this.#call('selectJoint', (v) => v.selectJoint(name ?? null));
+    this.#call('selectJoint', (v) => v.selectJoint(name ?? null), true);
   }
   /** Holds morph target `target` (index or name) of the mesh on `node` at `weight`; null lets the clip drive it. */
   setMorphWeight(node, target, weight) {
@@ -1502,7 +1635,9 @@ export class KloubViewer extends HTMLElement {
   static async _testGlCanvas() { return (await loadRuntime())._testGlCanvas() ?? null; }
 
   /** The ARIA role and name of every control of the panels as the viewer built them ([[role, name], …]). */
-  _testAccessibilityControls() { return JSON.parse(this.#viewer?._testAccessibilityControls() ?? '[]'); }
+  _testAccessibilityControls() { return JSON.parse(this.#viewer?._testAccessibilityControls?.() ?? '[]'); }
+  /** The build the page runs: 'widget', 'widget-gl' or 'full' (null before the first element mounted). */
+  static _testBuild() { return build; }
 
   /** Every mirrored state value (a copy of the data-* attributes). */
   get state() { return { ...this.dataset }; }

@@ -31,6 +31,7 @@ pub mod job;
 pub mod math;
 pub mod player;
 pub mod pose;
+#[cfg(feature = "physics")]
 pub mod ragdoll;
 pub mod rig;
 #[cfg(test)]

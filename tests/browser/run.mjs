@@ -10,6 +10,7 @@ import {
 } from './lib.mjs';
 import { registerAccessibilityTests } from './accessibility.mjs';
 import { registerMemoryTests } from './memory.mjs';
+import { registerWidgetTests } from './widget.mjs';
 
 const BACKENDS = (process.env.KLOUB_BACKENDS ?? 'webgpu,webgl2').split(',');
 const FOX = join(SHARED, 'khronos/Fox/glTF-Binary/Fox.glb');
@@ -1156,11 +1157,14 @@ for (const backend of BACKENDS) test(`${backend}: <kloub-viewer>: camera-orbit a
   // disable-zoom: the wheel no longer zooms (it did before).
   const wheel = async () => {
     const d = (await camera())[2];
-    const f = await page.evaluate(() => Number(document.querySelector('kloub-viewer').dataset.frames));
     await page.mouse.move(200, 150);
+    // The element has seen the wheel (its canvas's listener ran before this one): the next frame applies it.
+    const seen = page.evaluate(() => new Promise((r) => document.querySelector('kloub-viewer').addEventListener('wheel', () => r(), { once: true })));
     await page.mouse.wheel(0, -400);
+    await seen;
+    const f = await page.evaluate(() => Number(document.querySelector('kloub-viewer').dataset.frames));
     await page.evaluate(() => document.querySelector('kloub-viewer').setAttribute('grid', 'false'));
-    await page.waitForFunction((f) => Number(document.querySelector('kloub-viewer').dataset.frames) > f + 1, f, { timeout: 30000 });
+    await page.waitForFunction((f) => Number(document.querySelector('kloub-viewer').dataset.frames) > f, f, { timeout: 30000 });
     return [d, (await camera())[2]];
   };
   const [d0, d1] = await wheel();
@@ -1168,12 +1172,18 @@ for (const backend of BACKENDS) test(`${backend}: <kloub-viewer>: camera-orbit a
   await page.evaluate(() => document.querySelector('kloub-viewer').setAttribute('disable-zoom', ''));
   const [d2, d3] = await wheel();
   assert(d3 === d2, `disable-zoom: the wheel zoomed ${d2} → ${d3}`);
-  // field-of-view: a narrower lens at the same distance shows the model larger.
+  // field-of-view: a narrower lens at the same distance shows the model larger (at the framed distance: the wheel
+  // above zoomed in, and a model filling the view cannot grow by the ratio).
+  await page.evaluate(() => document.querySelector('kloub-viewer').setAttribute('camera-orbit', 'auto auto 100%'));
+  await page.waitForFunction((d) => Math.abs(document.querySelector('kloub-viewer').camera[2] - d) < 1e-3 * d, framed[2], { timeout: 30000 });
+  await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
   const cover = async () => nonBackgroundFraction(await viewportShot(page));
   const wide = await cover();
   const f1 = await page.evaluate(() => Number(document.querySelector('kloub-viewer').dataset.frames));
   await page.evaluate(() => document.querySelector('kloub-viewer').setAttribute('field-of-view', '20deg'));
-  await page.waitForFunction((f) => Number(document.querySelector('kloub-viewer').dataset.frames) > f + 1, f1, { timeout: 30000 });
+  // The frame that applied it (one: a paused widget draws once per change), then two animation frames to be on screen.
+  await page.waitForFunction((f) => Number(document.querySelector('kloub-viewer').dataset.frames) > f, f1, { timeout: 30000 });
+  await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
   const narrow = await cover();
   assert(narrow > 1.8 * wide, `field-of-view 20deg: the model covers ${(narrow * 100).toFixed(1)}% (45deg: ${(wide * 100).toFixed(1)}%)`);
 });
@@ -1390,6 +1400,7 @@ test('hash-state.js: a view round-trips through the hash; malformed keys are dro
 
 registerAccessibilityTests(test, BACKENDS);
 registerMemoryTests(test, BACKENDS);
+registerWidgetTests(test, BACKENDS);
 
 const server = await startServer();
 let passed = 0;

@@ -155,7 +155,7 @@ pub enum Command {
     /// Saves the view as a PNG (a download in the browser).
     Screenshot,
     /// Which overlays are drawn (kept across models).
-    SetOverlays(crate::overlay::Overlays),
+    SetOverlays(crate::stage::Overlays),
     /// Selects a joint (its axes and channel plot); `None` clears.
     SelectJoint(Option<u32>),
     /// Shows model `i` of the files dropped together (the side panel's model list).
@@ -202,10 +202,40 @@ struct Shared {
     generation: u64,
     clips: Vec<String>,
     nodes: Vec<Option<String>>,
-    repaint: Option<egui::Context>,
+    repaint: Option<Wake>,
     compute: bool,
     prefs: Prefs,
     morphs: Vec<Vec<String>>,
+}
+
+/// Asks a viewer for a frame: its egui context's repaint (the full app), or the element's
+/// `kloub:wake` (the widget build). Single-threaded, like the page.
+#[derive(Clone)]
+pub struct Wake(Rc<dyn Fn()>);
+
+impl Wake {
+    /// A waker calling `f`.
+    pub fn new(f: impl Fn() + 'static) -> Self {
+        Self(Rc::new(f))
+    }
+
+    /// Wakes an egui context.
+    #[cfg(feature = "full")]
+    pub fn egui(ctx: &egui::Context) -> Self {
+        let ctx = ctx.clone();
+        Self::new(move || ctx.request_repaint())
+    }
+
+    /// Asks for a frame.
+    pub fn wake(&self) {
+        (self.0)();
+    }
+}
+
+impl std::fmt::Debug for Wake {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Wake")
+    }
 }
 
 /// A cheap, clonable handle on the command channel (single-threaded, like the page).
@@ -232,21 +262,21 @@ impl Controls {
             shared.queue.push((generation, command));
             shared.repaint.clone()
         };
-        if let Some(ctx) = repaint {
-            ctx.request_repaint();
+        if let Some(wake) = repaint {
+            wake.wake();
         }
     }
 
-    /// The app's egui context (to wake it, or to hand to an async reader).
-    pub(crate) fn repaint_context(&self) -> Option<egui::Context> {
+    /// What wakes the app (to hand to an async reader).
+    pub(crate) fn waker(&self) -> Option<Wake> {
         self.0.borrow().repaint.clone()
     }
 
     /// Wakes the app (something arrived outside the queue, e.g. files).
     pub fn wake(&self) {
         let repaint = self.0.borrow().repaint.clone();
-        if let Some(ctx) = repaint {
-            ctx.request_repaint();
+        if let Some(wake) = repaint {
+            wake.wake();
         }
     }
 
@@ -273,8 +303,8 @@ impl Controls {
             shared.queue.push((ANY_MODEL, command));
             shared.repaint.clone()
         };
-        if let Some(ctx) = repaint {
-            ctx.request_repaint();
+        if let Some(wake) = repaint {
+            wake.wake();
         }
     }
 
@@ -358,9 +388,9 @@ impl Controls {
             .ok_or_else(|| format!("no morph target named {name:?} on that node; targets: {}", names.join(", ")))
     }
 
-    /// The app's side: the context to wake when a command arrives.
-    pub(crate) fn set_repaint(&self, ctx: egui::Context) {
-        self.0.borrow_mut().repaint = Some(ctx);
+    /// The app's side: what to wake when a command arrives.
+    pub(crate) fn set_repaint(&self, wake: Wake) {
+        self.0.borrow_mut().repaint = Some(wake);
     }
 
     /// The app's side: takes the commands queued for the current model (and the global ones),

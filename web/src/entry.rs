@@ -10,8 +10,10 @@ use std::rc::Rc;
 
 use wasm_bindgen::prelude::*;
 
-use crate::app::{App, AppConfig};
+#[cfg(feature = "full")]
+use crate::app::App;
 use crate::backend::BackendChoice;
+use crate::stage::AppConfig;
 use kloub_core::job::dqs::SkinningMethod;
 
 use crate::candy::Sample;
@@ -56,6 +58,7 @@ fn wake(id: u32, delay_ms: f64) {
     }
 }
 
+#[cfg(feature = "full")]
 fn watch_repaints(id: u32, ctx: &egui::Context) {
     ctx.set_request_repaint_callback(move |info| wake(id, info.delay.as_secs_f64() * 1000.0));
 }
@@ -118,9 +121,14 @@ impl Viewer {
                     panels: true,
                     share: Some(gpu.generation),
                 };
-                View::new(gpu, canvas, |ctx, render| {
+                #[cfg(feature = "full")]
+                return View::new(gpu, canvas, |ctx, render| {
                     watch_repaints(id, ctx);
                     App::with_gpu(ctx, render, config)
+                });
+                #[cfg(not(feature = "full"))]
+                View::new(gpu, canvas, |graphics| {
+                    crate::stage::Stage::new(graphics, config, crate::control::Wake::new(move || wake(id, 0.0)))
                 })
             });
             let view = match started {
@@ -158,6 +166,7 @@ impl Viewer {
             let Some(m) = slot.as_mut() else { return Err(js_sys::Error::new("reattach: unmounted meanwhile").into()) };
             if m.view.gpu().generation != gpu.generation || m.view.gpu().is_lost() {
                 m.view.reattach(gpu, canvas).map_err(|e| js_sys::Error::new(&e))?;
+                #[cfg(feature = "full")]
                 watch_repaints(id, &m.view.ctx);
             }
             drop(slot);
@@ -187,20 +196,23 @@ impl Viewer {
         if let Ok(mut slot) = self.mounted.try_borrow_mut()
             && let Some(m) = slot.as_mut()
         {
-            m.view.app.catch_up(seconds as f32);
+            m.view.stage_mut().catch_up(seconds as f32);
         }
     }
 
     /// Whether the shown model moves (a frame is wanted every animation frame while in view).
     #[wasm_bindgen(getter)]
     pub fn animating(&self) -> bool {
-        self.mounted.try_borrow().ok().and_then(|m| m.as_ref().map(|m| m.view.app.animating())).unwrap_or(false)
+        self.mounted.try_borrow().ok().and_then(|m| m.as_ref().map(|m| m.view.stage().animating())).unwrap_or(false)
     }
 
-    fn with_input(&self, f: impl FnOnce(&mut crate::page::input::Input)) {
+    fn with_input(&self, f: impl FnOnce(&mut crate::page::view::Input)) {
         if let Ok(mut slot) = self.mounted.try_borrow_mut()
             && let Some(m) = slot.as_mut()
         {
+            // The widget's double click is timed by the events' arrival.
+            #[cfg(not(feature = "full"))]
+            m.view.input.set_time(crate::page::view::now_ms());
             f(&mut m.view.input);
         }
     }
@@ -221,7 +233,7 @@ impl Viewer {
     /// Input: the pointer left the canvas.
     #[wasm_bindgen(js_name = pointerGone)]
     pub fn pointer_gone(&self) {
-        self.with_input(crate::page::input::Input::pointer_gone);
+        self.with_input(crate::page::view::Input::pointer_gone);
     }
 
     /// Input: a wheel event (`deltaMode` 0 pixels, 1 lines, 2 pages).
@@ -257,6 +269,7 @@ impl Viewer {
         self.with_input(|i| i.focus(on));
     }
 
+    #[cfg(feature = "full")]
     fn with_view(&self, f: impl FnOnce(&mut View)) {
         if let Ok(mut slot) = self.mounted.try_borrow_mut()
             && let Some(m) = slot.as_mut()
@@ -265,6 +278,7 @@ impl Viewer {
         }
     }
 
+    #[cfg(feature = "full")]
     /// Mirrors the panels' accessibility tree for the element (see [`Viewer::take_accessibility`]),
     /// or stops.
     #[wasm_bindgen(js_name = setAccessibility)]
@@ -272,6 +286,7 @@ impl Viewer {
         self.with_view(|v| v.set_accessibility(on));
     }
 
+    #[cfg(feature = "full")]
     /// What changed in the panels' accessibility tree with the last frame: JSON of the nodes
     /// to create or update and the ids that went away (`undefined`: nothing).
     #[wasm_bindgen(js_name = takeAccessibility)]
@@ -281,6 +296,7 @@ impl Viewer {
         out
     }
 
+    #[cfg(feature = "full")]
     /// An action of assistive technology on a mirrored node: `click`, `focus`, `setValue`
     /// (with `number` or `text`), `increment`, `decrement`, `scrollIntoView`. Returns whether
     /// it was understood (it takes effect with the next frame).
@@ -291,6 +307,7 @@ impl Viewer {
         true
     }
 
+    #[cfg(feature = "full")]
     /// Test hook: every control of the panels' accessibility tree as egui built it, as JSON
     /// `[[role, name], …]` (what the page's accessibility tree must list).
     #[wasm_bindgen(js_name = _testAccessibilityControls)]
@@ -300,12 +317,14 @@ impl Viewer {
         out
     }
 
+    #[cfg(feature = "full")]
     /// No UI animations when the page prefers reduced motion.
     #[wasm_bindgen(js_name = setReducedMotion)]
     pub fn set_reduced_motion(&self, on: bool) {
         self.with_view(|v| v.set_reduced_motion(on));
     }
 
+    #[cfg(feature = "full")]
     /// The keyboard moved to the 3D view: panel widgets let go of egui's focus.
     #[wasm_bindgen(js_name = releaseFocus)]
     pub fn release_focus(&self) {
@@ -427,7 +446,7 @@ impl Viewer {
     /// framing bounds, the deformed wireframe, the normals and the ragdoll's bodies.
     #[wasm_bindgen(js_name = setOverlays)]
     pub fn set_overlays(&self, skeleton: bool, bounds: bool, wireframe: bool, normals: bool, bodies: bool) {
-        let overlays = crate::overlay::Overlays { skeleton, bounds, wireframe, normals, bodies };
+        let overlays = crate::stage::Overlays { skeleton, bounds, wireframe, normals, bodies };
         self.controls.send_global(Command::SetOverlays(overlays));
     }
 
@@ -796,6 +815,20 @@ impl Viewer {
 /// bare string.
 fn range_error(message: impl AsRef<str>) -> JsValue {
     js_sys::RangeError::new(message.as_ref()).into()
+}
+
+/// Which build of the module this is: `"full"` (panels, ragdoll, WebGPU and WebGL2), `"widget"`
+/// (the light build: no panels or ragdoll, WebGPU only) or `"widget-gl"` (the light build with WebGL2).
+#[wasm_bindgen(js_name = buildName)]
+pub fn build_name() -> String {
+    if cfg!(feature = "full") {
+        "full"
+    } else if cfg!(feature = "webgl") {
+        "widget-gl"
+    } else {
+        "widget"
+    }
+    .to_owned()
 }
 
 /// Hands a panic (a bug) to the page: `handler(message)` is called from the panic hook, and the

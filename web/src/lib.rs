@@ -12,6 +12,10 @@
 //! [`backend`] (`?backend=` choice), [`render`] (GPU renderer and camera), [`samples`] (the
 //! Samples menu's library and its credits).
 
+// Natively the widget build is only compiled (its page runtime is wasm32's): much of it unused there.
+#![cfg_attr(all(not(feature = "full"), not(target_arch = "wasm32")), allow(dead_code, unused_imports))]
+
+#[cfg(feature = "full")]
 pub mod app;
 pub mod backend;
 pub mod candy;
@@ -22,12 +26,16 @@ mod entry;
 pub mod ik;
 pub mod load;
 pub mod model;
+#[cfg(feature = "full")]
 pub mod overlay;
 pub mod page;
+#[cfg(feature = "full")]
 pub mod ragdoll;
 pub mod render;
 pub mod samples;
 pub mod shared;
+pub mod stage;
+#[cfg(feature = "full")]
 pub mod ui;
 
 #[cfg(target_arch = "wasm32")]

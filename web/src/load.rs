@@ -197,11 +197,11 @@ pub fn import_model(files: &[SourceFile], wanted: Option<&str>) -> Result<Loaded
 /// Most external files a `.gltf` fetched from a URL may name.
 const MAX_SIBLINGS: usize = 1024;
 
-/// Fetches `url` and delivers its bytes to `inbox`, then asks `ctx` for a repaint. A `.gltf`
+/// Fetches `url` and delivers its bytes to `inbox`, then wakes the viewer. A `.gltf`
 /// brings its relative buffers and images along, fetched relative to its URL (the total within
 /// the import budget); a `.zip` is expanded when the delivery is imported.
 #[cfg(target_arch = "wasm32")]
-pub fn fetch_into(url: String, inbox: Inbox, ctx: egui::Context) {
+pub fn fetch_into(url: String, inbox: Inbox, wake: crate::control::Wake) {
     // Another viewer of the page shows it: no download, no import.
     if crate::shared::cached(&url).is_some() {
         inbox.push(Delivery {
@@ -210,36 +210,36 @@ pub fn fetch_into(url: String, inbox: Inbox, ctx: egui::Context) {
             files: Ok(Vec::new()),
             shared: Some(std::rc::Rc::new(Vec::new())),
         });
-        ctx.request_repaint();
+        wake.wake();
         return;
     }
     // Another viewer is downloading it: its delivery comes with that one.
-    if !crate::shared::join_fetch(&url, &inbox, &ctx) {
+    if !crate::shared::join_fetch(&url, &inbox, &wake) {
         return;
     }
     wasm_bindgen_futures::spawn_local(async move {
-        let (files, shared) = match fetch_model(&url, &inbox, &ctx).await {
+        let (files, shared) = match fetch_model(&url, &inbox, &wake).await {
             Ok(files) => (Ok(Vec::new()), Some(std::rc::Rc::new(files))),
             Err(e) => (Err(e), None),
         };
-        for (inbox, ctx) in crate::shared::finish_fetch(&url) {
+        for (inbox, wake) in crate::shared::finish_fetch(&url) {
             inbox.push(Delivery {
                 url: Some(url.clone()),
                 origin: url.clone(),
                 files: files.clone(),
                 shared: shared.clone(),
             });
-            ctx.request_repaint();
+            wake.wake();
         }
     });
 }
 
 /// The model at `url`, with the files a `.gltf` names beside it.
 #[cfg(target_arch = "wasm32")]
-async fn fetch_model(url: &str, inbox: &Inbox, ctx: &egui::Context) -> Result<Vec<SourceFile>, String> {
+async fn fetch_model(url: &str, inbox: &Inbox, wake: &crate::control::Wake) -> Result<Vec<SourceFile>, String> {
     let mut name = file_name_of_url(url).to_owned();
     let budget = kloub_core::ImportOptions::default().budget_bytes;
-    let bytes = fetch_bytes(url, &name, budget, inbox, ctx).await?;
+    let bytes = fetch_bytes(url, &name, budget, inbox, wake).await?;
     let gltf = is_gltf_json(&name, &bytes);
     // A glTF behind an address that hides its name (`/api/model?id=3`) is named as one.
     if gltf && !name.to_ascii_lowercase().ends_with(".gltf") {
@@ -258,7 +258,7 @@ async fn fetch_model(url: &str, inbox: &Inbox, ctx: &egui::Context) -> Result<Ve
             .href();
         let relative = kloub_core::import::percent_decode(&uri);
         let left = budget.saturating_sub(total);
-        let bytes = fetch_bytes(&address, base_name(&relative), left, inbox, ctx).await?;
+        let bytes = fetch_bytes(&address, base_name(&relative), left, inbox, wake).await?;
         total += bytes.len() as u64;
         files.push(SourceFile { name: relative, bytes });
     }
@@ -338,10 +338,10 @@ pub fn expand_archives(files: Vec<SourceFile>) -> Result<(Vec<SourceFile>, Vec<W
 
 /// Fetching needs a browser; natively the delivery is an error.
 #[cfg(not(target_arch = "wasm32"))]
-pub fn fetch_into(url: String, inbox: Inbox, ctx: egui::Context) {
+pub fn fetch_into(url: String, inbox: Inbox, wake: crate::control::Wake) {
     let files = Err(format!("{url}: fetching URLs is only available in the browser"));
     inbox.push(Delivery { url: Some(url.clone()), origin: url, files, shared: None });
-    ctx.request_repaint();
+    wake.wake();
 }
 
 /// Milliseconds without progress (no answer, then no chunk of the body) before a fetch gives up.
@@ -512,7 +512,13 @@ async fn explain_failure(window: &web_sys::Window, url: &str, timed_out: bool, w
 /// Fetches `url`, streaming the body so the app can show a progress bar. A failure says why
 /// ([`http_error`], [`FetchFailure`]).
 #[cfg(target_arch = "wasm32")]
-async fn fetch_bytes(url: &str, name: &str, limit: u64, inbox: &Inbox, ctx: &egui::Context) -> Result<Vec<u8>, String> {
+async fn fetch_bytes(
+    url: &str,
+    name: &str,
+    limit: u64,
+    inbox: &Inbox,
+    wake: &crate::control::Wake,
+) -> Result<Vec<u8>, String> {
     use wasm_bindgen::JsCast;
     use wasm_bindgen_futures::JsFuture;
 
@@ -585,7 +591,7 @@ async fn fetch_bytes(url: &str, name: &str, limit: u64, inbox: &Inbox, ctx: &egu
             bytes.resize(start + array.length() as usize, 0);
             array.copy_to(&mut bytes[start..]);
             inbox.set_progress(Progress { name: name.to_owned(), received: bytes.len() as u64, total });
-            ctx.request_repaint();
+            wake.wake();
         }
         Ok(bytes)
     }
@@ -600,7 +606,8 @@ async fn fetch_bytes(url: &str, name: &str, limit: u64, inbox: &Inbox, ctx: &egu
 const MAX_PREALLOCATE: u64 = 256 << 20;
 
 /// Reads dropped files (asynchronously in the browser) and delivers them together.
-pub fn read_dropped_into(dropped: Vec<egui::DroppedFileHandle>, inbox: Inbox, ctx: egui::Context) {
+#[cfg(feature = "full")]
+pub fn read_dropped_into(dropped: Vec<egui::DroppedFileHandle>, inbox: Inbox, wake: crate::control::Wake) {
     let origin = "dropped files".to_owned();
     #[cfg(target_arch = "wasm32")]
     wasm_bindgen_futures::spawn_local(async move {
@@ -617,7 +624,7 @@ pub fn read_dropped_into(dropped: Vec<egui::DroppedFileHandle>, inbox: Inbox, ct
             }
         }
         inbox.push(Delivery { origin, url: None, files: error.map_or(Ok(files), Err), shared: None });
-        ctx.request_repaint();
+        wake.wake();
     });
     #[cfg(not(target_arch = "wasm32"))]
     {
@@ -629,10 +636,11 @@ pub fn read_dropped_into(dropped: Vec<egui::DroppedFileHandle>, inbox: Inbox, ct
             })
             .collect();
         inbox.push(Delivery { origin, url: None, files, shared: None });
-        ctx.request_repaint();
+        wake.wake();
     }
 }
 
+#[cfg(feature = "full")]
 fn file_name_of_path(path: &std::path::Path) -> String {
     path.file_name().map_or_else(|| path.to_string_lossy(), |n| n.to_string_lossy()).into_owned()
 }

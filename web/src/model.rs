@@ -82,10 +82,13 @@ pub struct Model {
     /// ([`crate::ik::default_effectors`], found once per model).
     pub ik_offers: Vec<(NodeIndex, usize)>,
     /// The ragdoll, while the character is one.
+    #[cfg(feature = "full")]
     pub ragdoll: Option<crate::ragdoll::RagdollState>,
     /// Gravity and damping for the ragdoll (the panel's sliders).
+    #[cfg(feature = "full")]
     pub ragdoll_options: kloub_core::ragdoll::RagdollOptions,
     /// Last frame's worlds of the main character (a ragdoll inherits their velocity).
+    #[cfg(feature = "full")]
     previous: crate::ragdoll::PreviousWorlds,
 }
 
@@ -163,8 +166,11 @@ impl Model {
             selected_joint: None,
             morph_overrides: vec![None; asset_weight_slots],
             ik_offers,
+            #[cfg(feature = "full")]
             ragdoll: None,
+            #[cfg(feature = "full")]
             ragdoll_options: kloub_core::ragdoll::RagdollOptions::default(),
+            #[cfg(feature = "full")]
             previous: crate::ragdoll::PreviousWorlds::default(),
         })
     }
@@ -213,8 +219,11 @@ impl Model {
     /// The job error (not expected for an asset the importer accepted).
     pub fn evaluate(&mut self) -> Result<(), String> {
         // Kept (without reallocating) so a ragdoll can start with the animation's velocities.
-        self.previous.worlds.clear();
-        self.previous.worlds.extend_from_slice(self.instance.worlds());
+        #[cfg(feature = "full")]
+        {
+            self.previous.worlds.clear();
+            self.previous.worlds.extend_from_slice(self.instance.worlds());
+        }
         self.animator.evaluate(&self.asset, &mut self.instance).map_err(|e| e.to_string())?;
         for (animator, instance) in &mut self.copies {
             animator.evaluate(&self.asset, instance).map_err(|e| e.to_string())?;
@@ -226,11 +235,19 @@ impl Model {
             }
             candy.update_quality(self.instance.pose());
         }
-        if let Some(ragdoll) = &mut self.ragdoll {
-            // The bodies own the skeleton (blended over the animation while handing back).
-            ragdoll.ragdoll.write_pose(self.instance.pose_mut(), ragdoll.weight());
-            self.instance.update(&self.asset).map_err(|e| e.to_string())?;
-        } else {
+        // The ragdoll's bodies own the skeleton (blended over the animation while handing back).
+        #[cfg(feature = "full")]
+        let ragdoll_owns = match &mut self.ragdoll {
+            Some(ragdoll) => {
+                ragdoll.ragdoll.write_pose(self.instance.pose_mut(), ragdoll.weight());
+                self.instance.update(&self.asset).map_err(|e| e.to_string())?;
+                true
+            }
+            None => false,
+        };
+        #[cfg(not(feature = "full"))]
+        let ragdoll_owns = false;
+        if !ragdoll_owns {
             crate::ik::apply_all(&mut self.ik, &self.asset, &mut self.instance)?;
         }
         // The morph sliders win over the clip (the main character only: copies keep the clip's).
@@ -559,6 +576,7 @@ impl Model {
     ///
     /// # Errors
     /// A model without a skinned skeleton.
+    #[cfg(feature = "full")]
     pub fn start_ragdoll(&mut self) -> Result<(), String> {
         let previous = (self.previous.worlds.len() == self.asset.nodes.len() && self.previous.dt > 0.0)
             .then_some((self.previous.worlds.as_slice(), self.previous.dt));
@@ -575,6 +593,7 @@ impl Model {
     }
 
     /// Advances the ragdoll by `dt` seconds of wall time (ending it once handed back).
+    #[cfg(feature = "full")]
     pub fn advance_ragdoll(&mut self, dt: f32) {
         self.previous.dt = dt;
         if let Some(ragdoll) = &mut self.ragdoll
@@ -586,7 +605,10 @@ impl Model {
 
     /// Whether the ragdoll still moves (the view needs frames).
     pub fn ragdoll_moving(&self) -> bool {
-        self.ragdoll.as_ref().is_some_and(|r| r.blend_back.is_some() || !r.ragdoll.is_resting())
+        #[cfg(feature = "full")]
+        return self.ragdoll.as_ref().is_some_and(|r| r.blend_back.is_some() || !r.ragdoll.is_resting());
+        #[cfg(not(feature = "full"))]
+        false
     }
 
     /// Whether any node draws a mesh (else the viewport shows the skeleton).

@@ -17,20 +17,7 @@ pub const GRAB_RADIUS: f32 = 14.0;
 /// take longer than the frame).
 pub const MAX_OVERLAY_LINES: usize = 120_000;
 
-/// Which overlays are on.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Overlays {
-    /// Bones between joints, joint dots, the hovered joint's name.
-    pub skeleton: bool,
-    /// The framing bounds as a box.
-    pub bounds: bool,
-    /// Triangle edges of the deformed meshes.
-    pub wireframe: bool,
-    /// Deformed vertex normals as short lines.
-    pub normals: bool,
-    /// The ragdoll's capsules.
-    pub bodies: bool,
-}
+pub use crate::stage::Overlays;
 
 /// Buffers the overlays reuse between frames.
 #[derive(Debug, Default)]

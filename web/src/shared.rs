@@ -44,8 +44,8 @@ pub struct Counts {
 #[derive(Default)]
 struct Registry {
     decoded: Vec<Decoded>,
-    /// Downloads under way: who waits for each URL (their inbox and egui context to wake).
-    fetching: HashMap<String, Vec<(Inbox, egui::Context)>>,
+    /// Downloads under way: who waits for each URL (their inbox and waker).
+    fetching: HashMap<String, Vec<(Inbox, crate::control::Wake)>>,
     counts: HashMap<String, Counts>,
 }
 
@@ -86,7 +86,7 @@ pub fn remember(url: &str, model: &LoadedModel) {
 /// Asks for `url` for the viewer with `inbox`: `true` when this call should start the download
 /// (nobody is fetching it yet; it is counted), `false` when it joined one under way (its
 /// delivery comes with [`finish_fetch`]).
-pub fn join_fetch(url: &str, inbox: &Inbox, ctx: &egui::Context) -> bool {
+pub fn join_fetch(url: &str, inbox: &Inbox, ctx: &crate::control::Wake) -> bool {
     REGISTRY.with(|r| {
         let mut r = r.borrow_mut();
         let first = !r.fetching.contains_key(url);
@@ -99,7 +99,7 @@ pub fn join_fetch(url: &str, inbox: &Inbox, ctx: &egui::Context) -> bool {
 }
 
 /// The download of `url` ended: everyone who waited for it (their inbox and context).
-pub fn finish_fetch(url: &str) -> Vec<(Inbox, egui::Context)> {
+pub fn finish_fetch(url: &str) -> Vec<(Inbox, crate::control::Wake)> {
     REGISTRY.with(|r| r.borrow_mut().fetching.remove(url).unwrap_or_default())
 }
 
@@ -141,7 +141,7 @@ mod tests {
 
     #[test]
     fn viewers_asking_for_a_url_under_way_join_the_one_download() {
-        let ctx = egui::Context::default();
+        let ctx = crate::control::Wake::new(|| ());
         let (a, b, c) = (Inbox::default(), Inbox::default(), Inbox::default());
         assert!(join_fetch("/b/Knight.glb", &a, &ctx), "the first starts it");
         assert!(!join_fetch("/b/Knight.glb", &b, &ctx), "the second waits");

@@ -76,17 +76,16 @@ impl App {
     /// Draws the 3D viewport into `ui` and handles camera input.
     pub(super) fn viewport(&mut self, ui: &mut egui::Ui) {
         let (rect, response) = ui.allocate_exact_size(ui.available_size(), Sense::click_and_drag());
-        self.viewport_rect = rect;
-        let viewport = format!("{},{},{},{}", rect.min.x, rect.min.y, rect.width(), rect.height());
-        self.dataset.set(Key::Viewport, &viewport);
+        self.stage.set_view_rect(rect);
         let height = rect.height();
         let delta = response.drag_delta();
         let shift = ui.input(|i| i.modifiers.shift);
         let multi_touch = ui.input(|i| i.multi_touch()).is_some_and(|t| t.num_touches >= 2);
-        let projection = Projection::new(&self.camera, rect);
-        let origin = self.model.as_ref().map_or(Vec3::ZERO, |m| m.copy_offset(0));
+        let projection = Projection::new(&self.stage.camera, rect);
+        let origin = self.stage.model.as_ref().map_or(Vec3::ZERO, |m| m.copy_offset(0));
         // Every IK handle on screen: targets, and the poles of two-bone goals that have one.
         let markers: Vec<(IkHandle, Pos2, f32)> = self
+            .stage
             .model
             .as_ref()
             .map(|m| {
@@ -111,14 +110,14 @@ impl App {
             // Where the press was: a quick drag may have moved off the handle before egui calls it a drag.
             let pressed_at = ui.input(|i| i.pointer.press_origin());
             self.ik_drag = pressed_at.or_else(|| response.interact_pointer_pos()).and_then(handle_at);
-            if let (Some(handle), Some(model)) = (self.ik_drag, self.model.as_mut()) {
+            if let (Some(handle), Some(model)) = (self.ik_drag, self.stage.model.as_mut()) {
                 model.ik_selected = handle.goal;
             }
         }
         let mut pending = None;
         // A click on a ragdoll body pushes it away from the camera.
         if response.clicked()
-            && let (Some(model), Some(pointer)) = (self.model.as_mut(), response.interact_pointer_pos())
+            && let (Some(model), Some(pointer)) = (self.stage.model.as_mut(), response.interact_pointer_pos())
             && let Some(state) = &mut model.ragdoll
             && let (Some(near), Some(far)) = (projection.unproject(pointer, 0.0), projection.unproject(pointer, 0.9))
         {
@@ -133,7 +132,7 @@ impl App {
             if let (Some(&(_, _, depth)), Some(pointer), Some(ik)) = (
                 markers.iter().find(|m| m.0 == handle),
                 response.interact_pointer_pos(),
-                self.model.as_mut().and_then(|m| m.ik.get_mut(handle.goal)),
+                self.stage.model.as_mut().and_then(|m| m.ik.get_mut(handle.goal)),
             ) && let Some(world) = projection.unproject(pointer, depth)
                 && let Some(point) = handle.point(ik)
             {
@@ -143,15 +142,15 @@ impl App {
                 self.ik_drag = None;
             }
         } else if response.clicked()
-            && let (Some(model), Some(pointer)) = (self.model.as_ref(), response.interact_pointer_pos())
+            && let (Some(model), Some(pointer)) = (self.stage.model.as_ref(), response.interact_pointer_pos())
             && model.ik.is_empty()
-            && (self.overlays.skeleton || !model.has_meshes())
+            && (self.stage.overlays.skeleton || !model.has_meshes())
         {
             // A click on a joint selects it (its axes and channel plot); elsewhere clears.
             let points = overlay::joint_points(model, &projection, origin);
             pending = Some(Command::SelectJoint(nearest_within(pointer, points.into_iter())));
         } else if response.clicked()
-            && let (Some(model), Some(pointer)) = (self.model.as_ref(), response.interact_pointer_pos())
+            && let (Some(model), Some(pointer)) = (self.stage.model.as_ref(), response.interact_pointer_pos())
             && let Some(ik) = model.ik.get(model.ik_selected)
         {
             // A click on a joint makes it the effector (keeping the depth where possible).
@@ -168,18 +167,18 @@ impl App {
                 });
             }
         } else if response.dragged_by(egui::PointerButton::Primary) && !shift && !multi_touch {
-            self.camera.orbit_pixels(delta.x, delta.y, height);
+            self.stage.camera.orbit_pixels(delta.x, delta.y, height);
         } else if response.dragged_by(egui::PointerButton::Secondary)
             || response.dragged_by(egui::PointerButton::Middle)
             || (response.dragged_by(egui::PointerButton::Primary) && shift)
         {
-            self.camera.pan_pixels(delta.x, delta.y, height);
+            self.stage.camera.pan_pixels(delta.x, delta.y, height);
         }
         // The wheel over an IK ring (or while dragging one) moves its target along the view
         // direction instead of zooming.
         let ring = self.ik_drag.or_else(|| response.hover_pos().and_then(handle_at));
         if let Some(handle) = ring
-            && let Some(ik) = self.model.as_mut().and_then(|m| m.ik.get_mut(handle.goal))
+            && let Some(ik) = self.stage.model.as_mut().and_then(|m| m.ik.get_mut(handle.goal))
             && let Some(point) = handle.point(ik)
         {
             let scroll = ui.input(|i| {
@@ -197,17 +196,17 @@ impl App {
                     .sum::<f32>()
             });
             if scroll != 0.0
-                && let Some(direction) = (*point + origin - self.camera.eye()).try_normalize()
+                && let Some(direction) = (*point + origin - self.stage.camera.eye()).try_normalize()
             {
-                *point -= direction * scroll * IK_DEPTH_PER_POINT * self.camera.distance;
+                *point -= direction * scroll * IK_DEPTH_PER_POINT * self.stage.camera.distance;
             }
         } else if response.hovered() {
             let (scroll, zoom) = ui.input(|i| (i.smooth_scroll_delta.y, i.zoom_delta()));
             if scroll != 0.0 {
-                self.camera.zoom_scroll(scroll);
+                self.stage.camera.zoom_scroll(scroll);
             }
             if zoom != 1.0 {
-                self.camera.zoom(1.0 / zoom);
+                self.stage.camera.zoom(1.0 / zoom);
             }
         }
         // Two fingers pan (their pinch zooms through zoom_delta above); one finger orbits as a drag.
@@ -215,15 +214,15 @@ impl App {
             && let Some(touch) = ui.input(|i| i.multi_touch())
             && touch.num_touches >= 2
         {
-            self.camera.pan_pixels(touch.translation_delta.x, touch.translation_delta.y, height);
+            self.stage.camera.pan_pixels(touch.translation_delta.x, touch.translation_delta.y, height);
         }
         if response.double_clicked() {
-            self.frame_model();
+            self.stage.frame_model();
         }
 
-        let Some(model) = &mut self.model else {
+        if self.stage.model.is_none() {
             ui.painter().rect_filled(rect, 0.0, ui.visuals().extreme_bg_color);
-            let invitation = if self.panels {
+            let invitation = if self.stage.panels {
                 "Drop a .glb or .gltf file here,\nor open one from Samples or Open (top of the panel)"
             } else {
                 "Drop a .glb or .gltf file here"
@@ -236,68 +235,21 @@ impl App {
                 ui.visuals().weak_text_color(),
             );
             return;
-        };
-        let ppp = ui.ctx().pixels_per_point();
-        let size = [(rect.width() * ppp).round() as u32, (rect.height() * ppp).round() as u32];
-        let gpu = &self.gpu;
-        let offsets: Vec<Vec3> = (0..model.copy_count()).map(|c| model.copy_offset(c)).collect();
-        let mut instances: Vec<&mut Instance> =
-            std::iter::once(&mut model.instance).chain(model.copies.iter_mut().map(|(_, i)| i)).collect();
-        let offscreen = !self.direct || self.screenshot_wanted;
-        let rendered = if offscreen {
-            self.scene
-                .render_copies(&gpu.device, &gpu.queue, &model.asset, &mut instances, &offsets, &self.camera, size)
-                .map(|view| Some(view.clone()))
-        } else {
-            Ok(None)
-        };
-        let rendered = rendered.and_then(|view| {
-            if self.direct {
-                let aspect = size[0].max(1) as f32 / size[1].max(1) as f32;
-                self.scene.prepare_copies(
-                    &gpu.device,
-                    &gpu.queue,
-                    &model.asset,
-                    &mut instances,
-                    &offsets,
-                    &self.camera,
-                    aspect,
-                )?;
-                let at = |v: f32| (v * ppp).round().max(0.0) as u32;
-                self.scene_rect = Some([at(rect.min.x), at(rect.min.y), size[0], size[1]]);
-            }
-            Ok(view)
-        });
-        drop(instances);
-        let times = self.scene.times();
-        self.stages.cpu_skin = smooth(self.stages.cpu_skin, times.cpu_skin_ms);
-        self.stages.upload = smooth(self.stages.upload, times.upload_ms);
-        self.stages.draw = smooth(self.stages.draw, times.draw_ms);
-        let view = match rendered {
-            Ok(view) => view,
-            Err(e) => {
-                // Unreachable with an asset the renderer accepted; drop it rather than fail every frame.
-                let message = format!("{}: cannot draw: {e}", model.name);
-                self.model = None;
-                self.scene_rect = None;
-                self.scene.clear_asset();
-                self.fail(message);
-                return;
-            }
-        };
-        if self.screenshot_wanted {
-            self.screenshot_wanted = false;
-            if let Some(texture) = self.scene.target_texture() {
-                self.screenshot = Some(crate::render::readback::PendingReadback::start(
-                    &self.gpu.device,
-                    &self.gpu.queue,
-                    texture,
-                    4,
-                ));
-            }
         }
-        if let Some(view) = view.filter(|_| !self.direct) {
-            let version = self.scene.target_version();
+        let ppp = ui.ctx().pixels_per_point();
+        let gpu = &self.gpu;
+        let Some(view) = self.stage.render_view(rect, ppp) else {
+            // Drawn straight into the canvas (or dropped: it could not be drawn).
+            self.paint_overlays(ui, rect, &response, &projection, origin);
+            if let Some(command) = pending
+                && let Err(message) = self.stage.apply(command)
+            {
+                self.stage.fail(message);
+            }
+            return;
+        };
+        {
+            let version = self.stage.scene.target_version();
             let mut renderer = gpu.renderer.write();
             let id = match &mut self.viewport {
                 Some(texture) if texture.version == version => texture.id,
@@ -320,51 +272,70 @@ impl App {
             let uv = Rect::from_min_max(Pos2::ZERO, Pos2::new(1.0, 1.0));
             ui.painter().image(id, rect, uv, Color32::WHITE);
         }
-        if let Some(model) = self.model.as_mut() {
+        self.paint_overlays(ui, rect, &response, &projection, origin);
+        if let Some(command) = pending
+            && let Err(message) = self.stage.apply(command)
+        {
+            self.stage.fail(message);
+        }
+    }
+
+    /// The overlays, the IK chains and their handles over the 3D view at `rect`.
+    fn paint_overlays(
+        &mut self,
+        ui: &egui::Ui,
+        rect: Rect,
+        response: &egui::Response,
+        projection: &Projection,
+        origin: Vec3,
+    ) {
+        if let Some(model) = self.stage.model.as_mut() {
             let painter = ui.painter_at(rect);
-            overlay::paint_mesh_lines(&painter, model, &projection, origin, self.overlays, &mut self.overlay_scratch);
-            if self.overlays.bounds
+            overlay::paint_mesh_lines(
+                &painter,
+                model,
+                projection,
+                origin,
+                self.stage.overlays,
+                &mut self.overlay_scratch,
+            );
+            if self.stage.overlays.bounds
                 && let Some(bounds) = model.bounds
             {
-                overlay::paint_box(&painter, &projection, bounds, origin);
+                overlay::paint_box(&painter, projection, bounds, origin);
             }
             // A file without meshes (a bare skeleton) always shows its skeleton.
-            if self.overlays.skeleton || !model.has_meshes() {
-                let points = overlay::joint_points(model, &projection, origin);
+            if self.stage.overlays.skeleton || !model.has_meshes() {
+                let points = overlay::joint_points(model, projection, origin);
                 let hovered = response.hover_pos().and_then(|p| nearest_within(p, points.iter().copied()));
                 overlay::paint_skeleton(&painter, model, &points, model.selected_joint, hovered);
             }
-            if self.overlays.bodies
+            if self.stage.overlays.bodies
                 && let Some(state) = &model.ragdoll
             {
-                overlay::paint_bodies(&painter, &projection, origin, &state.ragdoll);
+                overlay::paint_bodies(&painter, projection, origin, &state.ragdoll);
             }
             if let Some(joint) = model.selected_joint {
                 let size = model.bounds.map_or(1.0, |(lo, hi)| (hi - lo).length());
-                overlay::paint_axes(&painter, model, &projection, origin, joint, size);
+                overlay::paint_axes(&painter, model, projection, origin, joint, size);
             }
         }
         self.ik_markers.clear();
         self.ik_pole_markers.clear();
-        if let Some(model) = self.model.as_ref() {
+        if let Some(model) = self.stage.model.as_ref() {
             for ik in model.ik.iter().filter(|ik| ik.use_limits) {
                 let frames = ik.limit_frames(model.instance.worlds());
-                overlay::paint_limits(ui.painter(), &projection, origin, &frames, &ik.limits);
+                overlay::paint_limits(ui.painter(), projection, origin, &frames, &ik.limits);
             }
             for (i, ik) in model.ik.iter().enumerate() {
                 let selected = i == model.ik_selected && model.ik.len() > 1;
                 let dragging = self.ik_drag.is_some_and(|h| h.goal == i);
-                let (target, pole) = paint_ik(ui.painter(), &projection, ik, origin, dragging || selected);
+                let (target, pole) = paint_ik(ui.painter(), projection, ik, origin, dragging || selected);
                 if let Some(at) = target {
                     self.ik_markers.push(at);
                 }
                 self.ik_pole_markers.push(pole);
             }
-        }
-        if let Some(command) = pending
-            && let Err(message) = self.apply(command)
-        {
-            self.fail(message);
         }
     }
 }

@@ -65,10 +65,16 @@ pub struct Gpu {
     /// The render state every viewer's app is made with (its egui renderer is used only
     /// off the page, where the app draws the scene into an egui texture; on the page each
     /// viewer paints egui with a renderer of its own, made when it first has something to paint).
+    #[cfg(feature = "full")]
     pub render: egui_wgpu::RenderState,
 }
 
 impl Gpu {
+    /// The adapter, device and queue a viewer's stage draws with.
+    pub fn graphics(&self) -> crate::stage::Graphics {
+        crate::stage::Graphics { adapter: self.adapter.clone(), device: self.device.clone(), queue: self.queue.clone() }
+    }
+
     /// Whether the device was lost (every viewer must move to a new one).
     pub fn is_lost(&self) -> bool {
         self.lost.load(Ordering::Relaxed)
@@ -250,6 +256,10 @@ fn device_descriptor(adapter: &wgpu::Adapter) -> wgpu::DeviceDescriptor<'static>
 }
 
 async fn make(kind: GpuKind) -> Result<Gpu, String> {
+    #[cfg(not(feature = "webgl"))]
+    if kind == GpuKind::Gl {
+        return Err("this build of Kloub has no WebGL2 (the element loads the one that has)".into());
+    }
     let generation = GENERATION.with(|g| {
         g.set(g.get() + 1);
         g.get()
@@ -357,7 +367,9 @@ async fn make(kind: GpuKind) -> Result<Gpu, String> {
         gl.surface.configure(&device, &gl.config.borrow());
     }
     log::info!("kloub: page device {generation} ({kind:?}, {:?})", adapter.get_info().name);
+    #[cfg(feature = "full")]
     let renderer = egui_wgpu::Renderer::new(&device, format, egui_wgpu::RendererOptions::default());
+    #[cfg(feature = "full")]
     let render = egui_wgpu::RenderState {
         adapter: adapter.clone(),
         instance: instance.clone(),
@@ -366,7 +378,19 @@ async fn make(kind: GpuKind) -> Result<Gpu, String> {
         target_format: format,
         renderer: Arc::new(egui::mutex::RwLock::new(renderer)),
     };
-    Ok(Gpu { kind, instance, adapter, device, queue, format, gl, lost, generation, render })
+    Ok(Gpu {
+        kind,
+        instance,
+        adapter,
+        device,
+        queue,
+        format,
+        gl,
+        lost,
+        generation,
+        #[cfg(feature = "full")]
+        render,
+    })
 }
 
 /// The WebGL2 surface's format: plain `Rgba8Unorm`, which the scene draws into straight with

@@ -5,9 +5,14 @@ use std::rc::Rc;
 
 use wasm_bindgen::JsCast;
 
+#[cfg(not(feature = "full"))]
+pub use super::gesture::Input;
 use super::gpu::{Gpu, GpuKind};
-use super::input::Input;
+#[cfg(feature = "full")]
+pub use super::input::Input;
+#[cfg(feature = "full")]
 use crate::app::App;
+use crate::stage::Stage;
 
 /// Where a viewer's frames end up.
 enum Output {
@@ -31,32 +36,49 @@ pub enum Next {
 /// A mounted viewer.
 pub struct View {
     /// The viewer's state, panels and 3D view.
+    #[cfg(feature = "full")]
     pub app: App,
+    /// The viewer (the widget build: no panels).
+    #[cfg(not(feature = "full"))]
+    stage: Stage,
     /// Its egui context.
+    #[cfg(feature = "full")]
     pub ctx: egui::Context,
     /// Input since the last frame.
     pub input: Input,
     gpu: Rc<Gpu>,
     /// Paints egui's output; made when there first is some (an embedded viewer without panels
     /// or notes never needs one: no pipeline of its own in the GPU process).
+    #[cfg(feature = "full")]
     painter: Option<egui_wgpu::Renderer>,
     /// egui's texture changes (its font atlas) while there is no painter yet.
+    #[cfg(feature = "full")]
     pending_textures: egui::TexturesDelta,
     canvas: web_sys::HtmlCanvasElement,
     output: Output,
     /// The time origin (ms, `performance.now()`).
+    #[cfg(feature = "full")]
     start: f64,
     /// Counted in [`super::gpu::gl_views`].
     counted_gl: bool,
+    #[cfg(feature = "full")]
     cursor: egui::CursorIcon,
     /// The panels' accessibility tree as the element mirrors it (`None`: not mirrored).
+    #[cfg(feature = "full")]
     a11y: Option<super::a11y::Mirror>,
     /// The mirror's changes from the last frame, until the element takes them.
+    #[cfg(feature = "full")]
     a11y_out: Option<String>,
     /// Reduced motion asked for by the page (`prefers-reduced-motion`): no UI animations.
+    #[cfg(feature = "full")]
     reduced_motion: bool,
     /// The keyboard moved to the 3D view: egui's focused widget lets go before the next frame.
+    #[cfg(feature = "full")]
     release_focus: bool,
+    /// The widget build's clock: the last frame's time (ms) and whether it asked for the next
+    /// at once (its interval is then the step; otherwise a 60 Hz step, as egui does).
+    #[cfg(not(feature = "full"))]
+    last_frame: Option<(f64, bool)>,
 }
 
 fn output(gpu: &Gpu, canvas: &web_sys::HtmlCanvasElement) -> Result<Output, String> {
@@ -96,17 +118,65 @@ fn output(gpu: &Gpu, canvas: &web_sys::HtmlCanvasElement) -> Result<Output, Stri
     }
 }
 
+/// What the full app paints over the scene: egui's primitives and screen.
+#[cfg(feature = "full")]
+type EguiOutput<'a> = (&'a [egui::ClippedPrimitive], &'a egui_wgpu::ScreenDescriptor);
+/// The widget build paints nothing over the scene.
+#[cfg(not(feature = "full"))]
+type EguiOutput<'a> = &'a std::convert::Infallible;
+
+/// The widget's canvas before a model arrives (as the full app's dark panels' background).
+#[cfg(not(feature = "full"))]
+const EMPTY_BACKGROUND: [f32; 4] = [10.0 / 255.0, 10.0 / 255.0, 10.0 / 255.0, 1.0];
+
 /// `performance.now()` in milliseconds.
 pub fn now_ms() -> f64 {
     web_sys::window().and_then(|w| w.performance()).map_or(0.0, |p| p.now())
 }
 
 impl View {
+    /// A viewer on `canvas` drawing with `gpu`; `make` creates its stage on the device.
+    ///
+    /// # Errors
+    /// When the canvas cannot show frames of `gpu`'s kind.
+    #[cfg(not(feature = "full"))]
+    pub fn new(
+        gpu: Rc<Gpu>,
+        canvas: web_sys::HtmlCanvasElement,
+        make: impl FnOnce(crate::stage::Graphics) -> Stage,
+    ) -> Result<View, String> {
+        let output = output(&gpu, &canvas)?;
+        let mut stage = make(gpu.graphics());
+        stage.set_direct(true);
+        let counted_gl = gpu.kind == GpuKind::Gl;
+        if counted_gl {
+            super::gpu::count_gl_view(true);
+        }
+        Ok(View { counted_gl, stage, input: Input::default(), gpu, canvas, output, last_frame: None })
+    }
+
+    /// The viewer without its panels.
+    pub fn stage(&self) -> &Stage {
+        #[cfg(feature = "full")]
+        return self.app.stage();
+        #[cfg(not(feature = "full"))]
+        &self.stage
+    }
+
+    /// The viewer without its panels, to change.
+    pub fn stage_mut(&mut self) -> &mut Stage {
+        #[cfg(feature = "full")]
+        return self.app.stage_mut();
+        #[cfg(not(feature = "full"))]
+        &mut self.stage
+    }
+
     /// A viewer on `canvas` drawing with `gpu`; `make` creates its app on the given egui
     /// context and render state.
     ///
     /// # Errors
     /// When the canvas cannot show frames of `gpu`'s kind.
+    #[cfg(feature = "full")]
     pub fn new(
         gpu: Rc<Gpu>,
         canvas: web_sys::HtmlCanvasElement,
@@ -115,7 +185,7 @@ impl View {
         let output = output(&gpu, &canvas)?;
         let ctx = egui::Context::default();
         let mut app = make(&ctx, gpu.render.clone());
-        app.set_direct(true);
+        app.stage_mut().set_direct(true);
         let counted_gl = gpu.kind == GpuKind::Gl;
         if counted_gl {
             super::gpu::count_gl_view(true);
@@ -158,6 +228,20 @@ impl View {
             super::gpu::count_gl_view(true);
         }
         self.canvas = canvas;
+        #[cfg(not(feature = "full"))]
+        {
+            self.stage.replace_gpu(gpu.graphics(), Some(gpu.generation))?;
+            self.gpu = gpu;
+            self.last_frame = None;
+            Ok(())
+        }
+        #[cfg(feature = "full")]
+        self.reattach_ui(gpu)
+    }
+
+    /// The full app's part of [`View::reattach`]: a new egui context and painter.
+    #[cfg(feature = "full")]
+    fn reattach_ui(&mut self, gpu: Rc<Gpu>) -> Result<(), String> {
         let ctx = egui::Context::default();
         crate::app::install_fonts(&ctx);
         crate::app::style_panels(&ctx);
@@ -174,6 +258,7 @@ impl View {
         Ok(())
     }
 
+    #[cfg(feature = "full")]
     /// Mirrors the panels' accessibility tree for the element (on), or stops (off). Turning it
     /// on sends the whole tree with the next frame.
     pub fn set_accessibility(&mut self, on: bool) {
@@ -187,16 +272,19 @@ impl View {
         self.a11y_out = None;
     }
 
+    #[cfg(feature = "full")]
     /// The mirror's changes since the element last took them (JSON, see [`super::a11y`]).
     pub fn take_accessibility(&mut self) -> Option<String> {
         self.a11y_out.take()
     }
 
+    #[cfg(feature = "full")]
     /// Every control of the mirrored tree as `[[role, name], …]` (empty when not mirrored).
     pub fn accessibility_controls(&self) -> String {
         self.a11y.as_ref().map_or_else(|| "[]".to_owned(), super::a11y::Mirror::controls_json)
     }
 
+    #[cfg(feature = "full")]
     /// No UI animations (collapsing sections, scrolling) when the page prefers reduced motion.
     pub fn set_reduced_motion(&mut self, on: bool) {
         self.reduced_motion = on;
@@ -207,6 +295,7 @@ impl View {
         });
     }
 
+    #[cfg(feature = "full")]
     /// The keyboard focus moved to the 3D view: no panel widget keeps egui's focus (keys go to
     /// the view's shortcuts).
     pub fn release_focus(&mut self) {
@@ -228,6 +317,39 @@ impl View {
         if self.canvas.height() != height {
             self.canvas.set_height(height);
         }
+        self.frame_at(now, [width, height], ppp)
+    }
+
+    /// The widget build's frame: commands and clocks, the camera's input, the scene.
+    #[cfg(not(feature = "full"))]
+    fn frame_at(&mut self, now: f64, size: [u32; 2], ppp: f32) -> Next {
+        let unstable = self.last_frame.map_or(1.0 / 60.0, |(t, _)| ((now - t) / 1000.0) as f32);
+        let stable = match self.last_frame {
+            Some((_, true)) => unstable,
+            _ => 1.0 / 60.0,
+        };
+        let stage = &mut self.stage;
+        let points = emath::vec2(size[0] as f32, size[1] as f32) / ppp;
+        let rect = emath::Rect::from_min_size(emath::Pos2::ZERO, points);
+        // Set first: a model arriving in this frame is framed for this view.
+        stage.set_view_rect(rect);
+        stage.receive();
+        stage.tick(stable, unstable);
+        self.input.apply(stage, points.y);
+        stage.evaluate();
+        stage.render_view(rect, ppp);
+        stage.frames += 1;
+        stage.finish_screenshot();
+        stage.sync_dataset();
+        let busy = stage.busy();
+        self.last_frame = Some((now, busy));
+        self.present(size, None);
+        if busy { Next::In(0.0) } else { Next::Idle }
+    }
+
+    /// The full app's frame: egui's pass over the app, then its output over the scene.
+    #[cfg(feature = "full")]
+    fn frame_at(&mut self, now: f64, [width, height]: [u32; 2], ppp: f32) -> Next {
         let size = egui::vec2(width as f32, height as f32) / ppp;
         let raw = self.input.take(size, ppp, (now - self.start) / 1000.0);
         if std::mem::take(&mut self.release_focus) {
@@ -255,45 +377,60 @@ impl View {
             }
         });
         let primitives = self.ctx.tessellate(output.shapes, output.pixels_per_point);
-        self.paint(&primitives, output.textures_delta, [width, height], output.pixels_per_point);
+        let screen =
+            egui_wgpu::ScreenDescriptor { size_in_pixels: [width, height], pixels_per_point: output.pixels_per_point };
+        let painted = self.prepare_egui(&primitives, output.textures_delta);
+        self.present([width, height], painted.as_ref().map(|_| (primitives.as_slice(), &screen)));
+        if let (Some(renderer), Some(mut textures)) = (&mut self.painter, painted) {
+            for id in &textures.free {
+                renderer.free_texture(id);
+            }
+            textures.clear();
+        }
         next
     }
 
-    fn paint(
+    /// Uploads egui's texture changes and buffers for this frame: `None` when there is nothing
+    /// of egui's to paint and no painter yet (its texture changes then wait for one).
+    #[cfg(feature = "full")]
+    fn prepare_egui(
         &mut self,
         primitives: &[egui::ClippedPrimitive],
         mut textures: egui::TexturesDelta,
-        size: [u32; 2],
-        ppp: f32,
-    ) {
+    ) -> Option<egui::TexturesDelta> {
         let gpu = &self.gpu;
-        let screen = egui_wgpu::ScreenDescriptor { size_in_pixels: size, pixels_per_point: ppp };
+        if primitives.is_empty() && self.painter.is_none() {
+            self.pending_textures.append(textures);
+            return None;
+        }
+        let painter = self.painter.get_or_insert_with(|| {
+            egui_wgpu::Renderer::new(&gpu.device, gpu.format, egui_wgpu::RendererOptions::default())
+        });
+        let mut waiting = std::mem::take(&mut self.pending_textures);
+        waiting.append(std::mem::take(&mut textures));
+        for (id, deltas) in waiting.set.drain() {
+            for delta in deltas {
+                painter.update_texture(&gpu.device, &gpu.queue, id, &delta);
+            }
+        }
+        Some(waiting)
+    }
+
+    /// Draws the prepared scene into the canvas and, in the full app, egui's output over it
+    /// (`egui`: its primitives and screen).
+    fn present(&mut self, size: [u32; 2], egui: Option<EguiOutput<'_>>) {
+        let gpu = self.gpu.clone();
         let mut encoder =
             gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("kloub frame") });
-        // Nothing of egui's to paint and no painter yet: its texture changes wait for one.
-        let painter = if primitives.is_empty() && self.painter.is_none() {
-            self.pending_textures.append(std::mem::take(&mut textures));
-            None
-        } else {
-            let painter = self.painter.get_or_insert_with(|| {
-                egui_wgpu::Renderer::new(&gpu.device, gpu.format, egui_wgpu::RendererOptions::default())
-            });
-            let mut waiting = std::mem::take(&mut self.pending_textures);
-            waiting.append(std::mem::take(&mut textures));
-            textures = waiting;
-            Some(painter)
-        };
-        let commands = match painter {
-            Some(renderer) => {
-                for (id, deltas) in textures.set.drain() {
-                    for delta in deltas {
-                        renderer.update_texture(&gpu.device, &gpu.queue, id, &delta);
-                    }
-                }
-                renderer.update_buffers(&gpu.device, &gpu.queue, &mut encoder, primitives, &screen)
+        #[cfg(feature = "full")]
+        let commands = match (&egui, &mut self.painter) {
+            (Some((primitives, screen)), Some(renderer)) => {
+                renderer.update_buffers(&gpu.device, &gpu.queue, &mut encoder, primitives, screen)
             }
-            None => Vec::new(),
+            _ => Vec::new(),
         };
+        #[cfg(not(feature = "full"))]
+        let commands: Vec<wgpu::CommandBuffer> = Vec::new();
         let frame = match &mut self.output {
             Output::Surface { surface, config } => {
                 if config.width != size[0] || config.height != size[1] {
@@ -344,7 +481,7 @@ impl View {
             let view = frame.texture.create_view(&wgpu::TextureViewDescriptor::default());
             // The scene straight into the canvas (WebGPU: an sRGB view of it; WebGL2: the
             // canvas's own format, the shaders encoding sRGB), then egui over it.
-            let scene_format = self.app.scene_format();
+            let scene_format = self.stage().scene_format();
             let scene_view = if frame.texture.format() == scene_format {
                 view.clone()
             } else {
@@ -355,12 +492,16 @@ impl View {
             let surface_size = [frame.texture.width(), frame.texture.height()];
             // On WebGL2 every viewer draws into the page's one surface: one set of attachments.
             let mut shared = gpu.gl.as_ref().map(|gl| gl.attachments.borrow_mut());
-            let drew_scene = self.app.draw_scene(&mut encoder, &scene_view, surface_size, shared.as_deref_mut());
+            let drew_scene =
+                self.stage_mut().draw_scene(&mut encoder, &scene_view, surface_size, shared.as_deref_mut());
             drop(shared);
+            #[cfg(feature = "full")]
             let clear = self.ctx.global_style().visuals.extreme_bg_color.to_normalized_gamma_f32();
+            #[cfg(not(feature = "full"))]
+            let clear = EMPTY_BACKGROUND;
             let load = if drew_scene {
                 wgpu::LoadOp::Load
-            } else if self.app.transparent() {
+            } else if self.stage().transparent() {
                 // No model yet on a transparent viewer: the page shows through from the start.
                 wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT)
             } else {
@@ -373,7 +514,12 @@ impl View {
             };
             // Nothing of egui's over the scene (an embedded viewer without panels or notes): no
             // second pass over the canvas.
-            if !(drew_scene && primitives.is_empty()) {
+            #[cfg(feature = "full")]
+            let over = egui.filter(|(primitives, _)| !primitives.is_empty());
+            #[cfg(not(feature = "full"))]
+            let over = egui;
+            if !drew_scene || over.is_some() {
+                #[cfg_attr(not(feature = "full"), expect(unused_variables, reason = "egui's pass"))]
                 let pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                     label: Some("kloub egui"),
                     color_attachments: &[Some(wgpu::RenderPassColorAttachment {
@@ -387,8 +533,9 @@ impl View {
                     occlusion_query_set: None,
                     multiview_mask: None,
                 });
-                if let Some(renderer) = &self.painter {
-                    renderer.render(&mut pass.forget_lifetime(), primitives, &screen);
+                #[cfg(feature = "full")]
+                if let (Some(renderer), Some((primitives, screen))) = (&self.painter, over) {
+                    renderer.render(&mut pass.forget_lifetime(), primitives, screen);
                 }
             }
             gpu.queue.submit(commands.into_iter().chain(std::iter::once(encoder.finish())));
@@ -405,15 +552,10 @@ impl View {
         } else {
             gpu.queue.submit(commands.into_iter().chain(std::iter::once(encoder.finish())));
         }
-        if let Some(renderer) = &mut self.painter {
-            for id in &textures.free {
-                renderer.free_texture(id);
-            }
-        }
-        textures.clear();
     }
 
     /// What egui asks of the page: the cursor, copied text, links to open.
+    #[cfg(feature = "full")]
     fn platform(&mut self, output: &egui::PlatformOutput) {
         if output.cursor_icon != self.cursor {
             self.cursor = output.cursor_icon;
@@ -458,12 +600,14 @@ impl View {
 impl Drop for View {
     fn drop(&mut self) {
         // Changes never painted go with the viewer.
+        #[cfg(feature = "full")]
         self.pending_textures.clear();
         self.release_gl();
     }
 }
 
 /// The CSS `cursor` for egui's cursor.
+#[cfg(feature = "full")]
 fn css_cursor(icon: egui::CursorIcon) -> &'static str {
     use egui::CursorIcon as C;
     match icon {

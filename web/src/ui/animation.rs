@@ -134,7 +134,7 @@ pub(super) fn timeline(
         use egui::accesskit::Action;
         node.set_min_numeric_value(0.0);
         node.set_max_numeric_value(f64::from(duration));
-        node.set_numeric_value_step(1.0 / f64::from(crate::app::FRAME_RATE));
+        node.set_numeric_value_step(1.0 / f64::from(crate::stage::FRAME_RATE));
         node.set_value(format!("{time:.2} of {duration:.2} seconds"));
         node.add_action(Action::SetValue);
         node.add_action(Action::Increment);
@@ -158,7 +158,7 @@ pub(super) fn timeline(
         match asked {
             (Some(t), _) => actions.commands.push(Command::Seek(t.clamp(0.0, duration))),
             (None, steps) if steps != 0.0 => {
-                let t = time + steps / crate::app::FRAME_RATE;
+                let t = time + steps / crate::stage::FRAME_RATE;
                 actions.commands.push(Command::Seek(t.clamp(0.0, duration)));
             }
             _ => {}

@@ -60,18 +60,7 @@ pub struct PanelState<'a> {
     pub shown_sample: Option<usize>,
 }
 
-/// Smoothed CPU milliseconds per frame of each stage (the GPU's own time is not included).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct StageTimes {
-    /// Clocks, sampling, blending, world matrices and skin palettes of every copy.
-    pub animate: f32,
-    /// Deforming vertices on the CPU (the CPU path, or morphs too large for the GPU).
-    pub cpu_skin: f32,
-    /// Writing palettes, uniforms and CPU-deformed vertices to the GPU.
-    pub upload: f32,
-    /// Recording and submitting the draws.
-    pub draw: f32,
-}
+pub use crate::stage::StageTimes;
 
 /// Panel state that lives across frames and models.
 #[derive(Debug)]

@@ -2,9 +2,9 @@
 
 use super::*;
 
-impl App {
+impl Stage {
     /// Applies one command to the shown model (the side panel's actions go through here too).
-    pub(super) fn apply(&mut self, command: Command) -> Result<(), String> {
+    pub(crate) fn apply(&mut self, command: Command) -> Result<(), String> {
         match command {
             Command::SetSkinning(method) => {
                 self.skinning = method;
@@ -71,8 +71,8 @@ impl App {
             Command::LoadUrl(url) => {
                 self.pending += 1;
                 self.status = Status::Loading;
-                if let Some(ctx) = self.controls.repaint_context() {
-                    load::fetch_into(url, self.inbox.clone(), ctx);
+                if let Some(wake) = self.controls.waker() {
+                    load::fetch_into(url, self.inbox.clone(), wake);
                 }
                 return Ok(());
             }
@@ -131,13 +131,17 @@ impl App {
             | Command::SetBackground(_)
             | Command::ShowModel(_) => {}
             Command::SelectJoint(node) => model.selected_joint = node,
+            #[cfg(feature = "full")]
             Command::StartRagdoll => model.start_ragdoll()?,
+            #[cfg(feature = "full")]
             Command::StopRagdoll => model.ragdoll = None,
+            #[cfg(feature = "full")]
             Command::RagdollToAnimation(seconds) => {
                 if let Some(ragdoll) = &mut model.ragdoll {
                     ragdoll.blend_back = Some((0.0, seconds.max(0.0)));
                 }
             }
+            #[cfg(feature = "full")]
             Command::SetRagdollOptions { gravity, damping } => {
                 model.ragdoll_options.gravity = gravity;
                 model.ragdoll_options.damping = damping;
@@ -146,6 +150,12 @@ impl App {
                     ragdoll.ragdoll.set_options(options);
                 }
             }
+            // The light widget build has no physics: the element loads the full app first.
+            #[cfg(not(feature = "full"))]
+            Command::StartRagdoll
+            | Command::StopRagdoll
+            | Command::RagdollToAnimation(_)
+            | Command::SetRagdollOptions { .. } => return Err("the ragdoll needs the full app".into()),
             Command::SetMorph { node, target, weight } => {
                 let n = model.asset.nodes.get(node as usize).ok_or_else(|| format!("node {node} does not exist"))?;
                 if target >= n.weights.len() {
@@ -220,7 +230,7 @@ impl App {
             Command::SetCopies(n) => {
                 model.set_copies(n);
                 if let Some((min, max)) = model.grid_bounds() {
-                    self.camera.frame_to_fit_aspect(min, max, view_aspect(self.viewport_rect));
+                    self.camera.frame_to_fit_aspect(min, max, view_aspect(self.view_rect));
                 }
             }
             Command::SetCandyPose { twist, bend } => {

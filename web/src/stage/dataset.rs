@@ -3,10 +3,10 @@
 
 use super::*;
 
-impl App {
+impl Stage {
     /// Writes changed state into the element's `data-*` attributes and reports the events
     /// that state implies (`play`, `pause`, `timeupdate`, `load`).
-    pub(super) fn sync_dataset(&mut self) {
+    pub(crate) fn sync_dataset(&mut self) {
         let d = &mut self.dataset;
         d.set(Key::Status, self.status.as_str());
         d.set(Key::Error, &self.last_error);
@@ -27,6 +27,7 @@ impl App {
         d.set(Key::Grid, if self.scene.grid() { "true" } else { "false" });
         d.set(Key::Overlays, &overlay_names(self.overlays));
         d.set(Key::Lighting, self.scene.look().lighting.name());
+        #[cfg(feature = "full")]
         d.set(
             Key::Ragdoll,
             model.and_then(|m| m.ragdoll.as_ref()).map_or("", crate::ragdoll::RagdollState::state_name),
@@ -59,18 +60,6 @@ impl App {
             crate::control::outgoing_name(t.outgoing)
         );
         d.set(Key::Transition, &transition);
-        let markers: Vec<String> = if model.is_some_and(|m| !m.ik.is_empty()) {
-            self.ik_markers.iter().map(|p| format!("{:.1},{:.1}", p.x, p.y)).collect()
-        } else {
-            Vec::new()
-        };
-        d.set(Key::IkTarget, &markers.join(";"));
-        let poles: Vec<String> = if model.is_some_and(|m| !m.ik.is_empty()) {
-            self.ik_pole_markers.iter().map(|p| p.map_or(String::new(), |p| format!("{:.1},{:.1}", p.x, p.y))).collect()
-        } else {
-            Vec::new()
-        };
-        d.set(Key::IkPole, &poles.join(";"));
         d.set(Key::Speed, &model.map_or(String::new(), |m| format!("{:.3}", m.animator.main().speed)));
         d.set(Key::Duration, &model.map_or(String::new(), |m| format!("{:.3}", m.duration())));
         d.set(Key::Loop, model.map_or("", |m| crate::control::loop_mode_name(m.animator.main().loop_mode)));

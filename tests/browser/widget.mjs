@@ -1,0 +1,167 @@
+// The light widget build: a page with <kloub-viewer> and no `controls` downloads only the widget (its network log),
+// within the size budget; the element's methods that need no panels work on it; `controls` set later (or a method
+// that needs the full app) moves the viewer to the full app with the same model, clip and time. Registered by run.mjs.
+import { statSync } from 'node:fs';
+import { join } from 'node:path';
+import { ROOT, viewportShot, nonBackgroundFraction } from './lib.mjs';
+
+/** What a page embedding the widget may download before its model, gzip (scripts/widget-size.sh's budget). */
+export const WIDGET_BUDGET = 900 * 1024;
+/** The module files of each build. */
+const FILES = {
+  widget: ['kloub_widget.js', 'kloub_widget_bg.wasm'],
+  'widget-gl': ['kloub_widget_gl.js', 'kloub_widget_gl_bg.wasm'],
+  full: ['kloub_web.js', 'kloub_web_bg.wasm'],
+};
+const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
+function assert(cond, msg) { if (!cond) throw new Error(msg); }
+
+/**
+ * Serves a page of the server's origin holding one `<kloub-viewer>` with `attrs` (nothing else loads the element
+ * first) and records the file names the page fetches. Resolves to the list (it keeps growing).
+ */
+async function widgetPage(page, url, attrs) {
+  const fetched = [];
+  page.on('request', (r) => fetched.push(new URL(r.url()).pathname.split('/').pop()));
+  const attributes = Object.entries(attrs).map(([k, v]) => (v === '' ? k : `${k}="${v}"`)).join(' ');
+  await page.route(`${url}/widget-test.html`, (route) => route.fulfill({
+    contentType: 'text/html',
+    body: `<!doctype html><html><head><meta charset="utf-8"><script type="module" src="/kloub-viewer.js"></script></head>
+<body style="margin:0"><kloub-viewer id="v" ${attributes} style="display:block;width:640px;height:420px"></kloub-viewer></body></html>`,
+  }));
+  await page.goto(`${url}/widget-test.html`);
+  return fetched;
+}
+
+const ds = (page) => page.evaluate(() => ({ ...document.getElementById('v').dataset }));
+const waitFor = (page, fn, arg, what, timeout = 60000) =>
+  page.waitForFunction(fn, arg, { timeout, polling: 50 }).catch(async (e) => {
+    throw new Error(`${what}: ${e.message.split('\n')[0]}; dataset ${JSON.stringify(await ds(page))}`);
+  });
+const ready = (page) => waitFor(page, () => {
+  const d = document.getElementById('v').dataset;
+  return d.status === 'ready' && (d.model ?? '') !== '' && Number(d.frames) > 0;
+}, null, 'the model to be shown');
+
+/** The build each fetched module file belongs to. */
+function buildsFetched(fetched) {
+  return Object.entries(FILES).filter(([, files]) => files.some((f) => fetched.includes(f))).map(([b]) => b);
+}
+
+export function registerWidgetTests(test, backends) {
+  for (const backend of backends) {
+    const attrs = { src: '/models/default.glb', autoplay: '', 'camera-controls': '', ...(backend === 'webgl2' ? { backend: 'webgl2' } : {}) };
+    const light = backend === 'webgl2' ? 'widget-gl' : 'widget';
+
+    test(`${backend}: <kloub-viewer> without controls fetches only the light build (within ${WIDGET_BUDGET} B gzip), animates, and its methods work`, async (ctx) => {
+      const { page } = ctx;
+      const fetched = await widgetPage(page, ctx.url, attrs);
+      await ready(page);
+      const d0 = await ds(page);
+      assert(d0.backend === backend, `backend ${d0.backend}`);
+      assert(await page.evaluate(() => customElements.get('kloub-viewer')._testBuild()) === light, 'the page runs the light build');
+      assert(JSON.stringify(buildsFetched(fetched)) === JSON.stringify([light]), `module files fetched: ${fetched.filter((f) => /kloub_/.test(f))}`);
+      // What the page downloaded before the model, as `kloub serve` sends it gzip: within the budget (WebGPU's).
+      const before = ['kloub-viewer.js', 'hash-state.js', 'accessibility.js', ...FILES[light]];
+      const bytes = before.reduce((sum, f) => sum + statSync(join(ROOT, 'web/dist', `${f}.gz`)).size, 0);
+      if (light === 'widget') assert(bytes <= WIDGET_BUDGET, `the widget is ${bytes} B gzip, over its budget of ${WIDGET_BUDGET} B`);
+      // It animates: frames keep coming and the time moves.
+      const frames = Number(d0.frames);
+      await waitFor(page, (f) => Number(document.getElementById('v').dataset.frames) > f + 10, frames, 'frames while playing');
+      const shot = await viewportShot(page, '#v');
+      assert(nonBackgroundFraction(shot) > 0.02, 'the view shows nothing but background');
+
+      // The element's API without the panels.
+      const clips = JSON.parse(d0.clips);
+      assert(clips.length >= 2, `clips ${d0.clips}`);
+      await page.evaluate((clip) => {
+        const v = document.getElementById('v');
+        v.pause();
+        v.playClip(clip);
+        v.pause();
+        v.currentTime = 0.5;
+        v.speed = 1.5;
+        v.setSkinning('dqs');
+        v.setGrid(true);
+        v.setBackground('light');
+        v.setLighting('flat');
+        v.setCopies(3);
+        v.camera = [0.7, 0.2, 4, 0, 1, 0];
+      }, clips[1]);
+      await waitFor(page, (clip) => {
+        const d = document.getElementById('v').dataset;
+        return d.clip === clip && d.playing === 'false' && d.time === '0.500' && d.skinning === 'dqs' && d.grid === 'true'
+          && d.background === 'light' && d.lighting === 'flat' && d.copies === '3' && d.camera.startsWith('0.70000,0.20000,4.00000');
+      }, clips[1], 'the methods to apply');
+      assert(Math.abs((await page.evaluate(() => document.getElementById('v').speed)) - 1.5) < 1e-6, 'speed');
+      const dims = await page.evaluate(() => document.getElementById('v').getDimensions());
+      assert(dims.x > 0 && dims.y > 0 && dims.z > 0, `getDimensions ${JSON.stringify(dims)}`);
+      const blob = await page.evaluate(async () => (await document.getElementById('v').toBlob()).size);
+      assert(blob > 1000, `toBlob gave ${blob} B`);
+      // Camera input: a drag on the canvas orbits, the wheel zooms, a key (Home) goes back to the start.
+      const before2 = (await ds(page)).camera.split(',').map(Number);
+      const box = await page.locator('#v').boundingBox();
+      await page.mouse.move(box.x + 300, box.y + 200);
+      await page.mouse.down();
+      for (let i = 1; i <= 5; i++) await page.mouse.move(box.x + 300 + i * 20, box.y + 200);
+      await page.mouse.up();
+      await page.mouse.wheel(0, -200);
+      await waitFor(page, (yaw) => Number(document.getElementById('v').dataset.camera.split(',')[0]) !== yaw, before2[0], 'a drag to orbit');
+      await waitFor(page, (dist) => Number(document.getElementById('v').dataset.camera.split(',')[2]) < dist, before2[2], 'the wheel to zoom');
+      await page.keyboard.press('Home');
+      await waitFor(page, () => document.getElementById('v').dataset.time === '0.000', null, 'Home to seek to the start');
+      assert(buildsFetched(fetched).length === 1, `still only the light build: ${fetched.filter((f) => /kloub_/.test(f))}`);
+    });
+
+    test(`${backend}: setting controls on a widget loads the full app: the panel appears with the same model, clip and time`, async (ctx) => {
+      const { page } = ctx;
+      const fetched = await widgetPage(page, ctx.url, attrs);
+      await ready(page);
+      const clips = JSON.parse((await ds(page)).clips);
+      await page.evaluate((clip) => {
+        const v = document.getElementById('v');
+        v.playClip(clip);
+        v.pause();
+        v.currentTime = 0.5;
+        v.camera = [0.4, 0.1, 5, 0, 0.8, 0];
+      }, clips[1]);
+      await waitFor(page, (clip) => {
+        const d = document.getElementById('v').dataset;
+        return d.clip === clip && d.time === '0.500' && d.playing === 'false' && d.camera.startsWith('0.40000,0.10000,5.00000');
+      }, clips[1], 'the widget to pause on the clip');
+      const loads = await page.evaluate(() => {
+        window.__loads = 0;
+        document.getElementById('v').addEventListener('load', () => { window.__loads++; });
+        document.getElementById('v').setAttribute('controls', '');
+        return window.__loads;
+      });
+      await waitFor(page, () => customElements.get('kloub-viewer')._testBuild() === 'full', null, 'the full app to load');
+      await waitFor(page, () => {
+        const d = document.getElementById('v').dataset;
+        return d.panel === 'side' && d.status === 'ready' && d.time === '0.500';
+      }, null, 'the panel to appear with the model back');
+      await sleep(300);
+      const d = await ds(page);
+      assert(d.model === 'default.glb' && d.clip === clips[1] && d.time === '0.500' && d.playing === 'false', `state after the move: ${JSON.stringify(d)}`);
+      assert(d.camera.startsWith('0.40000,0.10000,5.00000'), `camera after the move: ${d.camera}`);
+      assert(d.backend === backend, `backend after the move: ${d.backend}`);
+      assert(buildsFetched(fetched).includes('full'), 'the full app was fetched');
+      assert(await page.evaluate(() => window.__loads) === loads, 'the move is not a second load event');
+      const controls = await page.evaluate(() => document.getElementById('v')._testAccessibilityControls().length);
+      assert(controls > 5, `the panels' controls: ${controls}`);
+    });
+
+    test(`${backend}: startRagdoll on a widget loads the full app and the character falls`, async (ctx) => {
+      const { page } = ctx;
+      const fetched = await widgetPage(page, ctx.url, attrs);
+      await ready(page);
+      assert(!buildsFetched(fetched).includes('full'), 'no full app before it is needed');
+      await page.evaluate(() => document.getElementById('v').startRagdoll());
+      await waitFor(page, () => ['simulating', 'resting'].includes(document.getElementById('v').dataset.ragdoll), null, 'the ragdoll to start');
+      assert(buildsFetched(fetched).includes('full'), 'the full app was fetched');
+      await sleep(200);
+      const d = await ds(page);
+      assert(d.status === 'ready' && d.model === 'default.glb', `state: ${JSON.stringify(d)}`);
+    });
+  }
+}
