@@ -173,7 +173,7 @@ export declare class KloubViewer extends HTMLElement {
   crossfadeTo(name: string | null, seconds?: number): void;
   /** Plays `clip` on the subtree under `rootJoint` with `weight` in [0, 1]; a null clip removes the layer. */
   setLayer(clip: string | null, rootJoint: string | null, weight?: number): void;
-  /** Drags `joint` to the world point by IK (`depth` joints above it turn, default 2); null clears every goal. */
+  /** Drags `joint` to the world point by IK (`depth` joints above it turn, default 2); null clears every goal. Needs the full app (its handle is drawn in the view): on the light widget build the page loads it first. */
   setIkTarget(joint: string | null, target?: [number, number, number] | null, depth?: number): void;
   /**
    * The solver of `joint`'s IK goal (set its target first). Two-bone: `pole` (the middle joint bends towards it;
@@ -202,15 +202,15 @@ export declare class KloubViewer extends HTMLElement {
   setSkinningPath(path: SkinningPath): void;
   /** Colours vertices by their distance from linear blend skinning's result. */
   setHeatmap(on: boolean): void;
-  /** Overlays: the skeleton (names on hover), the framing bounds, the deformed wireframe, the normals. */
+  /** Overlays: the skeleton (names on hover), the framing bounds, the deformed wireframe, the normals. Needs the full app: on the light widget build the page loads it first and the call applies once the model is back (errors then come as `error` events). */
   setOverlays(overlays: { skeleton?: boolean; bounds?: boolean; wireframe?: boolean; normals?: boolean; bodies?: boolean }): void;
-  /** Drops the character as a ragdoll from the pose on screen (data-ragdoll: simulating, then resting). */
+  /** Drops the character as a ragdoll from the pose on screen (data-ragdoll: simulating, then resting). Needs the full app: on the light widget build the page loads it first and the call applies once the model is back (errors then come as `error` events). */
   startRagdoll(): void;
-  /** Ends the ragdoll: at once, or blending back to the animation over `seconds`. */
+  /** Ends the ragdoll: at once, or blending back to the animation over `seconds`. Needs the full app: on the light widget build the page loads it first and the call applies once the model is back (errors then come as `error` events). */
   stopRagdoll(seconds?: number): void;
-  /** Gravity in m/s² for a person-sized body (scaled to the model) and velocity damping per second. */
+  /** Gravity in m/s² for a person-sized body (scaled to the model) and velocity damping per second. Needs the full app: on the light widget build the page loads it first and the call applies once the model is back (errors then come as `error` events). */
   setRagdollOptions(options: { gravity?: number; damping?: number }): void;
-  /** Selects a joint by name: its axes are drawn and its channels plotted in the panel; null clears. */
+  /** Selects a joint by name: its axes are drawn and its channels plotted in the panel; null clears. Needs the full app: on the light widget build the page loads it first and the call applies once the model is back (errors then come as `error` events). */
   selectJoint(name: string | null): void;
   /** Holds morph target `target` (index or name) of the mesh on node `node` at `weight`; null lets the clip drive it. */
   setMorphWeight(node: string, target: number | string, weight: number | null): void;
