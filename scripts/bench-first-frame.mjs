@@ -12,12 +12,14 @@
 import { createServer } from 'node:http';
 import { readFileSync, statSync } from 'node:fs';
 import { extname, resolve } from 'node:path';
-import { gzipSync } from 'node:zlib';
+import { brotliCompressSync, constants, gzipSync } from 'node:zlib';
 import { chromium } from 'playwright-core';
 import { BASE_FLAGS, ROOT, WEBGPU_FLAGS } from '../tests/browser/lib.mjs';
 
 const RUNS = Number(process.env.KLOUB_BENCH_RUNS ?? 5);
 const BACKENDS = (process.env.KLOUB_BACKENDS ?? 'webgpu,webgl2').split(',');
+/** `gzip` (default) or `br` (brotli 10, as `kloub serve` sends its bundle), for both viewers' files. */
+const ENCODING = process.env.KLOUB_BENCH_ENCODING ?? 'gzip';
 const PROFILE = { offline: false, latency: 170, downloadThroughput: (9e6 / 8), uploadThroughput: (9e6 / 8) };
 const MIME = { '.html': 'text/html', '.js': 'text/javascript', '.wasm': 'application/wasm', '.glb': 'model/gltf-binary' };
 const ROOTS = {
@@ -35,7 +37,7 @@ const PAGES = {
 <script>document.querySelector('model-viewer').addEventListener('load', () => { window.__firstFrame = performance.now(); });</script>`,
 };
 
-const gzipped = new Map();
+const compressed = new Map();
 function serve() {
   const server = createServer((req, res) => {
     const url = new URL(req.url, 'http://x');
@@ -51,9 +53,17 @@ function serve() {
       return;
     }
     const type = MIME[extname(file)] ?? 'application/octet-stream';
-    if (type !== 'model/gltf-binary' && /\bgzip\b/.test(req.headers['accept-encoding'] ?? '')) {
-      if (!gzipped.has(file)) gzipped.set(file, gzipSync(readFileSync(file), { level: 9 }));
-      res.writeHead(200, { 'content-type': type, 'content-encoding': 'gzip' }).end(gzipped.get(file));
+    const accepts = req.headers['accept-encoding'] ?? '';
+    const encoding = ENCODING === 'br' && /\bbr\b/.test(accepts) ? 'br' : /\bgzip\b/.test(accepts) ? 'gzip' : null;
+    if (type !== 'model/gltf-binary' && encoding) {
+      const key = `${encoding}:${file}`;
+      if (!compressed.has(key)) {
+        const data = readFileSync(file);
+        compressed.set(key, encoding === 'br'
+          ? brotliCompressSync(data, { params: { [constants.BROTLI_PARAM_QUALITY]: 10, [constants.BROTLI_PARAM_LGWIN]: 24 } })
+          : gzipSync(data, { level: 9 }));
+      }
+      res.writeHead(200, { 'content-type': type, 'content-encoding': encoding }).end(compressed.get(key));
     } else {
       res.writeHead(200, { 'content-type': type }).end(readFileSync(file));
     }
@@ -98,7 +108,7 @@ try {
     rows.push([name, median(times), Math.min(...times), Math.max(...times), transferred]);
   }
   const mv = rows.at(-1)[1];
-  console.log(`Fox, cold cache, 9 Mbit/s, 170 ms RTT; median of ${RUNS} runs\n`);
+  console.log(`Fox, cold cache, 9 Mbit/s, 170 ms RTT, ${ENCODING}; median of ${RUNS} runs\n`);
   console.log('| viewer | first frame (median) | min–max | transferred by then | vs model-viewer |');
   console.log('|---|---:|---:|---:|---:|');
   for (const [name, med, min, max, bytes] of rows) {

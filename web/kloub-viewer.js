@@ -11,8 +11,8 @@
 // (WebGPU only, or with WebGL2 where the browser has no WebGPU) unless the element has `controls`; the full app
 // (panels, ragdoll, IK handles, overlays) is loaded when an element or a method needs it, and every viewer of the
 // page moves over to it with its state.
-import { viewToHash, hashToView, applyView } from './hash-state.js';
-import { AccessibilityMirror, ACCESSIBILITY_STYLE } from './accessibility.js';
+// Imported when needed, not before the first frame: hash-state.js (a viewer moving to another build or back
+// from a panic) and accessibility.js (the panels' mirror, with `controls`).
 
 // ---- the page runtime: one module instance, one frame loop, shared by every element ----
 
@@ -27,7 +27,8 @@ const GLUE = {
 const WASM = { widget: 'kloub_widget_bg.wasm', 'widget-gl': 'kloub_widget_gl_bg.wasm', full: 'kloub_web_bg.wasm' };
 /** The build the page runs (null until the first element chose). */
 let build = null;
-let compiled = null;
+/** Each build's compiled module (a promise), by build. */
+const compiled = {};
 let runtime = null;
 let instance = 0;
 let webgpu = null;
@@ -45,18 +46,31 @@ const NEAR = Symbol('near');
  * The wasm module's exports, instantiated once per page (and again after a panic: a new instance from the same
  * compiled module, so no download).
  */
-function loadRuntime() {
-  build ??= 'full';
-  runtime ??= (async () => {
-    const wasmUrl = new URL(`./${WASM[build]}`, import.meta.url);
-    compiled ??= await WebAssembly.compileStreaming(fetch(wasmUrl)).catch(async () => {
+/** A build's wasm, downloaded and compiled once (compiled while it streams in); a failure may be tried again. */
+function compileBuild(name) {
+  compiled[name] ??= (async () => {
+    const wasmUrl = new URL(`./${WASM[name]}`, import.meta.url);
+    try {
+      return await WebAssembly.compileStreaming(fetch(wasmUrl));
+    } catch {
       const response = await fetch(wasmUrl);
       if (!response.ok) throw new Error(`${wasmUrl}: HTTP ${response.status}`);
       return WebAssembly.compile(await response.arrayBuffer());
-    });
-    // Each instance needs its own copy of the glue module (it keeps the instance in a module variable).
-    const glue = await GLUE[build](instance);
-    await glue.default({ module_or_path: compiled });
+    }
+  })().catch((e) => {
+    delete compiled[name];
+    throw e;
+  });
+  return compiled[name];
+}
+
+function loadRuntime() {
+  build ??= 'full';
+  runtime ??= (async () => {
+    // Each instance needs its own copy of the glue module (it keeps the instance in a module variable); fetched
+    // while the wasm downloads and compiles.
+    const [module, glue] = await Promise.all([compileBuild(build), GLUE[build](instance)]);
+    await glue.default({ module_or_path: module });
     glue.setPanicHandler(onPanic);
     return glue;
   })();
@@ -84,6 +98,12 @@ async function buildFor(element) {
   const backend = element.getAttribute('backend');
   if (backend === 'webgl2' || backend === 'gl') return 'widget-gl';
   if (backend === 'webgpu') return 'widget';
+  if (!navigator.gpu) return 'widget-gl';
+  // Most likely: downloaded while the browser is asked for an adapter.
+  if (build === null) {
+    compileBuild('widget').catch(() => {});
+    GLUE.widget(0).catch(() => {});
+  }
   return (await hasWebGpu()) ? 'widget' : 'widget-gl';
 }
 
@@ -95,10 +115,31 @@ async function ensureBuild(to) {
   if (build !== null && BUILDS.indexOf(to) <= BUILDS.indexOf(build)) return;
   build = to;
   runtime = null;
-  compiled = null;
   await loadRuntime();
   if (build !== to) return;
   for (const element of [...mounted]) element[MOVE]();
+}
+
+const preloaded = new Set();
+/**
+ * Starts downloading a model while the module loads: a `<link rel=preload as=fetch>`, whose response the viewer's
+ * own fetch of the same URL then takes (same mode and credentials). Once per URL and page.
+ */
+function preloadModel(src) {
+  let href;
+  try {
+    href = new URL(src, document.baseURI).href;
+  } catch {
+    return;
+  }
+  if (!/^https?:/.test(href) || preloaded.has(href)) return;
+  preloaded.add(href);
+  const link = document.createElement('link');
+  link.rel = 'preload';
+  link.as = 'fetch';
+  link.crossOrigin = 'anonymous';
+  link.href = href;
+  document.head.append(link);
 }
 
 const panics = [];
@@ -391,7 +432,7 @@ export class KloubViewer extends HTMLElement {
   #internals;
   #canvas;
   /** The panels mirrored for assistive technology and the keyboard (with `controls`). */
-  #a11y;
+  #a11y = null;
   /** Announcements for screen readers (an aria-live region). */
   #live;
   #mounting = null;
@@ -425,7 +466,7 @@ export class KloubViewer extends HTMLElement {
     this.#internals = this.attachInternals();
     const root = this.attachShadow({ mode: 'open' });
     const style = document.createElement('style');
-    style.textContent = STYLE + ACCESSIBILITY_STYLE;
+    style.textContent = STYLE;
     const loading = document.createElement('div');
     loading.className = 'kloub-loading';
     loading.textContent = 'Loading…';
@@ -465,22 +506,6 @@ export class KloubViewer extends HTMLElement {
     this.#live.setAttribute('role', 'status');
     this.#live.setAttribute('aria-live', 'polite');
     root.append(style, this.#canvas, this.#poster, this.#prompt, loading, this.#note, this.#live, ...this.#pickers);
-    // The panels' mirror goes before the view: Tab walks the panel, then the 3D view.
-    this.#a11y = new AccessibilityMirror(root, (id, action, number, text) => {
-      const viewer = this.#viewer;
-      if (!viewer || this.#lost) return;
-      viewer.accessibilityAction?.(id, action, number ?? undefined, text ?? undefined);
-      this.#inputPending = true;
-      this.#wake(0);
-    }, (key) => {
-      const viewer = this.#viewer;
-      if (!viewer || this.#lost) return;
-      viewer.key(key, key, true, 0);
-      viewer.key(key, key, false, 0);
-      this.#inputPending = true;
-      this.#wake(0);
-    });
-    root.insertBefore(this.#a11y.root, this.#canvas);
     this.#announcer();
     // Drops are read here (folders too) and handed over whole; capture runs before the canvas's own handler.
     const drag = (on) => (event) => {
@@ -566,10 +591,10 @@ export class KloubViewer extends HTMLElement {
       // With the panels mirrored, Tab walks the page's focus order (the panel's controls, the view) instead of
       // egui's; Escape leaves the view once nothing of egui's (a menu, the help) is open to close.
       if (event.key === 'Tab' && this.hasAttribute('controls')) return;
-      const popup = this.#a11y.root.querySelector('[data-popup]');
+      const popup = this.#a11y?.root.querySelector('[data-popup]');
       if (viewer.key(event.key, event.code, pressed, modifierBits(event))) event.preventDefault();
       if (pressed && event.key === 'Escape' && !popup) {
-        const first = this.#a11y.root.querySelector('button, input');
+        const first = this.#a11y?.root.querySelector('button, input');
         if (first) first.focus();
         else canvas.blur();
       }
@@ -731,7 +756,7 @@ export class KloubViewer extends HTMLElement {
 
   #unmount() {
     mounted.delete(this);
-    this.#a11y.clear();
+    this.#a11y?.clear();
     this.#viewer?.destroy();
     this.#viewer = null;
   }
@@ -772,8 +797,9 @@ export class KloubViewer extends HTMLElement {
             break;
           }
           viewer.setPanels(value !== null);
+          if (value !== null) this.#mirror().then(() => this.#wake(0));
           viewer.setAccessibility?.(value !== null);
-          if (value === null) this.#a11y.clear();
+          if (value === null) this.#a11y?.clear();
           if (!this.hasAttribute('background')) viewer.setBackground(this.#background());
           if (!this.hasAttribute('grid')) viewer.setGrid(this.grid);
           break;
@@ -795,6 +821,7 @@ export class KloubViewer extends HTMLElement {
   async #mount(revive = null) {
     this.dataset.status = 'loading';
     try {
+      if (!revive && this.getAttribute('src')) preloadModel(this.getAttribute('src'));
       await ensureBuild(await buildFor(this));
       const onBuild = build;
       const glue = await loadRuntime();
@@ -829,7 +856,8 @@ export class KloubViewer extends HTMLElement {
         this[MOVE]();
         return;
       }
-      this.#a11y.clear();
+      if (this.hasAttribute('controls')) await this.#mirror();
+      this.#a11y?.clear();
       viewer.setAccessibility?.(this.hasAttribute('controls'));
       viewer.setReducedMotion?.(reducedMotion.matches);
       if (this.#samples.length > 0) viewer.setSamples(JSON.stringify(this.#samples));
@@ -852,12 +880,41 @@ export class KloubViewer extends HTMLElement {
     }
   }
 
+  /** The panels' mirror for assistive technology (made once, with `controls`): before the view in the shadow root,
+   *  so that Tab walks the panel, then the 3D view. */
+  async #mirror() {
+    if (this.#a11y) return;
+    const { AccessibilityMirror, ACCESSIBILITY_STYLE } = await import('./accessibility.js');
+    if (this.#a11y) return;
+    const root = this.shadowRoot;
+    const style = document.createElement('style');
+    style.textContent = ACCESSIBILITY_STYLE;
+    root.prepend(style);
+    this.#a11y = new AccessibilityMirror(root, (id, action, number, text) => {
+      const viewer = this.#viewer;
+      if (!viewer || this.#lost) return;
+      viewer.accessibilityAction?.(id, action, number ?? undefined, text ?? undefined);
+      this.#inputPending = true;
+      this.#wake(0);
+    }, (key) => {
+      const viewer = this.#viewer;
+      if (!viewer || this.#lost) return;
+      viewer.key(key, key, true, 0);
+      viewer.key(key, key, false, 0);
+      this.#inputPending = true;
+      this.#wake(0);
+    });
+    root.insertBefore(this.#a11y.root, this.#canvas);
+  }
+
   /** After a panic: once the model is shown again, restores the rest of the view from the snapshot. */
   #reviveOnLoad(snapshot) {
-    const view = hashToView(viewToHash(snapshot, null), () => {});
-    if (snapshot.playing === 'true') delete view.paused;
-    this.#onModelBack = () => {
+    const state = import('./hash-state.js');
+    this.#onModelBack = async () => {
       this.#onModelBack = null;
+      const { viewToHash, hashToView, applyView } = await state;
+      const view = hashToView(viewToHash(snapshot, null), () => {});
+      if (snapshot.playing === 'true') delete view.paused;
       // The clip first (a cut), then the time on it.
       if (view.clip && view.clip !== this.dataset.clip) {
         try {
@@ -899,7 +956,7 @@ export class KloubViewer extends HTMLElement {
     if (!mounted.has(this)) return;
     mounted.delete(this);
     const snapshot = { ...this.dataset };
-    this.#a11y.clear();
+    this.#a11y?.clear();
     this.#viewer?.destroy();
     this.#viewer = null;
     this.#replaceCanvas();
@@ -999,7 +1056,7 @@ export class KloubViewer extends HTMLElement {
     }
     this.#lastDraw = now;
     const mirrored = viewer.takeAccessibility?.();
-    if (mirrored !== undefined) this.#a11y.apply(mirrored);
+    if (mirrored !== undefined) this.#a11y?.apply(mirrored);
     const camera = this.dataset.camera ?? '';
     if (this.loaded && camera !== this.#lastCamera) {
       const source = this.#userInput ? 'user-interaction' : 'none';

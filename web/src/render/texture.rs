@@ -29,9 +29,39 @@ fn linear_to_srgb(c: f32) -> u8 {
     (s * 255.0 + 0.5) as u8
 }
 
+/// The linear values at which [`linear_to_srgb`]'s byte steps up: `thresholds[k - 1]` is the
+/// smallest `c` it encodes as `k` or more, so the byte of `c` is the number of thresholds ≤ `c`
+/// ([`encode`]) — the same bytes as the formula, by 8 comparisons instead of a `powf`.
+fn srgb_thresholds() -> [f32; 255] {
+    let mut thresholds = [0.0f32; 255];
+    for (k, t) in (1u8..=255).zip(thresholds.iter_mut()) {
+        // The inverse of the encoding at the rounding boundary, then moved by ulps until it is
+        // exactly where the forward formula steps (a handful of steps at most).
+        let s = (f32::from(k) - 0.5) / 255.0;
+        let mut c = if s <= 0.04045 { s / 12.92 } else { ((s + 0.055) / 1.055).powf(2.4) };
+        for _ in 0..1 << 16 {
+            if c > 0.0 && linear_to_srgb(c.next_down()) >= k {
+                c = c.next_down();
+            } else if linear_to_srgb(c) < k {
+                c = c.next_up();
+            } else {
+                break;
+            }
+        }
+        *t = c;
+    }
+    thresholds
+}
+
+/// [`linear_to_srgb`] through its thresholds.
+fn encode(c: f32, thresholds: &[f32; 255]) -> u8 {
+    // At most 255 thresholds are at or below `c`.
+    thresholds.partition_point(|&t| t <= c) as u8
+}
+
 /// Halves a level (box filter in linear light for RGB, plain average for alpha). Odd sizes
 /// fold the last row/column in by clamping.
-fn downsample(level: &MipLevel, to_linear: &[f32; 256]) -> MipLevel {
+fn downsample(level: &MipLevel, to_linear: &[f32; 256], thresholds: &[f32; 255]) -> MipLevel {
     let (w, h) = (level.width as usize, level.height as usize);
     let (nw, nh) = ((w / 2).max(1), (h / 2).max(1));
     let mut rgba8 = vec![0u8; nw * nh * 4];
@@ -47,7 +77,7 @@ fn downsample(level: &MipLevel, to_linear: &[f32; 256]) -> MipLevel {
             }
             let o = (y * nw + x) * 4;
             for c in 0..3 {
-                rgba8[o + c] = linear_to_srgb(sum[c] * 0.25);
+                rgba8[o + c] = encode(sum[c] * 0.25, thresholds);
             }
             // Average of four bytes: at most 255.
             rgba8[o + 3] = (sum[3] * 0.25 + 0.5) as u8;
@@ -73,10 +103,11 @@ pub fn mip_chain(image: &Image, max_size: u32) -> Result<Vec<MipLevel>, String> 
     for (i, v) in to_linear.iter_mut().enumerate() {
         *v = srgb_to_linear(i as u8);
     }
+    let thresholds = srgb_thresholds();
     let mut levels = Vec::new();
     let mut level = MipLevel { width: image.width, height: image.height, rgba8: image.rgba8.clone() };
     loop {
-        let next = (level.width > 1 || level.height > 1).then(|| downsample(&level, &to_linear));
+        let next = (level.width > 1 || level.height > 1).then(|| downsample(&level, &to_linear, &thresholds));
         if level.width <= max_size && level.height <= max_size {
             levels.push(level);
         }
@@ -184,6 +215,18 @@ impl SamplerKey {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn thresholds_encode_as_the_formula_does() {
+        let thresholds = srgb_thresholds();
+        // Every value a box filter of four bytes can give, and a fine sweep with the edges.
+        let mut values: Vec<f32> = (0..=4 * 255 * 64).map(|i| i as f32 / (4.0 * 255.0 * 64.0)).collect();
+        values.extend([-1.0, 0.0, 1e-9, 0.003_130_8, 0.5, 1.0, 2.0, f32::NAN]);
+        values.extend(thresholds.iter().flat_map(|&t| [t, t.next_down(), t.next_up()]));
+        for c in values {
+            assert_eq!(encode(c, &thresholds), linear_to_srgb(c), "at {c}");
+        }
+    }
 
     #[test]
     fn mip_chain_goes_to_one_pixel_and_averages_in_linear_light() {
