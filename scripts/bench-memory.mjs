@@ -24,7 +24,8 @@ const byKind = (now, then = {}) => Object.entries(now).map(([k, v]) => `${k} ${(
 /** N viewers of Fox at w×h on `backend` on the (emptied) embed page, resolved when each drew its model. */
 async function kloubPage(page, base, backend, n, { w = 160, h = 120 } = {}) {
   const viewer = { attrs: { backend, src: '/assets/Fox.glb', autoplay: '' }, style: `width:${w}px;height:${h}px` };
-  await viewersPage(page, base, Array(n).fill(viewer), 'margin:0;max-width:none;display:flex;flex-wrap:wrap');
+  // The embed page's own viewers start on the same backend: the page loads only that backend's build.
+  await viewersPage(page, base, Array(n).fill(viewer), 'margin:0;max-width:none;display:flex;flex-wrap:wrap', backend);
   await allDrawn(page);
 }
 

@@ -245,10 +245,11 @@ export async function viewerEvents(page, id = null) {
 
 /**
  * Opens the server's embed.html and puts `viewers` in place of its body: each `{ id, attrs, style }` becomes a
- * `<kloub-viewer>` with those attributes and inline style; `bodyStyle` is the body's inline style.
+ * `<kloub-viewer>` with those attributes and inline style; `bodyStyle` is the body's inline style. `backend`: the
+ * page's own two viewers start on it (embed.html's `?backend=`), so that the page loads that backend's build first.
  */
-export async function viewersPage(page, url, viewers, bodyStyle = 'margin:0') {
-  await page.goto(`${url}/embed.html`);
+export async function viewersPage(page, url, viewers, bodyStyle = 'margin:0', backend = null) {
+  await page.goto(`${url}/embed.html${backend ? `?backend=${backend}` : ''}`);
   await page.evaluate(({ viewers, bodyStyle }) => {
     document.body.innerHTML = '';
     document.body.style.cssText = bodyStyle;
