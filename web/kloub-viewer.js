@@ -797,9 +797,17 @@ export class KloubViewer extends HTMLElement {
             break;
           }
           viewer.setPanels(value !== null);
-          if (value !== null) this.#mirror().then(() => this.#wake(0));
-          viewer.setAccessibility?.(value !== null);
-          if (value === null) this.#a11y?.clear();
+          if (value !== null) {
+            // The mirror first: turning the tree on sends it whole with the next frame, once.
+            this.#mirror().then(() => {
+              if (this.#viewer !== viewer || !this.hasAttribute('controls')) return;
+              viewer.setAccessibility?.(true);
+              this.#wake(0);
+            });
+          } else {
+            viewer.setAccessibility?.(false);
+            this.#a11y?.clear();
+          }
           if (!this.hasAttribute('background')) viewer.setBackground(this.#background());
           if (!this.hasAttribute('grid')) viewer.setGrid(this.grid);
           break;
@@ -961,7 +969,8 @@ export class KloubViewer extends HTMLElement {
     this.#viewer = null;
     this.#replaceCanvas();
     this.#lost = false;
-    this.#moving = true;
+    // A model already reported by `load` comes back quietly; one still loading reports its first `load` as usual.
+    this.#moving = (snapshot.model ?? '') !== '';
     this.#mounting = this.#mount(snapshot);
   }
 
