@@ -14,7 +14,7 @@ use crate::ik::IkState;
 use crate::load;
 use crate::model::Model;
 use crate::overlay::{self, OverlayScratch, Projection, nearest_within};
-use crate::stage::{Graphics, OverlayKind, Shortcut, Stage, Status};
+use crate::stage::{Graphics, Shortcut, Stage, Status};
 use crate::ui;
 
 pub use crate::stage::{AppConfig, DEFAULT_CROSSFADE};
@@ -169,10 +169,9 @@ impl App {
     }
 
     /// Wakes `ctx` (instead of the previous context) when a command arrives, after the
-    /// viewer moved to a new egui context; the status is written again.
+    /// viewer moved to a new egui context (the status is written again: [`Stage::replace_gpu`]).
     pub fn set_context(&mut self, ctx: &egui::Context) {
         self.stage.controls.set_repaint(Wake::egui(ctx));
-        self.stage.dataset.forget(Key::Status);
         ctx.request_repaint();
     }
 
@@ -257,37 +256,14 @@ impl App {
                 .collect()
         });
         for (key, shift) in presses {
-            let shortcut = match (key, shift) {
-                (K::Questionmark | K::H, _) => {
-                    self.help = !self.help;
-                    None
+            match (key, shift) {
+                (K::Questionmark, _) | (K::H, false) => self.help = !self.help,
+                (K::Escape, false) => self.help = false,
+                _ => {
+                    if let Some(shortcut) = Shortcut::from_key(key.name(), shift) {
+                        self.stage.shortcut(shortcut);
+                    }
                 }
-                (K::Escape, _) => {
-                    self.help = false;
-                    None
-                }
-                (K::F, false) => Some(Shortcut::Frame),
-                (K::B, false) => Some(Shortcut::Toggle(OverlayKind::Skeleton)),
-                (K::W, false) => Some(Shortcut::Toggle(OverlayKind::Wireframe)),
-                (K::N, false) => Some(Shortcut::Toggle(OverlayKind::Normals)),
-                (K::G, false) => Some(Shortcut::Grid),
-                (K::ArrowLeft, true) => Some(Shortcut::Orbit(1, 0)),
-                (K::ArrowRight, true) => Some(Shortcut::Orbit(-1, 0)),
-                (K::ArrowUp, true) => Some(Shortcut::Orbit(0, 1)),
-                (K::ArrowDown, true) => Some(Shortcut::Orbit(0, -1)),
-                // `+` is Shift+= on most layouts.
-                (K::Plus | K::Equals, _) => Some(Shortcut::Zoom(1)),
-                (K::Minus, false) => Some(Shortcut::Zoom(-1)),
-                (K::Space, false) => Some(Shortcut::PlayPause),
-                (K::ArrowRight, false) => Some(Shortcut::Step(1)),
-                (K::ArrowLeft, false) => Some(Shortcut::Step(-1)),
-                (K::Home, false) => Some(Shortcut::Start),
-                (K::ArrowDown, false) => Some(Shortcut::Clip(1)),
-                (K::ArrowUp, false) => Some(Shortcut::Clip(-1)),
-                _ => None,
-            };
-            if let Some(shortcut) = shortcut {
-                self.stage.shortcut(shortcut);
             }
         }
     }
@@ -562,6 +538,30 @@ impl App {
         self.sync_ik_markers();
         if self.stage.model.as_ref().is_some_and(|m| m.is_animating() || m.ragdoll_moving()) {
             ctx.request_repaint();
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn egui_key_names_reach_the_shared_shortcuts() {
+        use egui::Key as K;
+        let cases = [
+            (K::Space, false, Some(Shortcut::PlayPause)),
+            (K::Plus, true, Some(Shortcut::Zoom(1))),
+            (K::Equals, false, Some(Shortcut::Zoom(1))),
+            (K::Minus, false, Some(Shortcut::Zoom(-1))),
+            (K::F, false, Some(Shortcut::Frame)),
+            (K::ArrowLeft, true, Some(Shortcut::Orbit(1, 0))),
+            (K::Home, false, Some(Shortcut::Start)),
+            (K::F, true, None),
+            (K::Q, false, None),
+        ];
+        for (key, shift, want) in cases {
+            assert_eq!(Shortcut::from_key(key.name(), shift), want, "{key:?} shift {shift}");
         }
     }
 }

@@ -145,6 +145,34 @@ pub enum Shortcut {
     Grid,
 }
 
+impl Shortcut {
+    /// The shortcut of a key, by its name: a DOM `KeyboardEvent.key` (`" "`, `"+"`, `"f"`, `"ArrowLeft"`) or the
+    /// same key as egui names it (`"Space"`, `"Plus"`, `"F"`, `"Left"`), with whether Shift was held. One table for both builds.
+    pub fn from_key(name: &str, shift: bool) -> Option<Shortcut> {
+        Some(match (name, shift) {
+            ("ArrowLeft" | "Left", true) => Shortcut::Orbit(1, 0),
+            ("ArrowRight" | "Right", true) => Shortcut::Orbit(-1, 0),
+            ("ArrowUp" | "Up", true) => Shortcut::Orbit(0, 1),
+            ("ArrowDown" | "Down", true) => Shortcut::Orbit(0, -1),
+            ("ArrowLeft" | "Left", false) => Shortcut::Step(-1),
+            ("ArrowRight" | "Right", false) => Shortcut::Step(1),
+            ("ArrowUp" | "Up", false) => Shortcut::Clip(-1),
+            ("ArrowDown" | "Down", false) => Shortcut::Clip(1),
+            (" " | "Space", false) => Shortcut::PlayPause,
+            ("Home", false) => Shortcut::Start,
+            // `+` is Shift+= on most layouts.
+            ("+" | "Plus" | "=" | "Equals", _) => Shortcut::Zoom(1),
+            ("-" | "Minus", false) => Shortcut::Zoom(-1),
+            ("f" | "F", false) => Shortcut::Frame,
+            ("g" | "G", false) => Shortcut::Grid,
+            ("b" | "B", false) => Shortcut::Toggle(OverlayKind::Skeleton),
+            ("w" | "W", false) => Shortcut::Toggle(OverlayKind::Wireframe),
+            ("n" | "N", false) => Shortcut::Toggle(OverlayKind::Normals),
+            _ => return None,
+        })
+    }
+}
+
 /// An overlay a key toggles.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum OverlayKind {

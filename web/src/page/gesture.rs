@@ -234,28 +234,11 @@ impl Input {
     }
 }
 
-/// The shortcut of a key (DOM `key`, or `code` for letters on other layouts), as the full app's.
+/// The widget's shortcut of a key: the app's ([`Shortcut::from_key`]), a letter also by its `code` (other
+/// layouts), without the overlay toggles (the overlays are drawn by the full app).
 fn shortcut(key: &str, code: &str, shift: bool) -> Option<Shortcut> {
     let letter = code.strip_prefix("Key").filter(|l| l.len() == 1);
-    Some(match (key, shift) {
-        ("ArrowLeft", true) => Shortcut::Orbit(1, 0),
-        ("ArrowRight", true) => Shortcut::Orbit(-1, 0),
-        ("ArrowUp", true) => Shortcut::Orbit(0, 1),
-        ("ArrowDown", true) => Shortcut::Orbit(0, -1),
-        ("ArrowLeft", false) => Shortcut::Step(-1),
-        ("ArrowRight", false) => Shortcut::Step(1),
-        ("ArrowUp", false) => Shortcut::Clip(-1),
-        ("ArrowDown", false) => Shortcut::Clip(1),
-        (" ", false) => Shortcut::PlayPause,
-        ("Home", false) => Shortcut::Start,
-        ("+" | "=", _) => Shortcut::Zoom(1),
-        ("-", false) => Shortcut::Zoom(-1),
-        _ => match letter.or(Some(key)).map(str::to_ascii_uppercase).as_deref() {
-            Some("F") if !shift => Shortcut::Frame,
-            Some("G") if !shift => Shortcut::Grid,
-            _ => return None,
-        },
-    })
+    Shortcut::from_key(letter.unwrap_or(key), shift).filter(|s| !matches!(s, Shortcut::Toggle(_)))
 }
 
 #[cfg(test)]
