@@ -1,14 +1,18 @@
 // Time to first frame of an embedded viewer on a slow link: <kloub-viewer src=Fox.glb autoplay> (no controls: the
 // light widget build) against model-viewer 4.4.0 (the npm dev dependency) on the same page and model, in the same
-// headless Debian chromium with the browser tests' flags. Each run is a fresh browser context (cold cache) throttled
-// with CDP network emulation to a "Fast 4G" profile: 9 Mbit/s both ways, 170 ms round trip. Measured: from the
-// navigation's start to the element's `load` event (Kloub: the model's first frame is drawn; model-viewer: the model
-// is loaded and shown), in ms; and the bytes the page transferred by then. Both are served by one local server with
-// gzip -9 (what `kloub serve` and a CDN send; model-viewer's module and Kloub's files alike), the model as is.
+// headless Debian chromium with the browser tests' flags. Each run is a fresh browser (its GPU stack started once on
+// a blank page, as a user's browser has it) and a fresh context (cold cache) throttled with CDP network emulation to
+// a "Fast 4G" profile: 9 Mbit/s both ways, 170 ms round trip. Measured from the navigation's start, in ms: the
+// element's `load` event (Kloub: the model's first frame is drawn; model-viewer: the model is loaded, its first
+// frame still to come), and the first animation frame after it — the model's first frame on screen for both (with
+// SwiftShader the browser makes no frame while the GPU process still works on the last: model-viewer's shaders and
+// environment); and the bytes the page transferred by then. Both are served by one local server with gzip -9 (what
+// `kloub serve` and a CDN send; model-viewer's module and Kloub's files alike), the model as is.
 //
 //   scripts/build-web.sh && node scripts/bench-first-frame.mjs
 //
-// KLOUB_BENCH_RUNS (default 5; the median is printed), KLOUB_BACKENDS (webgpu,webgl2).
+// KLOUB_BENCH_RUNS (default 5; the median is printed), KLOUB_BACKENDS (webgpu,webgl2), KLOUB_BENCH_ENCODING=br,
+// KLOUB_BENCH_TRACE=1 (each run's resource timings, console, long tasks and gaps between animation frames).
 import { createServer } from 'node:http';
 import { readFileSync, statSync } from 'node:fs';
 import { extname, resolve } from 'node:path';
@@ -20,6 +24,8 @@ const RUNS = Number(process.env.KLOUB_BENCH_RUNS ?? 5);
 const BACKENDS = (process.env.KLOUB_BACKENDS ?? 'webgpu,webgl2').split(',');
 /** `gzip` (default) or `br` (brotli 10, as `kloub serve` sends its bundle), for both viewers' files. */
 const ENCODING = process.env.KLOUB_BENCH_ENCODING ?? 'gzip';
+/** KLOUB_BENCH_TRACE=1: each run's resource timings (start, first byte, end) and the page's console, on stderr. */
+const TRACE = process.env.KLOUB_BENCH_TRACE === '1';
 const PROFILE = { offline: false, latency: 170, downloadThroughput: (9e6 / 8), uploadThroughput: (9e6 / 8) };
 const MIME = { '.html': 'text/html', '.js': 'text/javascript', '.wasm': 'application/wasm', '.glb': 'model/gltf-binary' };
 const ROOTS = {
@@ -28,13 +34,17 @@ const ROOTS = {
   '/mv/': resolve(ROOT, 'node_modules/@google/model-viewer/dist'),
 };
 const STYLE = 'display:block;width:640px;height:480px';
+// The `load` event's time, and that of the first animation frame callback after it: model-viewer fires `load` when
+// its model is loaded and draws it (compiling its shaders) in its next animation frame, whose callback runs before
+// this later-registered one; Kloub fires `load` once the model's first frame is drawn.
+const ON_LOAD = `() => { window.__firstFrame = performance.now(); requestAnimationFrame(() => { window.__painted = performance.now(); }); }`;
 const PAGES = {
   '/kloub.html': (q) => `<!doctype html><meta charset="utf-8"><script type="module" src="/dist/kloub-viewer.js"></script>
 <kloub-viewer src="/assets/Fox.glb" autoplay ${q.get('backend') === 'webgl2' ? 'backend="webgl2"' : ''} style="${STYLE}"></kloub-viewer>
-<script>document.querySelector('kloub-viewer').addEventListener('load', () => { window.__firstFrame = performance.now(); });</script>`,
+<script>document.querySelector('kloub-viewer').addEventListener('load', ${ON_LOAD});</script>`,
   '/mv.html': () => `<!doctype html><meta charset="utf-8"><script type="module" src="/mv/model-viewer.min.js"></script>
 <model-viewer src="/assets/Fox.glb" autoplay style="${STYLE}"></model-viewer>
-<script>document.querySelector('model-viewer').addEventListener('load', () => { window.__firstFrame = performance.now(); });</script>`,
+<script>document.querySelector('model-viewer').addEventListener('load', ${ON_LOAD});</script>`,
 };
 
 const compressed = new Map();
@@ -71,25 +81,68 @@ function serve() {
   return new Promise((ok) => server.listen(0, '127.0.0.1', () => ok({ url: `http://127.0.0.1:${server.address().port}`, stop: () => server.close() })));
 }
 
-/** One cold, throttled load of `path`: [ms from navigation start to the first frame, bytes transferred by then]. */
-async function run(browser, url) {
+/** One cold, throttled load of `url`: [ms to `load`, bytes transferred by then, ms to the next animation frame]. */
+async function run(url) {
+  // A browser of its own per run: its GPU process (SwiftShader) may still be busy with the previous page's work.
+  // Warmed as a user's browser is (its GPU process up, WebGL2 and WebGPU started once) on a blank page of
+  // another context, so that neither viewer pays for starting the browser's GPU stack.
+  const browser = await chromium.launch({ executablePath: process.env.KLOUB_CHROMIUM ?? '/usr/bin/chromium', headless: true, args: [...BASE_FLAGS, ...WEBGPU_FLAGS] });
+  const warm = await browser.newContext();
+  const blank = await warm.newPage();
+  await blank.evaluate(async () => {
+    const gl = document.createElement('canvas').getContext('webgl2');
+    gl.clear(gl.COLOR_BUFFER_BIT);
+    gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, new Uint8Array(4));
+    const adapter = await navigator.gpu?.requestAdapter();
+    const device = await adapter?.requestDevice();
+    device?.destroy();
+  });
+  await warm.close();
   const context = await browser.newContext({ viewport: { width: 800, height: 600 } });
   const page = await context.newPage();
+  if (TRACE) {
+    // The page's console lines, each stamped with the page's clock when it was written.
+    await page.addInitScript(() => {
+      for (const level of ['log', 'info', 'warn', 'error', 'debug']) {
+        const original = console[level].bind(console);
+        console[level] = (...args) => original(`[${performance.now().toFixed(0)} ms]`, ...args);
+      }
+      new PerformanceObserver((list) => {
+        for (const e of list.getEntries()) console.info(`long task from ${e.startTime.toFixed(0)} ms for ${e.duration.toFixed(0)} ms`);
+      }).observe({ type: 'longtask', buffered: true });
+      let last = 0;
+      const tick = (t) => {
+        if (last && t - last > 100) console.info(`no animation frame from ${last.toFixed(0)} to ${t.toFixed(0)} ms`);
+        last = t;
+        requestAnimationFrame(tick);
+      };
+      requestAnimationFrame(tick);
+    });
+    page.on('console', (m) => console.error(`  console: ${m.text()}`));
+  }
   const cdp = await context.newCDPSession(page);
   await cdp.send('Network.enable');
   await cdp.send('Network.emulateNetworkConditions', PROFILE);
   let bytes = 0;
   cdp.on('Network.loadingFinished', (e) => { bytes += e.encodedDataLength; });
   await page.goto(url);
-  await page.waitForFunction(() => window.__firstFrame !== undefined, null, { timeout: 120000, polling: 50 });
-  const ms = await page.evaluate(() => window.__firstFrame);
+  await page.waitForFunction(() => window.__painted !== undefined, null, { timeout: 120000, polling: 50 });
+  const [ms, painted] = await page.evaluate(() => [window.__firstFrame, window.__painted]);
+  if (TRACE) {
+    const entries = await page.evaluate(() => performance.getEntriesByType('resource')
+      .map((e) => [e.name.replace(location.origin, ''), e.startTime, e.responseStart, e.responseEnd, e.encodedBodySize]));
+    for (const [name, start, first, end, size] of entries) {
+      console.error(`  ${name}: ${start.toFixed(0)} → first byte ${first.toFixed(0)} → ${end.toFixed(0)} ms (${size} B)`);
+    }
+    console.error(`  first frame: ${ms.toFixed(0)} ms`);
+  }
   await context.close();
-  return [ms, bytes];
+  await browser.close();
+  return [ms, bytes, painted];
 }
 
 const median = (xs) => [...xs].sort((a, b) => a - b)[Math.floor(xs.length / 2)];
 const server = await serve();
-const browser = await chromium.launch({ executablePath: process.env.KLOUB_CHROMIUM ?? '/usr/bin/chromium', headless: true, args: [...BASE_FLAGS, ...WEBGPU_FLAGS] });
 try {
   const impls = [
     ...BACKENDS.map((b) => [`kloub-viewer (widget), ${b === 'webgl2' ? 'WebGL2' : 'WebGPU'}`, `/kloub.html?backend=${b}`]),
@@ -98,23 +151,25 @@ try {
   const rows = [];
   for (const [name, path] of impls) {
     const times = [];
+    const painted = [];
     let transferred = 0;
     for (let i = 0; i < RUNS; i++) {
-      const [ms, bytes] = await run(browser, `${server.url}${path}`);
+      const [ms, bytes, frame] = await run(`${server.url}${path}`);
       times.push(ms);
+      painted.push(frame);
       transferred = bytes;
-      console.error(`${name}: run ${i + 1}: ${ms.toFixed(0)} ms, ${bytes} B`);
+      console.error(`${name}: run ${i + 1}: load ${ms.toFixed(0)} ms, next frame ${frame.toFixed(0)} ms, ${bytes} B`);
     }
-    rows.push([name, median(times), Math.min(...times), Math.max(...times), transferred]);
+    rows.push([name, median(times), Math.min(...times), Math.max(...times), transferred, median(painted)]);
   }
   const mv = rows.at(-1)[1];
+  const mvPainted = rows.at(-1)[5];
   console.log(`Fox, cold cache, 9 Mbit/s, 170 ms RTT, ${ENCODING}; median of ${RUNS} runs\n`);
-  console.log('| viewer | first frame (median) | min–max | transferred by then | vs model-viewer |');
-  console.log('|---|---:|---:|---:|---:|');
-  for (const [name, med, min, max, bytes] of rows) {
-    console.log(`| ${name} | ${med.toFixed(0)} ms | ${min.toFixed(0)}–${max.toFixed(0)} ms | ${(bytes / 1024).toFixed(0)} KB | ${(med / mv).toFixed(2)}× |`);
+  console.log('| viewer | `load` (median) | min–max | transferred by then | vs model-viewer | next frame after `load` | vs model-viewer |');
+  console.log('|---|---:|---:|---:|---:|---:|---:|');
+  for (const [name, med, min, max, bytes, frame] of rows) {
+    console.log(`| ${name} | ${med.toFixed(0)} ms | ${min.toFixed(0)}–${max.toFixed(0)} ms | ${(bytes / 1024).toFixed(0)} KB | ${(med / mv).toFixed(2)}× | ${frame.toFixed(0)} ms | ${(frame / mvPainted).toFixed(2)}× |`);
   }
 } finally {
-  await browser.close();
   server.stop();
 }

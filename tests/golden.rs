@@ -311,3 +311,74 @@ fn plain_target_encodes_srgb_like_the_srgb_target_and_transparent_leaves_alpha()
         assert!((0.02..0.9).contains(&opaque), "{:.1}% of the pixels are opaque", opaque * 100.0);
     }
 }
+
+/// The GPU mip chain (images the browser decodes: `MipMaker`, `shaders/mip.wgsl`) gives the
+/// CPU mip chain's levels (images the importer decodes) within a step per channel and level:
+/// box filter in linear light for colour, plain average for alpha, down to 1×1.
+#[test]
+fn gpu_mips_match_the_cpu_mip_chain() {
+    use kloub_web::render::texture::{COLOR_FORMAT, GPU_MIPPED, MipMaker, mip_chain, mip_count, write_level};
+    let offscreen = Offscreen::new().expect("a wgpu adapter");
+    let (device, queue) = (offscreen.device(), offscreen.queue());
+    let (width, height) = (64u32, 32u32);
+    // Gradients, a hard edge and varying alpha: what averaging in linear light changes most.
+    let mut rgba8 = Vec::new();
+    for y in 0..height {
+        for x in 0..width {
+            let edge = if (x / 3 + y / 5) % 2 == 0 { 255 } else { 0 };
+            rgba8.extend([(x * 4) as u8, edge, (y * 8) as u8, ((x * 7 + y * 13) % 256) as u8]);
+        }
+    }
+    let image = kloub_core::asset::Image { name: None, width, height, rgba8, encoded: None };
+    let expected = mip_chain(&image, u32::MAX).expect("a valid image");
+    assert_eq!(expected.len() as u32, mip_count(width, height));
+    let texture = device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("mips under test"),
+        size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+        mip_level_count: mip_count(width, height),
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: COLOR_FORMAT,
+        usage: GPU_MIPPED,
+        view_formats: &[],
+    });
+    write_level(queue, &texture, 0, &expected[0]);
+    MipMaker::new(device).generate(device, queue, &texture);
+    for (mip, level) in expected.iter().enumerate().skip(1) {
+        // Each level copied into a texture of its own to be read back.
+        let size = wgpu::Extent3d { width: level.width, height: level.height, depth_or_array_layers: 1 };
+        let copy = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("mip level"),
+            size,
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: COLOR_FORMAT,
+            usage: wgpu::TextureUsages::COPY_SRC | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        });
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+        encoder.copy_texture_to_texture(
+            wgpu::TexelCopyTextureInfo {
+                texture: &texture,
+                mip_level: mip as u32,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            copy.as_image_copy(),
+            size,
+        );
+        queue.submit([encoder.finish()]);
+        let actual = offscreen.read_texture(&copy).expect("readback");
+        let largest = actual.as_raw().iter().zip(&level.rgba8).map(|(a, e)| a.abs_diff(*e)).max().unwrap_or(0);
+        eprintln!("GPU mips: level {mip}: largest channel difference {largest}");
+        // Each level is rounded to bytes before the next is made from it, on both paths: the
+        // difference may grow by a step per level (lavapipe: 1, 1, 2, 2, 2, 3).
+        assert!(
+            u32::from(largest) <= mip as u32,
+            "level {mip} ({}×{}): a channel is off by {largest}",
+            level.width,
+            level.height
+        );
+    }
+}

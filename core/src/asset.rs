@@ -262,7 +262,7 @@ impl Default for Material {
     }
 }
 
-/// A decoded image, RGBA8 (sRGB-encoded as stored in the file).
+/// An image: decoded to RGBA8 (sRGB-encoded as stored in the file), or still encoded.
 #[derive(Clone, Debug, Default)]
 pub struct Image {
     /// `name` or URI from the file.
@@ -271,8 +271,41 @@ pub struct Image {
     pub width: u32,
     /// Height in pixels (≥ 1).
     pub height: u32,
-    /// `width * height * 4` bytes, row-major, top row first.
+    /// `width * height * 4` bytes, row-major, top row first; empty while the image is
+    /// [`Image::encoded`].
     pub rgba8: Vec<u8>,
+    /// The file's bytes, not decoded: imported with
+    /// [`crate::import::ImportOptions::decode_images`] off (the browser decodes them).
+    /// `width` and `height` are then the header's.
+    pub encoded: Option<EncodedImage>,
+}
+
+/// An image file as imported, left for the host to decode.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct EncodedImage {
+    /// Its format, from the file's signature.
+    pub format: ImageFormat,
+    /// The whole file.
+    pub bytes: Vec<u8>,
+}
+
+/// An image format the importer reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ImageFormat {
+    /// PNG.
+    Png,
+    /// JPEG (baseline or progressive).
+    Jpeg,
+}
+
+impl ImageFormat {
+    /// Its MIME type.
+    pub fn mime(self) -> &'static str {
+        match self {
+            Self::Png => "image/png",
+            Self::Jpeg => "image/jpeg",
+        }
+    }
 }
 
 impl Asset {

@@ -302,6 +302,28 @@ for (const backend of BACKENDS) {
     assert(coloured > 0.01, `only ${(coloured * 100).toFixed(2)}% of the viewport is coloured: the texture is missing`);
   });
 
+  test(`${backend}: an image the browser cannot decode is drawn white with a warning; the model shows`, async (ctx) => {
+    await openApp(ctx, backend);
+    // CesiumMan's JPEG with its header intact (the importer reads the size from it) and the scan after it garbled.
+    const [gltf, bin, jpeg] = CESIUM_MAN;
+    const broken = Buffer.from(readFileSync(jpeg));
+    const scan = broken.indexOf(Buffer.from([0xff, 0xda]));
+    assert(scan > 0, 'the JPEG has a scan');
+    for (let i = scan + 2; i < broken.length - 2; i++) broken[i] = (i * 7919) & 0xff;
+    await dropFiles(ctx.page, [{ path: gltf }, { path: bin }, { name: basename(jpeg), bytes: broken }]);
+    await waitForDataset(ctx.page, () => document.querySelector('kloub-viewer').dataset.model === 'CesiumMan.gltf' && document.querySelector('kloub-viewer').dataset.status === 'ready', 'CesiumMan.gltf to load');
+    await waitFrames(ctx.page, 2);
+    assert((await dataset(ctx.page)).error === '', 'an error was reported');
+    const shot = await viewportShot(ctx.page);
+    savePng(shot, `${backend}-undecodable-image.png`);
+    assert(nonBackgroundFraction(shot) > 0.02, 'the model is not drawn');
+    // The grid's red and blue axes only (the textured man is over 1 %: the test above).
+    const coloured = saturatedFraction(shot);
+    assert(coloured < 0.005, `${(coloured * 100).toFixed(2)}% of the viewport is coloured: the broken texture was drawn`);
+    const shown = ctx.logs.filter((l) => l.includes('showing CesiumMan.gltf'));
+    assert(shown.at(-1)?.includes('1 warnings'), `the import warning: ${shown.at(-1)}`);
+  });
+
   for (const [name, path] of [['RecursiveSkeletons.glb', RECURSIVE], ['Knight.glb', KNIGHT]]) {
     test(`${backend}: frame-to-fit shows all of ${name}`, async (ctx) => {
       await openApp(ctx, backend);

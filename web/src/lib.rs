@@ -20,6 +20,7 @@ pub mod app;
 pub mod backend;
 pub mod candy;
 pub mod control;
+pub mod decode;
 pub mod dom;
 #[cfg(target_arch = "wasm32")]
 mod entry;

@@ -203,6 +203,10 @@ impl Fps {
     }
 }
 
+/// What a received model becomes when it is shown: the delivery's library of several models
+/// and its URL (see [`Stage::finish_receive`]).
+pub(crate) type Shown = Option<(Option<Library>, Option<String>)>;
+
 /// Files dropped together that hold several models: the side panel lists them.
 pub(crate) struct Library {
     pub(crate) files: Vec<load::SourceFile>,
@@ -252,6 +256,9 @@ pub struct Stage {
     pub(crate) view_rect: Rect,
     /// Large deliveries waiting one frame to be imported (the bar says "Parsing…").
     pub(crate) parsing: Vec<load::Delivery>,
+    /// Imported models waiting for the browser to decode their images ([`crate::decode`]),
+    /// shown in order, with what [`Stage::finish_receive`] is to make of each.
+    pub(crate) decoding: Vec<(LoadedModel, Shown)>,
     /// A screenshot being read back from the GPU.
     pub(crate) screenshot: Option<crate::render::readback::PendingReadback>,
     /// The last screenshot, PNG-encoded (kept for tests; downloaded in the browser).
@@ -348,6 +355,7 @@ impl Stage {
             screenshot_wanted: false,
             view_rect: Rect::ZERO,
             parsing: Vec::new(),
+            decoding: Vec::new(),
             drop_hint: false,
             announce_load: false,
             reported_playing: false,
@@ -500,6 +508,14 @@ impl Stage {
     pub(crate) fn receive(&mut self) {
         // A large delivery is held for one frame so the "Parsing…" bar is painted before the
         // import blocks the frame; small ones are imported at once.
+        // Models whose images the browser has decoded since, in the order they came.
+        let max_size = self.gpu.device.limits().max_texture_dimension_2d;
+        while self.decoding.first().is_some_and(|(m, _)| crate::decode::ready(&m.asset, max_size, None)) {
+            let (model, shown) = self.decoding.remove(0);
+            self.pending = self.pending.saturating_sub(1);
+            let result = self.install(model, None);
+            self.finish_receive(result, shown);
+        }
         let mut arrived = std::mem::take(&mut self.parsing);
         for delivery in self.inbox.take() {
             // A download shared with other viewers counts too (its files come as `shared`).
@@ -521,8 +537,7 @@ impl Stage {
             let files = match (delivery.files, delivery.shared, &delivery.url) {
                 (Ok(_), Some(shared), Some(url)) => {
                     if let Some(model) = crate::shared::cached(url) {
-                        let result = self.install(model, None);
-                        self.finish_receive(result, Some((None, Some(url.clone()))));
+                        self.show_when_decoded(model, Some((None, Some(url.clone()))));
                         continue;
                     }
                     if shared.is_empty() {
@@ -554,22 +569,26 @@ impl Stage {
                     };
                     let models = load::model_names(&files);
                     let url = delivery.url.as_deref();
-                    let result = load::import_model(&files, None).and_then(|mut m| {
+                    let imported = load::import_model(&files, None).map(|mut m| {
                         m.warnings.splice(0..0, notes);
-                        // One model from a URL: the page's other viewers of that URL take this one.
+                        // One model from a URL: the page's other viewers of that URL take this one
+                        // (and wait for the same decoded images).
                         if let Some(url) = url
                             && models.len() <= 1
                         {
                             crate::shared::remember(url, &m);
                         }
-                        self.install(m, None)
+                        m
                     });
                     let library = (models.len() > 1).then(|| {
                         let names: Vec<&str> = models.iter().map(|m| load::base_name(m)).collect();
                         let models_json = serde_json::Value::from(names).to_string();
                         Library { files, models, models_json, shown: Some(0) }
                     });
-                    self.finish_receive(result, Some((library, delivery.url)));
+                    match imported {
+                        Ok(model) => self.show_when_decoded(model, Some((library, delivery.url))),
+                        Err(message) => self.finish_receive(Err(message), None),
+                    }
                     continue;
                 }
                 Err(message) => Err(message),
@@ -581,14 +600,23 @@ impl Stage {
         }
     }
 
+    /// Shows an imported model now, or once the browser has decoded its images (and those of
+    /// the models received before it that wait too): the previous model stays until then.
+    fn show_when_decoded(&mut self, model: LoadedModel, shown: Shown) {
+        let max_size = self.gpu.device.limits().max_texture_dimension_2d;
+        if crate::decode::ready(&model.asset, max_size, self.controls.waker()) && self.decoding.is_empty() {
+            let result = self.install(model, None);
+            self.finish_receive(result, shown);
+        } else {
+            self.pending += 1;
+            self.decoding.push((model, shown));
+        }
+    }
+
     /// The end of one delivery: on success `shown` (the delivery's library of several models,
     /// and its URL; `None` for a sidecar) becomes the shown one and the status is ready; on
     /// failure the error is shown (the model stays).
-    pub(crate) fn finish_receive(
-        &mut self,
-        result: Result<(), String>,
-        shown: Option<(Option<Library>, Option<String>)>,
-    ) {
+    pub(crate) fn finish_receive(&mut self, result: Result<(), String>, shown: Shown) {
         match result {
             Ok(()) => {
                 if let Some((library, url)) = shown {
@@ -605,7 +633,9 @@ impl Stage {
 
     /// Makes `loaded` the shown model, playing its first clip (a sample starts posed by its
     /// sliders instead); on error nothing changes.
-    pub(crate) fn install(&mut self, loaded: LoadedModel, candy: Option<CandyPanel>) -> Result<(), String> {
+    pub(crate) fn install(&mut self, mut loaded: LoadedModel, candy: Option<CandyPanel>) -> Result<(), String> {
+        // Images the browser could not decode (drawn white).
+        loaded.warnings.extend(crate::decode::warnings(&loaded.asset));
         let prefs = self.controls.prefs();
         let named = prefs.clip.as_deref().and_then(|name| {
             let found = loaded.asset.clips.iter().position(|c| c.name.as_deref() == Some(name));

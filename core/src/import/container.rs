@@ -126,6 +126,7 @@ impl Budget {
     }
 
     /// Bytes left.
+    #[cfg(feature = "images")]
     pub fn left(&self) -> u64 {
         self.left
     }

@@ -6,14 +6,16 @@ use super::json::{
     Obj, child, extension, member_error, objects, opt_bool, opt_f32, opt_f32_array, opt_index, opt_object, opt_str,
     opt_u64, req_index,
 };
-use crate::asset::{AlphaMode, Image, Material, TextureRef, TextureTransform};
+use crate::asset::{AlphaMode, EncodedImage, Image, ImageFormat, Material, TextureRef, TextureTransform};
 use crate::error::ImportError;
 use std::borrow::Cow;
+#[cfg(feature = "images")]
 use std::io::Cursor;
 
-/// Decoded images by glTF index; an image that cannot be loaded or decoded is replaced
-/// by a 1×1 white pixel (with a warning) and marked unusable (`false`).
-pub(crate) fn images(cx: &mut Cx<'_>) -> Result<(Vec<Image>, Vec<bool>), ImportError> {
+/// Images by glTF index, decoded or (`decode` false, or without the `images` feature) kept
+/// encoded; an image that cannot be loaded or decoded (or, kept encoded, whose header cannot
+/// be read) is replaced by a 1×1 white pixel (with a warning) and marked unusable (`false`).
+pub(crate) fn images(cx: &mut Cx<'_>, decode: bool) -> Result<(Vec<Image>, Vec<bool>), ImportError> {
     let mut images = Vec::new();
     let mut usable = Vec::new();
     for (image, ptr) in objects(cx.root, "images", "")? {
@@ -25,15 +27,35 @@ pub(crate) fn images(cx: &mut Cx<'_>) -> Result<(Vec<Image>, Vec<bool>), ImportE
             (None, Some(v)) => cx.accessors.view_bytes(v as usize).map(Cow::Borrowed),
             (None, None) => Err(ImportError::new(&ptr, "image has neither uri nor bufferView")),
         };
-        let decoded = bytes.and_then(|b| decode(&b, &ptr, &mut cx.budget));
-        match decoded {
-            Ok((width, height, rgba8)) => {
-                images.push(Image { name, width, height, rgba8 });
+        let loaded = bytes.and_then(|b| {
+            #[cfg(feature = "images")]
+            if decode {
+                return decode_rgba8(&b, &ptr, &mut cx.budget).map(|(width, height, rgba8)| Image {
+                    name: name.clone(),
+                    width,
+                    height,
+                    rgba8,
+                    encoded: None,
+                });
+            }
+            #[cfg(not(feature = "images"))]
+            let _ = decode;
+            keep_encoded(b.into_owned(), &ptr, &mut cx.budget).map(|(width, height, encoded)| Image {
+                name: name.clone(),
+                width,
+                height,
+                rgba8: Vec::new(),
+                encoded: Some(encoded),
+            })
+        });
+        match loaded {
+            Ok(image) => {
+                images.push(image);
                 usable.push(true);
             }
             Err(e) => {
                 cx.warn(e.pointer, format!("{}; image skipped (replaced by a white pixel)", e.message));
-                images.push(Image { name, width: 1, height: 1, rgba8: vec![255; 4] });
+                images.push(Image { name, width: 1, height: 1, rgba8: vec![255; 4], encoded: None });
                 usable.push(false);
             }
         }
@@ -41,8 +63,55 @@ pub(crate) fn images(cx: &mut Cx<'_>) -> Result<(Vec<Image>, Vec<bool>), ImportE
     Ok((images, usable))
 }
 
+/// Checks an image file's header (format and size, against the budget) and keeps its bytes.
+fn keep_encoded(bytes: Vec<u8>, ptr: &str, budget: &mut Budget) -> Result<(u32, u32, EncodedImage), ImportError> {
+    let (format, width, height) = header(&bytes)
+        .ok_or_else(|| ImportError::new(ptr, "cannot decode image: not a PNG or JPEG file, or its header is cut"))?;
+    if width == 0 || height == 0 {
+        return Err(ImportError::new(ptr, format!("image is {width}×{height} pixels")));
+    }
+    budget.take_items(u64::from(width) * u64::from(height), 4, ptr, &format!("image of {width}×{height} pixels"))?;
+    Ok((width, height, EncodedImage { format, bytes }))
+}
+
+/// The format and size of a PNG or JPEG file from its header: PNG's IHDR, JPEG's first
+/// start-of-frame segment. `None` for anything else or a header cut short.
+pub(crate) fn header(bytes: &[u8]) -> Option<(ImageFormat, u32, u32)> {
+    let be32 = |at: usize| bytes.get(at..at + 4).map(|b| u32::from_be_bytes([b[0], b[1], b[2], b[3]]));
+    let be16 = |at: usize| bytes.get(at..at + 2).map(|b| u32::from(u16::from_be_bytes([b[0], b[1]])));
+    if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
+        return (bytes.get(12..16) == Some(b"IHDR")).then(|| Some((ImageFormat::Png, be32(16)?, be32(20)?))).flatten();
+    }
+    if !bytes.starts_with(&[0xFF, 0xD8]) {
+        return None;
+    }
+    let mut at = 2;
+    loop {
+        // Fill bytes before a marker are 0xFF too.
+        while bytes.get(at) == Some(&0xFF) && bytes.get(at + 1) == Some(&0xFF) {
+            at += 1;
+        }
+        if bytes.get(at) != Some(&0xFF) {
+            return None;
+        }
+        let marker = *bytes.get(at + 1)?;
+        match marker {
+            // Markers without a length: TEM, RSTn, SOI.
+            0x01 | 0xD0..=0xD8 => at += 2,
+            // Start of scan or end of image before any frame header.
+            0xD9 | 0xDA => return None,
+            // Start of frame (not DHT 0xC4, JPG 0xC8, DAC 0xCC): precision, height, width.
+            0xC0..=0xCF if !matches!(marker, 0xC4 | 0xC8 | 0xCC) => {
+                return Some((ImageFormat::Jpeg, be16(at + 7)?, be16(at + 5)?));
+            }
+            _ => at = at.checked_add(2 + usize::try_from(be16(at + 2)?).ok()?)?,
+        }
+    }
+}
+
 /// Decodes PNG or JPEG bytes to RGBA8, checking the header's dimensions against the budget first.
-fn decode(bytes: &[u8], ptr: &str, budget: &mut Budget) -> Result<(u32, u32, Vec<u8>), ImportError> {
+#[cfg(feature = "images")]
+fn decode_rgba8(bytes: &[u8], ptr: &str, budget: &mut Budget) -> Result<(u32, u32, Vec<u8>), ImportError> {
     let fail = |e: &dyn std::fmt::Display| ImportError::new(ptr, format!("cannot decode image: {e}"));
     let reader = || image::ImageReader::new(Cursor::new(bytes)).with_guessed_format().map_err(|e| fail(&e));
     let (width, height) = reader()?.into_dimensions().map_err(|e| fail(&e))?;

@@ -131,11 +131,17 @@ pub struct ImportOptions {
     pub budget_bytes: u64,
     /// Deepest node hierarchy accepted. Default 1024.
     pub max_node_depth: u32,
+    /// Decode PNG and JPEG images to RGBA8 ([`crate::asset::Image::rgba8`]); when false, or
+    /// without the `images` feature, each image keeps its file bytes
+    /// ([`crate::asset::Image::encoded`]) for the host to decode (the browser, in the web
+    /// viewer), its size read from the header and checked against the budget all the same.
+    /// Default: whether the `images` feature is on.
+    pub decode_images: bool,
 }
 
 impl Default for ImportOptions {
     fn default() -> Self {
-        Self { budget_bytes: 512 << 20, max_node_depth: 1024 }
+        Self { budget_bytes: 512 << 20, max_node_depth: 1024, decode_images: cfg!(feature = "images") }
     }
 }
 
@@ -180,7 +186,7 @@ pub fn import(bytes: &[u8], resolver: &dyn Resolver, options: &ImportOptions) ->
     let accessors = Accessors::new(root, buffers, &mut budget)?;
     let mut cx = Cx { root, accessors, budget, warnings, resolver, options };
 
-    let (images, usable_images) = material::images(&mut cx)?;
+    let (images, usable_images) = material::images(&mut cx, options.decode_images)?;
     let materials = material::materials(&mut cx, &usable_images)?;
     let mesh_count = array(root, "meshes", "")?.len();
     let skin_count = array(root, "skins", "")?.len();

@@ -925,6 +925,79 @@ fn morph_targets_weights_and_names() {
     assert_eq!(refused(&doc, &bin).pointer, "/meshes/0/weights");
 }
 
+/// An image file of `width` × `height` pixels in `format`, made by the `image` crate.
+fn image_file(width: u32, height: u32, format: image::ImageFormat) -> Vec<u8> {
+    let mut bytes = Vec::new();
+    image::RgbImage::from_fn(width, height, |x, y| image::Rgb([(x * 40 % 256) as u8, (y * 60 % 256) as u8, 200]))
+        .write_to(&mut std::io::Cursor::new(&mut bytes), format)
+        .expect("encode");
+    bytes
+}
+
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+fn images_kept_encoded_have_their_header_size_and_file_bytes() {
+    let (mut doc, mut bin) = base();
+    let png = image_file(5, 3, image::ImageFormat::Png);
+    let jpeg = image_file(7, 2, image::ImageFormat::Jpeg);
+    let a = add_view(&mut doc, &mut bin, &png, None);
+    let b = add_view(&mut doc, &mut bin, &jpeg, None);
+    let garbage = add_view(&mut doc, &mut bin, b"GIF89a not one of ours", None);
+    // A header claiming more pixels than the budget holds: refused before anything is allocated.
+    let mut huge = png[..24].to_vec();
+    huge[16..24].copy_from_slice(&[0, 1, 0, 0, 0, 1, 0, 0]);
+    let huge = add_view(&mut doc, &mut bin, &huge, None);
+    doc["images"] = json!([{"bufferView": a, "mimeType": "image/png"}, {"bufferView": b, "mimeType": "image/jpeg"},
+        {"bufferView": garbage, "mimeType": "image/png"}, {"bufferView": huge, "mimeType": "image/png"}]);
+    doc["textures"] = json!([{"source": 0}, {"source": 1}, {"source": 2}]);
+    doc["materials"] = json!([{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}},
+        {"pbrMetallicRoughness": {"baseColorTexture": {"index": 1}}},
+        {"pbrMetallicRoughness": {"baseColorTexture": {"index": 2}}}]);
+    let options = ImportOptions { decode_images: false, ..ImportOptions::default() };
+    let imported = import(&glb_of(&doc, &bin), &NoResolver, &options).expect("imported");
+    let images = &imported.asset.images;
+    let encoded = |i: usize| images[i].encoded.as_ref().map(|e| (e.format, e.bytes.as_slice()));
+    assert_eq!((images[0].width, images[0].height, images[0].rgba8.len()), (5, 3, 0));
+    assert_eq!(encoded(0), Some((crate::asset::ImageFormat::Png, png.as_slice())));
+    assert_eq!((images[1].width, images[1].height), (7, 2));
+    assert_eq!(encoded(1), Some((crate::asset::ImageFormat::Jpeg, jpeg.as_slice())));
+    let pointers: Vec<&str> = imported.warnings.iter().map(|w| w.pointer.as_str()).collect();
+    assert_eq!(pointers, ["/images/2", "/images/3"], "{:?}", imported.warnings);
+    assert!(imported.warnings[1].message.contains("65536×65536"), "{}", imported.warnings[1].message);
+    assert!(images[2..].iter().all(|i| i.encoded.is_none() && i.rgba8 == [255; 4]));
+    let textured: Vec<bool> = imported.asset.materials.iter().map(|m| m.base_color_texture.is_some()).collect();
+    assert_eq!(textured, [true, true, false]);
+    // Decoded, the same file gives the same size.
+    let decoded = run(&doc, &bin).expect("imported");
+    assert_eq!((decoded.asset.images[1].width, decoded.asset.images[1].height), (7, 2));
+    assert!(decoded.asset.images[1].encoded.is_none());
+}
+
+#[test]
+fn image_headers_are_read_without_trusting_them() {
+    use super::material::header;
+    use crate::asset::ImageFormat::{Jpeg, Png};
+    let png = image_file(300, 20, image::ImageFormat::Png);
+    assert_eq!(header(&png), Some((Png, 300, 20)));
+    for cut in 0..24 {
+        assert_eq!(header(&png[..cut]), None, "PNG cut at {cut}");
+    }
+    let jpeg = image_file(33, 17, image::ImageFormat::Jpeg);
+    assert_eq!(header(&jpeg), Some((Jpeg, 33, 17)));
+    // Every prefix of the file is answered without a panic; those cut before the frame header by None.
+    let sof = jpeg.windows(2).position(|w| w == [0xFF, 0xC0]).expect("a baseline frame header");
+    for cut in 0..jpeg.len() {
+        let read = header(&jpeg[..cut]);
+        assert_eq!(read.is_some(), cut >= sof + 9, "JPEG cut at {cut}");
+    }
+    // A progressive frame after fill bytes and a table; segments with absurd lengths end the search.
+    let progressive = [0xFF, 0xD8, 0xFF, 0xC4, 0, 3, 9, 0xFF, 0xFF, 0xC2, 0, 11, 8, 0, 40, 1, 44, 3];
+    assert_eq!(header(&progressive), Some((Jpeg, 300, 40)));
+    assert_eq!(header(&[0xFF, 0xD8, 0xFF, 0xE0, 0xFF, 0xFF]), None);
+    assert_eq!(header(&[0xFF, 0xD8, 0xFF, 0xDA, 0, 2]), None);
+    assert_eq!(header(b"GIF89a"), None);
+}
+
 #[cfg_attr(not(target_arch = "wasm32"), test)]
 #[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
 fn undecodable_images_are_skipped_with_a_warning() {
@@ -947,6 +1020,11 @@ fn undecodable_images_are_skipped_with_a_warning() {
     ]);
     let imported = run(&doc, &bin).expect("image skipped");
     assert_eq!(imported.warnings.len(), 1, "{:?}", imported.warnings);
+    // Kept encoded, the bad file is found by its header, the good one kept.
+    let options = ImportOptions { decode_images: false, ..ImportOptions::default() };
+    let encoded = import(&glb_of(&doc, &bin), &NoResolver, &options).expect("image skipped");
+    assert_eq!(encoded.warnings.iter().map(|w| w.pointer.as_str()).collect::<Vec<_>>(), ["/images/0"]);
+    assert!(encoded.asset.images[1].encoded.is_some() && encoded.asset.materials[1].base_color_texture.is_some());
     assert_eq!(imported.warnings[0].pointer, "/images/0");
     let a = &imported.asset;
     assert_eq!((a.images[0].width, a.images[0].height), (1, 1));

@@ -33,9 +33,16 @@ pub const SKIN_COMPUTE_WGSL: &str =
 pub const ENVIRONMENT_WGSL: &str =
     concat!(include_str!("../../../shaders/output.wgsl"), include_str!("../../../shaders/environment.wgsl"));
 
+/// `shaders/mip.wgsl`: a mip level from the one above it, for images the browser decoded.
+pub const MIP_WGSL: &str = include_str!("../../../shaders/mip.wgsl");
+
 /// Every shader module the renderer compiles: name, WGSL source, whether it runs on WebGL2.
-pub const SHADER_MODULES: [(&str, &str, bool); 3] =
-    [("mesh", MESH_WGSL, true), ("skin_compute", SKIN_COMPUTE_WGSL, false), ("environment", ENVIRONMENT_WGSL, true)];
+pub const SHADER_MODULES: [(&str, &str, bool); 4] = [
+    ("mesh", MESH_WGSL, true),
+    ("skin_compute", SKIN_COMPUTE_WGSL, false),
+    ("environment", ENVIRONMENT_WGSL, true),
+    ("mip", MIP_WGSL, true),
+];
 
 const GEOMETRY_ATTRIBUTES: [wgpu::VertexAttribute; 2] = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3];
 const ATTRIBUTE_ATTRIBUTES: [wgpu::VertexAttribute; 2] = wgpu::vertex_attr_array![2 => Float32x2, 3 => Float32x4];

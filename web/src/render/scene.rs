@@ -16,7 +16,9 @@ use super::palette::PaletteTexture;
 use super::pipelines::{
     ComputeKit, DEPTH_FORMAT, Layouts, PipelineKey, Pipelines, SKIN_FROM_DRAW, SKIN_WORKGROUP, VertexPath, topology,
 };
-use super::texture::{COLOR_FORMAT, SamplerKey, upload_image};
+#[cfg(target_arch = "wasm32")]
+use super::texture::upload_bitmap;
+use super::texture::{COLOR_FORMAT, MipMaker, SamplerKey, upload_image};
 use super::uniforms::{DrawUniform, FrameUniform, Ground, MaterialUniform, skin_code};
 
 #[cfg(not(target_arch = "wasm32"))]
@@ -274,6 +276,7 @@ pub fn release_unused_uploads(lost: Option<u32>) {
     UPLOADS.with(|uploads| {
         uploads.borrow_mut().retain(|u| u.asset.strong_count() > 0 && lost != Some(u.share));
     });
+    crate::decode::release_unused();
 }
 
 /// Per-frame scratch space, kept to avoid allocating every frame.
@@ -317,6 +320,9 @@ pub struct SceneRenderer {
     pipelines: Pipelines,
     frame_buffer: wgpu::Buffer,
     white: wgpu::TextureView,
+    /// Mip levels of the images the browser decoded (made on the first such image).
+    #[cfg_attr(not(target_arch = "wasm32"), allow(dead_code, reason = "the importer decodes natively"))]
+    mips: Option<MipMaker>,
     samplers: HashMap<SamplerKey, wgpu::Sampler>,
     material_buffer: Option<wgpu::Buffer>,
     empty: GpuScene,
@@ -395,6 +401,7 @@ impl SceneRenderer {
             frame_buffer,
             white,
             samplers: HashMap::new(),
+            mips: None,
             material_buffer: None,
             empty,
             scene: None,
@@ -936,9 +943,24 @@ impl SceneRenderer {
                 if slot.is_none() {
                     let image = &asset.images[t.image as usize];
                     let label = image.name.as_deref().unwrap_or("kloub image");
-                    let texture =
-                        upload_image(device, queue, image, label).map_err(|e| format!("image {}: {e}", t.image))?;
-                    *slot = Some(texture.create_view(&wgpu::TextureViewDescriptor::default()));
+                    let texture = if image.encoded.is_some() {
+                        // Decoded by the browser (crate::decode); one it could not decode stays white.
+                        #[cfg(target_arch = "wasm32")]
+                        let uploaded = crate::decode::bitmap(asset, t.image as usize).and_then(|bitmap| {
+                            let mips = self.mips.get_or_insert_with(|| MipMaker::new(device));
+                            upload_bitmap(device, queue, mips, &bitmap, label)
+                                .map_err(|e| log::warn!("kloub: image {}: {e}; drawn white", t.image))
+                                .ok()
+                        });
+                        #[cfg(not(target_arch = "wasm32"))]
+                        let uploaded = None;
+                        uploaded
+                    } else {
+                        Some(upload_image(device, queue, image, label).map_err(|e| format!("image {}: {e}", t.image))?)
+                    };
+                    if let Some(texture) = texture {
+                        *slot = Some(texture.create_view(&wgpu::TextureViewDescriptor::default()));
+                    }
                 }
             }
         }

@@ -1,5 +1,6 @@
-//! Base-colour textures: sRGB-correct mip chains built on the CPU (works on WebGL2 without
-//! a render-to-texture blit) and sampler creation from glTF sampler settings.
+//! Base-colour textures: sRGB-correct mip chains, built on the CPU for images the importer
+//! decoded and on the GPU ([`MipMaker`]) for those the browser decoded (copied in as they are,
+//! never through the wasm heap), and sampler creation from glTF sampler settings.
 
 use kloub_core::asset::{Image, TextureRef};
 
@@ -145,6 +146,189 @@ pub fn upload_image(
     Ok(texture)
 }
 
+/// Mip levels of a `width` × `height` image down to 1×1.
+pub fn mip_count(width: u32, height: u32) -> u32 {
+    u32::BITS - width.max(height).max(1).leading_zeros()
+}
+
+/// Makes a texture's mip levels 1.. from its level 0 on the GPU, one render pass per level:
+/// each pixel the box filter of its 2×2 block above, in linear light (`shaders/mip.wgsl`).
+/// The texture needs [`GPU_MIPPED`] usage. Made once per renderer, on first use.
+pub struct MipMaker {
+    pipeline: wgpu::RenderPipeline,
+    layout: wgpu::BindGroupLayout,
+    sampler: wgpu::Sampler,
+}
+
+/// The usages of a texture whose mips [`MipMaker`] makes (and that the browser's decoded image
+/// is copied into).
+pub const GPU_MIPPED: wgpu::TextureUsages = wgpu::TextureUsages::TEXTURE_BINDING
+    .union(wgpu::TextureUsages::COPY_DST)
+    .union(wgpu::TextureUsages::COPY_SRC)
+    .union(wgpu::TextureUsages::RENDER_ATTACHMENT);
+
+impl MipMaker {
+    /// The pipeline for [`COLOR_FORMAT`] textures.
+    pub fn new(device: &wgpu::Device) -> Self {
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("kloub mip"),
+            source: wgpu::ShaderSource::Wgsl(super::pipelines::MIP_WGSL.into()),
+        });
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("kloub mip"),
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 1,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                    count: None,
+                },
+            ],
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("kloub mip"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("kloub mip"),
+            layout: Some(&pipeline_layout),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs_mip"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: wgpu::PrimitiveState::default(),
+            depth_stencil: None,
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("fs_mip"),
+                compilation_options: Default::default(),
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: COLOR_FORMAT,
+                    blend: None,
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("kloub mip"),
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            ..Default::default()
+        });
+        Self { pipeline, layout, sampler }
+    }
+
+    /// Fills levels 1.. of `texture` from level 0 and submits the work.
+    pub fn generate(&self, device: &wgpu::Device, queue: &wgpu::Queue, texture: &wgpu::Texture) {
+        let level = |mip: u32| {
+            texture.create_view(&wgpu::TextureViewDescriptor {
+                label: Some("kloub mip level"),
+                base_mip_level: mip,
+                mip_level_count: Some(1),
+                ..Default::default()
+            })
+        };
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("kloub mips") });
+        for mip in 1..texture.mip_level_count() {
+            let source = level(mip - 1);
+            let target = level(mip);
+            let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("kloub mip"),
+                layout: &self.layout,
+                entries: &[
+                    wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&source) },
+                    wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::Sampler(&self.sampler) },
+                ],
+            });
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("kloub mip"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &target,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, &bind_group, &[]);
+            pass.draw(0..3, 0..1);
+        }
+        queue.submit([encoder.finish()]);
+    }
+}
+
+/// The texture of an image the browser decoded: `bitmap` copied into level 0 as it is (not
+/// premultiplied, no colour conversion), the other levels made by `mips`.
+///
+/// # Errors
+/// When the bitmap is larger than the device allows.
+#[cfg(target_arch = "wasm32")]
+pub fn upload_bitmap(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    mips: &MipMaker,
+    bitmap: &web_sys::ImageBitmap,
+    label: &str,
+) -> Result<wgpu::Texture, String> {
+    let (width, height) = (bitmap.width(), bitmap.height());
+    let max = device.limits().max_texture_dimension_2d;
+    if width == 0 || height == 0 || width > max || height > max {
+        return Err(format!("{width}×{height} pixels; this device takes at most {max}×{max}"));
+    }
+    let size = wgpu::Extent3d { width, height, depth_or_array_layers: 1 };
+    let texture = device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size,
+        mip_level_count: mip_count(width, height),
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: COLOR_FORMAT,
+        usage: GPU_MIPPED,
+        view_formats: &[],
+    });
+    queue.copy_external_image_to_texture(
+        &wgpu::CopyExternalImageSourceInfo {
+            source: wgpu::ExternalImageSource::ImageBitmap(bitmap.clone()),
+            origin: wgpu::Origin2d::ZERO,
+            flip_y: false,
+        },
+        wgpu::CopyExternalImageDestInfo {
+            texture: &texture,
+            mip_level: 0,
+            origin: wgpu::Origin3d::ZERO,
+            aspect: wgpu::TextureAspect::All,
+            color_space: wgpu::PredefinedColorSpace::Srgb,
+            premultiplied_alpha: false,
+        },
+        size,
+    );
+    mips.generate(device, queue, &texture);
+    Ok(texture)
+}
+
 /// Writes one mip level.
 pub fn write_level(queue: &wgpu::Queue, texture: &wgpu::Texture, mip: u32, level: &MipLevel) {
     queue.write_texture(
@@ -237,7 +421,7 @@ mod tests {
                 rgba8.extend_from_slice(&[v, v, v, 255]);
             }
         }
-        let image = Image { name: None, width: 3, height: 2, rgba8 };
+        let image = Image { name: None, width: 3, height: 2, rgba8, encoded: None };
         let chain = mip_chain(&image, 4096).expect("valid image");
         let sizes: Vec<(u32, u32)> = chain.iter().map(|l| (l.width, l.height)).collect();
         assert_eq!(sizes, vec![(3, 2), (1, 1)]);
@@ -249,10 +433,10 @@ mod tests {
 
     #[test]
     fn oversized_levels_are_skipped_and_bad_sizes_refused() {
-        let image = Image { name: None, width: 8, height: 2, rgba8: vec![128; 8 * 2 * 4] };
+        let image = Image { name: None, width: 8, height: 2, rgba8: vec![128; 8 * 2 * 4], encoded: None };
         let chain = mip_chain(&image, 4).expect("valid image");
         assert_eq!((chain[0].width, chain[0].height), (4, 1));
-        let bad = Image { name: None, width: 8, height: 2, rgba8: vec![0; 3] };
+        let bad = Image { name: None, width: 8, height: 2, rgba8: vec![0; 3], encoded: None };
         assert!(mip_chain(&bad, 4096).is_err());
     }
 

@@ -1,0 +1,218 @@
+//! Images the importer kept encoded ([`kloub_core::asset::Image::encoded`]: the web builds
+//! import without the `images` feature), decoded by the browser: `createImageBitmap` off the
+//! main thread, not premultiplied, no colour conversion. A model waits for its images before it
+//! is shown ([`ready`]); the texture upload then copies each bitmap into the GPU
+//! ([`crate::render::texture::upload_bitmap`]), so decoded pixels never pass through the wasm
+//! heap and no decoder is part of the download.
+//!
+//! Decoding happens once per asset and page: every viewer showing the asset (one download
+//! shared by URL, [`crate::shared`]) waits for the same bitmaps. Natively the importer decodes
+//! (the `images` feature), so every asset is ready at once.
+
+use std::sync::Arc;
+
+use kloub_core::{Asset, Warning};
+
+use crate::control::Wake;
+
+/// Whether `asset`'s images can be uploaded: none is encoded, or the browser has decoded them
+/// all (or given up on some: [`warnings`]). When not, decoding starts (once per asset), no
+/// image larger than `max_size` on a side (halved until it fits, like the mip levels the CPU
+/// path skips), and `wake` is called when it is done.
+#[cfg(target_arch = "wasm32")]
+pub fn ready(asset: &Arc<Asset>, max_size: u32, wake: Option<Wake>) -> bool {
+    web::ready(asset, max_size, wake)
+}
+
+/// Natively the importer decodes: always ready.
+#[cfg(not(target_arch = "wasm32"))]
+pub fn ready(_asset: &Arc<Asset>, _max_size: u32, _wake: Option<Wake>) -> bool {
+    true
+}
+
+/// What went wrong decoding `asset`'s images: one warning per image the browser could not
+/// decode (drawn white, as the importer does with a file it cannot read).
+#[cfg(target_arch = "wasm32")]
+pub fn warnings(asset: &Asset) -> Vec<Warning> {
+    web::warnings(asset)
+}
+
+/// Natively nothing is decoded here.
+#[cfg(not(target_arch = "wasm32"))]
+pub fn warnings(_asset: &Asset) -> Vec<Warning> {
+    Vec::new()
+}
+
+#[cfg(target_arch = "wasm32")]
+pub use web::bitmap;
+
+/// Lets the bitmaps of assets no viewer shows any more go (closed at once, not left to the
+/// garbage collector): with [`crate::render::scene::release_unused_uploads`].
+pub fn release_unused() {
+    #[cfg(target_arch = "wasm32")]
+    web::release_unused();
+}
+
+/// A size halved until neither side exceeds `max` (at least 1×1).
+pub fn fit(mut width: u32, mut height: u32, max: u32) -> (u32, u32) {
+    while width > max.max(1) || height > max.max(1) {
+        width = (width / 2).max(1);
+        height = (height / 2).max(1);
+    }
+    (width, height)
+}
+
+#[cfg(target_arch = "wasm32")]
+mod web {
+    use std::cell::RefCell;
+    use std::sync::{Arc, Weak};
+
+    use kloub_core::asset::EncodedImage;
+    use kloub_core::{Asset, Warning};
+    use wasm_bindgen::JsCast;
+
+    use crate::control::Wake;
+
+    /// One asset's images.
+    struct Entry {
+        asset: Weak<Asset>,
+        /// Per image, once decoding is done: the bitmap (`None`: not encoded, or undecodable).
+        bitmaps: Option<Vec<Option<web_sys::ImageBitmap>>>,
+        warnings: Vec<Warning>,
+        /// Viewers waiting for the bitmaps.
+        waiting: Vec<Wake>,
+    }
+
+    thread_local! {
+        static ENTRIES: RefCell<Vec<Entry>> = const { RefCell::new(Vec::new()) };
+    }
+
+    fn find<T>(asset: &Asset, f: impl FnOnce(&mut Entry) -> T) -> Option<T> {
+        release_unused();
+        ENTRIES.with(|entries| entries.borrow_mut().iter_mut().find(|e| std::ptr::eq(e.asset.as_ptr(), asset)).map(f))
+    }
+
+    pub fn release_unused() {
+        ENTRIES.with(|entries| {
+            entries.borrow_mut().retain(|e| {
+                let alive = e.asset.strong_count() > 0;
+                if !alive {
+                    for bitmap in e.bitmaps.iter().flatten().flatten() {
+                        bitmap.close();
+                    }
+                }
+                alive
+            });
+        });
+    }
+
+    pub fn ready(asset: &Arc<Asset>, max_size: u32, wake: Option<Wake>) -> bool {
+        if asset.images.iter().all(|i| i.encoded.is_none()) {
+            return true;
+        }
+        let known = find(asset, |entry| {
+            let done = entry.bitmaps.is_some();
+            if !done && let Some(wake) = wake.clone() {
+                entry.waiting.push(wake);
+            }
+            done
+        });
+        match known {
+            Some(done) => done,
+            None => {
+                ENTRIES.with(|entries| {
+                    entries.borrow_mut().push(Entry {
+                        asset: Arc::downgrade(asset),
+                        bitmaps: None,
+                        warnings: Vec::new(),
+                        waiting: wake.into_iter().collect(),
+                    });
+                });
+                let asset = asset.clone();
+                wasm_bindgen_futures::spawn_local(async move {
+                    let mut bitmaps = Vec::with_capacity(asset.images.len());
+                    let mut warnings = Vec::new();
+                    // Every image handed to the browser first, so that they decode in parallel.
+                    let pending: Vec<_> = asset
+                        .images
+                        .iter()
+                        .map(|image| image.encoded.as_ref().map(|e| start(e, image.width, image.height, max_size)))
+                        .collect();
+                    for (i, promise) in pending.into_iter().enumerate() {
+                        let Some(promise) = promise else {
+                            bitmaps.push(None);
+                            continue;
+                        };
+                        match finish(promise).await {
+                            Ok(bitmap) => bitmaps.push(Some(bitmap)),
+                            Err(e) => {
+                                warnings.push(Warning::new(
+                                    format!("/images/{i}"),
+                                    format!("the browser cannot decode this image ({e}); image skipped (drawn white)"),
+                                ));
+                                bitmaps.push(None);
+                            }
+                        }
+                    }
+                    let waiting = find(&asset, |entry| {
+                        entry.bitmaps = Some(bitmaps);
+                        entry.warnings = warnings;
+                        std::mem::take(&mut entry.waiting)
+                    });
+                    for wake in waiting.into_iter().flatten() {
+                        wake.wake();
+                    }
+                });
+                false
+            }
+        }
+    }
+
+    pub fn warnings(asset: &Asset) -> Vec<Warning> {
+        find(asset, |e| e.warnings.clone()).unwrap_or_default()
+    }
+
+    /// The browser's bitmap of image `image` of `asset`, once decoded.
+    pub fn bitmap(asset: &Asset, image: usize) -> Option<web_sys::ImageBitmap> {
+        find(asset, |e| e.bitmaps.as_ref().and_then(|b| b.get(image).cloned().flatten())).flatten()
+    }
+
+    /// Hands the file to the browser's decoder.
+    fn start(image: &EncodedImage, width: u32, height: u32, max_size: u32) -> Result<js_sys::Promise, String> {
+        let window = web_sys::window().ok_or("no window")?;
+        let parts = js_sys::Array::of1(&js_sys::Uint8Array::from(image.bytes.as_slice()));
+        let bag = web_sys::BlobPropertyBag::new();
+        bag.set_type(image.format.mime());
+        let blob = web_sys::Blob::new_with_u8_array_sequence_and_options(&parts, &bag).map_err(describe)?;
+        let options = web_sys::ImageBitmapOptions::new();
+        options.set_premultiply_alpha(web_sys::PremultiplyAlpha::None);
+        options.set_color_space_conversion(web_sys::ColorSpaceConversion::None);
+        let (fit_width, fit_height) = super::fit(width, height, max_size);
+        if (fit_width, fit_height) != (width, height) {
+            options.set_resize_width(fit_width);
+            options.set_resize_height(fit_height);
+            options.set_resize_quality(web_sys::ResizeQuality::High);
+        }
+        window.create_image_bitmap_with_blob_and_image_bitmap_options(&blob, &options).map_err(describe)
+    }
+
+    async fn finish(promise: Result<js_sys::Promise, String>) -> Result<web_sys::ImageBitmap, String> {
+        let value = wasm_bindgen_futures::JsFuture::from(promise?).await.map_err(describe)?;
+        value.dyn_into::<web_sys::ImageBitmap>().map_err(|_| "not an image bitmap".to_owned())
+    }
+
+    fn describe(e: wasm_bindgen::JsValue) -> String {
+        e.dyn_ref::<js_sys::Error>().map_or_else(|| format!("{e:?}"), |e| String::from(e.message()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn sizes_halve_until_they_fit() {
+        assert_eq!(super::fit(1024, 512, 2048), (1024, 512));
+        assert_eq!(super::fit(8192, 1000, 2048), (2048, 250));
+        assert_eq!(super::fit(3, 9000, 2048), (1, 1125));
+        assert_eq!(super::fit(5, 5, 0), (1, 1));
+    }
+}
