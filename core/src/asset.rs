@@ -296,6 +296,8 @@ pub enum ImageFormat {
     Png,
     /// JPEG (baseline or progressive).
     Jpeg,
+    /// WebP, lossy or lossless (`EXT_texture_webp`).
+    Webp,
 }
 
 impl ImageFormat {
@@ -304,6 +306,7 @@ impl ImageFormat {
         match self {
             Self::Png => "image/png",
             Self::Jpeg => "image/jpeg",
+            Self::Webp => "image/webp",
         }
     }
 }

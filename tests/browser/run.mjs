@@ -324,6 +324,39 @@ for (const backend of BACKENDS) {
     assert(shown.at(-1)?.includes('1 warnings'), `the import warning: ${shown.at(-1)}`);
   });
 
+  test(`${backend}: a WebP texture (EXT_texture_webp) is drawn, preferred to its fallback`, async (ctx) => {
+    await openApp(ctx, backend);
+    // A green WebP made by the browser's own encoder, as the texture's EXT_texture_webp source; CesiumMan's blue
+    // and orange JPEG stays as the fallback `source`.
+    const webp = Buffer.from(await ctx.page.evaluate(async () => {
+      const canvas = new OffscreenCanvas(16, 16);
+      const g = canvas.getContext('2d');
+      g.fillStyle = '#10c020';
+      g.fillRect(0, 0, 16, 16);
+      const blob = await canvas.convertToBlob({ type: 'image/webp', quality: 1 });
+      return [...new Uint8Array(await blob.arrayBuffer())];
+    }));
+    assert(webp.subarray(8, 12).toString() === 'WEBP', 'the browser wrote a WebP');
+    const [gltf, bin, jpeg] = CESIUM_MAN;
+    const doc = JSON.parse(readFileSync(gltf, 'utf8'));
+    doc.images.push({ uri: 'green.webp' });
+    doc.textures[0].extensions = { EXT_texture_webp: { source: doc.images.length - 1 } };
+    doc.extensionsUsed = [...(doc.extensionsUsed ?? []), 'EXT_texture_webp'];
+    await dropFiles(ctx.page, [{ name: 'CesiumMan.gltf', bytes: Buffer.from(JSON.stringify(doc)) }, { path: bin }, { path: jpeg },
+      { name: 'green.webp', bytes: webp }]);
+    await waitForDataset(ctx.page, () => document.querySelector('kloub-viewer').dataset.model === 'CesiumMan.gltf' && document.querySelector('kloub-viewer').dataset.status === 'ready', 'CesiumMan.gltf to load');
+    await waitFrames(ctx.page, 2);
+    assert((await dataset(ctx.page)).error === '', 'an error was reported');
+    const shot = await viewportShot(ctx.page);
+    let green = 0;
+    for (let i = 0; i < shot.data.length; i += 4) {
+      const [r, gr, b] = [shot.data[i], shot.data[i + 1], shot.data[i + 2]];
+      if (gr > r + 40 && gr > b + 40) green++;
+    }
+    const fraction = green / (shot.width * shot.height);
+    assert(fraction > 0.01, `only ${(fraction * 100).toFixed(2)}% of the viewport is green: the WebP is not drawn`);
+  });
+
   for (const [name, path] of [['RecursiveSkeletons.glb', RECURSIVE], ['Knight.glb', KNIGHT]]) {
     test(`${backend}: frame-to-fit shows all of ${name}`, async (ctx) => {
       await openApp(ctx, backend);

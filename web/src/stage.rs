@@ -784,10 +784,14 @@ impl Stage {
         let png = result.and_then(|pixels| {
             let mut pixels = pixels;
             crate::render::readback::unpremultiply(&mut pixels);
+            use image::ImageEncoder;
             let image = image::RgbaImage::from_raw(width, height, pixels).ok_or("screenshot: size mismatch")?;
-            let mut out = std::io::Cursor::new(Vec::new());
-            image.write_to(&mut out, image::ImageFormat::Png).map_err(|e| format!("screenshot: {e}"))?;
-            Ok(out.into_inner())
+            // The PNG encoder itself, not `write_to`: that one would link every encoder `image` has.
+            let mut out = Vec::new();
+            image::codecs::png::PngEncoder::new(&mut out)
+                .write_image(image.as_raw(), width, height, image::ExtendedColorType::Rgba8)
+                .map_err(|e| format!("screenshot: {e}"))?;
+            Ok(out)
         });
         match png {
             Ok(png) => {

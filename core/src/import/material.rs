@@ -74,11 +74,32 @@ fn keep_encoded(bytes: Vec<u8>, ptr: &str, budget: &mut Budget) -> Result<(u32, 
     Ok((width, height, EncodedImage { format, bytes }))
 }
 
-/// The format and size of a PNG or JPEG file from its header: PNG's IHDR, JPEG's first
-/// start-of-frame segment. `None` for anything else or a header cut short.
+/// The format and size of a PNG, JPEG or WebP file from its header: PNG's IHDR, JPEG's first
+/// start-of-frame segment, WebP's first chunk (`VP8 `, `VP8L` or `VP8X`). `None` for anything
+/// else or a header cut short.
 pub(crate) fn header(bytes: &[u8]) -> Option<(ImageFormat, u32, u32)> {
     let be32 = |at: usize| bytes.get(at..at + 4).map(|b| u32::from_be_bytes([b[0], b[1], b[2], b[3]]));
     let be16 = |at: usize| bytes.get(at..at + 2).map(|b| u32::from(u16::from_be_bytes([b[0], b[1]])));
+    let le = |at: usize, n: usize| {
+        bytes.get(at..at + n).map(|b| b.iter().rev().fold(0u32, |v, &byte| (v << 8) | u32::from(byte)))
+    };
+    if bytes.get(0..4) == Some(b"RIFF") && bytes.get(8..12) == Some(b"WEBP") {
+        let size = match bytes.get(12..16)? {
+            // Lossy: a key frame's start code, then 14-bit width and height (2 bits of scale above).
+            b"VP8 " => {
+                (bytes.get(23..26)? == [0x9D, 0x01, 0x2A]).then(|| Some((le(26, 2)? & 0x3FFF, le(28, 2)? & 0x3FFF)))
+            }
+            // Lossless: a signature byte, then width − 1 and height − 1 in 14 bits each.
+            b"VP8L" => (*bytes.get(20)? == 0x2F).then(|| {
+                let bits = le(21, 4)?;
+                Some(((bits & 0x3FFF) + 1, ((bits >> 14) & 0x3FFF) + 1))
+            }),
+            // Extended: flags, then the canvas's width − 1 and height − 1 in 24 bits each.
+            b"VP8X" => Some(Some((le(24, 3)? + 1, le(27, 3)? + 1))),
+            _ => None,
+        };
+        return size.flatten().map(|(width, height)| (ImageFormat::Webp, width, height));
+    }
     if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
         return (bytes.get(12..16) == Some(b"IHDR")).then(|| Some((ImageFormat::Png, be32(16)?, be32(20)?))).flatten();
     }
@@ -176,7 +197,17 @@ fn texture_ref(
 ) -> Result<Option<TextureRef>, ImportError> {
     let t = req_index(info, "index", ptr, textures.len(), "texture")? as usize;
     let (texture, tptr) = &textures[t];
-    let Some(image) = opt_index(texture, "source", tptr, usable_images.len(), "image")? else {
+    // A WebP image (EXT_texture_webp) is preferred; `source`, when present, is its fallback (also
+    // when the WebP cannot be read).
+    let webp = match extension(texture, "EXT_texture_webp", tptr)? {
+        Some(x) => {
+            opt_index(x, "source", &format!("{tptr}/extensions/EXT_texture_webp"), usable_images.len(), "image")?
+        }
+        None => None,
+    };
+    let fallback = opt_index(texture, "source", tptr, usable_images.len(), "image")?;
+    let usable = |i: Option<_>| i.filter(|&i| usable_images[i as usize]);
+    let Some(image) = usable(webp).or(usable(fallback)).or(webp).or(fallback) else {
         cx.warn(tptr.as_str(), "texture has no source image in a supported format; not drawn");
         return Ok(None);
     };

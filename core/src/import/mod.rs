@@ -25,7 +25,7 @@ use std::collections::HashMap;
 
 /// Extensions a file may require: everything else in `extensionsRequired` is refused.
 pub const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] =
-    &["KHR_texture_transform", "KHR_mesh_quantization", "KHR_materials_unlit"];
+    &["KHR_texture_transform", "KHR_mesh_quantization", "KHR_materials_unlit", "EXT_texture_webp"];
 
 /// Bytes charged per JSON value (a `serde_json::Value` plus, in objects, its key and map
 /// entry): a JSON bomb of tiny values is refused before it is parsed.

@@ -998,6 +998,70 @@ fn image_headers_are_read_without_trusting_them() {
     assert_eq!(header(b"GIF89a"), None);
 }
 
+#[test]
+fn webp_headers_give_their_size() {
+    use super::material::header;
+    use crate::asset::ImageFormat::Webp;
+    // Lossless, as the `image` crate writes it.
+    let lossless = image_file(300, 17, image::ImageFormat::WebP);
+    assert_eq!(header(&lossless), Some((Webp, 300, 17)));
+    for cut in 0..25 {
+        assert_eq!(header(&lossless[..cut]), None, "WebP cut at {cut}");
+    }
+    // Lossy: a key frame's start code, then 14-bit width and height (the scale bits above are not size).
+    let mut lossy = b"RIFF\0\0\0\0WEBPVP8 \0\0\0\0\0\0\0\x9d\x01\x2a".to_vec();
+    lossy.extend([0x20, 0x43, 0x10, 0x00]); // 800 | scale 1 << 14, 16
+    assert_eq!(header(&lossy), Some((Webp, 800, 16)));
+    lossy[23] = 0;
+    assert_eq!(header(&lossy), None, "no start code");
+    // Extended: the canvas size minus one in 24 bits each.
+    let mut extended = b"RIFF\0\0\0\0WEBPVP8X\0\0\0\0\x10\0\0\0".to_vec();
+    extended.extend([0xFF, 0x0F, 0x00, 0x01, 0x00, 0x01]);
+    assert_eq!(header(&extended), Some((Webp, 4096, 65538)));
+    assert_eq!(header(b"RIFF\0\0\0\0WEBPVP9 \0\0\0\0"), None);
+}
+
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+fn webp_textures_are_preferred_with_their_fallback_for_when_they_cannot_be_read() {
+    let (mut doc, mut bin) = base();
+    let png = image_file(2, 2, image::ImageFormat::Png);
+    let webp = image_file(4, 3, image::ImageFormat::WebP);
+    let views =
+        [&png[..], &webp[..], &b"RIFF\0\0\0\0WEBPVP8L broken"[..]].map(|b| add_view(&mut doc, &mut bin, b, None));
+    doc["extensionsUsed"] = json!(["EXT_texture_webp"]);
+    doc["extensionsRequired"] = json!(["EXT_texture_webp"]);
+    doc["images"] = json!([{"bufferView": views[0], "mimeType": "image/png"},
+        {"bufferView": views[1], "mimeType": "image/webp"}, {"bufferView": views[2], "mimeType": "image/webp"}]);
+    doc["textures"] = json!([
+        {"source": 0, "extensions": {"EXT_texture_webp": {"source": 1}}},
+        {"source": 0, "extensions": {"EXT_texture_webp": {"source": 2}}},
+        {"extensions": {"EXT_texture_webp": {"source": 1}}},
+    ]);
+    doc["materials"] =
+        Value::Array((0..3).map(|t| json!({"pbrMetallicRoughness": {"baseColorTexture": {"index": t}}})).collect());
+    let textured = |imported: &Imported| -> Vec<Option<u32>> {
+        imported.asset.materials.iter().map(|m| m.base_color_texture.map(|t| t.image)).collect()
+    };
+    // Decoded: the WebP's pixels; the broken one warned about and replaced by the PNG fallback.
+    let decoded = run(&doc, &bin).expect("imported");
+    assert_eq!(textured(&decoded), [Some(1), Some(0), Some(1)]);
+    let image = &decoded.asset.images[1];
+    assert_eq!((image.width, image.height, image.rgba8.len()), (4, 3, 48));
+    assert_eq!(&image.rgba8[4..8], [40, 0, 200, 255]);
+    assert_eq!(decoded.warnings.iter().map(|w| w.pointer.as_str()).collect::<Vec<_>>(), ["/images/2"]);
+    // Kept encoded: the same choice, the file's format and size from its header.
+    let options = ImportOptions { decode_images: false, ..ImportOptions::default() };
+    let encoded = import(&glb_of(&doc, &bin), &NoResolver, &options).expect("imported");
+    assert_eq!(textured(&encoded), [Some(1), Some(0), Some(1)]);
+    let image = &encoded.asset.images[1];
+    assert_eq!((image.width, image.height), (4, 3));
+    assert_eq!(
+        image.encoded.as_ref().map(|e| (e.format, e.format.mime())),
+        Some((crate::asset::ImageFormat::Webp, "image/webp"))
+    );
+}
+
 #[cfg_attr(not(target_arch = "wasm32"), test)]
 #[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
 fn undecodable_images_are_skipped_with_a_warning() {
