@@ -131,7 +131,8 @@ fn shape(type_name: &str) -> Option<(&'static str, usize, usize)> {
 /// All buffers, views and accessors of a document.
 #[derive(Debug)]
 pub(crate) struct Accessors<'a> {
-    buffers: Vec<Cow<'a, [u8]>>,
+    /// `None`: a buffer without data (refused where a view of it is read).
+    buffers: Vec<Option<Cow<'a, [u8]>>>,
     views: Vec<View>,
     list: Vec<Accessor>,
 }
@@ -143,7 +144,7 @@ fn span(offset: u64, stride: u64, count: u64, element: u64) -> Option<u64> {
 
 impl<'a> Accessors<'a> {
     /// Validates every buffer view and accessor of `root` against `buffers`.
-    pub fn new(root: &Obj, buffers: Vec<Cow<'a, [u8]>>, budget: &mut Budget) -> Result<Self, ImportError> {
+    pub fn new(root: &Obj, buffers: Vec<Option<Cow<'a, [u8]>>>, budget: &mut Budget) -> Result<Self, ImportError> {
         let view_objects = objects(root, "bufferViews", "")?;
         budget.take_items(view_objects.len() as u64, size_of::<View>() as u64, "/bufferViews", "buffer views")?;
         let mut views = Vec::with_capacity(view_objects.len());
@@ -164,7 +165,8 @@ impl<'a> Accessors<'a> {
                     format!("byteStride {s} is not a multiple of 4 in 4..=252"),
                 ));
             }
-            let buffer_len = buffers[buffer].len() as u64;
+            // A buffer without data: its views are checked where they are read.
+            let buffer_len = buffers[buffer].as_ref().map_or(u64::MAX, |b| b.len() as u64);
             if offset.checked_add(length).is_none_or(|end| end > buffer_len) {
                 return Err(ImportError::new(
                     ptr.as_str(),
@@ -297,11 +299,17 @@ impl<'a> Accessors<'a> {
     pub fn view_bytes(&self, view: usize) -> Result<&[u8], ImportError> {
         let v =
             self.views.get(view).ok_or_else(|| ImportError::new(format!("/bufferViews/{view}"), "does not exist"))?;
+        if let Some(None) = self.buffers.get(v.buffer) {
+            return Err(ImportError::new(
+                format!("/buffers/{}", v.buffer),
+                format!("buffer has no uri and the file has no GLB BIN chunk for it (bufferView {view} is read)"),
+            ));
+        }
         let start = usize::try_from(v.offset).ok();
         let end = v.offset.checked_add(v.length).and_then(|e| usize::try_from(e).ok());
         start
             .zip(end)
-            .and_then(|(s, e)| self.buffers.get(v.buffer)?.get(s..e))
+            .and_then(|(s, e)| self.buffers.get(v.buffer)?.as_ref()?.get(s..e))
             .ok_or_else(|| ImportError::new(format!("/bufferViews/{view}"), "does not fit its buffer"))
     }
 

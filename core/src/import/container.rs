@@ -48,12 +48,26 @@ pub(crate) fn split<'a>(bytes: &'a [u8], warnings: &mut Vec<Warning>) -> Result<
     if version != 2 {
         return Err(glb_error(format!("version {version} is not supported (only glTF 2.0)")));
     }
-    if u64::from(length) != total {
+    if u64::from(length) > total {
         return Err(glb_error(format!("header length {length} does not match the file size {total}")));
     }
+    if u64::from(length) < total {
+        warnings.push(Warning::new(
+            "",
+            format!("{} bytes after the GLB's declared length of {length} are ignored", total - u64::from(length)),
+        ));
+    }
+    // In range: `length <= total`.
+    let bytes = &bytes[..length as usize];
+    let total = u64::from(length);
     let mut chunks = Vec::new();
     let mut at = 12u64;
     while at < total {
+        // Padding after the last chunk, too short to be one.
+        if total - at < 8 && !chunks.is_empty() {
+            warnings.push(Warning::new("", format!("{} bytes after the last GLB chunk are ignored", total - at)));
+            break;
+        }
         let (Some(len), Some(kind)) = (read_u32(bytes, at), read_u32(bytes, at + 4)) else {
             return Err(glb_error(format!("truncated chunk header at byte {at}")));
         };
@@ -189,14 +203,40 @@ fn base64_len(payload: &str) -> Option<u64> {
     (n % 4 != 1).then_some(n / 4 * 3 + (n % 4).saturating_sub(1))
 }
 
-/// Bytes of a `data:` URI: checks the declared size against the budget before decoding.
+/// `%XX` escapes decoded to bytes (a `%` not followed by two hex digits stays as it is).
+fn percent_decode_bytes(s: &str) -> Vec<u8> {
+    let bytes = s.as_bytes();
+    let mut out = Vec::with_capacity(bytes.len());
+    let mut i = 0;
+    while let Some(&b) = bytes.get(i) {
+        let hex = |at: usize| bytes.get(at).and_then(|&c| char::from(c).to_digit(16));
+        match (b, hex(i + 1), hex(i + 2)) {
+            // Two hex digits make a byte (at most 0xFF).
+            (b'%', Some(high), Some(low)) => {
+                out.push((high * 16 + low) as u8);
+                i += 3;
+            }
+            _ => {
+                out.push(b);
+                i += 1;
+            }
+        }
+    }
+    out
+}
+
+/// Bytes of a `data:` URI (base64, or percent-encoded per RFC 2397): checks the size against
+/// the budget before decoding.
 pub(crate) fn decode_data_uri(uri: &str, ptr: &str, budget: &mut Budget) -> Result<Vec<u8>, ImportError> {
     let rest = &uri[5..];
     let Some((header, payload)) = rest.split_once(',') else {
         return Err(ImportError::new(ptr, "data URI has no ',' before its data"));
     };
     if !header.ends_with(";base64") {
-        return Err(ImportError::new(ptr, "data URI is not base64-encoded"));
+        // RFC 2397: without `;base64` the data is the URI's own characters, percent-encoded.
+        let bytes = percent_decode_bytes(payload);
+        budget.take(Some(bytes.len() as u64), ptr, "data URI")?;
+        return Ok(bytes);
     }
     let Some(len) = base64_len(payload) else {
         return Err(ImportError::new(
@@ -229,13 +269,14 @@ pub(crate) fn load_uri<'a>(
 }
 
 /// Loads every buffer, each cut to its declared `byteLength`. The declared lengths are
-/// checked against the budget before anything is loaded.
+/// checked against the budget before anything is loaded. A buffer with no data (no `uri`, and
+/// not the GLB's BIN chunk) is `None`: refused only where something reads it.
 pub(crate) fn load_buffers<'a>(
     root: &Obj,
     container: &Container<'a>,
     resolver: &dyn Resolver,
     budget: &mut Budget,
-) -> Result<Vec<Cow<'a, [u8]>>, ImportError> {
+) -> Result<Vec<Option<Cow<'a, [u8]>>>, ImportError> {
     let buffers = objects(root, "buffers", "")?;
     let mut lengths = Vec::with_capacity(buffers.len());
     for (i, (buffer, ptr)) in buffers.iter().enumerate() {
@@ -244,7 +285,7 @@ pub(crate) fn load_buffers<'a>(
             return Err(ImportError::new(child(ptr, "byteLength"), "byteLength must be at least 1"));
         }
         let embedded = i == 0 && container.bin.is_some() && !buffer.contains_key("uri");
-        if !embedded {
+        if !embedded && buffer.contains_key("uri") {
             budget.take(Some(len), ptr, &format!("buffer of byteLength {len}"))?;
         }
         lengths.push(len);
@@ -256,7 +297,10 @@ pub(crate) fn load_buffers<'a>(
             Some(uri) => load_uri(uri, &uri_ptr, resolver, budget)?,
             None => match container.bin {
                 Some(bin) if i == 0 => Cow::Borrowed(bin),
-                _ => return Err(ImportError::new(ptr, "buffer has no uri and the file has no GLB BIN chunk for it")),
+                _ => {
+                    out.push(None);
+                    continue;
+                }
             },
         };
         let got = bytes.len() as u64;
@@ -264,13 +308,13 @@ pub(crate) fn load_buffers<'a>(
             return Err(ImportError::new(ptr, format!("byteLength {len} exceeds the {got} bytes of its data")));
         }
         // `len <= got`, a usize, so the cast is lossless.
-        out.push(match bytes {
+        out.push(Some(match bytes {
             Cow::Borrowed(b) => Cow::Borrowed(&b[..len as usize]),
             Cow::Owned(mut v) => {
                 v.truncate(len as usize);
                 Cow::Owned(v)
             }
-        });
+        }));
     }
     Ok(out)
 }
@@ -334,12 +378,25 @@ pub(crate) mod tests {
         let mut swapped = file.clone();
         swapped[16..20].copy_from_slice(&CHUNK_BIN.to_le_bytes());
         assert!(split_err(&swapped).contains("first chunk must be JSON"));
-        // A dangling partial chunk header.
-        let mut tail = file;
+        // Bytes after the last chunk, too few for a chunk header, counted in the header's length or
+        // after it: ignored with a warning. Eight or more are a chunk header, and a truncated one is refused.
+        let mut tail = file.clone();
         tail.extend([0, 0, 0, 0]);
         let len = tail.len() as u32;
         tail[8..12].copy_from_slice(&len.to_le_bytes());
-        assert!(split_err(&tail).contains("truncated chunk header"));
+        let mut warnings = Vec::new();
+        assert_eq!(split(&tail, &mut warnings).expect("padding").bin, Some(&[0u8; 8][..]));
+        assert_eq!(warnings[0].message, "4 bytes after the last GLB chunk are ignored");
+        let mut appended = file.clone();
+        appended.extend([7; 20]);
+        let mut warnings = Vec::new();
+        assert_eq!(split(&appended, &mut warnings).expect("appended").bin, Some(&[0u8; 8][..]));
+        assert_eq!(warnings[0].message, "20 bytes after the GLB's declared length of 40 are ignored");
+        let mut dangling = file;
+        dangling.extend([9, 0, 0, 0, 0x42, 0x49, 0x4E, 0x00, 1]);
+        let len = dangling.len() as u32;
+        dangling[8..12].copy_from_slice(&len.to_le_bytes());
+        assert!(split_err(&dangling).contains("declares 9 bytes, but only 1 remain"));
     }
 
     #[test]
@@ -349,7 +406,10 @@ pub(crate) mod tests {
         assert_eq!(ok.expect("valid"), vec![1, 2, 3, 4]);
         assert!(decode_data_uri("data:application/octet-stream;base64,AQID*A==", "/b", &mut budget).is_err());
         assert!(decode_data_uri("data:application/octet-stream;base64,AQIDB", "/b", &mut budget).is_err());
-        assert!(decode_data_uri("data:text/plain,hello", "/b", &mut budget).is_err());
+        // RFC 2397 without base64: the characters themselves, percent-encoded.
+        let plain = decode_data_uri("data:application/octet-stream,%01%02%FFab%zz%4", "/b", &mut budget);
+        assert_eq!(plain.expect("percent-encoded"), [1, 2, 255, b'a', b'b', b'%', b'z', b'z', b'%', b'4']);
+        assert_eq!(decode_data_uri("data:,", "/b", &mut budget).expect("empty"), Vec::<u8>::new());
         assert!(decode_data_uri("data:application/octet-stream;base64", "/b", &mut budget).is_err());
         let mut tiny = Budget::new(2);
         let e = decode_data_uri("data:application/octet-stream;base64,AQIDBA==", "/b", &mut tiny).expect_err("budget");

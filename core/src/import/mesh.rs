@@ -11,11 +11,11 @@ use serde_json::Value;
 /// weights round to about 1/255 per component).
 const WEIGHT_SUM_TOLERANCE: f32 = 8e-3;
 
-/// A mesh plus, per primitive, its largest weighted joint index (checked against the
-/// skins of the nodes that draw it).
+/// A mesh plus, per primitive, its index in the file and its largest weighted joint index
+/// (checked against the skins of the nodes that draw it).
 pub(crate) struct ImportedMesh {
     pub mesh: Mesh,
-    pub max_joints: Vec<Option<u16>>,
+    pub max_joints: Vec<(usize, Option<u16>)>,
 }
 
 /// Parses every mesh.
@@ -34,7 +34,15 @@ fn parse_mesh(cx: &mut Cx<'_>, mesh: &Obj, ptr: &str, material_count: usize) -> 
     }
     let mut primitives = Vec::with_capacity(prims.len());
     let mut max_joints = Vec::with_capacity(prims.len());
-    for (prim, pptr) in &prims {
+    for (index, (prim, pptr)) in prims.iter().enumerate() {
+        // Valid glTF, but nothing to draw: left out (the other primitives keep their indices in messages).
+        if opt_object(prim, "attributes", pptr)?.is_some_and(|a| !a.contains_key("POSITION")) {
+            cx.warn(
+                child(pptr, "attributes"),
+                "no POSITION attribute: the primitive has nothing to draw and is left out",
+            );
+            continue;
+        }
         let (p, max_joint) = parse_primitive(cx, prim, pptr, material_count)?;
         if let Some(first) = primitives.first().map(|f: &Primitive| f.targets.len())
             && p.targets.len() != first
@@ -46,10 +54,12 @@ fn parse_mesh(cx: &mut Cx<'_>, mesh: &Obj, ptr: &str, material_count: usize) -> 
             ));
         }
         primitives.push(p);
-        max_joints.push(max_joint);
+        max_joints.push((index, max_joint));
     }
     let target_count = primitives.first().map_or(0, |p| p.targets.len());
     let weights = match opt_f32_list(mesh, "weights", ptr)? {
+        // Every primitive left out: the declared weights stay (nodes' weights are counted by them).
+        Some(w) if primitives.is_empty() => w,
         Some(w) if w.len() != target_count => {
             return Err(member_error(ptr, "weights", format!("{} weights for {target_count} morph targets", w.len())));
         }

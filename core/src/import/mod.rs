@@ -199,7 +199,7 @@ pub fn import(bytes: &[u8], resolver: &dyn Resolver, options: &ImportOptions) ->
     for (n, node) in nodes.iter().enumerate() {
         let (Some(m), Some(s)) = (node.mesh, node.skin) else { continue };
         let joint_count = skins[s as usize].joints.len();
-        for (p, max_joint) in imported_meshes[m as usize].max_joints.iter().enumerate() {
+        for &(p, max_joint) in &imported_meshes[m as usize].max_joints {
             if let Some(j) = max_joint.filter(|&j| usize::from(j) >= joint_count) {
                 return Err(ImportError::new(
                     format!("/meshes/{m}/primitives/{p}/attributes/JOINTS_0"),

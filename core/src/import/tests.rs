@@ -346,10 +346,19 @@ fn inconsistent_glb_chunks_are_refused() {
     v.extend([0; 4]);
     fix_length(&mut v);
     refuse(&v, "only one BIN chunk is allowed");
+    let mut v = file[..12].to_vec();
+    v.extend([0; 4]);
+    fix_length(&mut v);
+    refuse(&v, "truncated chunk header at byte 12");
+    // Fewer bytes after the last chunk than a chunk header: padding, ignored with a warning.
     let mut v = file.clone();
     v.extend([0; 6]);
     fix_length(&mut v);
-    refuse(&v, "truncated chunk header at byte");
+    let padded = import(&v, &NoResolver, &ImportOptions::default()).expect("padding is not a chunk");
+    assert_eq!(
+        padded.warnings.iter().map(|w| w.message.as_str()).collect::<Vec<_>>(),
+        ["6 bytes after the last GLB chunk are ignored"]
+    );
     let mut v = file[..12].to_vec();
     fix_length(&mut v);
     refuse(&v, "the first chunk must be JSON");
@@ -534,6 +543,40 @@ fn the_sampling_layout_of_clips_is_charged_to_the_budget() {
 
 #[cfg_attr(not(target_arch = "wasm32"), test)]
 #[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+fn data_is_required_only_where_it_is_read() {
+    // A second buffer with no uri (in a GLB only the first may be the BIN chunk), and a view of it.
+    let (mut doc, bin) = base();
+    doc["buffers"].as_array_mut().expect("buffers").push(json!({"byteLength": 64}));
+    doc["bufferViews"].as_array_mut().expect("views").push(json!({"buffer": 1, "byteLength": 36}));
+    let unread = run(&doc, &bin).expect("nothing reads the empty buffer");
+    assert!(unread.warnings.is_empty(), "{:?}", unread.warnings);
+    // Read by an accessor: refused where the data is missing.
+    let views = doc["bufferViews"].as_array().expect("views").len() - 1;
+    doc["accessors"][0]["bufferView"] = json!(views);
+    let e = refused(&doc, &bin);
+    assert_eq!(e.pointer, "/buffers/1");
+    assert!(e.message.contains("no uri") && e.message.contains(&format!("bufferView {views}")), "{e}");
+}
+
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+fn a_primitive_without_positions_is_left_out_with_a_warning() {
+    let (mut doc, bin) = base();
+    doc["meshes"][0]["primitives"] =
+        json!([{"attributes": {"TEXCOORD_0": 2}}, {"attributes": {"POSITION": 0}, "indices": 1}]);
+    let imported = run(&doc, &bin).expect("the other primitive loads");
+    assert_eq!(imported.warnings.len(), 1, "{:?}", imported.warnings);
+    assert_eq!(imported.warnings[0].pointer, "/meshes/0/primitives/0/attributes");
+    let primitives = &imported.asset.meshes[0].primitives;
+    assert_eq!((primitives.len(), primitives[0].vertex_count), (1, 3));
+    // Every primitive without positions: a mesh with nothing to draw, still valid.
+    doc["meshes"][0]["primitives"] = json!([{"attributes": {"TEXCOORD_0": 2}}]);
+    let empty = run(&doc, &bin).expect("nothing to draw is not an error");
+    assert!(empty.asset.meshes[0].primitives.is_empty());
+}
+
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
 fn bad_data_uris_are_refused() {
     let doc = |uri: &str, len: u64| json!({"asset": {"version": "2.0"}, "buffers": [{"byteLength": len, "uri": uri}]});
     let go = |d: Value| import(d.to_string().as_bytes(), &NoResolver, &ImportOptions::default());
@@ -542,8 +585,11 @@ fn bad_data_uris_are_refused() {
     assert!(e.message.contains("exceeds the 3 bytes"), "{e}");
     let e = go(doc("data:application/octet-stream;base64,AQ!D", 3)).expect_err("bad char");
     assert_eq!(e.pointer, "/buffers/0/uri");
-    let e = go(doc("data:application/octet-stream,AQID", 3)).expect_err("not base64");
-    assert_eq!(e.pointer, "/buffers/0/uri");
+    // Not base64 (RFC 2397): the URI's own characters, percent-encoded.
+    let plain = go(doc("data:application/octet-stream,A%01%02", 3)).expect("percent-encoded");
+    assert!(plain.warnings.is_empty());
+    let e = go(doc("data:application/octet-stream,AQ", 3)).expect_err("too short");
+    assert!(e.message.contains("exceeds the 2 bytes"), "{e}");
     assert!(go(doc("data:application/octet-stream;base64,AQID", 3)).is_ok());
     let e = go(doc("../../x", 3)).expect_err("outside");
     assert_eq!(e.pointer, "/buffers/0/uri");
