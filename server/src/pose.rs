@@ -250,6 +250,10 @@ impl fmt::Display for PoseError {
 
 impl std::error::Error for PoseError {}
 
+/// Why the `kloub` tool does not load an absolute `http(s):` URI.
+pub const WEB_URI: &str = "the kloub tool reads only local files (the viewer fetches web addresses): download it \
+                           beside the glTF file and name it by a relative URI";
+
 /// Resolves a glTF file's external URIs to files in its folder (or below it).
 /// URIs that leave the folder (`..`, absolute or drive paths, symlinks out) are refused.
 #[derive(Clone, Debug)]
@@ -267,6 +271,9 @@ impl DirResolver {
 
 impl Resolver for DirResolver {
     fn resolve(&self, uri: &str) -> Result<Vec<u8>, String> {
+        if kloub_core::import::is_web_uri(uri) {
+            return Err(WEB_URI.to_owned());
+        }
         let path = paths::resolve_file(&self.dir, uri).map_err(|r| match r {
             paths::Refusal::Unsafe => "refused: the uri leaves the file's folder".to_owned(),
             paths::Refusal::NotFound => "no such file beside the glTF file".to_owned(),
@@ -696,6 +703,13 @@ mod tests {
             assert!(err.contains("refused") || err.contains("no such file"), "{uri}: {err}");
         }
         assert!(r.resolve("../secret.bin").expect_err("escapes").contains("refused"));
+        // A web address: not downloaded, and said so (the whole import names the URI's pointer).
+        assert_eq!(r.resolve("https://cdn.example/a%20b.bin"), Err(WEB_URI.to_owned()));
+        let gltf =
+            br#"{"asset": {"version": "2.0"}, "buffers": [{"byteLength": 3, "uri": "HTTPS://cdn.example/a.bin"}]}"#;
+        let e = kloub_core::import(gltf, &r, &ImportOptions::default()).expect_err("not fetched");
+        assert_eq!(e.pointer, "/buffers/0/uri");
+        assert!(e.message.contains("HTTPS://cdn.example/a.bin") && e.message.contains("local files"), "{e}");
         let small = DirResolver::new(&base.join("model"), 2).expect("folder exists");
         assert!(small.resolve("a%20b.bin").expect_err("too big").contains("budget"));
         std::fs::remove_dir_all(&base).expect("cleanup");

@@ -967,6 +967,35 @@ for (const backend of BACKENDS) {
     }
   });
 
+  test(`${backend}: a .gltf whose buffer and texture are absolute URLs on another origin loads them (CORS)`, async (ctx) => {
+    const { page } = ctx;
+    await openApp(ctx, backend);
+    const [gltf, bin, jpeg] = CESIUM_MAN;
+    const data = mkdtempSync(join(tmpdir(), 'kloub-cdn-'));
+    const site = mkdtempSync(join(tmpdir(), 'kloub-site-'));
+    copyFileSync(bin, join(data, basename(bin)));
+    copyFileSync(jpeg, join(data, basename(jpeg)));
+    const cdn = await startStatic(data, { cors: true });
+    const doc = JSON.parse(readFileSync(gltf, 'utf8'));
+    doc.buffers[0].uri = `${cdn.url}/${basename(bin)}`;
+    doc.images[0].uri = `${cdn.url}/${basename(jpeg)}`;
+    writeFileSync(join(site, 'CesiumMan.gltf'), JSON.stringify(doc));
+    const models = await startStatic(site, { cors: true });
+    try {
+      const result = await page.evaluate((u) => document.querySelector('kloub-viewer').load(u).then(() => 'loaded', (e) => e.message), `${models.url}/CesiumMan.gltf`);
+      assert(result === 'loaded', `load: ${result}`);
+      await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.status === 'ready', 'CesiumMan.gltf to be ready');
+      await waitFrames(page, 3);
+      const colour = saturatedFraction(await viewportShot(page));
+      assert(colour > 0.005, `the texture from the absolute URL: ${(colour * 100).toFixed(2)}% coloured pixels`);
+    } finally {
+      cdn.stop();
+      models.stop();
+      rmSync(data, { recursive: true, force: true });
+      rmSync(site, { recursive: true, force: true });
+    }
+  });
+
   test(`${backend}: zip archives: a zipped glTF folder animates, dropped and by URL; two models are listed; a bomb is refused`, async (ctx) => {
     const { page } = ctx;
     await openApp(ctx, backend);

@@ -256,11 +256,13 @@ async fn fetch_model(url: &str, inbox: &Inbox, wake: &crate::control::Wake) -> R
         let address = web_sys::Url::new_with_base(&uri, &base)
             .map_err(|_| format!("{url}: the URI {uri:?} it names is not a valid URL"))?
             .href();
-        let relative = kloub_core::import::percent_decode(&uri);
+        // An absolute address is kept under its URI, as the importer asks for it.
+        let name =
+            if kloub_core::import::is_web_uri(&uri) { uri.clone() } else { kloub_core::import::percent_decode(&uri) };
         let left = budget.saturating_sub(total);
-        let bytes = fetch_bytes(&address, base_name(&relative), left, inbox, wake).await?;
+        let bytes = fetch_bytes(&address, base_name(&name), left, inbox, wake).await?;
         total += bytes.len() as u64;
-        files.push(SourceFile { name: relative, bytes });
+        files.push(SourceFile { name, bytes });
     }
     Ok(files)
 }
@@ -292,7 +294,8 @@ pub fn external_uris(gltf: &[u8]) -> Vec<String> {
             let scheme = uri.split_once(':').is_some_and(|(head, _)| {
                 !head.is_empty() && head.chars().all(|c| c.is_ascii_alphanumeric() || "+-.".contains(c))
             });
-            let absolute = scheme || uri.starts_with(['/', '\\']);
+            // Except absolute web addresses: fetched as they are (their server must allow CORS).
+            let absolute = (scheme && !kloub_core::import::is_web_uri(uri)) || uri.starts_with(['/', '\\']);
             if !absolute && !uri.is_empty() && !uris.iter().any(|u| u == uri) && uris.len() < MAX_SIBLINGS {
                 uris.push(uri.to_owned());
             }
@@ -733,12 +736,12 @@ mod tests {
     }
 
     #[test]
-    fn a_gltf_names_its_relative_files_once_and_data_or_absolute_uris_not_at_all() {
+    fn a_gltf_names_its_relative_and_web_files_once_and_data_or_rooted_uris_not_at_all() {
         let gltf = br#"{"buffers": [{"uri": "data%20file.bin"}, {"uri": "data:application/octet-stream;base64,AAAA"},
                         {"uri": "https://cdn.example/x.bin"}, {"uri": "data%20file.bin"}, {}, {"uri": "https:host/y.bin"},
                         {"uri": "\\\\host\\z.bin"}],
                         "images": [{"uri": "tex/skin.png"}, {"bufferView": 0}, {"uri": "/abs.png"}]}"#;
-        assert_eq!(external_uris(gltf), ["data%20file.bin", "tex/skin.png"]);
+        assert_eq!(external_uris(gltf), ["data%20file.bin", "https://cdn.example/x.bin", "tex/skin.png"]);
         assert!(external_uris(b"not json").is_empty());
         assert!(is_gltf_json("Man.gltf", b""));
         assert!(is_gltf_json("model", b"  {\"asset\": {}}"));

@@ -225,6 +225,13 @@ fn percent_decode_bytes(s: &str) -> Vec<u8> {
     out
 }
 
+/// Whether `uri` is an absolute `http:` or `https:` address (glTF allows them for buffers and
+/// images; the viewer fetches them, the `kloub` tool does not).
+pub fn is_web_uri(uri: &str) -> bool {
+    let lower = uri.get(..8).unwrap_or(uri).to_ascii_lowercase();
+    lower.starts_with("http://") || lower.starts_with("https://")
+}
+
 /// Bytes of a `data:` URI (base64, or percent-encoded per RFC 2397): checks the size against
 /// the budget before decoding.
 pub(crate) fn decode_data_uri(uri: &str, ptr: &str, budget: &mut Budget) -> Result<Vec<u8>, ImportError> {
@@ -262,6 +269,11 @@ pub(crate) fn load_uri<'a>(
 ) -> Result<Cow<'a, [u8]>, ImportError> {
     if uri.starts_with("data:") {
         return decode_data_uri(uri, ptr, budget).map(Cow::Owned);
+    }
+    // An absolute web address: the resolver has it (the browser fetched it) or says why not.
+    if is_web_uri(uri) {
+        let bytes = resolver.resolve(uri).map_err(|e| ImportError::new(ptr, format!("cannot load '{uri}': {e}")))?;
+        return Ok(Cow::Owned(bytes));
     }
     check_relative_uri(uri, ptr)?;
     let bytes = resolver.resolve(uri).map_err(|e| ImportError::new(ptr, format!("cannot load '{uri}': {e}")))?;

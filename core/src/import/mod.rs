@@ -10,7 +10,7 @@
 mod accessor;
 mod anim;
 mod container;
-pub use container::percent_decode;
+pub use container::{is_web_uri, percent_decode};
 mod json;
 mod material;
 mod mesh;

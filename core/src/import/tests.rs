@@ -543,6 +543,24 @@ fn the_sampling_layout_of_clips_is_charged_to_the_budget() {
 
 #[cfg_attr(not(target_arch = "wasm32"), test)]
 #[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+fn absolute_web_uris_come_from_the_resolver_other_schemes_are_refused() {
+    let doc = |uri: &str| json!({"asset": {"version": "2.0"}, "buffers": [{"byteLength": 3, "uri": uri}]}).to_string();
+    let mut files = MapResolver::new();
+    files.insert("https://cdn.example/models/a.bin", vec![1, 2, 3]);
+    let fetched = import(doc("https://cdn.example/models/a.bin").as_bytes(), &files, &ImportOptions::default());
+    assert!(fetched.is_ok(), "{fetched:?}");
+    let e =
+        import(doc("http://other.example/b.bin").as_bytes(), &files, &ImportOptions::default()).expect_err("absent");
+    assert_eq!(e.pointer, "/buffers/0/uri");
+    assert!(e.message.contains("cannot load 'http://other.example/b.bin'"), "{e}");
+    for uri in ["ftp://cdn.example/a.bin", "file:///etc/passwd", "https:a.bin"] {
+        let e = import(doc(uri).as_bytes(), &files, &ImportOptions::default()).expect_err(uri);
+        assert!(e.message.contains("only relative paths"), "{uri}: {e}");
+    }
+}
+
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
 fn data_is_required_only_where_it_is_read() {
     // A second buffer with no uri (in a GLB only the first may be the BIN chunk), and a view of it.
     let (mut doc, bin) = base();

@@ -123,6 +123,9 @@ struct LibraryResolver<'a> {
 
 impl Resolver for LibraryResolver<'_> {
     fn resolve(&self, uri: &str) -> Result<Vec<u8>, String> {
+        if kloub_core::import::is_web_uri(uri) {
+            return Err(crate::pose::WEB_URI.to_owned());
+        }
         let decoded = paths::percent_decode(uri).ok_or("refused: invalid percent-encoding")?;
         let segments =
             paths::safe_segments(&decoded).map_err(|_| "refused: the uri leaves the file's folder".to_owned())?;
