@@ -10,6 +10,9 @@ use crate::math::{Quat, QuatExt};
 /// Parses every animation.
 pub(crate) fn clips(cx: &mut Cx<'_>, nodes: &[Node]) -> Result<Vec<Clip>, ImportError> {
     let mut clips = Vec::new();
+    // Nodes given by a `matrix` (glTF animates only TRS nodes), warned about once each.
+    let node_objects = objects(cx.root, "nodes", "")?;
+    let mut matrix_warned = vec![false; node_objects.len()];
     for (anim, ptr) in objects(cx.root, "animations", "")? {
         let samplers = objects(anim, "samplers", &ptr)?;
         let mut channels = Vec::new();
@@ -38,6 +41,20 @@ pub(crate) fn clips(cx: &mut Cx<'_>, nodes: &[Node]) -> Result<Vec<Clip>, Import
             if width == 0 {
                 cx.warn(&tptr, format!("node {node} has no morph targets to animate; channel ignored"));
                 continue;
+            }
+            let n = node as usize;
+            if target != ChannelTarget::Weights
+                && node_objects.get(n).is_some_and(|(o, _)| o.contains_key("matrix"))
+                && matrix_warned.get(n) == Some(&false)
+            {
+                matrix_warned[n] = true;
+                cx.warn(
+                    child(&tptr, "node"),
+                    format!(
+                        "node {node} is animated but given by a matrix (glTF animates only translation, rotation \
+                         and scale); the matrix is taken apart into those"
+                    ),
+                );
             }
             let (s, sptr) = &samplers[sampler];
             if let Some(c) = channel_from_sampler(cx, s, sptr, node, target, width)? {

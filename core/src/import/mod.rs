@@ -193,7 +193,8 @@ pub fn import(bytes: &[u8], resolver: &dyn Resolver, options: &ImportOptions) ->
     let scene::Graph { mut nodes, order, file_weights } = scene::nodes(&mut cx, mesh_count, skin_count)?;
     let (scenes, default_scene) = scene::scenes(&mut cx, &nodes)?;
     let imported_meshes = mesh::meshes(&mut cx, materials.len())?;
-    let skins = scene::skins(&mut cx, nodes.len())?;
+    let mut skins = scene::skins(&mut cx, nodes.len())?;
+    repair_inverse_binds(&mut cx, &mut skins, &nodes);
 
     // Joint indices against the skin each node draws its mesh with.
     for (n, node) in nodes.iter().enumerate() {
@@ -260,6 +261,49 @@ fn check_version(root: &Obj) -> Result<(), ImportError> {
 }
 
 /// Refuses documents that require an extension Kloub does not implement.
+/// Replaces each inverse bind matrix that is not affine or not invertible (it would tear the
+/// mesh apart) by the inverse of its joint's rest world transform, with a warning per skin.
+fn repair_inverse_binds(cx: &mut Cx<'_>, skins: &mut [crate::asset::Skin], nodes: &[crate::asset::Node]) {
+    let world = |mut n: usize| {
+        let mut m = glam::Mat4::IDENTITY;
+        // Parents form a tree (checked when the nodes were read); the depth is bounded by the node count.
+        for _ in 0..=nodes.len() {
+            let Some(node) = nodes.get(n) else { break };
+            m = node.rest.to_mat4() * m;
+            match node.parent {
+                Some(p) => n = p as usize,
+                None => break,
+            }
+        }
+        m
+    };
+    for (s, skin) in skins.iter_mut().enumerate() {
+        let mut repaired = Vec::new();
+        for (j, (matrix, &joint)) in skin.inverse_bind.iter_mut().zip(&skin.joints).enumerate() {
+            let affine = matrix.row(3).abs_diff_eq(glam::Vec4::W, 1e-4);
+            let determinant = matrix.determinant();
+            if affine && determinant.is_finite() && determinant.abs() > 1e-12 {
+                continue;
+            }
+            let rest = world(joint as usize).inverse();
+            *matrix = if rest.is_finite() { rest } else { glam::Mat4::IDENTITY };
+            repaired.push(j);
+        }
+        if !repaired.is_empty() {
+            let list: Vec<String> = repaired.iter().take(8).map(ToString::to_string).collect();
+            cx.warn(
+                format!("/skins/{s}/inverseBindMatrices"),
+                format!(
+                    "{} matrices are not affine or not invertible (joints {}{}); each joint's rest pose is used instead",
+                    repaired.len(),
+                    list.join(", "),
+                    if repaired.len() > 8 { ", …" } else { "" }
+                ),
+            );
+        }
+    }
+}
+
 fn check_required_extensions(root: &Obj) -> Result<(), ImportError> {
     for (i, ext) in array(root, "extensionsRequired", "")?.iter().enumerate() {
         let ptr = child("/extensionsRequired", i);

@@ -7,6 +7,7 @@ use super::*;
 #[cfg(not(target_arch = "wasm32"))]
 use crate::clip::ChannelTarget;
 use crate::clip::Interpolation;
+use glam::{Mat4, Vec3};
 use serde_json::{Value, json};
 #[cfg(not(target_arch = "wasm32"))]
 use std::path::{Path, PathBuf};
@@ -628,8 +629,9 @@ fn uris_outside_the_folder_are_never_resolved() {
         "/x",
         "\\\\server\\x",
         "file:///x",
-        "https://e.invalid/x",
+        "ftp://e.invalid/x",
     ];
+    // (Absolute http(s) addresses go to the resolver: the viewer fetched them, the kloub tool refuses them.)
     for uri in outside {
         let doc = json!({"asset": {"version": "2.0"}, "buffers": [{"byteLength": 4, "uri": uri}]});
         let e = import(doc.to_string().as_bytes(), &Forbidden, &ImportOptions::default()).expect_err(uri);
@@ -671,6 +673,53 @@ fn skinned(joints: [[u8; 4]; 3], weights: [[f32; 4]; 3]) -> (Value, Vec<u8>) {
     doc["scenes"] = json!([{"nodes": [0, 1]}]);
     doc["skins"] = json!([{"joints": [1, 2]}]);
     (doc, bin)
+}
+
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+fn broken_inverse_bind_matrices_are_replaced_by_the_rest_pose_with_a_warning() {
+    let (mut doc, mut bin) = skinned([[0, 1, 0, 0]; 3], [[0.5, 0.5, 0.0, 0.0]; 3]);
+    doc["nodes"][1]["translation"] = json!([0.0, 2.0, 0.0]);
+    doc["nodes"][2]["translation"] = json!([1.0, 0.0, 0.0]);
+    // Joint 0's matrix is fine (the inverse of its rest pose, moved a little); joint 1's is zero.
+    let good = Mat4::from_translation(Vec3::new(0.0, -2.5, 0.0));
+    let matrices = [good.to_cols_array(), [0.0; 16]].concat();
+    let view = add_view(&mut doc, &mut bin, &f32s(&matrices), None);
+    let ibm = add_accessor(&mut doc, json!({"bufferView": view, "componentType": 5126, "count": 2, "type": "MAT4"}));
+    doc["skins"][0]["inverseBindMatrices"] = json!(ibm);
+    let imported = run(&doc, &bin).expect("repaired");
+    assert_eq!(imported.warnings.len(), 1, "{:?}", imported.warnings);
+    assert_eq!(imported.warnings[0].pointer, "/skins/0/inverseBindMatrices");
+    assert!(imported.warnings[0].message.contains("1 matrices") && imported.warnings[0].message.contains("joints 1"));
+    let skin = &imported.asset.skins[0];
+    assert_eq!(skin.inverse_bind[0], good);
+    assert!(skin.inverse_bind[1].abs_diff_eq(Mat4::from_translation(Vec3::new(-1.0, -2.0, 0.0)), 1e-6));
+    // A projective matrix (its last row not 0, 0, 0, 1) is broken too.
+    let mut projective = good.to_cols_array();
+    projective[3] = 0.5;
+    let matrices = [projective, good.to_cols_array()].concat();
+    let view = add_view(&mut doc, &mut bin, &f32s(&matrices), None);
+    let ibm = add_accessor(&mut doc, json!({"bufferView": view, "componentType": 5126, "count": 2, "type": "MAT4"}));
+    doc["skins"][0]["inverseBindMatrices"] = json!(ibm);
+    let imported = run(&doc, &bin).expect("repaired");
+    assert!(imported.warnings[0].message.contains("joints 0"), "{}", imported.warnings[0]);
+    assert!(
+        imported.asset.skins[0].inverse_bind[0].abs_diff_eq(Mat4::from_translation(Vec3::new(0.0, -2.0, 0.0)), 1e-6)
+    );
+}
+
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+fn an_animated_node_given_by_a_matrix_is_warned_about_once() {
+    let (mut doc, bin) = base();
+    doc["nodes"][0]["matrix"] = json!([1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 3, 0, 0, 1]);
+    let channel = doc["animations"][0]["channels"][0].clone();
+    doc["animations"][0]["channels"] = json!([channel.clone(), channel]);
+    let imported = run(&doc, &bin).expect("animated");
+    assert_eq!(imported.warnings.len(), 1, "{:?}", imported.warnings);
+    assert_eq!(imported.warnings[0].pointer, "/animations/0/channels/0/target/node");
+    assert!(imported.warnings[0].message.contains("given by a matrix"), "{}", imported.warnings[0]);
+    assert_eq!(imported.asset.nodes[0].rest.translation, Vec3::new(3.0, 0.0, 0.0));
 }
 
 #[cfg_attr(not(target_arch = "wasm32"), test)]
@@ -960,7 +1009,11 @@ fn node_transforms_are_decomposed_and_repaired() {
     assert_eq!(nodes[2].rest.rotation, crate::math::Quat::IDENTITY);
     assert_eq!(nodes[3].rest.rotation, crate::math::Quat::IDENTITY);
     let pointers: Vec<_> = imported.warnings.iter().map(|w| w.pointer.as_str()).collect();
-    assert_eq!(pointers, ["/nodes/1/matrix", "/nodes/2/rotation", "/nodes/3/rotation"]);
+    // Node 0 is animated by the base document's clip, and given by a matrix.
+    assert_eq!(
+        pointers,
+        ["/nodes/1/matrix", "/nodes/2/rotation", "/nodes/3/rotation", "/animations/0/channels/0/target/node"]
+    );
 }
 
 #[cfg_attr(not(target_arch = "wasm32"), test)]
