@@ -317,7 +317,7 @@ fn plain_target_encodes_srgb_like_the_srgb_target_and_transparent_leaves_alpha()
 /// box filter in linear light for colour, plain average for alpha, down to 1×1.
 #[test]
 fn gpu_mips_match_the_cpu_mip_chain() {
-    use kloub_web::render::texture::{COLOR_FORMAT, GPU_MIPPED, MipMaker, mip_chain, mip_count, write_level};
+    use kloub_web::render::texture::{COLOR_FORMAT, MipMaker, gpu_mipped_texture, mip_chain, mip_count, write_level};
     let offscreen = Offscreen::new().expect("a wgpu adapter");
     let (device, queue) = (offscreen.device(), offscreen.queue());
     let (width, height) = (64u32, 32u32);
@@ -332,16 +332,7 @@ fn gpu_mips_match_the_cpu_mip_chain() {
     let image = kloub_core::asset::Image { name: None, width, height, rgba8, encoded: None };
     let expected = mip_chain(&image, u32::MAX).expect("a valid image");
     assert_eq!(expected.len() as u32, mip_count(width, height));
-    let texture = device.create_texture(&wgpu::TextureDescriptor {
-        label: Some("mips under test"),
-        size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
-        mip_level_count: mip_count(width, height),
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format: COLOR_FORMAT,
-        usage: GPU_MIPPED,
-        view_formats: &[],
-    });
+    let texture = gpu_mipped_texture(device, "mips under test", width, height);
     write_level(queue, &texture, 0, &expected[0]);
     MipMaker::new(device).generate(device, queue, &texture);
     for (mip, level) in expected.iter().enumerate().skip(1) {

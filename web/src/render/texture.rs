@@ -167,6 +167,20 @@ pub const GPU_MIPPED: wgpu::TextureUsages = wgpu::TextureUsages::TEXTURE_BINDING
     .union(wgpu::TextureUsages::COPY_SRC)
     .union(wgpu::TextureUsages::RENDER_ATTACHMENT);
 
+/// A [`COLOR_FORMAT`] texture of `width` × `height` with its whole mip chain, for [`MipMaker`].
+pub fn gpu_mipped_texture(device: &wgpu::Device, label: &str, width: u32, height: u32) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+        mip_level_count: mip_count(width, height),
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: COLOR_FORMAT,
+        usage: GPU_MIPPED,
+        view_formats: &[],
+    })
+}
+
 impl MipMaker {
     /// The pipeline for [`COLOR_FORMAT`] textures.
     pub fn new(device: &wgpu::Device) -> Self {
@@ -299,16 +313,7 @@ pub fn upload_bitmap(
         return Err(format!("{width}×{height} pixels; this device takes at most {max}×{max}"));
     }
     let size = wgpu::Extent3d { width, height, depth_or_array_layers: 1 };
-    let texture = device.create_texture(&wgpu::TextureDescriptor {
-        label: Some(label),
-        size,
-        mip_level_count: mip_count(width, height),
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format: COLOR_FORMAT,
-        usage: GPU_MIPPED,
-        view_formats: &[],
-    });
+    let texture = gpu_mipped_texture(device, label, width, height);
     queue.copy_external_image_to_texture(
         &wgpu::CopyExternalImageSourceInfo {
             source: wgpu::ExternalImageSource::ImageBitmap(bitmap.clone()),
