@@ -45,6 +45,17 @@ pub struct Asset {
     pub weight_offsets: Vec<u32>,
     /// Total length of the flat morph weights array.
     pub weight_total: u32,
+    /// The file's `extensionsUsed` and `extensionsRequired`.
+    pub extensions: Extensions,
+}
+
+/// The glTF extensions a file says it uses (`kloub inspect` lists them).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Extensions {
+    /// `extensionsUsed`, in file order.
+    pub used: Vec<String>,
+    /// `extensionsRequired`, in file order (each one supported: the import refuses the others).
+    pub required: Vec<String>,
 }
 
 /// One glTF node.

@@ -94,6 +94,7 @@ impl CandyWrapper {
             clips: vec![swing("Twist", Vec3::X, 180.0), swing("Bend", Vec3::Z, 150.0)],
             weight_offsets: vec![0; 3],
             weight_total: 0,
+            extensions: Default::default(),
         };
         CandyWrapper { asset, rest_volume }
     }

@@ -441,6 +441,7 @@ mod tests {
             clips: vec![clip],
             weight_offsets: vec![0, 0, 0, 1],
             weight_total: 1,
+            extensions: Default::default(),
             ..Asset::default()
         }
     }

@@ -55,6 +55,7 @@ mod tests {
             order: vec![0, 1, 2],
             weight_offsets: vec![0, 2, 2],
             weight_total: 3,
+            extensions: Default::default(),
             ..Asset::default()
         };
         let mut pose = Pose::rest(&asset);

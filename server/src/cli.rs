@@ -182,6 +182,8 @@ JSON keys (--json), stable:
                          interpolation (STEP|LINEAR|CUBICSPLINE), keys, start, end (s)
   meshes[]:  index, name, primitives, vertices, nodes[] (instancing nodes), morph_targets,
              target_names[]
+  images[]:  index, name, width, height, decoded_bytes (RGBA8, before mips)
+  extensions_used[], extensions_required[] (the file's extension names)
   warnings[]: pointer (JSON pointer), message
 Names are null when the file has none.";
 

@@ -15,6 +15,8 @@
 //!                                "keys", "start", "end"} ]} ],
 //!   "meshes":  [ {"index", "name", "primitives", "vertices", "nodes": [node, ...],
 //!                 "morph_targets", "target_names": [..]} ],
+//!   "images":  [ {"index", "name", "width", "height", "decoded_bytes"} ],
+//!   "extensions_used": ["KHR_...", ...], "extensions_required": [...],
 //!   "warnings": [ {"pointer", "message"} ] }
 //! ```
 //!
@@ -48,6 +50,12 @@ pub struct InspectDoc {
     pub clips: Vec<ClipOut>,
     /// Meshes.
     pub meshes: Vec<MeshOut>,
+    /// Images, with what each costs decoded (RGBA8, before mips).
+    pub images: Vec<ImageOut>,
+    /// The file's `extensionsUsed`.
+    pub extensions_used: Vec<String>,
+    /// The file's `extensionsRequired`.
+    pub extensions_required: Vec<String>,
     /// Defects the importer repaired.
     pub warnings: Vec<WarningOut>,
 }
@@ -159,6 +167,21 @@ pub struct MeshOut {
     pub morph_targets: usize,
     /// Morph target names (`extras.targetNames`), empty when absent.
     pub target_names: Vec<String>,
+}
+
+/// An image.
+#[derive(Clone, Debug, Serialize)]
+pub struct ImageOut {
+    /// glTF index.
+    pub index: usize,
+    /// Name or URI.
+    pub name: Option<String>,
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Bytes decoded, RGBA8 (a texture's mips add a third).
+    pub decoded_bytes: u64,
 }
 
 /// An import warning.
@@ -280,6 +303,20 @@ pub fn describe(asset_name: &str, asset: &Asset, warnings: &[Warning]) -> Inspec
                 target_names: m.target_names.clone(),
             })
             .collect(),
+        images: asset
+            .images
+            .iter()
+            .enumerate()
+            .map(|(index, i)| ImageOut {
+                index,
+                name: i.name.clone(),
+                width: i.width,
+                height: i.height,
+                decoded_bytes: u64::from(i.width) * u64::from(i.height) * 4,
+            })
+            .collect(),
+        extensions_used: asset.extensions.used.clone(),
+        extensions_required: asset.extensions.required.clone(),
         warnings: warnings
             .iter()
             .map(|w| WarningOut { pointer: w.pointer.clone(), message: w.message.clone() })
@@ -362,6 +399,13 @@ fn write_text(doc: &InspectDoc, out: &mut String) -> std::fmt::Result {
         }
         writeln!(out)?;
     }
+    writeln!(out, "\nimages:")?;
+    for i in &doc.images {
+        let mb = i.decoded_bytes as f64 / f64::from(1u32 << 20);
+        writeln!(out, "  {} {}: {}×{}, {mb:.1} MB decoded", i.index, label(i.name.as_deref()), i.width, i.height)?;
+    }
+    let list = |names: &[String]| if names.is_empty() { "(none)".to_owned() } else { names.join(", ") };
+    writeln!(out, "\nextensions: used {}; required {}", list(&doc.extensions_used), list(&doc.extensions_required))?;
     writeln!(out, "\nwarnings:")?;
     if doc.warnings.is_empty() {
         writeln!(out, "  (none)")?;

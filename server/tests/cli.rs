@@ -306,6 +306,29 @@ fn inspect_describes_skins_clips_morph_targets_and_warnings() {
     assert!(text.contains("\"Wave\": 1.833 s"), "{text}");
     assert!(text.contains("WEIGHTS_0: skin weights"), "{text}");
 
+    // Images with their decoded size, and the extensions a file uses.
+    assert_eq!(doc["images"], serde_json::json!([]));
+    assert_eq!(
+        (doc["extensions_used"].clone(), doc["extensions_required"].clone()),
+        (serde_json::json!([]), serde_json::json!([]))
+    );
+    let multi = shared_assets().join("khronos/TextureTransformMultiTest/glTF-Binary/TextureTransformMultiTest.glb");
+    let doc: serde_json::Value =
+        serde_json::from_slice(&kloub_ok(&["inspect", multi.to_str().expect("UTF-8"), "--json"])).expect("JSON");
+    assert_eq!(
+        doc["extensions_used"],
+        serde_json::json!(["KHR_texture_transform", "KHR_materials_unlit", "KHR_materials_clearcoat"])
+    );
+    assert_eq!(doc["extensions_required"], serde_json::json!(["KHR_texture_transform"]));
+    let fox = fox();
+    let doc: serde_json::Value =
+        serde_json::from_slice(&kloub_ok(&["inspect", fox.to_str().expect("UTF-8"), "--json"])).expect("JSON");
+    let image = &doc["images"][0];
+    assert_eq!((image["width"].as_u64(), image["height"].as_u64()), (Some(1024), Some(1024)));
+    assert_eq!(image["decoded_bytes"], 4 << 20);
+    let text = String::from_utf8(kloub_ok(&["inspect", fox.to_str().expect("UTF-8")])).expect("UTF-8");
+    assert!(text.contains("1024×1024, 4.0 MB decoded") && text.contains("extensions: used (none)"), "{text}");
+
     let out = kloub().args(["inspect", "/nonexistent/x.glb"]).output().expect("runs");
     assert_eq!(out.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&out.stderr).starts_with("kloub: /nonexistent/x.glb: cannot read: "));

@@ -246,6 +246,10 @@ pub fn import(bytes: &[u8], resolver: &dyn Resolver, options: &ImportOptions) ->
         clips,
         weight_offsets,
         weight_total,
+        extensions: crate::asset::Extensions {
+            used: names(root, "extensionsUsed")?,
+            required: names(root, "extensionsRequired")?,
+        },
     };
     Ok(Imported { asset, warnings: cx.warnings })
 }
@@ -302,6 +306,12 @@ fn repair_inverse_binds(cx: &mut Cx<'_>, skins: &mut [crate::asset::Skin], nodes
             );
         }
     }
+}
+
+/// The extension names listed under `key` (`extensionsUsed` / `extensionsRequired`); an entry
+/// that is not a string says nothing and is left out (a required one was refused already).
+fn names(root: &Obj, key: &str) -> Result<Vec<String>, ImportError> {
+    Ok(array(root, key, "")?.iter().filter_map(|v| v.as_str().map(str::to_owned)).collect())
 }
 
 fn check_required_extensions(root: &Obj) -> Result<(), ImportError> {

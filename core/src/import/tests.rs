@@ -1163,6 +1163,11 @@ fn webp_textures_are_preferred_with_their_fallback_for_when_they_cannot_be_read(
     // Decoded: the WebP's pixels; the broken one warned about and replaced by the PNG fallback.
     let decoded = run(&doc, &bin).expect("imported");
     assert_eq!(textured(&decoded), [Some(1), Some(0), Some(1)]);
+    let extensions = &decoded.asset.extensions;
+    assert_eq!(
+        (extensions.used.as_slice(), extensions.required.as_slice()),
+        (&["EXT_texture_webp".to_owned()][..], &["EXT_texture_webp".to_owned()][..])
+    );
     let image = &decoded.asset.images[1];
     assert_eq!((image.width, image.height, image.rgba8.len()), (4, 3, 48));
     assert_eq!(&image.rgba8[4..8], [40, 0, 200, 255]);
