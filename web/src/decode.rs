@@ -72,6 +72,7 @@ mod web {
     use wasm_bindgen::JsCast;
 
     use crate::control::Wake;
+    use crate::dom::js_error_text;
 
     /// One asset's images.
     struct Entry {
@@ -183,7 +184,8 @@ mod web {
         let parts = js_sys::Array::of1(&js_sys::Uint8Array::from(image.bytes.as_slice()));
         let bag = web_sys::BlobPropertyBag::new();
         bag.set_type(image.format.mime());
-        let blob = web_sys::Blob::new_with_u8_array_sequence_and_options(&parts, &bag).map_err(describe)?;
+        let blob =
+            web_sys::Blob::new_with_u8_array_sequence_and_options(&parts, &bag).map_err(|e| js_error_text(&e))?;
         let options = web_sys::ImageBitmapOptions::new();
         options.set_premultiply_alpha(web_sys::PremultiplyAlpha::None);
         options.set_color_space_conversion(web_sys::ColorSpaceConversion::None);
@@ -193,16 +195,12 @@ mod web {
             options.set_resize_height(fit_height);
             options.set_resize_quality(web_sys::ResizeQuality::High);
         }
-        window.create_image_bitmap_with_blob_and_image_bitmap_options(&blob, &options).map_err(describe)
+        window.create_image_bitmap_with_blob_and_image_bitmap_options(&blob, &options).map_err(|e| js_error_text(&e))
     }
 
     async fn finish(promise: Result<js_sys::Promise, String>) -> Result<web_sys::ImageBitmap, String> {
-        let value = wasm_bindgen_futures::JsFuture::from(promise?).await.map_err(describe)?;
+        let value = wasm_bindgen_futures::JsFuture::from(promise?).await.map_err(|e| js_error_text(&e))?;
         value.dyn_into::<web_sys::ImageBitmap>().map_err(|_| "not an image bitmap".to_owned())
-    }
-
-    fn describe(e: wasm_bindgen::JsValue) -> String {
-        e.dyn_ref::<js_sys::Error>().map_or_else(|| format!("{e:?}"), |e| String::from(e.message()))
     }
 }
 

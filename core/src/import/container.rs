@@ -149,22 +149,7 @@ impl Budget {
 /// Decodes `%XX` escapes (invalid escapes are kept as they are), as the importer decodes a URI
 /// before asking its [`super::Resolver`]; invalid UTF-8 becomes U+FFFD.
 pub fn percent_decode(s: &str) -> String {
-    let b = s.as_bytes();
-    let mut out = Vec::with_capacity(b.len());
-    let mut i = 0;
-    while i < b.len() {
-        let hex = |c: u8| (c as char).to_digit(16);
-        if b[i] == b'%'
-            && let (Some(h), Some(l)) = (b.get(i + 1).and_then(|&c| hex(c)), b.get(i + 2).and_then(|&c| hex(c)))
-        {
-            out.push((h * 16 + l) as u8);
-            i += 3;
-            continue;
-        }
-        out.push(b[i]);
-        i += 1;
-    }
-    String::from_utf8_lossy(&out).into_owned()
+    String::from_utf8_lossy(&percent_decode_bytes(s)).into_owned()
 }
 
 /// Refuses an external URI that is not a plain relative path inside the document's folder.

@@ -16,9 +16,7 @@ use super::palette::PaletteTexture;
 use super::pipelines::{
     ComputeKit, DEPTH_FORMAT, Layouts, PipelineKey, Pipelines, SKIN_FROM_DRAW, SKIN_WORKGROUP, VertexPath, topology,
 };
-#[cfg(target_arch = "wasm32")]
-use super::texture::upload_bitmap;
-use super::texture::{COLOR_FORMAT, MipMaker, SamplerKey, upload_image};
+use super::texture::{COLOR_FORMAT, MipMaker, SamplerKey, upload_decoded, upload_image};
 use super::uniforms::{DrawUniform, FrameUniform, Ground, MaterialUniform, skin_code};
 
 #[cfg(not(target_arch = "wasm32"))]
@@ -321,7 +319,6 @@ pub struct SceneRenderer {
     frame_buffer: wgpu::Buffer,
     white: wgpu::TextureView,
     /// Mip levels of the images the browser decoded (made on the first such image).
-    #[cfg_attr(not(target_arch = "wasm32"), allow(dead_code, reason = "the importer decodes natively"))]
     mips: Option<MipMaker>,
     samplers: HashMap<SamplerKey, wgpu::Sampler>,
     material_buffer: Option<wgpu::Buffer>,
@@ -944,17 +941,7 @@ impl SceneRenderer {
                     let image = &asset.images[t.image as usize];
                     let label = image.name.as_deref().unwrap_or("kloub image");
                     let texture = if image.encoded.is_some() {
-                        // Decoded by the browser (crate::decode); one it could not decode stays white.
-                        #[cfg(target_arch = "wasm32")]
-                        let uploaded = crate::decode::bitmap(asset, t.image as usize).and_then(|bitmap| {
-                            let mips = self.mips.get_or_insert_with(|| MipMaker::new(device));
-                            upload_bitmap(device, queue, mips, &bitmap, label)
-                                .map_err(|e| log::warn!("kloub: image {}: {e}; drawn white", t.image))
-                                .ok()
-                        });
-                        #[cfg(not(target_arch = "wasm32"))]
-                        let uploaded = None;
-                        uploaded
+                        upload_decoded(device, queue, &mut self.mips, asset, t.image as usize, label)
                     } else {
                         Some(upload_image(device, queue, image, label).map_err(|e| format!("image {}: {e}", t.image))?)
                     };

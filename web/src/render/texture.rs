@@ -334,6 +334,34 @@ pub fn upload_bitmap(
     Ok(texture)
 }
 
+/// The texture of image `index` of `asset`, which the browser decoded ([`crate::decode`]), its
+/// mips made by `mips` (made here on first use). `None` (the material draws white) when the
+/// browser could not decode it or the device cannot hold it — and natively, where the importer
+/// decodes every image.
+pub fn upload_decoded(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    mips: &mut Option<MipMaker>,
+    asset: &kloub_core::Asset,
+    index: usize,
+    label: &str,
+) -> Option<wgpu::Texture> {
+    #[cfg(target_arch = "wasm32")]
+    {
+        let bitmap = crate::decode::bitmap(asset, index)?;
+        let mips = mips.get_or_insert_with(|| MipMaker::new(device));
+        upload_bitmap(device, queue, mips, &bitmap, label)
+            .map_err(|e| log::warn!("kloub: image {index}: {e}; drawn white"))
+            .ok()
+    }
+    #[cfg(not(target_arch = "wasm32"))]
+    {
+        let _ = (device, queue, mips, asset, label);
+        log::warn!("kloub: image {index} was not decoded; drawn white");
+        None
+    }
+}
+
 /// Writes one mip level.
 pub fn write_level(queue: &wgpu::Queue, texture: &wgpu::Texture, mip: u32, level: &MipLevel) {
     queue.write_texture(
