@@ -72,6 +72,7 @@ function loadRuntime() {
     const [module, glue] = await Promise.all([compileBuild(build), GLUE[build](instance)]);
     await glue.default({ module_or_path: module });
     glue.setPanicHandler(onPanic);
+    glue.setPrefetch(takePrefetch, takeImages);
     return glue;
   })();
   return runtime;
@@ -120,26 +121,114 @@ async function ensureBuild(to) {
   for (const element of [...mounted]) element[MOVE]();
 }
 
-const preloaded = new Set();
+const prefetched = new Set();
+/** Downloads started before the module was ready, by absolute URL, until a viewer takes them ([`takePrefetch`]). */
+const prefetches = new Map();
+/** The largest GLB whose images are decoded while the module loads (a larger one waits for the importer). */
+const PREDECODE_LIMIT = 64 << 20;
+
 /**
- * Starts downloading a model while the module loads: a `<link rel=preload as=fetch>`, whose response the viewer's
- * own fetch of the same URL then takes (same mode and credentials). Once per URL and page.
+ * Starts downloading a model while the module loads (once per URL and page); the viewer's fetch of the same URL
+ * then takes the response (`takePrefetch`). For a GLB the browser also decodes its embedded images meanwhile, as
+ * the viewer would after its import (same options), and the viewer takes the bitmaps (`takeImages`) instead of
+ * decoding them again. What no viewer takes within a minute is dropped.
  */
-function preloadModel(src) {
+function prefetchModel(src) {
   let href;
   try {
     href = new URL(src, document.baseURI).href;
   } catch {
     return;
   }
-  if (!/^https?:/.test(href) || preloaded.has(href)) return;
-  preloaded.add(href);
-  const link = document.createElement('link');
-  link.rel = 'preload';
-  link.as = 'fetch';
-  link.crossOrigin = 'anonymous';
-  link.href = href;
-  document.head.append(link);
+  if (!/^https?:/.test(href) || prefetched.has(href)) return;
+  prefetched.add(href);
+  const controller = new AbortController();
+  // What the viewer's own fetch would send: CORS, credentials for the same origin only.
+  const response = fetch(href, { mode: 'cors', credentials: 'same-origin', signal: controller.signal });
+  // Registered before the viewer can read the body: the clone is made first.
+  const images = response.then((r) => (r.ok ? decodeGlbImages(r.clone()) : null)).catch(() => null);
+  response.catch(() => {});
+  const entry = { response, abort: () => controller.abort(), images };
+  prefetches.set(href, entry);
+  setTimeout(() => {
+    if (prefetches.get(href) !== entry) return;
+    prefetches.delete(href);
+    if (entry.response) controller.abort();
+    entry.images?.then((bitmaps) => bitmaps?.forEach((b) => b?.close()));
+  }, 60000);
+}
+
+/** The viewer's side of a prefetch: `{response, abort}` for `url` once (`undefined` when none was started). */
+function takePrefetch(url) {
+  return takeFrom(url, 'response', (e) => ({ response: e.response, abort: e.abort }));
+}
+
+/** The bitmaps of a prefetched GLB's images, once: a promise of an array with a bitmap or `null` per image. */
+function takeImages(url) {
+  return takeFrom(url, 'images', (e) => e.images);
+}
+
+function takeFrom(url, field, pick) {
+  let href;
+  try {
+    href = new URL(url, document.baseURI).href;
+  } catch {
+    return undefined;
+  }
+  const entry = prefetches.get(href);
+  if (!entry?.[field]) return undefined;
+  const taken = pick(entry);
+  entry[field] = null;
+  if (!entry.response && !entry.images) prefetches.delete(href);
+  return taken;
+}
+
+/**
+ * The images embedded in a GLB (`bufferView` in the binary chunk; PNG, JPEG, WebP), decoded by the browser as the
+ * viewer decodes them: not premultiplied, no colour conversion. `null` for a file that is not a GLB, and per
+ * image that is not embedded or fails (the viewer decodes those itself, and reports what fails).
+ */
+async function decodeGlbImages(response) {
+  const type = response.headers.get('content-type') ?? '';
+  const length = Number(response.headers.get('content-length') ?? 0);
+  let glb = type.includes('gltf-binary');
+  try {
+    glb ||= /\.glb$/i.test(new URL(response.url).pathname);
+  } catch {
+    // No usable URL: the type decides.
+  }
+  if (!glb || length > PREDECODE_LIMIT) {
+    response.body?.cancel().catch(() => {});
+    return null;
+  }
+  const buffer = await response.arrayBuffer();
+  if (buffer.byteLength > PREDECODE_LIMIT || buffer.byteLength < 20) return null;
+  const view = new DataView(buffer);
+  const jsonLength = view.getUint32(12, true);
+  // 'glTF' version 2, then the JSON chunk and the binary chunk.
+  if (view.getUint32(0, true) !== 0x46546c67 || view.getUint32(4, true) !== 2) return null;
+  if (view.getUint32(16, true) !== 0x4e4f534a || 20 + jsonLength + 8 > buffer.byteLength) return null;
+  const binStart = 20 + jsonLength;
+  const binLength = view.getUint32(binStart, true);
+  if (view.getUint32(binStart + 4, true) !== 0x004e4942 || binStart + 8 + binLength > buffer.byteLength) return null;
+  let json;
+  try {
+    json = JSON.parse(new TextDecoder().decode(new Uint8Array(buffer, 20, jsonLength)));
+  } catch {
+    return null;
+  }
+  const images = Array.isArray(json?.images) ? json.images : [];
+  const embedded = json?.buffers?.[0] && json.buffers[0].uri === undefined;
+  const types = new Set(['image/png', 'image/jpeg', 'image/webp']);
+  return Promise.all(images.map((image) => {
+    const view = json.bufferViews?.[image?.bufferView];
+    const start = view?.byteOffset ?? 0;
+    const size = view?.byteLength;
+    if (!embedded || view?.buffer !== 0 || !types.has(image.mimeType) || !Number.isInteger(start)
+      || !Number.isInteger(size) || start < 0 || size <= 0 || start + size > binLength) return null;
+    const blob = new Blob([new Uint8Array(buffer, binStart + 8 + start, size)], { type: image.mimeType });
+    return createImageBitmap(blob, { premultiplyAlpha: 'none', colorSpaceConversion: 'none' }).catch(() => null);
+  }));
 }
 
 const panics = [];
@@ -829,7 +918,7 @@ export class KloubViewer extends HTMLElement {
   async #mount(revive = null) {
     this.dataset.status = 'loading';
     try {
-      if (!revive && this.getAttribute('src')) preloadModel(this.getAttribute('src'));
+      if (!revive && this.getAttribute('src')) prefetchModel(this.getAttribute('src'));
       await ensureBuild(await buildFor(this));
       const onBuild = build;
       const glue = await loadRuntime();

@@ -59,6 +59,11 @@ export function registerWidgetTests(test, backends) {
       await ready(page);
       const d0 = await ds(page);
       assert(d0.backend === backend, `backend ${d0.backend}`);
+      // The element started the model's download while the module loaded, and had the browser decode Fox's
+      // texture meanwhile: the viewer took both (one download, no second decode).
+      assert(fetched.filter((f) => f === 'default.glb').length === 1, `the model was fetched ${fetched.filter((f) => f === 'default.glb').length} times`);
+      const counters = await page.evaluate(() => customElements.get('kloub-viewer')._testCounters());
+      assert(counters.predecoded === 1, `images taken from the prefetch: ${JSON.stringify(counters)}`);
       assert(await page.evaluate(() => customElements.get('kloub-viewer')._testBuild()) === light, 'the page runs the light build');
       assert(JSON.stringify(buildsFetched(fetched)) === JSON.stringify([light]), `module files fetched: ${fetched.filter((f) => /kloub_/.test(f))}`);
       // What the page downloaded of Kloub's files (all before the model), as `kloub serve` sends them gzip: within

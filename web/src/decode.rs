@@ -18,15 +18,17 @@ use crate::control::Wake;
 /// Whether `asset`'s images can be uploaded: none is encoded, or the browser has decoded them
 /// all (or given up on some: [`warnings`]). When not, decoding starts (once per asset), no
 /// image larger than `max_size` on a side (halved until it fits, like the mip levels the CPU
-/// path skips), and `wake` is called when it is done.
+/// path skips), and `wake` is called when it is done. `url`: where the asset came from; the
+/// bitmaps the element decoded from its download while the module loaded
+/// ([`crate::prefetch::take_images`]) are taken where they have the size asked for.
 #[cfg(target_arch = "wasm32")]
-pub fn ready(asset: &Arc<Asset>, max_size: u32, wake: Option<Wake>) -> bool {
-    web::ready(asset, max_size, wake)
+pub fn ready(asset: &Arc<Asset>, max_size: u32, wake: Option<Wake>, url: Option<&str>) -> bool {
+    web::ready(asset, max_size, wake, url)
 }
 
 /// Natively the importer decodes: always ready.
 #[cfg(not(target_arch = "wasm32"))]
-pub fn ready(_asset: &Arc<Asset>, _max_size: u32, _wake: Option<Wake>) -> bool {
+pub fn ready(_asset: &Arc<Asset>, _max_size: u32, _wake: Option<Wake>, _url: Option<&str>) -> bool {
     true
 }
 
@@ -45,6 +47,13 @@ pub fn warnings(_asset: &Asset) -> Vec<Warning> {
 
 #[cfg(target_arch = "wasm32")]
 pub use web::bitmap;
+
+/// How many bitmaps were taken from the element's prefetch (decoded while the module loaded)
+/// on this thread: for the tests.
+#[cfg(target_arch = "wasm32")]
+pub fn predecoded() -> usize {
+    web::PREDECODED.with(|n| n.get())
+}
 
 /// Lets the bitmaps of assets no viewer shows any more go (closed at once, not left to the
 /// garbage collector): with [`crate::render::scene::release_unused_uploads`].
@@ -86,6 +95,7 @@ mod web {
 
     thread_local! {
         static ENTRIES: RefCell<Vec<Entry>> = const { RefCell::new(Vec::new()) };
+        pub static PREDECODED: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
     }
 
     fn find<T>(asset: &Asset, f: impl FnOnce(&mut Entry) -> T) -> Option<T> {
@@ -107,7 +117,7 @@ mod web {
         });
     }
 
-    pub fn ready(asset: &Arc<Asset>, max_size: u32, wake: Option<Wake>) -> bool {
+    pub fn ready(asset: &Arc<Asset>, max_size: u32, wake: Option<Wake>, url: Option<&str>) -> bool {
         if asset.images.iter().all(|i| i.encoded.is_none()) {
             return true;
         }
@@ -130,15 +140,45 @@ mod web {
                     });
                 });
                 let asset = asset.clone();
+                let early = url.and_then(crate::prefetch::take_images);
                 wasm_bindgen_futures::spawn_local(async move {
-                    let mut bitmaps = Vec::with_capacity(asset.images.len());
-                    let mut warnings = Vec::new();
-                    // Every image handed to the browser first, so that they decode in parallel.
+                    let early = match early {
+                        Some(promise) => wasm_bindgen_futures::JsFuture::from(promise)
+                            .await
+                            .ok()
+                            .and_then(|v| v.dyn_into::<js_sys::Array>().ok())
+                            .map(|a| a.to_vec())
+                            .unwrap_or_default(),
+                        None => Vec::new(),
+                    };
+                    let mut taken = vec![false; early.len()];
+                    // Every image handed to the browser first, so that they decode in parallel (or
+                    // the bitmap decoded while the module loaded, where it has the size asked for).
                     let pending: Vec<_> = asset
                         .images
                         .iter()
-                        .map(|image| image.encoded.as_ref().map(|e| start(e, image.width, image.height, max_size)))
+                        .enumerate()
+                        .map(|(i, image)| {
+                            let encoded = image.encoded.as_ref()?;
+                            let size = super::fit(image.width, image.height, max_size);
+                            let bitmap = early.get(i).and_then(|b| b.dyn_ref::<web_sys::ImageBitmap>());
+                            if let Some(bitmap) = bitmap.filter(|b| (b.width(), b.height()) == size) {
+                                taken[i] = true;
+                                PREDECODED.with(|n| n.set(n.get() + 1));
+                                return Some(Ok(js_sys::Promise::resolve(AsRef::<wasm_bindgen::JsValue>::as_ref(
+                                    bitmap,
+                                ))));
+                            }
+                            Some(start(encoded, image.width, image.height, max_size))
+                        })
                         .collect();
+                    for (bitmap, taken) in early.iter().zip(&taken) {
+                        if let (Some(bitmap), false) = (bitmap.dyn_ref::<web_sys::ImageBitmap>(), taken) {
+                            bitmap.close();
+                        }
+                    }
+                    let mut bitmaps = Vec::with_capacity(asset.images.len());
+                    let mut warnings = Vec::new();
                     for (i, promise) in pending.into_iter().enumerate() {
                         let Some(promise) = promise else {
                             bitmaps.push(None);

@@ -839,10 +839,18 @@ pub fn set_panic_handler(handler: Option<js_sys::Function>) {
     PANIC_HANDLER.with(|h| *h.borrow_mut() = handler);
 }
 
+/// Hands the element's prefetches to the module: `take(url)` gives a download started before the
+/// module was ready, `images(url)` the images of a GLB the browser decoded meanwhile
+/// ([`crate::prefetch`]).
+#[wasm_bindgen(js_name = setPrefetch)]
+pub fn set_prefetch(take: Option<js_sys::Function>, images: Option<js_sys::Function>) {
+    crate::prefetch::set_hooks(take, images);
+}
+
 /// For tests: panics inside the module (as a bug would), so recovery can be checked.
 /// Test hook: what the page's viewers share, as JSON: per model URL the downloads started and
-/// the imports done, the assets uploaded to a GPU, the pipeline kits built, and the decoded
-/// models still shown.
+/// the imports done, the assets uploaded to a GPU, the pipeline kits built, the decoded
+/// models still shown, and the images decoded while the module loaded.
 #[wasm_bindgen(js_name = _testCounters)]
 pub fn test_counters() -> String {
     let models: serde_json::Map<String, serde_json::Value> = crate::shared::counts()
@@ -855,6 +863,7 @@ pub fn test_counters() -> String {
         "kits": crate::render::pipelines::kits_built(),
         "liveModels": crate::shared::live_models(),
         "liveUploads": crate::render::scene::live_uploads(),
+        "predecoded": crate::decode::predecoded(),
     })
     .to_string()
 }

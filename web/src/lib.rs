@@ -30,6 +30,8 @@ pub mod model;
 #[cfg(feature = "full")]
 pub mod overlay;
 pub mod page;
+#[cfg(target_arch = "wasm32")]
+pub mod prefetch;
 #[cfg(feature = "full")]
 pub mod ragdoll;
 pub mod render;

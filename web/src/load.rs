@@ -530,9 +530,17 @@ async fn fetch_bytes(
     let signal = controller.signal();
     let init = web_sys::RequestInit::new();
     init.set_signal(Some(&signal));
+    // The element's download of this URL, started while the module loaded.
+    let prefetch = crate::prefetch::take_download(url);
+    let prefetch_abort = prefetch.as_ref().map(|(_, abort)| abort.clone());
     // One watchdog for the answer and then for every chunk of the body: no progress for
     // ANSWER_TIMEOUT_MS aborts the fetch (and its stream). Kept alive until its timer is cleared.
-    let abort = wasm_bindgen::closure::Closure::<dyn FnMut()>::new(move || controller.abort());
+    let abort = wasm_bindgen::closure::Closure::<dyn FnMut()>::new(move || {
+        controller.abort();
+        if let Some(abort) = &prefetch_abort {
+            let _ = abort.call0(&wasm_bindgen::JsValue::NULL);
+        }
+    });
     let arm = || {
         window
             .set_timeout_with_callback_and_timeout_and_arguments_0(abort.as_ref().unchecked_ref(), ANSWER_TIMEOUT_MS)
@@ -540,7 +548,14 @@ async fn fetch_bytes(
     };
     let mut timer = arm();
     let watch = CspWatch::start(&window);
-    let answer = JsFuture::from(window.fetch_with_str_and_init(url, &init)).await;
+    let answer = match prefetch {
+        // A failed prefetch is fetched again, so that the failure is explained as for any fetch.
+        Some((response, _)) => match JsFuture::from(response).await {
+            Ok(response) => Ok(response),
+            Err(_) => JsFuture::from(window.fetch_with_str_and_init(url, &init)).await,
+        },
+        None => JsFuture::from(window.fetch_with_str_and_init(url, &init)).await,
+    };
     let response = match answer {
         Ok(response) => response,
         Err(_) => {

@@ -510,7 +510,7 @@ impl Stage {
         // import blocks the frame; small ones are imported at once.
         // Models whose images the browser has decoded since, in the order they came.
         let max_size = self.gpu.device.limits().max_texture_dimension_2d;
-        while self.decoding.first().is_some_and(|(m, _)| crate::decode::ready(&m.asset, max_size, None)) {
+        while self.decoding.first().is_some_and(|(m, _)| crate::decode::ready(&m.asset, max_size, None, None)) {
             let (model, shown) = self.decoding.remove(0);
             self.pending = self.pending.saturating_sub(1);
             let result = self.install(model, None);
@@ -604,7 +604,8 @@ impl Stage {
     /// the models received before it that wait too): the previous model stays until then.
     fn show_when_decoded(&mut self, model: LoadedModel, shown: Shown) {
         let max_size = self.gpu.device.limits().max_texture_dimension_2d;
-        if crate::decode::ready(&model.asset, max_size, self.controls.waker()) && self.decoding.is_empty() {
+        let url = shown.as_ref().and_then(|(_, url)| url.as_deref());
+        if crate::decode::ready(&model.asset, max_size, self.controls.waker(), url) && self.decoding.is_empty() {
             let result = self.install(model, None);
             self.finish_receive(result, shown);
         } else {

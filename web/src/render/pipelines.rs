@@ -187,11 +187,20 @@ pub struct Pipelines {
     format: wgpu::TextureFormat,
     mesh_module: wgpu::ShaderModule,
     mesh_layout: wgpu::PipelineLayout,
-    /// Background gradient (full-screen triangle).
-    pub background: wgpu::RenderPipeline,
-    /// Ground grid (blended quad).
-    pub grid: wgpu::RenderPipeline,
+    /// The background and grid pipelines, built when first drawn (an embedded viewer draws
+    /// neither by default): shared by the clones of a kit.
+    environment: std::sync::Arc<Environment>,
     mesh: HashMap<PipelineKey, wgpu::RenderPipeline>,
+}
+
+/// `shaders/environment.wgsl`'s pipelines, built on first use.
+struct Environment {
+    module: wgpu::ShaderModule,
+    layout: wgpu::PipelineLayout,
+    /// Background gradient (full-screen triangle).
+    background: std::sync::OnceLock<wgpu::RenderPipeline>,
+    /// Ground grid (blended quad).
+    grid: std::sync::OnceLock<wgpu::RenderPipeline>,
 }
 
 fn depth_state(compare: wgpu::CompareFunction, write: bool) -> Option<wgpu::DepthStencilState> {
@@ -227,10 +236,9 @@ fn output_constants(format: wgpu::TextureFormat) -> [(&'static str, f64); 1] {
 }
 
 impl Pipelines {
-    /// Compiles the shaders and the environment pipelines for `sample_count` samples of
-    /// `format` (an sRGB format, or a plain one the shaders encode sRGB into).
+    /// Compiles the shaders for `sample_count` samples of `format` (an sRGB format, or a plain
+    /// one the shaders encode sRGB into); each pipeline is built when first drawn.
     pub fn new(device: &wgpu::Device, layouts: &Layouts, sample_count: u32, format: wgpu::TextureFormat) -> Self {
-        let output = output_constants(format);
         let mesh_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("kloub mesh.wgsl"),
             source: wgpu::ShaderSource::Wgsl(MESH_WGSL.into()),
@@ -249,39 +257,75 @@ impl Pipelines {
             bind_group_layouts: &[Some(&layouts.frame)],
             immediate_size: 0,
         });
-        let environment = |label: &str, vs: &str, fs: &str, depth, blend| {
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some(label),
-                layout: Some(&env_layout),
-                vertex: wgpu::VertexState {
-                    module: &env_module,
-                    entry_point: Some(vs),
-                    compilation_options: Default::default(),
-                    buffers: &[],
-                },
-                primitive: wgpu::PrimitiveState::default(),
-                depth_stencil: depth,
-                multisample: wgpu::MultisampleState { count: sample_count, ..Default::default() },
-                fragment: Some(wgpu::FragmentState {
-                    module: &env_module,
-                    entry_point: Some(fs),
-                    compilation_options: wgpu::PipelineCompilationOptions { constants: &output, ..Default::default() },
-                    targets: &color_target(format, blend),
-                }),
-                multiview_mask: None,
-                cache: None,
-            })
-        };
-        let background = environment(
-            "kloub background",
-            "vs_background",
-            "fs_background",
-            depth_state(wgpu::CompareFunction::Always, false),
-            false,
-        );
-        let grid =
-            environment("kloub grid", "vs_grid", "fs_grid", depth_state(wgpu::CompareFunction::LessEqual, false), true);
-        Self { share: None, sample_count, format, mesh_module, mesh_layout, background, grid, mesh: HashMap::new() }
+        let environment = std::sync::Arc::new(Environment {
+            module: env_module,
+            layout: env_layout,
+            background: std::sync::OnceLock::new(),
+            grid: std::sync::OnceLock::new(),
+        });
+        Self { share: None, sample_count, format, mesh_module, mesh_layout, environment, mesh: HashMap::new() }
+    }
+
+    /// The background gradient's pipeline (full-screen triangle), built on first use.
+    pub fn background(&self, device: &wgpu::Device) -> &wgpu::RenderPipeline {
+        self.environment.background.get_or_init(|| {
+            self.environment_pipeline(
+                device,
+                "kloub background",
+                "vs_background",
+                "fs_background",
+                depth_state(wgpu::CompareFunction::Always, false),
+                false,
+            )
+        })
+    }
+
+    /// The ground grid's pipeline (blended quad), built on first use.
+    pub fn grid(&self, device: &wgpu::Device) -> &wgpu::RenderPipeline {
+        self.environment.grid.get_or_init(|| {
+            self.environment_pipeline(
+                device,
+                "kloub grid",
+                "vs_grid",
+                "fs_grid",
+                depth_state(wgpu::CompareFunction::LessEqual, false),
+                true,
+            )
+        })
+    }
+
+    fn environment_pipeline(
+        &self,
+        device: &wgpu::Device,
+        label: &str,
+        vs: &str,
+        fs: &str,
+        depth: Option<wgpu::DepthStencilState>,
+        blend: bool,
+    ) -> wgpu::RenderPipeline {
+        let output = output_constants(self.format);
+        let module = &self.environment.module;
+        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some(label),
+            layout: Some(&self.environment.layout),
+            vertex: wgpu::VertexState {
+                module,
+                entry_point: Some(vs),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: wgpu::PrimitiveState::default(),
+            depth_stencil: depth,
+            multisample: wgpu::MultisampleState { count: self.sample_count, ..Default::default() },
+            fragment: Some(wgpu::FragmentState {
+                module,
+                entry_point: Some(fs),
+                compilation_options: wgpu::PipelineCompilationOptions { constants: &output, ..Default::default() },
+                targets: &color_target(self.format, blend),
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
     }
 
     /// Builds the mesh pipeline of `key` if it does not exist yet (here, or in the device's

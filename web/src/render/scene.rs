@@ -878,6 +878,8 @@ impl SceneRenderer {
             );
         }
         {
+            let background = self.look.background.is_drawn().then(|| self.pipelines.background(device));
+            let grid = self.grid.then(|| self.pipelines.grid(device));
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("kloub scene"),
                 color_attachments: &[Some(wgpu::RenderPassColorAttachment {
@@ -903,16 +905,16 @@ impl SceneRenderer {
                 pass.set_scissor_rect(x, y, w, h);
             }
             pass.set_bind_group(0, &scene.frame_bind_group, &[]);
-            if self.look.background.is_drawn() {
-                pass.set_pipeline(&self.pipelines.background);
+            if let Some(background) = background {
+                pass.set_pipeline(background);
                 pass.draw(0..3, 0..1);
             }
 
             let draws = scene.draws.len();
             let opaque = (0..copies * draws).filter(|slot| scene.draws.get(slot % draws).is_some_and(|d| !d.blend));
             scene.encode(&mut pass, &self.pipelines, opaque, self.draw_stride);
-            if self.grid {
-                pass.set_pipeline(&self.pipelines.grid);
+            if let Some(grid) = grid {
+                pass.set_pipeline(grid);
                 pass.draw(0..6, 0..1);
             }
             let blended = self.scratch.blend_order.iter().map(|&(_, i)| i);
