@@ -103,6 +103,9 @@ pub(crate) struct Accessor {
     cols: usize,
     column_stride: u64,
     element_size: u64,
+    /// The bytes an element's components span: `element_size` without the last column's
+    /// padding (a matrix's last element in its view needs no padding after it).
+    extent: u64,
     stride: u64,
     sparse: Option<Sparse>,
 }
@@ -134,7 +137,8 @@ pub(crate) struct Accessors<'a> {
     /// `None`: a buffer without data (refused where a view of it is read).
     buffers: Vec<Option<Cow<'a, [u8]>>>,
     views: Vec<View>,
-    list: Vec<Accessor>,
+    /// Each accessor, or why it cannot be read: an accessor is refused only where it is read.
+    list: Vec<Result<Accessor, ImportError>>,
 }
 
 /// `offset + stride * (count - 1) + element` (count ≥ 1) in u64, None on overflow.
@@ -181,7 +185,7 @@ impl<'a> Accessors<'a> {
         budget.take_items(accessor_objects.len() as u64, size_of::<Accessor>() as u64, "/accessors", "accessors")?;
         let mut list = Vec::with_capacity(accessor_objects.len());
         for (a, ptr) in &accessor_objects {
-            list.push(Self::accessor(a, ptr, &views)?);
+            list.push(Self::accessor(a, ptr, &views));
         }
         Ok(Self { buffers, views, list })
     }
@@ -205,6 +209,7 @@ impl<'a> Accessors<'a> {
         let column = rows as u64 * csize;
         let column_stride = if cols > 1 { column.next_multiple_of(4) } else { column };
         let element_size = column_stride * cols as u64;
+        let extent = column_stride * (cols as u64 - 1) + column;
         let offset = opt_u64(a, "byteOffset", ptr)?.unwrap_or(0);
         let view = super::json::opt_index(a, "bufferView", ptr, views.len(), "bufferView")?.map(|v| v as usize);
         let mut stride = element_size;
@@ -217,7 +222,7 @@ impl<'a> Accessors<'a> {
                     format!("byteStride {stride} of bufferView {v} is smaller than its {element_size}-byte elements"),
                 ));
             }
-            if span(offset, stride, count, element_size).is_none_or(|end| end > vw.length) {
+            if span(offset, stride, count, extent).is_none_or(|end| end > vw.length) {
                 return Err(ImportError::new(
                     ptr,
                     format!(
@@ -242,6 +247,7 @@ impl<'a> Accessors<'a> {
             cols,
             column_stride,
             element_size,
+            extent,
             stride,
             sparse,
         })
@@ -290,9 +296,11 @@ impl<'a> Accessors<'a> {
 
     /// The accessor at `index` (validated by the caller against [`Accessors::len`]).
     pub fn get(&self, index: u32) -> Result<&Accessor, ImportError> {
-        self.list
-            .get(index as usize)
-            .ok_or_else(|| ImportError::new(format!("/accessors/{index}"), "accessor does not exist"))
+        match self.list.get(index as usize) {
+            Some(Ok(accessor)) => Ok(accessor),
+            Some(Err(e)) => Err(e.clone()),
+            None => Err(ImportError::new(format!("/accessors/{index}"), "accessor does not exist")),
+        }
     }
 
     /// Bytes of a buffer view.
@@ -376,7 +384,7 @@ impl<'a> Accessors<'a> {
                     Some(bytes.ok_or_else(out_of_bounds)?)
                 }
                 _ => match dense {
-                    Some(d) => Some(slice(d, a.offset + i * a.stride, a.element_size).ok_or_else(out_of_bounds)?),
+                    Some(d) => Some(slice(d, a.offset + i * a.stride, a.extent).ok_or_else(out_of_bounds)?),
                     None => None,
                 },
             };

@@ -154,5 +154,8 @@ fn channel_from_sampler(
         cx.warn(sptr, "no usable keyframes; channel ignored");
         return Ok(None);
     }
+    if interpolation == Interpolation::CubicSpline && kept < 2 {
+        cx.warn(sptr, "CUBICSPLINE needs at least 2 keyframes; the one key's value is held");
+    }
     Ok(Some(Channel { node, target, interpolation, times, values, width: width as u32 }))
 }

@@ -52,12 +52,22 @@ pub(crate) fn opt_object<'a>(obj: &'a Obj, key: &str, ptr: &str) -> Result<Optio
     obj.get(key).map(|v| object(v, &child(ptr, key))).transpose()
 }
 
-/// The optional non-negative integer `obj[key]`.
+/// The optional non-negative integer `obj[key]`; written as a float with no fraction (`1.0`)
+/// it is read as that integer (JSON does not tell them apart).
 pub(crate) fn opt_u64(obj: &Obj, key: &str, ptr: &str) -> Result<Option<u64>, ImportError> {
     obj.get(key)
-        .map(|v| v.as_u64().ok_or_else(|| member_error(ptr, key, format!("expected a non-negative integer, got {v}"))))
+        .map(|v| as_u64(v).ok_or_else(|| member_error(ptr, key, format!("expected a non-negative integer, got {v}"))))
         .transpose()
 }
+
+/// `v` as a non-negative integer, also when written as a float with no fraction (`1.0`).
+pub(crate) fn as_u64(v: &Value) -> Option<u64> {
+    v.as_u64()
+        .or_else(|| v.as_f64().filter(|x| x.fract() == 0.0 && (0.0..=MAX_EXACT_INTEGER).contains(x)).map(|x| x as u64))
+}
+
+/// The largest integer an `f64` holds exactly (2^53).
+const MAX_EXACT_INTEGER: f64 = 9_007_199_254_740_992.0;
 
 /// The required non-negative integer `obj[key]`.
 pub(crate) fn req_u64(obj: &Obj, key: &str, ptr: &str) -> Result<u64, ImportError> {

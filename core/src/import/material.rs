@@ -4,7 +4,7 @@ use super::Cx;
 use super::container::{Budget, load_uri};
 use super::json::{
     Obj, child, extension, member_error, objects, opt_bool, opt_f32, opt_f32_array, opt_index, opt_object, opt_str,
-    opt_u64, req_index,
+    opt_u64,
 };
 use crate::asset::{AlphaMode, EncodedImage, Image, ImageFormat, Material, TextureRef, TextureTransform};
 use crate::error::ImportError;
@@ -155,17 +155,39 @@ fn decode_rgba8(bytes: &[u8], ptr: &str, budget: &mut Budget) -> Result<(u32, u3
 pub(crate) fn materials(cx: &mut Cx<'_>, usable_images: &[bool]) -> Result<Vec<Material>, ImportError> {
     let textures = objects(cx.root, "textures", "")?;
     let samplers = objects(cx.root, "samplers", "")?;
+    // Every texture's image and sampler, once: a reference that resolves to nothing is reported
+    // (and not drawn) whether or not a material uses the texture.
+    let mut resolved = Vec::with_capacity(textures.len());
+    // Textures that name no image at all: reported once, when a material uses one.
+    let mut sourceless = Vec::with_capacity(textures.len());
+    for (texture, tptr) in &textures {
+        let (texture, named) = resolve_texture(cx, texture, tptr, &samplers, usable_images)?;
+        sourceless.push(!named);
+        resolved.push(texture);
+    }
     let mut out = Vec::new();
     for (m, ptr) in objects(cx.root, "materials", "")? {
         let mut material = Material { name: super::json::name(m), ..Material::default() };
+        let mut base_color_info = None;
         if let Some(pbr) = opt_object(m, "pbrMetallicRoughness", &ptr)? {
             let pptr = child(&ptr, "pbrMetallicRoughness");
             material.base_color = opt_f32_array::<4>(pbr, "baseColorFactor", &pptr)?.unwrap_or([1.0; 4]);
             material.metallic = opt_f32(pbr, "metallicFactor", &pptr)?.unwrap_or(1.0);
             material.roughness = opt_f32(pbr, "roughnessFactor", &pptr)?.unwrap_or(1.0);
-            if let Some(info) = opt_object(pbr, "baseColorTexture", &pptr)? {
-                let iptr = child(&pptr, "baseColorTexture");
-                material.base_color_texture = texture_ref(cx, info, &iptr, &textures, &samplers, usable_images)?;
+            base_color_info = texture_info(cx, pbr, "baseColorTexture", &pptr, textures.len())?;
+            texture_info(cx, pbr, "metallicRoughnessTexture", &pptr, textures.len())?;
+        }
+        for key in ["normalTexture", "occlusionTexture", "emissiveTexture"] {
+            texture_info(cx, m, key, &ptr, textures.len())?;
+        }
+        if let Some((t, info, iptr)) = base_color_info {
+            match &resolved[t] {
+                Some(texture) => material.base_color_texture = texture_ref(texture, info, &iptr)?,
+                None if sourceless[t] => {
+                    sourceless[t] = false;
+                    cx.warn(textures[t].1.as_str(), "texture has no source image in a supported format; not drawn");
+                }
+                None => {}
             }
         }
         material.emissive = opt_f32_array::<3>(m, "emissiveFactor", &ptr)?.unwrap_or([0.0; 3]);
@@ -186,37 +208,90 @@ pub(crate) fn materials(cx: &mut Cx<'_>, usable_images: &[bool]) -> Result<Vec<M
     Ok(out)
 }
 
-/// A texture reference from a `textureInfo`; `None` when the texture has no usable image.
-fn texture_ref(
+/// The `textureInfo` `obj[key]`, if any: the texture it names, the info and its pointer; a
+/// texture index that resolves to nothing is reported and the reference left out.
+fn texture_info<'a>(
     cx: &mut Cx<'_>,
-    info: &Obj,
+    obj: &'a Obj,
+    key: &str,
     ptr: &str,
-    textures: &[(&Obj, String)],
+    textures: usize,
+) -> Result<Option<(usize, &'a Obj, String)>, ImportError> {
+    let Some(info) = opt_object(obj, key, ptr)? else {
+        return Ok(None);
+    };
+    let iptr = child(ptr, key);
+    let Some(t) = lenient_index(cx, info, "index", &iptr, textures, "texture", "the texture is not drawn")? else {
+        if opt_u64(info, "index", &iptr)?.is_none() {
+            return Err(member_error(&iptr, "index", "missing"));
+        }
+        return Ok(None);
+    };
+    Ok(Some((t as usize, info, iptr)))
+}
+
+/// `obj[key]` as an index into `len` `what`s; one out of range is reported with `consequence`
+/// and read as absent.
+fn lenient_index(
+    cx: &mut Cx<'_>,
+    obj: &Obj,
+    key: &str,
+    ptr: &str,
+    len: usize,
+    what: &str,
+    consequence: &str,
+) -> Result<Option<u32>, ImportError> {
+    let Some(i) = opt_u64(obj, key, ptr)? else {
+        return Ok(None);
+    };
+    match super::json::check_index(i, len, what, &child(ptr, key)) {
+        Ok(i) => Ok(Some(i)),
+        Err(e) => {
+            cx.warn(e.pointer, format!("{}; {consequence}", e.message));
+            Ok(None)
+        }
+    }
+}
+
+/// A texture's image and sampler settings.
+struct Resolved {
+    image: u32,
+    repeat: [bool; 2],
+    nearest: bool,
+}
+
+/// What a texture draws: its image (a WebP of `EXT_texture_webp` preferred, `source` its
+/// fallback, also when the WebP cannot be read) and sampler, `None` when it has no usable
+/// image; and whether it names an image at all. A `source` or `sampler` that resolves to
+/// nothing is reported.
+fn resolve_texture(
+    cx: &mut Cx<'_>,
+    texture: &Obj,
+    tptr: &str,
     samplers: &[(&Obj, String)],
     usable_images: &[bool],
-) -> Result<Option<TextureRef>, ImportError> {
-    let t = req_index(info, "index", ptr, textures.len(), "texture")? as usize;
-    let (texture, tptr) = &textures[t];
-    // A WebP image (EXT_texture_webp) is preferred; `source`, when present, is its fallback (also
-    // when the WebP cannot be read).
+) -> Result<(Option<Resolved>, bool), ImportError> {
+    let images = usable_images.len();
+    let not_drawn = "the texture is not drawn from it";
     let webp = match extension(texture, "EXT_texture_webp", tptr)? {
         Some(x) => {
-            opt_index(x, "source", &format!("{tptr}/extensions/EXT_texture_webp"), usable_images.len(), "image")?
+            let xptr = format!("{tptr}/extensions/EXT_texture_webp");
+            lenient_index(cx, x, "source", &xptr, images, "image", not_drawn)?
         }
         None => None,
     };
-    let fallback = opt_index(texture, "source", tptr, usable_images.len(), "image")?;
-    let usable = |i: Option<_>| i.filter(|&i| usable_images[i as usize]);
-    let Some(image) = usable(webp).or(usable(fallback)).or(webp).or(fallback) else {
-        cx.warn(tptr.as_str(), "texture has no source image in a supported format; not drawn");
-        return Ok(None);
+    let fallback = lenient_index(cx, texture, "source", tptr, images, "image", not_drawn)?;
+    let sampler =
+        lenient_index(cx, texture, "sampler", tptr, samplers.len(), "sampler", "the default sampler is used")?;
+    let named = texture.contains_key("source") || webp.is_some();
+    // An image that cannot be read was reported with the images.
+    let usable = |i: Option<u32>| i.filter(|&i| usable_images[i as usize]);
+    let Some(image) = usable(webp).or(usable(fallback)) else {
+        return Ok((None, named));
     };
-    if !usable_images[image as usize] {
-        return Ok(None);
-    }
     let mut repeat = [true, true];
     let mut nearest = false;
-    if let Some(s) = opt_index(texture, "sampler", tptr, samplers.len(), "sampler")? {
+    if let Some(s) = sampler {
         let (sampler, sptr) = &samplers[s as usize];
         repeat = [
             opt_u64(sampler, "wrapS", sptr)?.unwrap_or(10497) != 33071,
@@ -224,6 +299,11 @@ fn texture_ref(
         ];
         nearest = opt_u64(sampler, "magFilter", sptr)? == Some(9728);
     }
+    Ok((Some(Resolved { image, repeat, nearest }), named))
+}
+
+/// A texture reference from a `textureInfo` (at `ptr`) to a resolved texture.
+fn texture_ref(texture: &Resolved, info: &Obj, ptr: &str) -> Result<Option<TextureRef>, ImportError> {
     let mut tex_coord = opt_u64(info, "texCoord", ptr)?.unwrap_or(0);
     let mut transform = TextureTransform::default();
     if let Some(x) = extension(info, "KHR_texture_transform", ptr)? {
@@ -234,5 +314,6 @@ fn texture_ref(
         tex_coord = opt_u64(x, "texCoord", &xptr)?.unwrap_or(tex_coord);
     }
     let tex_coord = u32::try_from(tex_coord).map_err(|_| member_error(ptr, "texCoord", "texCoord is too large"))?;
+    let Resolved { image, repeat, nearest } = *texture;
     Ok(Some(TextureRef { image, tex_coord, transform, repeat, nearest }))
 }

@@ -131,6 +131,12 @@ fn parse_primitive(
             .collect(),
         _ => attribute::<4>(cx, attributes, &aptr, "COLOR_0", &["VEC4"], vertex_count)?,
     };
+    let mut colors = colors;
+    let outside = colors.iter().flatten().filter(|c| !(0.0..=1.0).contains(*c)).count();
+    if outside > 0 {
+        colors.iter_mut().flatten().for_each(|c| *c = c.clamp(0.0, 1.0));
+        cx.warn(child(&aptr, "COLOR_0"), format!("{outside} colour components outside 0..1; clamped"));
+    }
     let (joints, weights, max_joint) = influences(cx, attributes, &aptr, vertex_count)?;
 
     let mode = opt_u64(prim, "mode", ptr)?.unwrap_or(4);
@@ -156,10 +162,24 @@ fn parse_primitive(
 
     let mut targets = Vec::new();
     for (target, tptr) in objects(prim, "targets", ptr)? {
+        // A target may move only what the primitive has.
+        for (name, base) in [("NORMAL", normals.is_empty()), ("TANGENT", tangents.is_empty())] {
+            if base && target.contains_key(name) {
+                cx.warn(child(&tptr, name), format!("the primitive has no {name} for this target to move; ignored"));
+            }
+        }
         targets.push(MorphTarget {
             positions: attribute::<3>(cx, target, &tptr, "POSITION", &["VEC3"], vertex_count)?,
-            normals: attribute::<3>(cx, target, &tptr, "NORMAL", &["VEC3"], vertex_count)?,
-            tangents: attribute::<3>(cx, target, &tptr, "TANGENT", &["VEC3"], vertex_count)?,
+            normals: if normals.is_empty() {
+                Vec::new()
+            } else {
+                attribute::<3>(cx, target, &tptr, "NORMAL", &["VEC3"], vertex_count)?
+            },
+            tangents: if tangents.is_empty() {
+                Vec::new()
+            } else {
+                attribute::<3>(cx, target, &tptr, "TANGENT", &["VEC3"], vertex_count)?
+            },
         });
     }
     let material = opt_index(prim, "material", ptr, material_count, "material")?;

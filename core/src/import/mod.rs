@@ -200,7 +200,14 @@ pub fn import(bytes: &[u8], resolver: &dyn Resolver, options: &ImportOptions) ->
     for (n, node) in nodes.iter().enumerate() {
         let (Some(m), Some(s)) = (node.mesh, node.skin) else { continue };
         let joint_count = skins[s as usize].joints.len();
-        for &(p, max_joint) in &imported_meshes[m as usize].max_joints {
+        let primitives = &imported_meshes[m as usize].max_joints;
+        if !primitives.is_empty() && primitives.iter().all(|(_, j)| j.is_none()) {
+            cx.warn(
+                format!("/nodes/{n}/skin"),
+                format!("mesh {m} has no JOINTS_0/WEIGHTS_0 to skin with; skin {s} is not used for it"),
+            );
+        }
+        for &(p, max_joint) in primitives {
             if let Some(j) = max_joint.filter(|&j| usize::from(j) >= joint_count) {
                 return Err(ImportError::new(
                     format!("/meshes/{m}/primitives/{p}/attributes/JOINTS_0"),

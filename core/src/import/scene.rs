@@ -29,7 +29,7 @@ pub(crate) fn nodes(cx: &mut Cx<'_>, mesh_count: usize, skin_count: usize) -> Re
             .enumerate()
             .map(|(i, c)| {
                 let p = child(&children_ptr, i);
-                let index = c.as_u64().ok_or_else(|| ImportError::new(&p, "expected a node index"))?;
+                let index = super::json::as_u64(c).ok_or_else(|| ImportError::new(&p, "expected a node index"))?;
                 check_index(index, n, "node", &p)
             })
             .collect::<Result<Vec<_>, _>>()?;
@@ -100,6 +100,14 @@ fn traversal_order(nodes: &[Node], max_depth: u32) -> Result<Vec<u32>, ImportErr
 /// The local transform of a node: `matrix` decomposed, or TRS with the rotation normalized.
 fn rest_transform(cx: &mut Cx<'_>, node: &Obj, ptr: &str) -> Result<Transform, ImportError> {
     if let Some(m) = opt_f32_array::<16>(node, "matrix", ptr)? {
+        let trs: Vec<&str> =
+            ["translation", "rotation", "scale"].into_iter().filter(|k| node.contains_key(*k)).collect();
+        if !trs.is_empty() {
+            cx.warn(
+                ptr,
+                format!("the node has a matrix and {}; the matrix is used (glTF allows only one)", trs.join(", ")),
+            );
+        }
         let matrix = Mat4::from_cols_array(&m);
         if matrix == Mat4::IDENTITY {
             return Ok(Transform::IDENTITY);
@@ -142,7 +150,7 @@ pub(crate) fn scenes(cx: &mut Cx<'_>, nodes: &[Node]) -> Result<(Vec<Scene>, Opt
         let mut roots = Vec::new();
         for (i, v) in array(scene, "nodes", &ptr)?.iter().enumerate() {
             let p = child(&nodes_ptr, i);
-            let index = v.as_u64().ok_or_else(|| ImportError::new(&p, "expected a node index"))?;
+            let index = super::json::as_u64(v).ok_or_else(|| ImportError::new(&p, "expected a node index"))?;
             let r = check_index(index, nodes.len(), "node", &p)?;
             if nodes[r as usize].parent.is_some() {
                 cx.warn(&p, format!("scene node {r} is not a root node"));
@@ -170,7 +178,7 @@ pub(crate) fn skins(cx: &mut Cx<'_>, node_count: usize) -> Result<Vec<Skin>, Imp
             .enumerate()
             .map(|(i, v)| {
                 let p = child(&joints_ptr, i);
-                let index = v.as_u64().ok_or_else(|| ImportError::new(&p, "expected a node index"))?;
+                let index = super::json::as_u64(v).ok_or_else(|| ImportError::new(&p, "expected a node index"))?;
                 check_index(index, node_count, "node", &p)
             })
             .collect::<Result<Vec<_>, _>>()?;

@@ -1037,7 +1037,9 @@ fn morph_targets_weights_and_names() {
     assert_eq!(a.nodes[2].weights, [0.25, 0.5], "wrong-length node weights fall back to the mesh's");
     assert_eq!(a.weight_offsets, [0, 2, 4]);
     assert_eq!(a.weight_total, 6);
-    assert_eq!(imported.warnings.len(), 1);
+    // Node 2's weights, and target 1's NORMAL on a primitive without normals.
+    let pointers: Vec<_> = imported.warnings.iter().map(|w| w.pointer.as_str()).collect();
+    assert_eq!(pointers, ["/meshes/0/primitives/0/targets/1/NORMAL", "/nodes/2/weights"]);
     doc["meshes"][0]["weights"] = json!([0.25]);
     assert_eq!(refused(&doc, &bin).pointer, "/meshes/0/weights");
 }
@@ -1222,8 +1224,27 @@ fn undecodable_images_are_skipped_with_a_warning() {
     assert_eq!((t.transform.offset, t.transform.scale), ([0.5, 0.0], [2.0, 2.0]));
     assert_eq!(m.base_color, [1.0, 0.5, 0.25, 1.0]);
     assert_eq!((m.alpha, m.double_sided, m.unlit), (crate::asset::AlphaMode::Mask(0.3), true, true));
+    // References that resolve to nothing: reported where they are, the texture left out (or
+    // drawn with the default sampler), the model still shown.
     doc["textures"][0]["source"] = json!(5);
-    assert_eq!(refused(&doc, &bin).pointer, "/textures/0/source");
+    doc["textures"][1]["sampler"] = json!(3);
+    doc["materials"][0]["emissiveTexture"] = json!({"index": 9});
+    doc["materials"][0]["pbrMetallicRoughness"]["metallicRoughnessTexture"] = json!({"index": 1});
+    let imported = run(&doc, &bin).expect("dangling references are warnings");
+    let pointers: Vec<&str> = imported.warnings.iter().map(|w| w.pointer.as_str()).collect();
+    assert_eq!(
+        pointers,
+        ["/images/0", "/textures/0/source", "/textures/1/sampler", "/materials/0/emissiveTexture/index"],
+        "{:?}",
+        imported.warnings
+    );
+    assert!(imported.warnings[1].message.contains("image index 5 is out of range"), "{:?}", imported.warnings[1]);
+    assert!(imported.asset.materials[0].base_color_texture.is_none());
+    let t = imported.asset.materials[1].base_color_texture.expect("drawn with the default sampler");
+    assert_eq!((t.image, t.repeat, t.nearest), (1, [true, true], false));
+    // A textureInfo without its index is refused.
+    doc["materials"][0]["emissiveTexture"] = json!({"texCoord": 0});
+    assert_eq!(refused(&doc, &bin).pointer, "/materials/0/emissiveTexture/index");
 }
 
 #[cfg_attr(not(target_arch = "wasm32"), test)]
@@ -1240,4 +1261,119 @@ fn map_resolver_finds_files_by_path_then_name() {
     assert_eq!(r.resolve("x.bin"), Ok(vec![2]), "an exact path wins");
     assert!(r.resolve("elsewhere/x.bin").is_err(), "ambiguous by name");
     assert!(NoResolver.resolve("x.bin").is_err());
+}
+
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+fn integers_written_as_floats_are_read() {
+    let (mut doc, bin) = base();
+    doc["bufferViews"][0]["byteLength"] = json!(36.0);
+    doc["accessors"][0]["count"] = json!(3.0);
+    doc["scenes"][0]["nodes"] = json!([0.0]);
+    let imported = run(&doc, &bin).expect("1.0 is the integer 1");
+    assert_eq!(imported.asset.meshes[0].primitives[0].positions.len(), 3);
+    doc["accessors"][0]["count"] = json!(2.5);
+    assert_eq!(refused(&doc, &bin).pointer, "/accessors/0/count");
+    doc["accessors"][0]["count"] = json!(-3.0);
+    assert_eq!(refused(&doc, &bin).pointer, "/accessors/0/count");
+}
+
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+fn defects_that_change_what_is_shown_are_warnings() {
+    // A node with a matrix and TRS: the matrix is used.
+    let (mut doc, mut bin) = base();
+    doc["nodes"]
+        .as_array_mut()
+        .expect("nodes")
+        .push(json!({"matrix": [2, 0, 0, 0, 0, 2, 0, 0, 0, 0, 2, 0, 0, 0, 0, 1], "translation": [5, 0, 0]}));
+    // A CUBICSPLINE sampler with one key (in, value, out tangents).
+    let time = add_view(&mut doc, &mut bin, &f32s(&[0.0]), None);
+    let values = add_view(&mut doc, &mut bin, &f32s(&[0.0; 9]), None);
+    let input =
+        add_accessor(&mut doc, json!({"bufferView": time, "componentType": 5126, "count": 1, "type": "SCALAR"}));
+    let output =
+        add_accessor(&mut doc, json!({"bufferView": values, "componentType": 5126, "count": 3, "type": "VEC3"}));
+    doc["animations"].as_array_mut().expect("animations").push(json!({
+        "samplers": [{"input": input, "output": output, "interpolation": "CUBICSPLINE"}],
+        "channels": [{"sampler": 0, "target": {"node": 2, "path": "scale"}}]
+    }));
+    // A skin on a node whose mesh has no joints or weights (its joint is what the spline moves).
+    doc["nodes"][0]["skin"] = json!(0);
+    doc["nodes"].as_array_mut().expect("nodes").push(json!({"name": "joint"}));
+    doc["skins"] = json!([{"joints": [2]}]);
+    let imported = run(&doc, &bin).expect("warnings, not errors");
+    let pointers: Vec<&str> = imported.warnings.iter().map(|w| w.pointer.as_str()).collect();
+    assert_eq!(pointers, ["/nodes/1", "/nodes/0/skin", "/animations/1/samplers/0"], "{:?}", imported.warnings);
+    assert!(imported.warnings[0].message.contains("matrix is used"), "{:?}", imported.warnings[0]);
+    assert_eq!(imported.asset.nodes[1].rest.scale, glam::Vec3::splat(2.0));
+    assert_eq!(imported.asset.nodes[1].rest.translation, glam::Vec3::ZERO);
+    assert!(imported.warnings[2].message.contains("at least 2 keyframes"), "{:?}", imported.warnings[2]);
+}
+
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+fn a_matrix_accessor_needs_no_padding_after_its_last_column() {
+    // MAT2 of bytes: each column is 2 bytes padded to 4, so an element takes 8 bytes, but the last
+    // element of the view needs only 6 (its last column's padding may be missing).
+    let bytes = vec![1u8, 2, 0, 0, 3, 4, 0, 0, 5, 6, 0, 0, 7, 8];
+    let doc = json!({
+        "bufferViews": [{"buffer": 0, "byteLength": 14}],
+        "accessors": [{"bufferView": 0, "componentType": 5121, "count": 2, "type": "MAT2"}]
+    });
+    let root = doc.as_object().expect("object");
+    let mut budget = Budget::new(1 << 20);
+    let accessors = accessor::Accessors::new(root, vec![Some(std::borrow::Cow::Owned(bytes))], &mut budget)
+        .expect("the view holds both elements");
+    let (values, components) = accessors.read_flat(0, &mut budget).expect("read");
+    assert_eq!(components, 4);
+    assert_eq!(values, [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0]);
+    // One byte fewer and the last column does not fit.
+    let doc = json!({
+        "bufferViews": [{"buffer": 0, "byteLength": 13}],
+        "accessors": [{"bufferView": 0, "componentType": 5121, "count": 2, "type": "MAT2"}]
+    });
+    let root = doc.as_object().expect("object");
+    let short = accessor::Accessors::new(root, vec![Some(std::borrow::Cow::Owned(vec![0; 14]))], &mut budget)
+        .expect("refused where it is read");
+    assert_eq!(short.read_flat(0, &mut budget).err().map(|e| e.pointer), Some("/accessors/0".to_owned()));
+}
+
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+fn a_broken_accessor_is_refused_only_where_it_is_read() {
+    let (mut doc, bin) = base();
+    let broken =
+        add_accessor(&mut doc, json!({"bufferView": 0, "componentType": 5126, "count": 3, "type": "NotaVEC3"}));
+    let imported = run(&doc, &bin).expect("nothing reads it");
+    assert!(imported.warnings.is_empty(), "{:?}", imported.warnings);
+    doc["meshes"][0]["primitives"][0]["attributes"]["NORMAL"] = json!(broken);
+    let e = refused(&doc, &bin);
+    assert_eq!(e.pointer, format!("/accessors/{broken}/type"));
+    assert!(e.message.contains("not a valid accessor type"), "{e:?}");
+}
+
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+fn colours_outside_their_range_and_targets_without_a_base_are_warnings() {
+    let (mut doc, mut bin) = base();
+    let colors = add_view(&mut doc, &mut bin, &f32s(&[1.5, 0.5, -0.25, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0]), None);
+    let color =
+        add_accessor(&mut doc, json!({"bufferView": colors, "componentType": 5126, "count": 3, "type": "VEC3"}));
+    let deltas = add_view(&mut doc, &mut bin, &f32s(&[0.0; 9]), None);
+    let delta =
+        add_accessor(&mut doc, json!({"bufferView": deltas, "componentType": 5126, "count": 3, "type": "VEC3"}));
+    doc["meshes"][0]["primitives"][0]["attributes"]["COLOR_0"] = json!(color);
+    doc["meshes"][0]["primitives"][0]["targets"] = json!([{"POSITION": delta, "NORMAL": delta}]);
+    let imported = run(&doc, &bin).expect("warnings");
+    let pointers: Vec<&str> = imported.warnings.iter().map(|w| w.pointer.as_str()).collect();
+    assert_eq!(
+        pointers,
+        ["/meshes/0/primitives/0/attributes/COLOR_0", "/meshes/0/primitives/0/targets/0/NORMAL"],
+        "{:?}",
+        imported.warnings
+    );
+    let p = &imported.asset.meshes[0].primitives[0];
+    assert_eq!(p.colors[0], [1.0, 0.5, 0.0, 1.0]);
+    assert!(p.targets[0].normals.is_empty() && p.targets[0].positions.len() == 3);
 }
