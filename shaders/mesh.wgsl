@@ -168,8 +168,11 @@ fn fs_main(in: VsOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f
 
     let to_eye = frame.camera_pos.xyz - in.world_pos;
     var n: vec3<f32>;
+    // Only a zero normal is missing: one skinned with a tiny scale is short, not absent (the
+    // cofactor of a matrix that scales by s scales normals by s²; gltfpack's quantized meshes
+    // fold a dequantization scale of ~1e-4 into the inverse bind matrices).
     let vertex_len2 = dot(in.normal, in.normal);
-    if (draw.params.y & DRAW_HAS_NORMALS) != 0u && vertex_len2 > 1e-12 {
+    if (draw.params.y & DRAW_HAS_NORMALS) != 0u && vertex_len2 > 1e-36 {
         n = in.normal * inverseSqrt(vertex_len2);
         if !front {
             n = -n;

@@ -302,6 +302,30 @@ for (const backend of BACKENDS) {
     assert(coloured > 0.01, `only ${(coloured * 100).toFixed(2)}% of the viewport is coloured: the texture is missing`);
   });
 
+  test(`${backend}: a meshopt-compressed GLB (gltfpack -cc) looks like the original at the same time`, async (ctx) => {
+    await openApp(ctx, backend);
+    const original = join(SHARED, 'khronos/CesiumMan/glTF-Binary/CesiumMan.glb');
+    const packed = join(ROOT, 'tests/optimized/CesiumMan.gltfpack-cc.glb');
+    // The same view of both (without the grid, whose thin lines move with any change of framing).
+    await dropModel(ctx.page, original);
+    await control(ctx.page, 'setGrid', false);
+    const camera = await ctx.page.evaluate(() => document.querySelector('kloub-viewer').camera);
+    const a = await still(ctx.page, null, 0.5);
+    savePng(a, `${backend}-meshopt-original.png`);
+    await dropModel(ctx.page, packed);
+    const d = await dataset(ctx.page);
+    assert(d.error === '', `an error was reported: ${d.error}`);
+    await ctx.page.evaluate((c) => { document.querySelector('kloub-viewer').camera = c; }, camera);
+    const b = await still(ctx.page, null, 0.5);
+    savePng(b, `${backend}-meshopt.png`);
+    const shown = ctx.logs.filter((l) => l.includes('showing CesiumMan.gltfpack-cc.glb'));
+    assert(shown.at(-1)?.includes('0 warnings'), `import warnings: ${shown.at(-1)}`);
+    assert(saturatedFraction(b) > 0.01, 'the texture is missing');
+    // Quantized positions, 8-bit octahedral normals and filtered rotations: a few edge pixels apart.
+    const differ = diffFraction(a, b, 24);
+    assert(differ < 0.01, `${(differ * 100).toFixed(2)}% of the pixels differ from the original's`);
+  });
+
   test(`${backend}: an image the browser cannot decode is drawn white with a warning; the model shows`, async (ctx) => {
     await openApp(ctx, backend);
     // CesiumMan's JPEG with its header intact (the importer reads the size from it) and the scan after it garbled.

@@ -146,9 +146,65 @@ fn span(offset: u64, stride: u64, count: u64, element: u64) -> Option<u64> {
     offset.checked_add(stride.checked_mul(count.checked_sub(1)?)?)?.checked_add(element)
 }
 
+/// The bytes of the view `v` (at `ptr`, `length` bytes) when it is stored compressed with
+/// `EXT_meshopt_compression`: the compressed range is read from its buffer, checked, charged
+/// to the budget and decoded. `None` for a view stored as is.
+fn decompress(
+    v: &Obj,
+    ptr: &str,
+    length: u64,
+    buffers: &[Option<Cow<'_, [u8]>>],
+    budget: &mut Budget,
+) -> Result<Option<Vec<u8>>, ImportError> {
+    let name = "EXT_meshopt_compression";
+    let Some(x) = super::json::extension(v, name, ptr)? else {
+        return Ok(None);
+    };
+    let xptr = format!("{ptr}/extensions/{name}");
+    let buffer = req_index(x, "buffer", &xptr, buffers.len(), "buffer")? as usize;
+    let offset = opt_u64(x, "byteOffset", &xptr)?.unwrap_or(0);
+    let size = req_u64(x, "byteLength", &xptr)?;
+    let stride = req_u64(x, "byteStride", &xptr)?;
+    let count = req_u64(x, "count", &xptr)?;
+    let mode_name = super::json::opt_str(x, "mode", &xptr)?.ok_or_else(|| member_error(&xptr, "mode", "missing"))?;
+    let mode = super::meshopt::Mode::parse(mode_name)
+        .ok_or_else(|| member_error(&xptr, "mode", format!("unknown mode '{mode_name}'")))?;
+    let filter_name = super::json::opt_str(x, "filter", &xptr)?.unwrap_or("NONE");
+    let filter = super::meshopt::Filter::parse(filter_name)
+        .ok_or_else(|| member_error(&xptr, "filter", format!("unknown filter '{filter_name}'")))?;
+    super::meshopt::check(mode, filter, count, stride).map_err(|e| ImportError::new(&xptr, e))?;
+    if count.checked_mul(stride) != Some(length) {
+        return Err(ImportError::new(
+            &xptr,
+            format!("count {count} × byteStride {stride} is not the view's byteLength {length}"),
+        ));
+    }
+    let data = buffers[buffer].as_deref().ok_or_else(|| {
+        ImportError::new(child(&xptr, "buffer"), format!("buffer {buffer} has no data for the compressed view"))
+    })?;
+    let src = offset
+        .checked_add(size)
+        .and_then(|end| data.get(usize::try_from(offset).ok()?..usize::try_from(end).ok()?))
+        .ok_or_else(|| {
+            ImportError::new(
+                &xptr,
+                format!("byteOffset {offset} + byteLength {size} does not fit buffer {buffer} ({} bytes)", data.len()),
+            )
+        })?;
+    budget.take(Some(length), &xptr, &format!("decompressed view of {length} bytes"))?;
+    let length = usize::try_from(length).map_err(|_| ImportError::new(&xptr, "the view is too large"))?;
+    let mut out = vec![0u8; length];
+    // `check` and the length test above hold, so the sizes fit a usize.
+    super::meshopt::decode(mode, filter, count as usize, stride as usize, src, &mut out)
+        .map_err(|e| ImportError::new(&xptr, e))?;
+    Ok(Some(out))
+}
+
 impl<'a> Accessors<'a> {
     /// Validates every buffer view and accessor of `root` against `buffers`.
-    pub fn new(root: &Obj, buffers: Vec<Option<Cow<'a, [u8]>>>, budget: &mut Budget) -> Result<Self, ImportError> {
+    /// A view compressed with `EXT_meshopt_compression` is decoded here (into a buffer of its
+    /// own, charged to the budget first).
+    pub fn new(root: &Obj, mut buffers: Vec<Option<Cow<'a, [u8]>>>, budget: &mut Budget) -> Result<Self, ImportError> {
         let view_objects = objects(root, "bufferViews", "")?;
         budget.take_items(view_objects.len() as u64, size_of::<View>() as u64, "/bufferViews", "buffer views")?;
         let mut views = Vec::with_capacity(view_objects.len());
@@ -158,6 +214,12 @@ impl<'a> Accessors<'a> {
             let length = req_u64(v, "byteLength", ptr)?;
             if length == 0 {
                 return Err(member_error(ptr, "byteLength", "byteLength must be at least 1"));
+            }
+            if let Some(decoded) = decompress(v, ptr, length, &buffers, budget)? {
+                let stride = opt_u64(v, "byteStride", ptr)?;
+                views.push(View { buffer: buffers.len(), offset: 0, length, stride });
+                buffers.push(Some(Cow::Owned(decoded)));
+                continue;
             }
             let stride = opt_u64(v, "byteStride", ptr)?;
             if let Some(s) = stride

@@ -268,6 +268,16 @@ pub(crate) fn load_uri<'a>(
 /// Loads every buffer, each cut to its declared `byteLength`. The declared lengths are
 /// checked against the budget before anything is loaded. A buffer with no data (no `uri`, and
 /// not the GLB's BIN chunk) is `None`: refused only where something reads it.
+/// Whether `buffer` is marked as the fallback of `EXT_meshopt_compression` (the uncompressed
+/// data, for loaders without the extension).
+fn is_fallback(buffer: &Obj, ptr: &str) -> Result<bool, ImportError> {
+    let name = "EXT_meshopt_compression";
+    match super::json::extension(buffer, name, ptr)? {
+        Some(x) => Ok(super::json::opt_bool(x, "fallback", &format!("{ptr}/extensions/{name}"))?.unwrap_or(false)),
+        None => Ok(false),
+    }
+}
+
 pub(crate) fn load_buffers<'a>(
     root: &Obj,
     container: &Container<'a>,
@@ -282,7 +292,7 @@ pub(crate) fn load_buffers<'a>(
             return Err(ImportError::new(child(ptr, "byteLength"), "byteLength must be at least 1"));
         }
         let embedded = i == 0 && container.bin.is_some() && !buffer.contains_key("uri");
-        if !embedded && buffer.contains_key("uri") {
+        if !embedded && buffer.contains_key("uri") && !is_fallback(buffer, ptr)? {
             budget.take(Some(len), ptr, &format!("buffer of byteLength {len}"))?;
         }
         lengths.push(len);
@@ -291,6 +301,11 @@ pub(crate) fn load_buffers<'a>(
     for (i, ((buffer, ptr), &len)) in buffers.iter().zip(&lengths).enumerate() {
         let uri_ptr = child(ptr, "uri");
         let bytes: Cow<'a, [u8]> = match opt_str(buffer, "uri", ptr)? {
+            // The uncompressed copy of views the importer decodes itself: not loaded.
+            Some(_) if is_fallback(buffer, ptr)? => {
+                out.push(None);
+                continue;
+            }
             Some(uri) => load_uri(uri, &uri_ptr, resolver, budget)?,
             None => match container.bin {
                 Some(bin) if i == 0 => Cow::Borrowed(bin),

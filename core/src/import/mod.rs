@@ -14,6 +14,7 @@ pub use container::{is_web_uri, percent_decode};
 mod json;
 mod material;
 mod mesh;
+mod meshopt;
 mod scene;
 
 use crate::asset::Asset;
@@ -24,8 +25,13 @@ use json::{Obj, array, child, opt_object, opt_str};
 use std::collections::HashMap;
 
 /// Extensions a file may require: everything else in `extensionsRequired` is refused.
-pub const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] =
-    &["KHR_texture_transform", "KHR_mesh_quantization", "KHR_materials_unlit", "EXT_texture_webp"];
+pub const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &[
+    "KHR_texture_transform",
+    "KHR_mesh_quantization",
+    "KHR_materials_unlit",
+    "EXT_texture_webp",
+    "EXT_meshopt_compression",
+];
 
 /// Bytes charged per JSON value (a `serde_json::Value` plus, in objects, its key and map
 /// entry): a JSON bomb of tiny values is refused before it is parsed.
@@ -292,8 +298,13 @@ fn repair_inverse_binds(cx: &mut Cx<'_>, skins: &mut [crate::asset::Skin], nodes
         let mut repaired = Vec::new();
         for (j, (matrix, &joint)) in skin.inverse_bind.iter_mut().zip(&skin.joints).enumerate() {
             let affine = matrix.row(3).abs_diff_eq(glam::Vec4::W, 1e-4);
-            let determinant = matrix.determinant();
-            if affine && determinant.is_finite() && determinant.abs() > 1e-12 {
+            // Invertible whatever the scale (gltfpack folds its dequantization scale, ~1e-4, into
+            // the matrices): the determinant against the product of the column lengths, 1 for a
+            // rotation and 0 for a singular matrix.
+            let m3 = glam::Mat3::from_mat4(*matrix);
+            let lengths = m3.x_axis.length() * m3.y_axis.length() * m3.z_axis.length();
+            let shape = m3.determinant() / lengths;
+            if affine && matrix.is_finite() && lengths > 0.0 && shape.is_finite() && shape.abs() > 1e-6 {
                 continue;
             }
             let rest = world(joint as usize).inverse();

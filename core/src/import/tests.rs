@@ -7,7 +7,7 @@ use super::*;
 #[cfg(not(target_arch = "wasm32"))]
 use crate::clip::ChannelTarget;
 use crate::clip::Interpolation;
-use glam::{Mat4, Vec3};
+use glam::{Mat4, Vec3, Vec4};
 use serde_json::{Value, json};
 #[cfg(not(target_arch = "wasm32"))]
 use std::path::{Path, PathBuf};
@@ -706,6 +706,18 @@ fn broken_inverse_bind_matrices_are_replaced_by_the_rest_pose_with_a_warning() {
     assert!(
         imported.asset.skins[0].inverse_bind[0].abs_diff_eq(Mat4::from_translation(Vec3::new(0.0, -2.0, 0.0)), 1e-6)
     );
+    // A tiny scale is not singular (gltfpack folds its dequantization scale, ~1e-4, into them);
+    // a matrix whose axes lie in a plane is.
+    let tiny = Mat4::from_scale(Vec3::splat(9e-5)) * good;
+    let flat = Mat4::from_cols(Vec4::X, Vec4::X, Vec4::Z, good.w_axis);
+    let matrices = [tiny.to_cols_array(), flat.to_cols_array()].concat();
+    let view = add_view(&mut doc, &mut bin, &f32s(&matrices), None);
+    let ibm = add_accessor(&mut doc, json!({"bufferView": view, "componentType": 5126, "count": 2, "type": "MAT4"}));
+    doc["skins"][0]["inverseBindMatrices"] = json!(ibm);
+    let imported = run(&doc, &bin).expect("repaired");
+    assert_eq!(imported.warnings.len(), 1, "{:?}", imported.warnings);
+    assert!(imported.warnings[0].message.contains("1 matrices") && imported.warnings[0].message.contains("joints 1"));
+    assert_eq!(imported.asset.skins[0].inverse_bind[0], tiny);
 }
 
 #[cfg_attr(not(target_arch = "wasm32"), test)]
@@ -837,7 +849,7 @@ fn unsupported_required_extension_is_refused() {
         );
     }
     let (mut doc, bin) = base();
-    doc["extensionsRequired"] = json!(["KHR_texture_transform", "EXT_meshopt_compression"]);
+    doc["extensionsRequired"] = json!(["KHR_texture_transform", "KHR_meshopt_compression"]);
     assert_eq!(refused(&doc, &bin).pointer, "/extensionsRequired/1");
     doc["extensionsRequired"] = json!(["KHR_mesh_quantization", "KHR_materials_unlit"]);
     assert!(run(&doc, &bin).is_ok());
@@ -1376,4 +1388,105 @@ fn colours_outside_their_range_and_targets_without_a_base_are_warnings() {
     let p = &imported.asset.meshes[0].primitives[0];
     assert_eq!(p.colors[0], [1.0, 0.5, 0.0, 1.0]);
     assert!(p.targets[0].normals.is_empty() && p.targets[0].positions.len() == 3);
+}
+
+/// `tests/optimized/NAME` (gltfpack's copies of the shared characters; scripts/make-optimized.sh).
+#[cfg(not(target_arch = "wasm32"))]
+fn optimized(name: &str) -> Result<Imported, ImportError> {
+    import_file(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/optimized").join(name))
+}
+
+/// Whether two imports of one model hold the same meshes and clips, within `tolerance` of the
+/// model's size for positions and 3 × `tolerance` for unit quantities (normals, rotations,
+/// weights: an 8-bit octahedral normal is within ~0.02 of its 16-bit twin). Vertices
+/// and triangles are compared in any order (encoders reorder them for their caches), each
+/// triangle keeping its winding.
+#[cfg(not(target_arch = "wasm32"))]
+fn assert_same_model(a: &Asset, b: &Asset, tolerance: f32, what: &str) {
+    // Vertices by position and uv (exact: both files quantize them alike): normal, joints, weights.
+    let vertices = |p: &crate::asset::Primitive| {
+        let mut map: std::collections::HashMap<Vec<u32>, Vec<Vec<f32>>> = std::collections::HashMap::new();
+        for i in 0..p.positions.len() {
+            let mut key: Vec<u32> = p.positions[i].map(f32::to_bits).to_vec();
+            key.extend(p.uv0.get(i).map_or(Vec::new(), |x| x.map(f32::to_bits).to_vec()));
+            let mut rest = p.normals.get(i).map_or(Vec::new(), |x| x.to_vec());
+            rest.extend(p.joints.get(i).map_or(Vec::new(), |j| j.iter().map(|&x| f32::from(x)).collect()));
+            rest.extend(p.weights.get(i).map_or(&[][..], |x| &x[..]));
+            map.entry(key).or_default().push(rest);
+        }
+        map
+    };
+    // Each triangle as its corners' positions, starting at the least, in a sorted list.
+    let triangles = |p: &crate::asset::Primitive| -> Vec<[[u32; 3]; 3]> {
+        let corner = |i: u32| p.positions[i as usize].map(f32::to_bits);
+        let mut list: Vec<[[u32; 3]; 3]> = p
+            .indices
+            .chunks_exact(3)
+            .map(|t| {
+                let mut t = [corner(t[0]), corner(t[1]), corner(t[2])];
+                let least = (0..3).min_by_key(|&k| t[k]).unwrap_or(0);
+                t.rotate_left(least);
+                t
+            })
+            .collect();
+        list.sort();
+        list
+    };
+    assert_eq!(a.meshes.len(), b.meshes.len(), "{what}: meshes");
+    for (m, (ma, mb)) in a.meshes.iter().zip(&b.meshes).enumerate() {
+        assert_eq!(ma.primitives.len(), mb.primitives.len(), "{what}: mesh {m}");
+        for (p, (pa, pb)) in ma.primitives.iter().zip(&mb.primitives).enumerate() {
+            let at = format!("{what}: mesh {m} primitive {p}");
+            assert_eq!(triangles(pa), triangles(pb), "{at}: triangles");
+            let (va, vb) = (vertices(pa), vertices(pb));
+            assert_eq!(pa.positions.len(), pb.positions.len(), "{at}: vertices");
+            for (key, list) in &va {
+                let twins = vb.get(key).unwrap_or_else(|| panic!("{at}: no vertex at {key:?}"));
+                assert_eq!(list.len(), twins.len(), "{at}: vertices at {key:?}");
+                for x in list {
+                    let close = |y: &Vec<f32>| {
+                        x.len() == y.len() && x.iter().zip(y).all(|(u, v)| (u - v).abs() <= 3.0 * tolerance)
+                    };
+                    assert!(twins.iter().any(close), "{at}: vertex {x:?} against {twins:?}");
+                }
+            }
+            assert_eq!(pa.targets.len(), pb.targets.len(), "{at}: targets");
+        }
+    }
+    assert_eq!(a.clips.len(), b.clips.len(), "{what}: clips");
+    for (ca, cb) in a.clips.iter().zip(&b.clips) {
+        assert_eq!(ca.channels().len(), cb.channels().len(), "{what}: clip {:?}", ca.name);
+        for (ha, hb) in ca.channels().iter().zip(cb.channels()) {
+            assert_eq!((ha.node, ha.target, ha.times.len()), (hb.node, hb.target, hb.times.len()), "{what}: channel");
+            let times = ha.times.iter().zip(&hb.times).all(|(u, v)| (u - v).abs() <= 1e-4);
+            // A quaternion and its negation are one rotation; translations scale with the model.
+            let scale = if ha.target == ChannelTarget::Rotation { 3.0 } else { 100.0 };
+            let values = ha.values.chunks(ha.width as usize).zip(hb.values.chunks(hb.width as usize)).all(|(u, v)| {
+                let same = u.iter().zip(v).all(|(x, y)| (x - y).abs() <= tolerance * scale);
+                let negated = u.iter().zip(v).all(|(x, y)| (x + y).abs() <= tolerance * scale);
+                same || (ha.target == ChannelTarget::Rotation && negated)
+            });
+            assert!(times && values, "{what}: clip {:?} node {} {:?}", ca.name, ha.node, ha.target);
+        }
+    }
+}
+
+#[cfg(not(target_arch = "wasm32"))] // reads tests/optimized from disk
+#[test]
+fn meshopt_compressed_files_decode_to_their_quantized_twins() {
+    // `-c`: the same quantized data, compressed without filters: identical once decoded.
+    let plain = optimized("Fox.gltfpack.glb").expect("quantized").asset;
+    let compressed = optimized("Fox.gltfpack-c.glb").expect("EXT_meshopt_compression").asset;
+    assert_same_model(&plain, &compressed, 0.0, "Fox -c");
+    // `-cc`: filters re-encode normals (octahedral), rotations (quaternion) and translations and
+    // scales (exponential) with fewer bits: the same within their precision.
+    for model in ["Fox", "CesiumMan", "RobotExpressive", "AnimatedMorphCube"] {
+        let plain = optimized(&format!("{model}.gltfpack.glb")).unwrap_or_else(|e| panic!("{model}: {e}"));
+        let packed = optimized(&format!("{model}.gltfpack-cc.glb")).unwrap_or_else(|e| panic!("{model} -cc: {e}"));
+        assert!(packed.warnings.is_empty() || !plain.warnings.is_empty(), "{model}: {:?}", packed.warnings);
+        assert_same_model(&plain.asset, &packed.asset, 0.01, &format!("{model} -cc"));
+    }
+    // The KHR successor's attribute codec (version 1) is not read: refused by name.
+    let e = optimized("Fox.gltfpack-khr.glb").expect_err("KHR_meshopt_compression");
+    assert!(e.message.contains("KHR_meshopt_compression"), "{e}");
 }

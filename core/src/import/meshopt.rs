@@ -1,0 +1,560 @@
+//! `EXT_meshopt_compression` (and `KHR_meshopt_compression` where it uses the same bitstream):
+//! buffer views stored compressed by meshoptimizer's codecs, decoded here into the bytes the
+//! view would hold. The bitstream is the extension's Appendix A (modes ATTRIBUTES, TRIANGLES,
+//! INDICES) and Appendix B (filters OCTAHEDRAL, QUATERNION, EXPONENTIAL). Every read is
+//! bounds-checked: a malformed stream is an error, never a panic, and the output is allocated by
+//! the caller after the budget allowed it.
+
+/// How a view's bytes were compressed (the extension's `mode`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Mode {
+    /// Mode 0: elements of `byteStride` bytes, delta-coded byte by byte.
+    Attributes,
+    /// Mode 1: a triangle list's indices.
+    Triangles,
+    /// Mode 2: any index sequence.
+    Indices,
+}
+
+/// What is applied to the decoded elements (the extension's `filter`, ATTRIBUTES only).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Filter {
+    None,
+    Octahedral,
+    Quaternion,
+    Exponential,
+}
+
+impl Mode {
+    pub(crate) fn parse(s: &str) -> Option<Self> {
+        match s {
+            "ATTRIBUTES" => Some(Self::Attributes),
+            "TRIANGLES" => Some(Self::Triangles),
+            "INDICES" => Some(Self::Indices),
+            _ => None,
+        }
+    }
+}
+
+impl Filter {
+    pub(crate) fn parse(s: &str) -> Option<Self> {
+        match s {
+            "NONE" => Some(Self::None),
+            "OCTAHEDRAL" => Some(Self::Octahedral),
+            "QUATERNION" => Some(Self::Quaternion),
+            "EXPONENTIAL" => Some(Self::Exponential),
+            _ => None,
+        }
+    }
+}
+
+/// Checks the extension's rules on `mode`, `filter`, `count` and `stride` (before anything is
+/// allocated).
+pub(crate) fn check(mode: Mode, filter: Filter, count: u64, stride: u64) -> Result<(), String> {
+    match mode {
+        Mode::Attributes if stride == 0 || !stride.is_multiple_of(4) || stride > 256 => {
+            return Err(format!("ATTRIBUTES needs a byteStride that is a multiple of 4 up to 256, not {stride}"));
+        }
+        Mode::Triangles | Mode::Indices if stride != 2 && stride != 4 => {
+            return Err(format!("index data needs a byteStride of 2 or 4, not {stride}"));
+        }
+        Mode::Triangles if !count.is_multiple_of(3) => {
+            return Err(format!("TRIANGLES needs a count divisible by 3, not {count}"));
+        }
+        Mode::Triangles | Mode::Indices if filter != Filter::None => {
+            return Err("index data takes no filter".to_owned());
+        }
+        _ => {}
+    }
+    match filter {
+        Filter::Octahedral if stride != 4 && stride != 8 => {
+            Err(format!("the OCTAHEDRAL filter needs a byteStride of 4 or 8, not {stride}"))
+        }
+        Filter::Quaternion if stride != 8 => {
+            Err(format!("the QUATERNION filter needs a byteStride of 8, not {stride}"))
+        }
+        Filter::Exponential if !stride.is_multiple_of(4) => {
+            Err(format!("the EXPONENTIAL filter needs a byteStride that is a multiple of 4, not {stride}"))
+        }
+        _ => Ok(()),
+    }
+}
+
+/// Decodes `src` into `out` (`count` elements of `stride` bytes: `out.len() == count * stride`),
+/// then applies `filter`. The arguments must have passed [`check`].
+pub(crate) fn decode(
+    mode: Mode,
+    filter: Filter,
+    count: usize,
+    stride: usize,
+    src: &[u8],
+    out: &mut [u8],
+) -> Result<(), String> {
+    if count.checked_mul(stride) != Some(out.len()) {
+        return Err("the output does not hold count × byteStride bytes".to_owned());
+    }
+    match mode {
+        Mode::Attributes => decode_vertices(out, count, stride, src)?,
+        Mode::Triangles => decode_triangles(out, count, stride, src)?,
+        Mode::Indices => decode_indices(out, count, stride, src)?,
+    }
+    match filter {
+        Filter::None => {}
+        Filter::Octahedral if stride == 4 => out.chunks_exact_mut(4).for_each(octahedral8),
+        Filter::Octahedral => out.chunks_exact_mut(8).for_each(octahedral16),
+        Filter::Quaternion => out.chunks_exact_mut(8).for_each(quaternion),
+        Filter::Exponential => out.chunks_exact_mut(4).for_each(exponential),
+    }
+    Ok(())
+}
+
+/// A cursor over the compressed bytes.
+struct Reader<'a> {
+    data: &'a [u8],
+    at: usize,
+}
+
+impl<'a> Reader<'a> {
+    fn take(&mut self, n: usize) -> Result<&'a [u8], String> {
+        let end = self.at.checked_add(n).filter(|&e| e <= self.data.len()).ok_or("the compressed data ends early")?;
+        let bytes = &self.data[self.at..end];
+        self.at = end;
+        Ok(bytes)
+    }
+
+    fn byte(&mut self) -> Result<u8, String> {
+        Ok(self.take(1)?[0])
+    }
+
+    /// An unsigned LEB128 value of at most 32 bits.
+    fn varint(&mut self) -> Result<u32, String> {
+        let mut value = 0u32;
+        for shift in (0..35).step_by(7) {
+            let b = self.byte()?;
+            value |= u32::from(b & 0x7f).checked_shl(shift).unwrap_or(0);
+            if b & 0x80 == 0 {
+                return Ok(value);
+            }
+        }
+        Err("an index value is longer than 5 bytes".to_owned())
+    }
+
+    fn finished(&self) -> bool {
+        self.at == self.data.len()
+    }
+}
+
+fn unzigzag8(v: u8) -> u8 {
+    if v & 1 != 0 { !(v >> 1) } else { v >> 1 }
+}
+
+fn unzigzag32(v: u32) -> u32 {
+    if v & 1 != 0 { !(v >> 1) } else { v >> 1 }
+}
+
+/// Mode 0 (header 0xa0): per block of elements, per byte of the element, groups of 16 deltas.
+fn decode_vertices(out: &mut [u8], count: usize, stride: usize, src: &[u8]) -> Result<(), String> {
+    let tail = stride.max(32);
+    match src.first() {
+        Some(0xa0) => {}
+        Some(&h) if h & 0xf0 == 0xa0 => {
+            return Err(format!("attribute codec version {} is not supported (only version 0)", h & 0x0f));
+        }
+        _ => return Err("the ATTRIBUTES data does not start with 0xa0".to_owned()),
+    }
+    if src.len() < 1 + tail {
+        return Err("the ATTRIBUTES data is shorter than its tail".to_owned());
+    }
+    // The baseline element is the last `stride` bytes (the tail is padded before it).
+    let mut last = [0u8; 256];
+    last[..stride].copy_from_slice(&src[src.len() - stride..]);
+    let mut reader = Reader { data: &src[1..src.len() - tail], at: 0 };
+    let block_max = ((8192 / stride) & !15).min(256);
+    let mut deltas = [0u8; 256];
+    let mut first = 0;
+    while first < count {
+        let block = block_max.min(count - first);
+        let groups = block.div_ceil(16);
+        for byte in 0..stride {
+            let header = reader.take(groups.div_ceil(4))?;
+            for group in 0..groups {
+                let bits = (header[group / 4] >> ((group % 4) * 2)) & 3;
+                decode_group(&mut reader, bits, &mut deltas[group * 16..group * 16 + 16])?;
+            }
+            let mut value = last[byte];
+            for (i, &delta) in deltas[..block].iter().enumerate() {
+                value = value.wrapping_add(unzigzag8(delta));
+                out[(first + i) * stride + byte] = value;
+            }
+            last[byte] = value;
+        }
+        first += block;
+    }
+    if !reader.finished() {
+        return Err("bytes are left over after the ATTRIBUTES data".to_owned());
+    }
+    Ok(())
+}
+
+/// One group of 16 zigzag deltas: all zero, 2-bit or 4-bit with a sentinel for a whole byte
+/// that follows, or 16 whole bytes.
+fn decode_group(reader: &mut Reader<'_>, bits: u8, deltas: &mut [u8]) -> Result<(), String> {
+    match bits {
+        0 => deltas.fill(0),
+        1 | 2 => {
+            let width = if bits == 1 { 2 } else { 4 };
+            let per_byte = 8 / width;
+            let sentinel = (1u8 << width) - 1;
+            let packed = reader.take(16 / per_byte)?;
+            for (i, delta) in deltas.iter_mut().enumerate() {
+                // The first delta of a byte is in its highest bits.
+                let shift = 8 - width * (i % per_byte + 1);
+                let v = (packed[i / per_byte] >> shift) & sentinel;
+                *delta = if v == sentinel { reader.byte()? } else { v };
+            }
+        }
+        _ => deltas.copy_from_slice(reader.take(16)?),
+    }
+    Ok(())
+}
+
+fn write_index(out: &mut [u8], stride: usize, i: usize, value: u32) {
+    let at = i * stride;
+    if stride == 2 {
+        out[at..at + 2].copy_from_slice(&(value as u16).to_le_bytes());
+    } else {
+        out[at..at + 4].copy_from_slice(&value.to_le_bytes());
+    }
+}
+
+/// Mode 1 (header 0xe1): a code byte per triangle, extra data, a 16-byte table.
+fn decode_triangles(out: &mut [u8], count: usize, stride: usize, src: &[u8]) -> Result<(), String> {
+    if src.first() != Some(&0xe1) {
+        return Err("the TRIANGLES data does not start with 0xe1".to_owned());
+    }
+    let triangles = count / 3;
+    if src.len() < 1 + triangles + 16 {
+        return Err("the TRIANGLES data is shorter than its codes and table".to_owned());
+    }
+    let codes = &src[1..1 + triangles];
+    let aux = &src[src.len() - 16..];
+    let mut data = Reader { data: &src[1 + triangles..src.len() - 16], at: 0 };
+    let mut s = Fifos { edges: [[0; 2]; 16], edge_at: 0, vertices: [0; 16], vertex_at: 0, next: 0, last: 0 };
+    for (t, &code) in codes.iter().enumerate() {
+        let (hi, lo) = (usize::from(code >> 4), usize::from(code & 15));
+        let (a, b, c);
+        if hi < 15 {
+            // A recent edge and a third vertex.
+            [a, b] = s.edge(hi);
+            c = match lo {
+                0 => s.take_next(),
+                13 => {
+                    s.last = s.last.wrapping_sub(1);
+                    s.last
+                }
+                14 => {
+                    s.last = s.last.wrapping_add(1);
+                    s.last
+                }
+                15 => s.explicit(&mut data)?,
+                _ => s.vertex(lo),
+            };
+            s.push_edge(c, b);
+            s.push_edge(a, c);
+            if lo == 0 || lo >= 13 {
+                s.push_vertex(c);
+            }
+        } else {
+            // Three vertices: by the table (0xf0..0xfd) or the data (0xfe, 0xff).
+            let explicit = lo >= 14;
+            let zw = if explicit { data.byte()? } else { aux[lo] };
+            if explicit && zw == 0 {
+                s.next = 0;
+            }
+            let (z, w) = (usize::from(zw >> 4), usize::from(zw & 15));
+            a = if lo == 15 { s.explicit(&mut data)? } else { s.take_next() };
+            b = s.third(z, explicit, &mut data)?;
+            c = s.third(w, explicit, &mut data)?;
+            s.push_edge(b, a);
+            s.push_edge(c, b);
+            s.push_edge(a, c);
+            s.push_vertex(a);
+            if z == 0 || (explicit && z == 15) {
+                s.push_vertex(b);
+            }
+            if w == 0 || (explicit && w == 15) {
+                s.push_vertex(c);
+            }
+        }
+        write_index(out, stride, t * 3, a);
+        write_index(out, stride, t * 3 + 1, b);
+        write_index(out, stride, t * 3 + 2, c);
+    }
+    if !data.finished() {
+        return Err("bytes are left over after the TRIANGLES data".to_owned());
+    }
+    Ok(())
+}
+
+/// The triangle decoder's state: recent edges and vertices, the next new vertex, the last
+/// explicit one.
+struct Fifos {
+    edges: [[u32; 2]; 16],
+    edge_at: usize,
+    vertices: [u32; 16],
+    vertex_at: usize,
+    next: u32,
+    last: u32,
+}
+
+impl Fifos {
+    /// The edge `i` pushes ago (0: the last).
+    fn edge(&self, i: usize) -> [u32; 2] {
+        self.edges[self.edge_at.wrapping_sub(1 + i) & 15]
+    }
+
+    /// The vertex `i` pushes ago (0: the last).
+    fn vertex(&self, i: usize) -> u32 {
+        self.vertices[self.vertex_at.wrapping_sub(1 + i) & 15]
+    }
+
+    fn push_edge(&mut self, a: u32, b: u32) {
+        self.edges[self.edge_at] = [a, b];
+        self.edge_at = (self.edge_at + 1) & 15;
+    }
+
+    fn push_vertex(&mut self, v: u32) {
+        self.vertices[self.vertex_at] = v;
+        self.vertex_at = (self.vertex_at + 1) & 15;
+    }
+
+    fn take_next(&mut self) -> u32 {
+        self.next = self.next.wrapping_add(1);
+        self.next.wrapping_sub(1)
+    }
+
+    /// An index coded in the data as a zigzag delta from the last explicit one.
+    fn explicit(&mut self, data: &mut Reader<'_>) -> Result<u32, String> {
+        self.last = self.last.wrapping_add(unzigzag32(data.varint()?));
+        Ok(self.last)
+    }
+
+    /// The second or third vertex of a 0xfY/0xfe/0xff triangle from its nibble `k`: new (0), a
+    /// recent vertex (`k - 1` pushes ago), or explicit (15, in the data's case).
+    fn third(&mut self, k: usize, explicit: bool, data: &mut Reader<'_>) -> Result<u32, String> {
+        if k == 0 {
+            Ok(self.take_next())
+        } else if k == 15 && explicit {
+            self.explicit(data)
+        } else {
+            Ok(self.vertex(k - 1))
+        }
+    }
+}
+
+/// Mode 2 (header 0xd1): a varint per index, a delta from one of two baselines; a 4-byte tail.
+fn decode_indices(out: &mut [u8], count: usize, stride: usize, src: &[u8]) -> Result<(), String> {
+    if src.first() != Some(&0xd1) {
+        return Err("the INDICES data does not start with 0xd1".to_owned());
+    }
+    if src.len() < 1 + 4 {
+        return Err("the INDICES data is shorter than its tail".to_owned());
+    }
+    let mut data = Reader { data: &src[1..src.len() - 4], at: 0 };
+    let mut last = [0u32; 2];
+    for i in 0..count {
+        let v = data.varint()?;
+        let baseline = (v & 1) as usize;
+        let delta = if v & 2 != 0 { !(v >> 2) } else { v >> 2 };
+        last[baseline] = last[baseline].wrapping_add(delta);
+        write_index(out, stride, i, last[baseline]);
+    }
+    if !data.finished() {
+        return Err("bytes are left over after the INDICES data".to_owned());
+    }
+    Ok(())
+}
+
+/// Rounds to the nearest integer (halves away from zero) and saturates, as the filters' `round`.
+fn round_i16(x: f32) -> i16 {
+    x.round() as i16
+}
+
+/// Filter 1 on four signed bytes: octahedral x, y, the K-bit 1.0, and a byte passed through.
+fn octahedral8(e: &mut [u8]) {
+    let [x, y, z] = octahedral(f32::from(e[0] as i8), f32::from(e[1] as i8), f32::from(e[2] as i8));
+    e[0] = (x * 127.0).round() as i8 as u8;
+    e[1] = (y * 127.0).round() as i8 as u8;
+    e[2] = (z * 127.0).round() as i8 as u8;
+}
+
+/// Filter 1 on four signed 16-bit components.
+fn octahedral16(e: &mut [u8]) {
+    let read = |i: usize| f32::from(i16::from_le_bytes([e[2 * i], e[2 * i + 1]]));
+    let [x, y, z] = octahedral(read(0), read(1), read(2));
+    for (i, v) in [x, y, z].into_iter().enumerate() {
+        e[2 * i..2 * i + 2].copy_from_slice(&round_i16(v * 32767.0).to_le_bytes());
+    }
+}
+
+/// The unit vector of octahedral coordinates `x`, `y` in units of `one`.
+fn octahedral(x: f32, y: f32, one: f32) -> [f32; 3] {
+    let (mut x, mut y) = (x / one, y / one);
+    let z = 1.0 - x.abs() - y.abs();
+    let t = z.min(0.0);
+    x -= t.copysign(x);
+    y -= t.copysign(y);
+    let len = (x * x + y * y + z * z).sqrt();
+    [x / len, y / len, z / len]
+}
+
+/// Filter 2: three components scaled by √2 and the index of the omitted largest one.
+fn quaternion(e: &mut [u8]) {
+    let read = |i: usize| i16::from_le_bytes([e[2 * i], e[2 * i + 1]]);
+    let range = std::f32::consts::FRAC_1_SQRT_2;
+    let one = f32::from(read(3) | 3);
+    let x = f32::from(read(0)) / one * range;
+    let y = f32::from(read(1)) / one * range;
+    let z = f32::from(read(2)) / one * range;
+    let w = (1.0 - x * x - y * y - z * z).max(0.0).sqrt();
+    let max = (read(3) & 3) as usize;
+    let mut q = [0i16; 4];
+    q[(max + 1) % 4] = round_i16(x * 32767.0);
+    q[(max + 2) % 4] = round_i16(y * 32767.0);
+    q[(max + 3) % 4] = round_i16(z * 32767.0);
+    q[max] = round_i16(w * 32767.0);
+    for (i, v) in q.into_iter().enumerate() {
+        e[2 * i..2 * i + 2].copy_from_slice(&v.to_le_bytes());
+    }
+}
+
+/// Filter 3: a signed 8-bit exponent over a signed 24-bit mantissa, to a float.
+fn exponential(e: &mut [u8]) {
+    let v = i32::from_le_bytes([e[0], e[1], e[2], e[3]]);
+    let exponent = v >> 24;
+    let mantissa = (v << 8) >> 8;
+    let value = 2f32.powi(exponent) * mantissa as f32;
+    e.copy_from_slice(&value.to_le_bytes());
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[cfg_attr(not(target_arch = "wasm32"), test)]
+    #[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+    fn a_4_bit_group_with_sentinels_decodes_as_the_specification_shows() {
+        let bytes = [0x17, 0x5f, 0xf0, 0xbc, 0x77, 0xa9, 0x21, 0x00, 0x34, 0xb5];
+        let mut reader = Reader { data: &bytes, at: 0 };
+        let mut deltas = [0u8; 16];
+        decode_group(&mut reader, 2, &mut deltas).expect("decodes");
+        assert!(reader.finished());
+        let signed: Vec<i8> = deltas.iter().map(|&d| unzigzag8(d) as i8).collect();
+        assert_eq!(signed, [-1, -4, -3, 26, -91, 0, -6, 6, -4, -4, 5, -5, 1, -1, 0, 0]);
+    }
+
+    #[cfg_attr(not(target_arch = "wasm32"), test)]
+    #[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+    fn varints_are_unsigned_leb128() {
+        // The specification's first two examples; its third (0xff 0xa0 0x05) reads its groups
+        // the other way round, while LEB128 and meshoptimizer's decoder put the first lowest.
+        let bytes = [0x7f, 0x81, 0x04, 0xff, 0xa0, 0x05];
+        let mut reader = Reader { data: &bytes, at: 0 };
+        assert_eq!(reader.varint(), Ok(0x7f));
+        assert_eq!(reader.varint(), Ok(0x201));
+        assert_eq!(reader.varint(), Ok(0x7f | 0x20 << 7 | 0x05 << 14));
+        assert!(Reader { data: &[0x80; 6], at: 0 }.varint().is_err());
+        assert!(Reader { data: &[0x80], at: 0 }.varint().is_err());
+    }
+
+    /// Encodes `values` (4-byte elements) as mode 0 with every group stored as whole bytes.
+    fn encode_raw(values: &[[u8; 4]]) -> Vec<u8> {
+        let mut out = vec![0xa0];
+        let mut last = [0u8; 4];
+        for block in values.chunks(256) {
+            let groups = block.len().div_ceil(16);
+            for byte in 0..4 {
+                out.extend(std::iter::repeat_n(0xff, groups.div_ceil(4)));
+                let mut deltas: Vec<u8> = block
+                    .iter()
+                    .map(|v| {
+                        let d = v[byte].wrapping_sub(last[byte]);
+                        last[byte] = v[byte];
+                        if d & 0x80 != 0 { !(d << 1) } else { d << 1 }
+                    })
+                    .collect();
+                deltas.resize(groups * 16, 0);
+                out.extend(deltas);
+            }
+        }
+        out.extend([0u8; 32]);
+        out
+    }
+
+    #[cfg_attr(not(target_arch = "wasm32"), test)]
+    #[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+    fn attributes_round_trip_through_whole_byte_groups() {
+        let values: Vec<[u8; 4]> = (0..300u32).map(|i| i.wrapping_mul(2654435761).to_le_bytes()).collect();
+        let src = encode_raw(&values);
+        let mut out = vec![0u8; values.len() * 4];
+        decode(Mode::Attributes, Filter::None, values.len(), 4, &src, &mut out).expect("decodes");
+        assert_eq!(out, values.concat());
+        // Cut short, a byte too many, or another version: errors, never a panic.
+        for bad in [&src[..src.len() - 40], &[&src[..], &[0]].concat()[..], &[&[0xa1][..], &src[1..]].concat()[..]] {
+            assert!(decode(Mode::Attributes, Filter::None, values.len(), 4, bad, &mut out).is_err());
+        }
+    }
+
+    #[cfg_attr(not(target_arch = "wasm32"), test)]
+    #[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+    fn indices_decode_deltas_from_two_baselines() {
+        // 5, then 3 on the second baseline, then 6 on the first (+1), then 3 again (+0).
+        let zig = |d: i32, baseline: u32| (((d << 1) ^ (d >> 31)) as u32) << 1 | baseline;
+        let mut src = vec![0xd1];
+        for v in [zig(5, 0), zig(3, 1), zig(1, 0), zig(0, 1)] {
+            assert!(v < 128);
+            src.push(v as u8);
+        }
+        src.extend([0; 4]);
+        let mut out = vec![0u8; 8];
+        decode(Mode::Indices, Filter::None, 4, 2, &src, &mut out).expect("decodes");
+        let got: Vec<u16> = out.chunks(2).map(|c| u16::from_le_bytes([c[0], c[1]])).collect();
+        assert_eq!(got, [5, 3, 6, 3]);
+    }
+
+    #[cfg_attr(not(target_arch = "wasm32"), test)]
+    #[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+    fn triangles_decode_new_vertices_and_shared_edges() {
+        // 0xfe with 0x00: three new vertices (0, 1, 2) and `next` reset; then 0x00: edge 0 — the
+        // last pushed, (a, c) = (0, 2) — and the next vertex 3.
+        let mut src = vec![0xe1, 0xfe, 0x00, 0x00];
+        src.extend([0u8; 16]);
+        let mut out = vec![0u8; 12];
+        decode(Mode::Triangles, Filter::None, 6, 2, &src, &mut out).expect("decodes");
+        let got: Vec<u16> = out.chunks(2).map(|c| u16::from_le_bytes([c[0], c[1]])).collect();
+        assert_eq!(got, [0, 1, 2, 0, 2, 3]);
+        assert!(decode(Mode::Triangles, Filter::None, 6, 2, &src[..10], &mut out).is_err());
+    }
+
+    #[cfg_attr(not(target_arch = "wasm32"), test)]
+    #[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+    fn filters_decode_unit_vectors_quaternions_and_floats() {
+        // Octahedral (0, 0) with 1.0 = 127: +Z.
+        let mut e = [0u8, 0, 127, 9];
+        octahedral8(&mut e);
+        assert_eq!(e, [0, 0, 127, 9]);
+        // Quaternion: largest component w (index 3), the others 0, 1.0 = 32767 → identity.
+        let mut q = [0u8; 8];
+        q[6..8].copy_from_slice(&(32767i16 & !3 | 3).to_le_bytes());
+        quaternion(&mut q);
+        let got: Vec<i16> = q.chunks(2).map(|c| i16::from_le_bytes([c[0], c[1]])).collect();
+        assert_eq!(got, [0, 0, 0, 32767]);
+        // Exponential: 3 × 2^-1.
+        let mut f = ((-1i32 << 24) | 3).to_le_bytes();
+        exponential(&mut f);
+        assert_eq!(f32::from_le_bytes(f), 1.5);
+        assert!(check(Mode::Attributes, Filter::Quaternion, 4, 4).is_err());
+        assert!(check(Mode::Triangles, Filter::None, 4, 2).is_err());
+        assert!(check(Mode::Attributes, Filter::Octahedral, 4, 8).is_ok());
+    }
+}
