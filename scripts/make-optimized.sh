@@ -22,5 +22,7 @@ for model in Fox CesiumMan RobotExpressive AnimatedMorphCube; do
   "$pack" -i "$src" -o "$out/$model.gltfpack-cc.glb" -cc >/dev/null
 done
 "$pack" -i "${sources[Fox]}" -o "$out/Fox.gltfpack-c.glb" -c >/dev/null
-"$pack" -i "${sources[Fox]}" -o "$out/Fox.gltfpack-khr.glb" -cc -ce khr >/dev/null
+for model in Fox CesiumMan; do
+  "$pack" -i "${sources[$model]}" -o "$out/$model.gltfpack-khr.glb" -cc -ce khr >/dev/null
+done
 ls -l "$out"/*.glb

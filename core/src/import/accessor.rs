@@ -147,7 +147,7 @@ fn span(offset: u64, stride: u64, count: u64, element: u64) -> Option<u64> {
 }
 
 /// The bytes of the view `v` (at `ptr`, `length` bytes) when it is stored compressed with
-/// `EXT_meshopt_compression`: the compressed range is read from its buffer, checked, charged
+/// `EXT_meshopt_compression` or `KHR_meshopt_compression`: the compressed range is read from its buffer, checked, charged
 /// to the budget and decoded. `None` for a view stored as is.
 fn decompress(
     v: &Obj,
@@ -156,10 +156,14 @@ fn decompress(
     buffers: &[Option<Cow<'_, [u8]>>],
     budget: &mut Budget,
 ) -> Result<Option<Vec<u8>>, ImportError> {
-    let name = "EXT_meshopt_compression";
-    let Some(x) = super::json::extension(v, name, ptr)? else {
-        return Ok(None);
+    let (name, x) = match super::json::extension(v, "KHR_meshopt_compression", ptr)? {
+        Some(x) => ("KHR_meshopt_compression", x),
+        None => match super::json::extension(v, "EXT_meshopt_compression", ptr)? {
+            Some(x) => ("EXT_meshopt_compression", x),
+            None => return Ok(None),
+        },
     };
+    let khr = name.starts_with("KHR");
     let xptr = format!("{ptr}/extensions/{name}");
     let buffer = req_index(x, "buffer", &xptr, buffers.len(), "buffer")? as usize;
     let offset = opt_u64(x, "byteOffset", &xptr)?.unwrap_or(0);
@@ -172,7 +176,7 @@ fn decompress(
     let filter_name = super::json::opt_str(x, "filter", &xptr)?.unwrap_or("NONE");
     let filter = super::meshopt::Filter::parse(filter_name)
         .ok_or_else(|| member_error(&xptr, "filter", format!("unknown filter '{filter_name}'")))?;
-    super::meshopt::check(mode, filter, count, stride).map_err(|e| ImportError::new(&xptr, e))?;
+    super::meshopt::check(mode, filter, count, stride, khr).map_err(|e| ImportError::new(&xptr, e))?;
     if count.checked_mul(stride) != Some(length) {
         return Err(ImportError::new(
             &xptr,
@@ -195,7 +199,7 @@ fn decompress(
     let length = usize::try_from(length).map_err(|_| ImportError::new(&xptr, "the view is too large"))?;
     let mut out = vec![0u8; length];
     // `check` and the length test above hold, so the sizes fit a usize.
-    super::meshopt::decode(mode, filter, count as usize, stride as usize, src, &mut out)
+    super::meshopt::decode(mode, filter, count as usize, stride as usize, src, &mut out, khr)
         .map_err(|e| ImportError::new(&xptr, e))?;
     Ok(Some(out))
 }

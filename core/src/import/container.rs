@@ -268,14 +268,17 @@ pub(crate) fn load_uri<'a>(
 /// Loads every buffer, each cut to its declared `byteLength`. The declared lengths are
 /// checked against the budget before anything is loaded. A buffer with no data (no `uri`, and
 /// not the GLB's BIN chunk) is `None`: refused only where something reads it.
-/// Whether `buffer` is marked as the fallback of `EXT_meshopt_compression` (the uncompressed
+/// Whether `buffer` is marked as the fallback of `EXT_meshopt_compression` or its KHR successor (the uncompressed
 /// data, for loaders without the extension).
 fn is_fallback(buffer: &Obj, ptr: &str) -> Result<bool, ImportError> {
-    let name = "EXT_meshopt_compression";
-    match super::json::extension(buffer, name, ptr)? {
-        Some(x) => Ok(super::json::opt_bool(x, "fallback", &format!("{ptr}/extensions/{name}"))?.unwrap_or(false)),
-        None => Ok(false),
+    for name in ["EXT_meshopt_compression", "KHR_meshopt_compression"] {
+        if let Some(x) = super::json::extension(buffer, name, ptr)?
+            && super::json::opt_bool(x, "fallback", &format!("{ptr}/extensions/{name}"))?.unwrap_or(false)
+        {
+            return Ok(true);
+        }
     }
+    Ok(false)
 }
 
 pub(crate) fn load_buffers<'a>(

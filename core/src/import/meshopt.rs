@@ -1,9 +1,9 @@
-//! `EXT_meshopt_compression` (and `KHR_meshopt_compression` where it uses the same bitstream):
-//! buffer views stored compressed by meshoptimizer's codecs, decoded here into the bytes the
-//! view would hold. The bitstream is the extension's Appendix A (modes ATTRIBUTES, TRIANGLES,
-//! INDICES) and Appendix B (filters OCTAHEDRAL, QUATERNION, EXPONENTIAL). Every read is
-//! bounds-checked: a malformed stream is an error, never a panic, and the output is allocated by
-//! the caller after the budget allowed it.
+//! `EXT_meshopt_compression` and its successor `KHR_meshopt_compression`: buffer views stored
+//! compressed by meshoptimizer's codecs, decoded here into the bytes the view would hold. The
+//! bitstream is the extensions' Appendix A (modes ATTRIBUTES, TRIANGLES, INDICES; the KHR one
+//! adds version 1 of the attribute codec) and Appendix B (filters OCTAHEDRAL, QUATERNION,
+//! EXPONENTIAL, and KHR's COLOR). Every read is bounds-checked: a malformed stream is an error,
+//! never a panic, and the output is allocated by the caller after the budget allowed it.
 
 /// How a view's bytes were compressed (the extension's `mode`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -23,6 +23,8 @@ pub(crate) enum Filter {
     Octahedral,
     Quaternion,
     Exponential,
+    /// `KHR_meshopt_compression` only: YCoCg colours.
+    Color,
 }
 
 impl Mode {
@@ -43,14 +45,15 @@ impl Filter {
             "OCTAHEDRAL" => Some(Self::Octahedral),
             "QUATERNION" => Some(Self::Quaternion),
             "EXPONENTIAL" => Some(Self::Exponential),
+            "COLOR" => Some(Self::Color),
             _ => None,
         }
     }
 }
 
 /// Checks the extension's rules on `mode`, `filter`, `count` and `stride` (before anything is
-/// allocated).
-pub(crate) fn check(mode: Mode, filter: Filter, count: u64, stride: u64) -> Result<(), String> {
+/// allocated); `khr`: the view is `KHR_meshopt_compression`'s.
+pub(crate) fn check(mode: Mode, filter: Filter, count: u64, stride: u64, khr: bool) -> Result<(), String> {
     match mode {
         Mode::Attributes if stride == 0 || !stride.is_multiple_of(4) || stride > 256 => {
             return Err(format!("ATTRIBUTES needs a byteStride that is a multiple of 4 up to 256, not {stride}"));
@@ -76,12 +79,17 @@ pub(crate) fn check(mode: Mode, filter: Filter, count: u64, stride: u64) -> Resu
         Filter::Exponential if !stride.is_multiple_of(4) => {
             Err(format!("the EXPONENTIAL filter needs a byteStride that is a multiple of 4, not {stride}"))
         }
+        Filter::Color if !khr => Err("the COLOR filter is KHR_meshopt_compression's".to_owned()),
+        Filter::Color if stride != 4 && stride != 8 => {
+            Err(format!("the COLOR filter needs a byteStride of 4 or 8, not {stride}"))
+        }
         _ => Ok(()),
     }
 }
 
 /// Decodes `src` into `out` (`count` elements of `stride` bytes: `out.len() == count * stride`),
-/// then applies `filter`. The arguments must have passed [`check`].
+/// then applies `filter`. The arguments must have passed [`check`]; `khr` allows version 1 of
+/// the attribute codec.
 pub(crate) fn decode(
     mode: Mode,
     filter: Filter,
@@ -89,12 +97,13 @@ pub(crate) fn decode(
     stride: usize,
     src: &[u8],
     out: &mut [u8],
+    khr: bool,
 ) -> Result<(), String> {
     if count.checked_mul(stride) != Some(out.len()) {
         return Err("the output does not hold count × byteStride bytes".to_owned());
     }
     match mode {
-        Mode::Attributes => decode_vertices(out, count, stride, src)?,
+        Mode::Attributes => decode_vertices(out, count, stride, src, khr)?,
         Mode::Triangles => decode_triangles(out, count, stride, src)?,
         Mode::Indices => decode_indices(out, count, stride, src)?,
     }
@@ -104,6 +113,8 @@ pub(crate) fn decode(
         Filter::Octahedral => out.chunks_exact_mut(8).for_each(octahedral16),
         Filter::Quaternion => out.chunks_exact_mut(8).for_each(quaternion),
         Filter::Exponential => out.chunks_exact_mut(4).for_each(exponential),
+        Filter::Color if stride == 4 => out.chunks_exact_mut(4).for_each(color8),
+        Filter::Color => out.chunks_exact_mut(8).for_each(color16),
     }
     Ok(())
 }
@@ -152,41 +163,98 @@ fn unzigzag32(v: u32) -> u32 {
     if v & 1 != 0 { !(v >> 1) } else { v >> 1 }
 }
 
-/// Mode 0 (header 0xa0): per block of elements, per byte of the element, groups of 16 deltas.
-fn decode_vertices(out: &mut [u8], count: usize, stride: usize, src: &[u8]) -> Result<(), String> {
-    let tail = stride.max(32);
-    match src.first() {
-        Some(0xa0) => {}
+/// Mode 0: per block of elements, per byte of the element, groups of 16 deltas. Version 0
+/// (header 0xa0, `EXT_meshopt_compression`) codes byte deltas only; version 1 (0xa1,
+/// `KHR_meshopt_compression`) adds a control mode per byte position (which bit widths its
+/// groups use, or all zero, or literal) and a channel mode per 4 bytes (byte deltas, 16-bit
+/// deltas, or a rotated 32-bit XOR), read from the tail.
+fn decode_vertices(out: &mut [u8], count: usize, stride: usize, src: &[u8], allow_v1: bool) -> Result<(), String> {
+    let v1 = match src.first() {
+        Some(0xa0) => false,
+        Some(0xa1) if allow_v1 => true,
         Some(&h) if h & 0xf0 == 0xa0 => {
-            return Err(format!("attribute codec version {} is not supported (only version 0)", h & 0x0f));
+            return Err(format!("attribute codec version {} is not supported by this extension", h & 0x0f));
         }
-        _ => return Err("the ATTRIBUTES data does not start with 0xa0".to_owned()),
-    }
+        _ => return Err("the ATTRIBUTES data does not start with 0xa0 or 0xa1".to_owned()),
+    };
+    // The tail: padding, the baseline element, and (version 1) a channel mode per 4 bytes.
+    let tail_block = if v1 { stride + stride / 4 } else { stride };
+    let tail = tail_block.max(if v1 { 24 } else { 32 });
     if src.len() < 1 + tail {
         return Err("the ATTRIBUTES data is shorter than its tail".to_owned());
     }
-    // The baseline element is the last `stride` bytes (the tail is padded before it).
+    let tail_start = src.len() - tail_block;
     let mut last = [0u8; 256];
-    last[..stride].copy_from_slice(&src[src.len() - stride..]);
+    last[..stride].copy_from_slice(&src[tail_start..tail_start + stride]);
+    let channels = &src[tail_start + stride..];
+    for &mode in channels {
+        if mode & 15 > 2 || (mode & 15 < 2 && mode >> 4 != 0) {
+            return Err(format!("channel mode {mode:#04x} is not valid"));
+        }
+    }
     let mut reader = Reader { data: &src[1..src.len() - tail], at: 0 };
     let block_max = ((8192 / stride) & !15).min(256);
-    let mut deltas = [0u8; 256];
+    // The block's deltas, byte position by byte position.
+    let mut deltas = vec![0u8; stride * block_max.div_ceil(16) * 16];
     let mut first = 0;
     while first < count {
         let block = block_max.min(count - first);
         let groups = block.div_ceil(16);
+        let span = groups * 16;
+        let control = if v1 { reader.take(stride / 4)? } else { &[][..] };
         for byte in 0..stride {
-            let header = reader.take(groups.div_ceil(4))?;
-            for group in 0..groups {
-                let bits = (header[group / 4] >> ((group % 4) * 2)) & 3;
-                decode_group(&mut reader, bits, &mut deltas[group * 16..group * 16 + 16])?;
+            let stream = &mut deltas[byte * span..(byte + 1) * span];
+            let mode = control.get(byte / 4).map_or(0, |c| (c >> ((byte % 4) * 2)) & 3);
+            match (v1, mode) {
+                (true, 2) => stream.fill(0),
+                // Literal: the block's deltas as they are (not rounded up to whole groups).
+                (true, 3) => stream[..block].copy_from_slice(reader.take(block)?),
+                _ => {
+                    let header = reader.take(groups.div_ceil(4))?;
+                    for group in 0..groups {
+                        let bits = (header[group / 4] >> ((group % 4) * 2)) & 3;
+                        let width = match (v1, mode, bits) {
+                            (false, _, 0) | (true, 0, 0) => 0,
+                            (true, 0, 1) | (true, _, 0) => 1,
+                            (false, _, 1) | (true, 0, 2) | (true, _, 1) => 2,
+                            (false, _, 2) | (true, 0, 3) | (true, _, 2) => 4,
+                            _ => 8,
+                        };
+                        decode_group(&mut reader, width, &mut stream[group * 16..group * 16 + 16])?;
+                    }
+                }
             }
-            let mut value = last[byte];
-            for (i, &delta) in deltas[..block].iter().enumerate() {
-                value = value.wrapping_add(unzigzag8(delta));
-                out[(first + i) * stride + byte] = value;
+        }
+        for i in 0..block {
+            let element = &mut out[(first + i) * stride..(first + i + 1) * stride];
+            let delta = |k: usize| deltas[k * span + i];
+            for channel in 0..stride.div_ceil(4) {
+                let at = channel * 4;
+                let mode = channels.get(channel).copied().unwrap_or(0);
+                match mode & 15 {
+                    1 => {
+                        for half in [at, at + 2] {
+                            let d = u16::from_le_bytes([delta(half), delta(half + 1)]);
+                            let d = if d & 1 != 0 { !(d >> 1) } else { d >> 1 };
+                            let v = u16::from_le_bytes([last[half], last[half + 1]]).wrapping_add(d);
+                            last[half..half + 2].copy_from_slice(&v.to_le_bytes());
+                        }
+                    }
+                    2 => {
+                        let d = u32::from_le_bytes([delta(at), delta(at + 1), delta(at + 2), delta(at + 3)]);
+                        let p = u32::from_le_bytes([last[at], last[at + 1], last[at + 2], last[at + 3]]);
+                        let v = p ^ d.rotate_right(u32::from(mode >> 4));
+                        last[at..at + 4].copy_from_slice(&v.to_le_bytes());
+                    }
+                    _ => {
+                        let end = (at + 4).min(stride);
+                        for (k, value) in last[at..end].iter_mut().enumerate() {
+                            *value = value.wrapping_add(unzigzag8(delta(at + k)));
+                        }
+                    }
+                }
             }
-            last[byte] = value;
+            element.copy_from_slice(&last[..stride]);
         }
         first += block;
     }
@@ -196,24 +264,24 @@ fn decode_vertices(out: &mut [u8], count: usize, stride: usize, src: &[u8]) -> R
     Ok(())
 }
 
-/// One group of 16 zigzag deltas: all zero, 2-bit or 4-bit with a sentinel for a whole byte
-/// that follows, or 16 whole bytes.
-fn decode_group(reader: &mut Reader<'_>, bits: u8, deltas: &mut [u8]) -> Result<(), String> {
-    match bits {
+/// One group of 16 zigzag deltas of `width` bits (0: all zero; 8: whole bytes); a delta with
+/// every bit set (the sentinel) is a whole byte that follows the packed ones. 1-bit deltas are
+/// packed from the lowest bit, 2- and 4-bit ones from the highest.
+fn decode_group(reader: &mut Reader<'_>, width: u32, deltas: &mut [u8]) -> Result<(), String> {
+    match width {
         0 => deltas.fill(0),
-        1 | 2 => {
-            let width = if bits == 1 { 2 } else { 4 };
-            let per_byte = 8 / width;
-            let sentinel = (1u8 << width) - 1;
+        8 => deltas.copy_from_slice(reader.take(16)?),
+        _ => {
+            let per_byte = (8 / width) as usize;
+            let sentinel = ((1u32 << width) - 1) as u8;
             let packed = reader.take(16 / per_byte)?;
             for (i, delta) in deltas.iter_mut().enumerate() {
-                // The first delta of a byte is in its highest bits.
-                let shift = 8 - width * (i % per_byte + 1);
+                let slot = (i % per_byte) as u32;
+                let shift = if width == 1 { slot } else { 8 - width * (slot + 1) };
                 let v = (packed[i / per_byte] >> shift) & sentinel;
                 *delta = if v == sentinel { reader.byte()? } else { v };
             }
         }
-        _ => deltas.copy_from_slice(reader.take(16)?),
     }
     Ok(())
 }
@@ -437,6 +505,36 @@ fn exponential(e: &mut [u8]) {
     e.copy_from_slice(&value.to_le_bytes());
 }
 
+/// Filter 4 on four 8-bit components: Y, Co, Cg and an alpha whose highest set bit gives K.
+fn color8(e: &mut [u8]) {
+    let rgba = ycocg(i32::from(e[0]), i32::from(e[1] as i8), i32::from(e[2] as i8), u32::from(e[3]), 255.0);
+    for (out, v) in e.iter_mut().zip(rgba) {
+        *out = v.round() as u8;
+    }
+}
+
+/// Filter 4 on four 16-bit components.
+fn color16(e: &mut [u8]) {
+    let read = |i: usize| [e[2 * i], e[2 * i + 1]];
+    let y = i32::from(u16::from_le_bytes(read(0)));
+    let co = i32::from(i16::from_le_bytes(read(1)));
+    let cg = i32::from(i16::from_le_bytes(read(2)));
+    let rgba = ycocg(y, co, cg, u32::from(u16::from_le_bytes(read(3))), 65535.0);
+    for (i, v) in rgba.into_iter().enumerate() {
+        e[2 * i..2 * i + 2].copy_from_slice(&(v.round() as u16).to_le_bytes());
+    }
+}
+
+/// YCoCg with K-bit components (K from the alpha's highest set bit) to RGBA scaled to `max`
+/// (rounded and saturated by the caller's cast).
+fn ycocg(y: i32, co: i32, cg: i32, alpha: u32, max: f32) -> [f32; 4] {
+    let scale = if alpha == 0 { 0 } else { (1u32 << (32 - alpha.leading_zeros())) - 1 };
+    let a = alpha & (scale >> 1);
+    let a = (a << 1) | (a & 1);
+    let ss = if scale == 0 { 0.0 } else { max / scale as f32 };
+    [(y + co - cg) as f32 * ss, (y + cg) as f32 * ss, (y - co - cg) as f32 * ss, a as f32 * ss]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -447,7 +545,7 @@ mod tests {
         let bytes = [0x17, 0x5f, 0xf0, 0xbc, 0x77, 0xa9, 0x21, 0x00, 0x34, 0xb5];
         let mut reader = Reader { data: &bytes, at: 0 };
         let mut deltas = [0u8; 16];
-        decode_group(&mut reader, 2, &mut deltas).expect("decodes");
+        decode_group(&mut reader, 4, &mut deltas).expect("decodes");
         assert!(reader.finished());
         let signed: Vec<i8> = deltas.iter().map(|&d| unzigzag8(d) as i8).collect();
         assert_eq!(signed, [-1, -4, -3, 26, -91, 0, -6, 6, -4, -4, 5, -5, 1, -1, 0, 0]);
@@ -497,11 +595,11 @@ mod tests {
         let values: Vec<[u8; 4]> = (0..300u32).map(|i| i.wrapping_mul(2654435761).to_le_bytes()).collect();
         let src = encode_raw(&values);
         let mut out = vec![0u8; values.len() * 4];
-        decode(Mode::Attributes, Filter::None, values.len(), 4, &src, &mut out).expect("decodes");
+        decode(Mode::Attributes, Filter::None, values.len(), 4, &src, &mut out, false).expect("decodes");
         assert_eq!(out, values.concat());
         // Cut short, a byte too many, or another version: errors, never a panic.
         for bad in [&src[..src.len() - 40], &[&src[..], &[0]].concat()[..], &[&[0xa1][..], &src[1..]].concat()[..]] {
-            assert!(decode(Mode::Attributes, Filter::None, values.len(), 4, bad, &mut out).is_err());
+            assert!(decode(Mode::Attributes, Filter::None, values.len(), 4, bad, &mut out, false).is_err());
         }
     }
 
@@ -517,7 +615,7 @@ mod tests {
         }
         src.extend([0; 4]);
         let mut out = vec![0u8; 8];
-        decode(Mode::Indices, Filter::None, 4, 2, &src, &mut out).expect("decodes");
+        decode(Mode::Indices, Filter::None, 4, 2, &src, &mut out, false).expect("decodes");
         let got: Vec<u16> = out.chunks(2).map(|c| u16::from_le_bytes([c[0], c[1]])).collect();
         assert_eq!(got, [5, 3, 6, 3]);
     }
@@ -530,10 +628,10 @@ mod tests {
         let mut src = vec![0xe1, 0xfe, 0x00, 0x00];
         src.extend([0u8; 16]);
         let mut out = vec![0u8; 12];
-        decode(Mode::Triangles, Filter::None, 6, 2, &src, &mut out).expect("decodes");
+        decode(Mode::Triangles, Filter::None, 6, 2, &src, &mut out, false).expect("decodes");
         let got: Vec<u16> = out.chunks(2).map(|c| u16::from_le_bytes([c[0], c[1]])).collect();
         assert_eq!(got, [0, 1, 2, 0, 2, 3]);
-        assert!(decode(Mode::Triangles, Filter::None, 6, 2, &src[..10], &mut out).is_err());
+        assert!(decode(Mode::Triangles, Filter::None, 6, 2, &src[..10], &mut out, false).is_err());
     }
 
     #[cfg_attr(not(target_arch = "wasm32"), test)]
@@ -553,8 +651,18 @@ mod tests {
         let mut f = ((-1i32 << 24) | 3).to_le_bytes();
         exponential(&mut f);
         assert_eq!(f32::from_le_bytes(f), 1.5);
-        assert!(check(Mode::Attributes, Filter::Quaternion, 4, 4).is_err());
-        assert!(check(Mode::Triangles, Filter::None, 4, 2).is_err());
-        assert!(check(Mode::Attributes, Filter::Octahedral, 4, 8).is_ok());
+        assert!(check(Mode::Attributes, Filter::Quaternion, 4, 4, false).is_err());
+        assert!(check(Mode::Triangles, Filter::None, 4, 2, false).is_err());
+        assert!(check(Mode::Attributes, Filter::Color, 4, 4, false).is_err());
+        assert!(check(Mode::Attributes, Filter::Color, 4, 4, true).is_ok());
+        assert!(check(Mode::Attributes, Filter::Octahedral, 4, 8, false).is_ok());
+        // Colour: grey Y = 128 without chroma, alpha 127 in 7 bits with bit 8 set (K = 8) → 255.
+        let mut c = [128u8, 0, 0, 0xff];
+        color8(&mut c);
+        assert_eq!(c, [128, 128, 128, 255]);
+        // Co = 10, Cg = -5: r = y + co - cg, g = y + cg, b = y - co - cg.
+        let mut c = [100u8, 10, (-5i8) as u8, 0xff];
+        color8(&mut c);
+        assert_eq!(c, [115, 95, 95, 255]);
     }
 }

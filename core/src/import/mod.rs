@@ -31,6 +31,7 @@ pub const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &[
     "KHR_materials_unlit",
     "EXT_texture_webp",
     "EXT_meshopt_compression",
+    "KHR_meshopt_compression",
 ];
 
 /// Bytes charged per JSON value (a `serde_json::Value` plus, in objects, its key and map
