@@ -56,6 +56,26 @@ pub struct Extensions {
     pub used: Vec<String>,
     /// `extensionsRequired`, in file order (each one supported: the import refuses the others).
     pub required: Vec<String>,
+    /// The buffer views stored compressed, which the importer decoded.
+    pub compressed_views: Vec<CompressedView>,
+}
+
+/// A buffer view stored compressed (`EXT_meshopt_compression` or `KHR_meshopt_compression`),
+/// and what decoding it cost.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct CompressedView {
+    /// Index in `bufferViews`.
+    pub view: u32,
+    /// The extension's name.
+    pub extension: String,
+    /// `ATTRIBUTES`, `TRIANGLES` or `INDICES`.
+    pub mode: String,
+    /// `NONE`, `OCTAHEDRAL`, `QUATERNION`, `EXPONENTIAL` or `COLOR`.
+    pub filter: String,
+    /// Bytes in the file.
+    pub compressed_bytes: u64,
+    /// Bytes once decoded (the view's `byteLength`, charged to the import budget).
+    pub decoded_bytes: u64,
 }
 
 /// One glTF node.

@@ -184,6 +184,8 @@ JSON keys (--json), stable:
              target_names[]
   images[]:  index, name, width, height, decoded_bytes (RGBA8, before mips)
   extensions_used[], extensions_required[] (the file's extension names)
+  compressed_views[]: view, extension, mode, filter, compressed_bytes, decoded_bytes
+             (buffer views stored with EXT_/KHR_meshopt_compression, and what decoding cost)
   warnings[]: pointer (JSON pointer), message
 Names are null when the file has none.";
 

@@ -17,6 +17,7 @@
 //!                 "morph_targets", "target_names": [..]} ],
 //!   "images":  [ {"index", "name", "width", "height", "decoded_bytes"} ],
 //!   "extensions_used": ["KHR_...", ...], "extensions_required": [...],
+//!   "compressed_views": [ {"view", "extension", "mode", "filter", "compressed_bytes", "decoded_bytes"} ],
 //!   "warnings": [ {"pointer", "message"} ] }
 //! ```
 //!
@@ -56,8 +57,27 @@ pub struct InspectDoc {
     pub extensions_used: Vec<String>,
     /// The file's `extensionsRequired`.
     pub extensions_required: Vec<String>,
+    /// Buffer views stored compressed (meshopt), with what decoding them cost.
+    pub compressed_views: Vec<CompressedOut>,
     /// Defects the importer repaired.
     pub warnings: Vec<WarningOut>,
+}
+
+/// A buffer view stored compressed.
+#[derive(Clone, Debug, Serialize)]
+pub struct CompressedOut {
+    /// Index in `bufferViews`.
+    pub view: u32,
+    /// `EXT_meshopt_compression` or `KHR_meshopt_compression`.
+    pub extension: String,
+    /// `ATTRIBUTES`, `TRIANGLES` or `INDICES`.
+    pub mode: String,
+    /// `NONE`, `OCTAHEDRAL`, `QUATERNION`, `EXPONENTIAL` or `COLOR`.
+    pub filter: String,
+    /// Bytes in the file.
+    pub compressed_bytes: u64,
+    /// Bytes once decoded.
+    pub decoded_bytes: u64,
 }
 
 /// A node.
@@ -317,6 +337,19 @@ pub fn describe(asset_name: &str, asset: &Asset, warnings: &[Warning]) -> Inspec
             .collect(),
         extensions_used: asset.extensions.used.clone(),
         extensions_required: asset.extensions.required.clone(),
+        compressed_views: asset
+            .extensions
+            .compressed_views
+            .iter()
+            .map(|c| CompressedOut {
+                view: c.view,
+                extension: c.extension.clone(),
+                mode: c.mode.clone(),
+                filter: c.filter.clone(),
+                compressed_bytes: c.compressed_bytes,
+                decoded_bytes: c.decoded_bytes,
+            })
+            .collect(),
         warnings: warnings
             .iter()
             .map(|w| WarningOut { pointer: w.pointer.clone(), message: w.message.clone() })
@@ -406,6 +439,11 @@ fn write_text(doc: &InspectDoc, out: &mut String) -> std::fmt::Result {
     }
     let list = |names: &[String]| if names.is_empty() { "(none)".to_owned() } else { names.join(", ") };
     writeln!(out, "\nextensions: used {}; required {}", list(&doc.extensions_used), list(&doc.extensions_required))?;
+    if !doc.compressed_views.is_empty() {
+        let packed: u64 = doc.compressed_views.iter().map(|c| c.compressed_bytes).sum();
+        let decoded: u64 = doc.compressed_views.iter().map(|c| c.decoded_bytes).sum();
+        writeln!(out, "compressed: {} buffer views, {packed} B decoded to {decoded} B", doc.compressed_views.len())?;
+    }
     writeln!(out, "\nwarnings:")?;
     if doc.warnings.is_empty() {
         writeln!(out, "  (none)")?;

@@ -328,6 +328,18 @@ fn inspect_describes_skins_clips_morph_targets_and_warnings() {
     assert_eq!(image["decoded_bytes"], 4 << 20);
     let text = String::from_utf8(kloub_ok(&["inspect", fox.to_str().expect("UTF-8")])).expect("UTF-8");
     assert!(text.contains("1024×1024, 4.0 MB decoded") && text.contains("extensions: used (none)"), "{text}");
+    assert_eq!(doc["compressed_views"], serde_json::json!([]));
+    // A meshopt-compressed copy: every compressed view with its mode, filter and sizes.
+    let packed = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../tests/optimized/Fox.gltfpack-cc.glb");
+    let doc: serde_json::Value =
+        serde_json::from_slice(&kloub_ok(&["inspect", packed.to_str().expect("UTF-8"), "--json"])).expect("JSON");
+    let views = doc["compressed_views"].as_array().expect("compressed_views");
+    assert!(views.len() >= 3, "{views:?}");
+    assert!(views.iter().all(|v| v["extension"] == "EXT_meshopt_compression"), "{views:?}");
+    assert!(views.iter().any(|v| v["mode"] == "TRIANGLES") && views.iter().any(|v| v["filter"] == "QUATERNION"));
+    assert!(views.iter().all(|v| v["compressed_bytes"].as_u64() < v["decoded_bytes"].as_u64()), "{views:?}");
+    let text = String::from_utf8(kloub_ok(&["inspect", packed.to_str().expect("UTF-8")])).expect("UTF-8");
+    assert!(text.contains(&format!("compressed: {} buffer views", views.len())), "{text}");
 
     let out = kloub().args(["inspect", "/nonexistent/x.glb"]).output().expect("runs");
     assert_eq!(out.status.code(), Some(1));

@@ -139,6 +139,8 @@ pub(crate) struct Accessors<'a> {
     views: Vec<View>,
     /// Each accessor, or why it cannot be read: an accessor is refused only where it is read.
     list: Vec<Result<Accessor, ImportError>>,
+    /// The views that were stored compressed.
+    pub compressed: Vec<crate::asset::CompressedView>,
 }
 
 /// `offset + stride * (count - 1) + element` (count ≥ 1) in u64, None on overflow.
@@ -148,14 +150,15 @@ fn span(offset: u64, stride: u64, count: u64, element: u64) -> Option<u64> {
 
 /// The bytes of the view `v` (at `ptr`, `length` bytes) when it is stored compressed with
 /// `EXT_meshopt_compression` or `KHR_meshopt_compression`: the compressed range is read from its buffer, checked, charged
-/// to the budget and decoded. `None` for a view stored as is.
+/// to the budget and decoded, with what it cost (its `view` set by the caller). `None` for a view
+/// stored as is.
 fn decompress(
     v: &Obj,
     ptr: &str,
     length: u64,
     buffers: &[Option<Cow<'_, [u8]>>],
     budget: &mut Budget,
-) -> Result<Option<Vec<u8>>, ImportError> {
+) -> Result<Option<(Vec<u8>, crate::asset::CompressedView)>, ImportError> {
     let (name, x) = match super::json::extension(v, "KHR_meshopt_compression", ptr)? {
         Some(x) => ("KHR_meshopt_compression", x),
         None => match super::json::extension(v, "EXT_meshopt_compression", ptr)? {
@@ -201,7 +204,15 @@ fn decompress(
     // `check` and the length test above hold, so the sizes fit a usize.
     super::meshopt::decode(mode, filter, count as usize, stride as usize, src, &mut out, khr)
         .map_err(|e| ImportError::new(&xptr, e))?;
-    Ok(Some(out))
+    let cost = crate::asset::CompressedView {
+        view: 0,
+        extension: name.to_owned(),
+        mode: mode_name.to_owned(),
+        filter: filter_name.to_owned(),
+        compressed_bytes: size,
+        decoded_bytes: length as u64,
+    };
+    Ok(Some((out, cost)))
 }
 
 impl<'a> Accessors<'a> {
@@ -212,14 +223,17 @@ impl<'a> Accessors<'a> {
         let view_objects = objects(root, "bufferViews", "")?;
         budget.take_items(view_objects.len() as u64, size_of::<View>() as u64, "/bufferViews", "buffer views")?;
         let mut views = Vec::with_capacity(view_objects.len());
-        for (v, ptr) in &view_objects {
+        let mut compressed = Vec::new();
+        for (index, (v, ptr)) in view_objects.iter().enumerate() {
             let buffer = req_index(v, "buffer", ptr, buffers.len(), "buffer")? as usize;
             let offset = opt_u64(v, "byteOffset", ptr)?.unwrap_or(0);
             let length = req_u64(v, "byteLength", ptr)?;
             if length == 0 {
                 return Err(member_error(ptr, "byteLength", "byteLength must be at least 1"));
             }
-            if let Some(decoded) = decompress(v, ptr, length, &buffers, budget)? {
+            if let Some((decoded, mut cost)) = decompress(v, ptr, length, &buffers, budget)? {
+                cost.view = index as u32;
+                compressed.push(cost);
                 let stride = opt_u64(v, "byteStride", ptr)?;
                 views.push(View { buffer: buffers.len(), offset: 0, length, stride });
                 buffers.push(Some(Cow::Owned(decoded)));
@@ -253,7 +267,7 @@ impl<'a> Accessors<'a> {
         for (a, ptr) in &accessor_objects {
             list.push(Self::accessor(a, ptr, &views));
         }
-        Ok(Self { buffers, views, list })
+        Ok(Self { buffers, views, list, compressed })
     }
 
     fn accessor(a: &Obj, ptr: &str, views: &[View]) -> Result<Accessor, ImportError> {

@@ -263,6 +263,7 @@ pub fn import(bytes: &[u8], resolver: &dyn Resolver, options: &ImportOptions) ->
         extensions: crate::asset::Extensions {
             used: names(root, "extensionsUsed")?,
             required: names(root, "extensionsRequired")?,
+            compressed_views: std::mem::take(&mut cx.accessors.compressed),
         },
     };
     Ok(Imported { asset, warnings: cx.warnings })
