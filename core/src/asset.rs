@@ -63,6 +63,7 @@ pub struct Extensions {
 /// A buffer view stored compressed (`EXT_meshopt_compression` or `KHR_meshopt_compression`),
 /// and what decoding it cost.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct CompressedView {
     /// Index in `bufferViews`.
     pub view: u32,

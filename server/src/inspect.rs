@@ -58,26 +58,9 @@ pub struct InspectDoc {
     /// The file's `extensionsRequired`.
     pub extensions_required: Vec<String>,
     /// Buffer views stored compressed (meshopt), with what decoding them cost.
-    pub compressed_views: Vec<CompressedOut>,
+    pub compressed_views: Vec<kloub_core::asset::CompressedView>,
     /// Defects the importer repaired.
     pub warnings: Vec<WarningOut>,
-}
-
-/// A buffer view stored compressed.
-#[derive(Clone, Debug, Serialize)]
-pub struct CompressedOut {
-    /// Index in `bufferViews`.
-    pub view: u32,
-    /// `EXT_meshopt_compression` or `KHR_meshopt_compression`.
-    pub extension: String,
-    /// `ATTRIBUTES`, `TRIANGLES` or `INDICES`.
-    pub mode: String,
-    /// `NONE`, `OCTAHEDRAL`, `QUATERNION`, `EXPONENTIAL` or `COLOR`.
-    pub filter: String,
-    /// Bytes in the file.
-    pub compressed_bytes: u64,
-    /// Bytes once decoded.
-    pub decoded_bytes: u64,
 }
 
 /// A node.
@@ -337,19 +320,7 @@ pub fn describe(asset_name: &str, asset: &Asset, warnings: &[Warning]) -> Inspec
             .collect(),
         extensions_used: asset.extensions.used.clone(),
         extensions_required: asset.extensions.required.clone(),
-        compressed_views: asset
-            .extensions
-            .compressed_views
-            .iter()
-            .map(|c| CompressedOut {
-                view: c.view,
-                extension: c.extension.clone(),
-                mode: c.mode.clone(),
-                filter: c.filter.clone(),
-                compressed_bytes: c.compressed_bytes,
-                decoded_bytes: c.decoded_bytes,
-            })
-            .collect(),
+        compressed_views: asset.extensions.compressed_views.clone(),
         warnings: warnings
             .iter()
             .map(|w| WarningOut { pointer: w.pointer.clone(), message: w.message.clone() })
