@@ -849,7 +849,7 @@ fn unsupported_required_extension_is_refused() {
         );
     }
     let (mut doc, bin) = base();
-    doc["extensionsRequired"] = json!(["KHR_texture_transform", "KHR_meshopt_compression"]);
+    doc["extensionsRequired"] = json!(["KHR_texture_transform", "KHR_texture_basisu"]);
     assert_eq!(refused(&doc, &bin).pointer, "/extensionsRequired/1");
     doc["extensionsRequired"] = json!(["KHR_mesh_quantization", "KHR_materials_unlit"]);
     assert!(run(&doc, &bin).is_ok());
