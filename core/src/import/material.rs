@@ -182,7 +182,7 @@ pub(crate) fn materials(cx: &mut Cx<'_>, usable_images: &[bool]) -> Result<Vec<M
         }
         if let Some((t, info, iptr)) = base_color_info {
             match &resolved[t] {
-                Some(texture) => material.base_color_texture = texture_ref(texture, info, &iptr)?,
+                Some(texture) => material.base_color_texture = texture_ref(cx, texture, info, &iptr)?,
                 None if sourceless[t] => {
                     sourceless[t] = false;
                     cx.warn(textures[t].1.as_str(), "texture has no source image in a supported format; not drawn");
@@ -302,8 +302,9 @@ fn resolve_texture(
     Ok((Some(Resolved { image, repeat, nearest }), named))
 }
 
-/// A texture reference from a `textureInfo` (at `ptr`) to a resolved texture.
-fn texture_ref(texture: &Resolved, info: &Obj, ptr: &str) -> Result<Option<TextureRef>, ImportError> {
+/// A texture reference from a `textureInfo` (at `ptr`) to a resolved texture. A `texCoord`
+/// other than 0 is reported: the viewer draws with TEXCOORD_0 only.
+fn texture_ref(cx: &mut Cx<'_>, texture: &Resolved, info: &Obj, ptr: &str) -> Result<Option<TextureRef>, ImportError> {
     let mut tex_coord = opt_u64(info, "texCoord", ptr)?.unwrap_or(0);
     let mut transform = TextureTransform::default();
     if let Some(x) = extension(info, "KHR_texture_transform", ptr)? {
@@ -314,6 +315,12 @@ fn texture_ref(texture: &Resolved, info: &Obj, ptr: &str) -> Result<Option<Textu
         tex_coord = opt_u64(x, "texCoord", &xptr)?.unwrap_or(tex_coord);
     }
     let tex_coord = u32::try_from(tex_coord).map_err(|_| member_error(ptr, "texCoord", "texCoord is too large"))?;
+    if tex_coord != 0 {
+        cx.warn(
+            child(ptr, "texCoord"),
+            format!("texture coordinate set {tex_coord} is not drawn yet; TEXCOORD_0 is used"),
+        );
+    }
     let Resolved { image, repeat, nearest } = *texture;
     Ok(Some(TextureRef { image, tex_coord, transform, repeat, nearest }))
 }

@@ -1254,6 +1254,16 @@ fn undecodable_images_are_skipped_with_a_warning() {
     assert!(imported.asset.materials[0].base_color_texture.is_none());
     let t = imported.asset.materials[1].base_color_texture.expect("drawn with the default sampler");
     assert_eq!((t.image, t.repeat, t.nearest), (1, [true, true], false));
+    // A second texture coordinate set: drawn with the first, and said so.
+    doc["materials"][0]["emissiveTexture"] = json!({"index": 1});
+    doc["materials"][1]["pbrMetallicRoughness"]["baseColorTexture"]["extensions"]["KHR_texture_transform"]["texCoord"] =
+        json!(1);
+    let imported = run(&doc, &bin).expect("drawn with TEXCOORD_0");
+    assert!(
+        imported.warnings.iter().any(|w| w.pointer == "/materials/1/pbrMetallicRoughness/baseColorTexture/texCoord"),
+        "{:?}",
+        imported.warnings
+    );
     // A textureInfo without its index is refused.
     doc["materials"][0]["emissiveTexture"] = json!({"texCoord": 0});
     assert_eq!(refused(&doc, &bin).pointer, "/materials/0/emissiveTexture/index");
