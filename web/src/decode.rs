@@ -151,7 +151,8 @@ mod web {
                             .unwrap_or_default(),
                         None => Vec::new(),
                     };
-                    let mut taken = vec![false; early.len()];
+                    let mut early: Vec<Option<web_sys::ImageBitmap>> =
+                        early.into_iter().map(|b| b.dyn_into().ok()).collect();
                     // Every image handed to the browser first, so that they decode in parallel (or
                     // the bitmap decoded while the module loaded, where it has the size asked for).
                     let pending: Vec<_> = asset
@@ -161,30 +162,30 @@ mod web {
                         .map(|(i, image)| {
                             let encoded = image.encoded.as_ref()?;
                             let size = super::fit(image.width, image.height, max_size);
-                            let bitmap = early.get(i).and_then(|b| b.dyn_ref::<web_sys::ImageBitmap>());
-                            if let Some(bitmap) = bitmap.filter(|b| (b.width(), b.height()) == size) {
-                                taken[i] = true;
+                            let slot = early.get_mut(i);
+                            if let Some(bitmap) = slot.and_then(|b| b.take_if(|b| (b.width(), b.height()) == size)) {
                                 PREDECODED.with(|n| n.set(n.get() + 1));
-                                return Some(Ok(js_sys::Promise::resolve(AsRef::<wasm_bindgen::JsValue>::as_ref(
-                                    bitmap,
-                                ))));
+                                return Some(Pending::Decoded(bitmap));
                             }
-                            Some(start(encoded, image.width, image.height, max_size))
+                            Some(Pending::Decoding(start(encoded, image.width, image.height, max_size)))
                         })
                         .collect();
-                    for (bitmap, taken) in early.iter().zip(&taken) {
-                        if let (Some(bitmap), false) = (bitmap.dyn_ref::<web_sys::ImageBitmap>(), taken) {
-                            bitmap.close();
-                        }
+                    // The early bitmaps not taken.
+                    for bitmap in early.into_iter().flatten() {
+                        bitmap.close();
                     }
                     let mut bitmaps = Vec::with_capacity(asset.images.len());
                     let mut warnings = Vec::new();
-                    for (i, promise) in pending.into_iter().enumerate() {
-                        let Some(promise) = promise else {
-                            bitmaps.push(None);
-                            continue;
+                    for (i, pending) in pending.into_iter().enumerate() {
+                        let result = match pending {
+                            None => {
+                                bitmaps.push(None);
+                                continue;
+                            }
+                            Some(Pending::Decoded(bitmap)) => Ok(bitmap),
+                            Some(Pending::Decoding(promise)) => finish(promise).await,
                         };
-                        match finish(promise).await {
+                        match result {
                             Ok(bitmap) => bitmaps.push(Some(bitmap)),
                             Err(e) => {
                                 warnings.push(Warning::new(
@@ -216,6 +217,14 @@ mod web {
     /// The browser's bitmap of image `image` of `asset`, once decoded.
     pub fn bitmap(asset: &Asset, image: usize) -> Option<web_sys::ImageBitmap> {
         find(asset, |e| e.bitmaps.as_ref().and_then(|b| b.get(image).cloned().flatten())).flatten()
+    }
+
+    /// An image on its way to a bitmap.
+    enum Pending {
+        /// Decoded while the module loaded (the element's prefetch).
+        Decoded(web_sys::ImageBitmap),
+        /// Handed to the browser's decoder here.
+        Decoding(Result<js_sys::Promise, String>),
     }
 
     /// Hands the file to the browser's decoder.

@@ -149,8 +149,8 @@ fn span(offset: u64, stride: u64, count: u64, element: u64) -> Option<u64> {
 }
 
 /// The bytes of the view `v` (at `ptr`, `length` bytes) when it is stored compressed with
-/// `EXT_meshopt_compression` or `KHR_meshopt_compression`: the compressed range is read from its buffer, checked, charged
-/// to the budget and decoded, with what it cost (its `view` set by the caller). `None` for a view
+/// `EXT_meshopt_compression` or `KHR_meshopt_compression`: the compressed range is read from
+/// its buffer, checked, charged to the budget and decoded, with what it cost (its `view` set by the caller). `None` for a view
 /// stored as is.
 fn decompress(
     v: &Obj,
@@ -159,14 +159,17 @@ fn decompress(
     buffers: &[Option<Cow<'_, [u8]>>],
     budget: &mut Budget,
 ) -> Result<Option<(Vec<u8>, crate::asset::CompressedView)>, ImportError> {
-    let (name, x) = match super::json::extension(v, "KHR_meshopt_compression", ptr)? {
-        Some(x) => ("KHR_meshopt_compression", x),
-        None => match super::json::extension(v, "EXT_meshopt_compression", ptr)? {
-            Some(x) => ("EXT_meshopt_compression", x),
-            None => return Ok(None),
-        },
+    let mut found = None;
+    for name in super::meshopt::EXTENSIONS {
+        if let Some(x) = super::json::extension(v, name, ptr)? {
+            found = Some((name, x));
+            break;
+        }
+    }
+    let Some((name, x)) = found else {
+        return Ok(None);
     };
-    let khr = name.starts_with("KHR");
+    let khr = name == super::meshopt::EXTENSIONS[0];
     let xptr = format!("{ptr}/extensions/{name}");
     let buffer = req_index(x, "buffer", &xptr, buffers.len(), "buffer")? as usize;
     let offset = opt_u64(x, "byteOffset", &xptr)?.unwrap_or(0);
@@ -217,8 +220,8 @@ fn decompress(
 
 impl<'a> Accessors<'a> {
     /// Validates every buffer view and accessor of `root` against `buffers`.
-    /// A view compressed with `EXT_meshopt_compression` is decoded here (into a buffer of its
-    /// own, charged to the budget first).
+    /// A view compressed with a meshopt extension is decoded here (into a buffer of its own,
+    /// charged to the budget first).
     pub fn new(root: &Obj, mut buffers: Vec<Option<Cow<'a, [u8]>>>, budget: &mut Budget) -> Result<Self, ImportError> {
         let view_objects = objects(root, "bufferViews", "")?;
         budget.take_items(view_objects.len() as u64, size_of::<View>() as u64, "/bufferViews", "buffer views")?;

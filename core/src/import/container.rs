@@ -256,22 +256,17 @@ pub(crate) fn load_uri<'a>(
         return decode_data_uri(uri, ptr, budget).map(Cow::Owned);
     }
     // An absolute web address: the resolver has it (the browser fetched it) or says why not.
-    if is_web_uri(uri) {
-        let bytes = resolver.resolve(uri).map_err(|e| ImportError::new(ptr, format!("cannot load '{uri}': {e}")))?;
-        return Ok(Cow::Owned(bytes));
+    if !is_web_uri(uri) {
+        check_relative_uri(uri, ptr)?;
     }
-    check_relative_uri(uri, ptr)?;
     let bytes = resolver.resolve(uri).map_err(|e| ImportError::new(ptr, format!("cannot load '{uri}': {e}")))?;
     Ok(Cow::Owned(bytes))
 }
 
-/// Loads every buffer, each cut to its declared `byteLength`. The declared lengths are
-/// checked against the budget before anything is loaded. A buffer with no data (no `uri`, and
-/// not the GLB's BIN chunk) is `None`: refused only where something reads it.
-/// Whether `buffer` is marked as the fallback of `EXT_meshopt_compression` or its KHR successor (the uncompressed
-/// data, for loaders without the extension).
+/// Whether `buffer` is marked as the fallback of a meshopt compression extension (the
+/// uncompressed data, for loaders without the extension).
 fn is_fallback(buffer: &Obj, ptr: &str) -> Result<bool, ImportError> {
-    for name in ["EXT_meshopt_compression", "KHR_meshopt_compression"] {
+    for name in super::meshopt::EXTENSIONS {
         if let Some(x) = super::json::extension(buffer, name, ptr)?
             && super::json::opt_bool(x, "fallback", &format!("{ptr}/extensions/{name}"))?.unwrap_or(false)
         {
@@ -281,6 +276,10 @@ fn is_fallback(buffer: &Obj, ptr: &str) -> Result<bool, ImportError> {
     Ok(false)
 }
 
+/// Loads every buffer, each cut to its declared `byteLength`. The declared lengths are
+/// checked against the budget before anything is loaded. A buffer with no data (no `uri`, and
+/// not the GLB's BIN chunk) is `None`: refused only where something reads it; so is a meshopt
+/// fallback buffer, the uncompressed copy of views the importer decodes itself (not loaded).
 pub(crate) fn load_buffers<'a>(
     root: &Obj,
     container: &Container<'a>,
@@ -288,28 +287,32 @@ pub(crate) fn load_buffers<'a>(
     budget: &mut Budget,
 ) -> Result<Vec<Option<Cow<'a, [u8]>>>, ImportError> {
     let buffers = objects(root, "buffers", "")?;
-    let mut lengths = Vec::with_capacity(buffers.len());
-    for (i, (buffer, ptr)) in buffers.iter().enumerate() {
+    // Per buffer: its declared length, and its URI when it is to be loaded from one.
+    let mut sources = Vec::with_capacity(buffers.len());
+    for (buffer, ptr) in &buffers {
         let len = req_u64(buffer, "byteLength", ptr)?;
         if len == 0 {
             return Err(ImportError::new(child(ptr, "byteLength"), "byteLength must be at least 1"));
         }
-        let embedded = i == 0 && container.bin.is_some() && !buffer.contains_key("uri");
-        if !embedded && buffer.contains_key("uri") && !is_fallback(buffer, ptr)? {
+        let uri = match opt_str(buffer, "uri", ptr)? {
+            Some(_) if is_fallback(buffer, ptr)? => None,
+            uri => uri,
+        };
+        if uri.is_some() {
             budget.take(Some(len), ptr, &format!("buffer of byteLength {len}"))?;
         }
-        lengths.push(len);
+        sources.push((len, uri, buffer.contains_key("uri")));
     }
     let mut out = Vec::with_capacity(buffers.len());
-    for (i, ((buffer, ptr), &len)) in buffers.iter().zip(&lengths).enumerate() {
+    for (i, ((_, ptr), &(len, uri, has_uri))) in buffers.iter().zip(&sources).enumerate() {
         let uri_ptr = child(ptr, "uri");
-        let bytes: Cow<'a, [u8]> = match opt_str(buffer, "uri", ptr)? {
-            // The uncompressed copy of views the importer decodes itself: not loaded.
-            Some(_) if is_fallback(buffer, ptr)? => {
+        let bytes: Cow<'a, [u8]> = match uri {
+            Some(uri) => load_uri(uri, &uri_ptr, resolver, budget)?,
+            // A fallback buffer (it has a `uri`) is not the GLB's BIN chunk either.
+            None if has_uri => {
                 out.push(None);
                 continue;
             }
-            Some(uri) => load_uri(uri, &uri_ptr, resolver, budget)?,
             None => match container.bin {
                 Some(bin) if i == 0 => Cow::Borrowed(bin),
                 _ => {

@@ -65,8 +65,9 @@ pub(crate) fn images(cx: &mut Cx<'_>, decode: bool) -> Result<(Vec<Image>, Vec<b
 
 /// Checks an image file's header (format and size, against the budget) and keeps its bytes.
 fn keep_encoded(bytes: Vec<u8>, ptr: &str, budget: &mut Budget) -> Result<(u32, u32, EncodedImage), ImportError> {
-    let (format, width, height) = header(&bytes)
-        .ok_or_else(|| ImportError::new(ptr, "cannot decode image: not a PNG or JPEG file, or its header is cut"))?;
+    let (format, width, height) = header(&bytes).ok_or_else(|| {
+        ImportError::new(ptr, "cannot decode image: not a PNG, JPEG or WebP file, or its header is cut")
+    })?;
     if width == 0 || height == 0 {
         return Err(ImportError::new(ptr, format!("image is {width}×{height} pixels")));
     }
@@ -182,7 +183,7 @@ pub(crate) fn materials(cx: &mut Cx<'_>, usable_images: &[bool]) -> Result<Vec<M
         }
         if let Some((t, info, iptr)) = base_color_info {
             match &resolved[t] {
-                Some(texture) => material.base_color_texture = texture_ref(cx, texture, info, &iptr)?,
+                Some(texture) => material.base_color_texture = Some(texture_ref(cx, texture, info, &iptr)?),
                 None if sourceless[t] => {
                     sourceless[t] = false;
                     cx.warn(textures[t].1.as_str(), "texture has no source image in a supported format; not drawn");
@@ -221,13 +222,11 @@ fn texture_info<'a>(
         return Ok(None);
     };
     let iptr = child(ptr, key);
-    let Some(t) = lenient_index(cx, info, "index", &iptr, textures, "texture", "the texture is not drawn")? else {
-        if opt_u64(info, "index", &iptr)?.is_none() {
-            return Err(member_error(&iptr, "index", "missing"));
-        }
-        return Ok(None);
-    };
-    Ok(Some((t as usize, info, iptr)))
+    if !info.contains_key("index") {
+        return Err(member_error(&iptr, "index", "missing"));
+    }
+    let t = lenient_index(cx, info, "index", &iptr, textures, "texture", "the texture is not drawn")?;
+    Ok(t.map(|t| (t as usize, info, iptr)))
 }
 
 /// `obj[key]` as an index into `len` `what`s; one out of range is reported with `consequence`
@@ -304,7 +303,7 @@ fn resolve_texture(
 
 /// A texture reference from a `textureInfo` (at `ptr`) to a resolved texture. A `texCoord`
 /// other than 0 is reported: the viewer draws with TEXCOORD_0 only.
-fn texture_ref(cx: &mut Cx<'_>, texture: &Resolved, info: &Obj, ptr: &str) -> Result<Option<TextureRef>, ImportError> {
+fn texture_ref(cx: &mut Cx<'_>, texture: &Resolved, info: &Obj, ptr: &str) -> Result<TextureRef, ImportError> {
     let mut tex_coord = opt_u64(info, "texCoord", ptr)?.unwrap_or(0);
     let mut transform = TextureTransform::default();
     if let Some(x) = extension(info, "KHR_texture_transform", ptr)? {
@@ -322,5 +321,5 @@ fn texture_ref(cx: &mut Cx<'_>, texture: &Resolved, info: &Obj, ptr: &str) -> Re
         );
     }
     let Resolved { image, repeat, nearest } = *texture;
-    Ok(Some(TextureRef { image, tex_coord, transform, repeat, nearest }))
+    Ok(TextureRef { image, tex_coord, transform, repeat, nearest })
 }

@@ -5,6 +5,9 @@
 //! EXPONENTIAL, and KHR's COLOR). Every read is bounds-checked: a malformed stream is an error,
 //! never a panic, and the output is allocated by the caller after the budget allowed it.
 
+/// The extensions' names: the KHR successor first (a view naming both is read by it).
+pub(crate) const EXTENSIONS: [&str; 2] = ["KHR_meshopt_compression", "EXT_meshopt_compression"];
+
 /// How a view's bytes were compressed (the extension's `mode`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Mode {

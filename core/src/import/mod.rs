@@ -138,7 +138,7 @@ pub struct ImportOptions {
     pub budget_bytes: u64,
     /// Deepest node hierarchy accepted. Default 1024.
     pub max_node_depth: u32,
-    /// Decode PNG and JPEG images to RGBA8 ([`crate::asset::Image::rgba8`]); when false, or
+    /// Decode PNG, JPEG and WebP images to RGBA8 ([`crate::asset::Image::rgba8`]); when false, or
     /// without the `images` feature, each image keeps its file bytes
     /// ([`crate::asset::Image::encoded`]) for the host to decode (the browser, in the web
     /// viewer), its size read from the header and checked against the budget all the same.
@@ -279,7 +279,6 @@ fn check_version(root: &Obj) -> Result<(), ImportError> {
     Ok(())
 }
 
-/// Refuses documents that require an extension Kloub does not implement.
 /// Replaces each inverse bind matrix that is not affine or not invertible (it would tear the
 /// mesh apart) by the inverse of its joint's rest world transform, with a warning per skin.
 fn repair_inverse_binds(cx: &mut Cx<'_>, skins: &mut [crate::asset::Skin], nodes: &[crate::asset::Node]) {
@@ -334,6 +333,7 @@ fn names(root: &Obj, key: &str) -> Result<Vec<String>, ImportError> {
     Ok(array(root, key, "")?.iter().filter_map(|v| v.as_str().map(str::to_owned)).collect())
 }
 
+/// Refuses documents that require an extension Kloub does not implement.
 fn check_required_extensions(root: &Obj) -> Result<(), ImportError> {
     for (i, ext) in array(root, "extensionsRequired", "")?.iter().enumerate() {
         let ptr = child("/extensionsRequired", i);

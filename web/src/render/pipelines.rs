@@ -188,19 +188,23 @@ pub struct Pipelines {
     mesh_module: wgpu::ShaderModule,
     mesh_layout: wgpu::PipelineLayout,
     /// The background and grid pipelines, built when first drawn (an embedded viewer draws
-    /// neither by default): shared by the clones of a kit.
-    environment: std::sync::Arc<Environment>,
+    /// neither by default), and the mip maker: shared by the clones of a kit.
+    first_use: std::sync::Arc<FirstUse>,
     mesh: HashMap<PipelineKey, wgpu::RenderPipeline>,
 }
 
-/// `shaders/environment.wgsl`'s pipelines, built on first use.
-struct Environment {
+/// Pipelines built on first use: `shaders/environment.wgsl`'s, and the mips of the images the
+/// browser decoded.
+struct FirstUse {
+    /// `environment.wgsl` and its layout.
     module: wgpu::ShaderModule,
     layout: wgpu::PipelineLayout,
     /// Background gradient (full-screen triangle).
     background: std::sync::OnceLock<wgpu::RenderPipeline>,
     /// Ground grid (blended quad).
     grid: std::sync::OnceLock<wgpu::RenderPipeline>,
+    /// Mip levels on the GPU (`shaders/mip.wgsl`).
+    mips: std::sync::OnceLock<super::texture::MipMaker>,
 }
 
 fn depth_state(compare: wgpu::CompareFunction, write: bool) -> Option<wgpu::DepthStencilState> {
@@ -257,18 +261,19 @@ impl Pipelines {
             bind_group_layouts: &[Some(&layouts.frame)],
             immediate_size: 0,
         });
-        let environment = std::sync::Arc::new(Environment {
+        let first_use = std::sync::Arc::new(FirstUse {
             module: env_module,
             layout: env_layout,
             background: std::sync::OnceLock::new(),
             grid: std::sync::OnceLock::new(),
+            mips: std::sync::OnceLock::new(),
         });
-        Self { share: None, sample_count, format, mesh_module, mesh_layout, environment, mesh: HashMap::new() }
+        Self { share: None, sample_count, format, mesh_module, mesh_layout, first_use, mesh: HashMap::new() }
     }
 
     /// The background gradient's pipeline (full-screen triangle), built on first use.
     pub fn background(&self, device: &wgpu::Device) -> &wgpu::RenderPipeline {
-        self.environment.background.get_or_init(|| {
+        self.first_use.background.get_or_init(|| {
             self.environment_pipeline(
                 device,
                 "kloub background",
@@ -282,7 +287,7 @@ impl Pipelines {
 
     /// The ground grid's pipeline (blended quad), built on first use.
     pub fn grid(&self, device: &wgpu::Device) -> &wgpu::RenderPipeline {
-        self.environment.grid.get_or_init(|| {
+        self.first_use.grid.get_or_init(|| {
             self.environment_pipeline(
                 device,
                 "kloub grid",
@@ -292,6 +297,12 @@ impl Pipelines {
                 true,
             )
         })
+    }
+
+    /// The mip maker for the images the browser decoded, built on first use (one per kit: the
+    /// page's viewers share it).
+    pub fn mip_maker(&self, device: &wgpu::Device) -> &super::texture::MipMaker {
+        self.first_use.mips.get_or_init(|| super::texture::MipMaker::new(device))
     }
 
     fn environment_pipeline(
@@ -304,10 +315,10 @@ impl Pipelines {
         blend: bool,
     ) -> wgpu::RenderPipeline {
         let output = output_constants(self.format);
-        let module = &self.environment.module;
+        let module = &self.first_use.module;
         device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some(label),
-            layout: Some(&self.environment.layout),
+            layout: Some(&self.first_use.layout),
             vertex: wgpu::VertexState {
                 module,
                 entry_point: Some(vs),

@@ -16,7 +16,7 @@ use super::palette::PaletteTexture;
 use super::pipelines::{
     ComputeKit, DEPTH_FORMAT, Layouts, PipelineKey, Pipelines, SKIN_FROM_DRAW, SKIN_WORKGROUP, VertexPath, topology,
 };
-use super::texture::{COLOR_FORMAT, MipMaker, SamplerKey, upload_decoded, upload_image};
+use super::texture::{COLOR_FORMAT, SamplerKey, upload_decoded, upload_image};
 use super::uniforms::{DrawUniform, FrameUniform, Ground, MaterialUniform, skin_code};
 
 #[cfg(not(target_arch = "wasm32"))]
@@ -318,8 +318,6 @@ pub struct SceneRenderer {
     pipelines: Pipelines,
     frame_buffer: wgpu::Buffer,
     white: wgpu::TextureView,
-    /// Mip levels of the images the browser decoded (made on the first such image).
-    mips: Option<MipMaker>,
     samplers: HashMap<SamplerKey, wgpu::Sampler>,
     material_buffer: Option<wgpu::Buffer>,
     empty: GpuScene,
@@ -398,7 +396,6 @@ impl SceneRenderer {
             frame_buffer,
             white,
             samplers: HashMap::new(),
-            mips: None,
             material_buffer: None,
             empty,
             scene: None,
@@ -943,7 +940,7 @@ impl SceneRenderer {
                     let image = &asset.images[t.image as usize];
                     let label = image.name.as_deref().unwrap_or("kloub image");
                     let texture = if image.encoded.is_some() {
-                        upload_decoded(device, queue, &mut self.mips, asset, t.image as usize, label)
+                        upload_decoded(device, queue, &self.pipelines, asset, t.image as usize, label)
                     } else {
                         Some(upload_image(device, queue, image, label).map_err(|e| format!("image {}: {e}", t.image))?)
                     };

@@ -153,7 +153,7 @@ pub fn mip_count(width: u32, height: u32) -> u32 {
 
 /// Makes a texture's mip levels 1.. from its level 0 on the GPU, one render pass per level:
 /// each pixel the box filter of its 2×2 block above, in linear light (`shaders/mip.wgsl`).
-/// The texture needs [`GPU_MIPPED`] usage. Made once per renderer, on first use.
+/// The texture needs [`GPU_MIPPED`] usage. Made once per pipeline kit, on first use.
 pub struct MipMaker {
     pipeline: wgpu::RenderPipeline,
     layout: wgpu::BindGroupLayout,
@@ -335,13 +335,13 @@ pub fn upload_bitmap(
 }
 
 /// The texture of image `index` of `asset`, which the browser decoded ([`crate::decode`]), its
-/// mips made by `mips` (made here on first use). `None` (the material draws white) when the
-/// browser could not decode it or the device cannot hold it — and natively, where the importer
-/// decodes every image.
+/// mips made by the kit's mip maker ([`super::pipelines::Pipelines::mip_maker`]). `None` (the
+/// material draws white) when the browser could not decode it or the device cannot hold it —
+/// and natively, where the importer decodes every image.
 pub fn upload_decoded(
     device: &wgpu::Device,
     queue: &wgpu::Queue,
-    mips: &mut Option<MipMaker>,
+    pipelines: &super::pipelines::Pipelines,
     asset: &kloub_core::Asset,
     index: usize,
     label: &str,
@@ -349,14 +349,13 @@ pub fn upload_decoded(
     #[cfg(target_arch = "wasm32")]
     {
         let bitmap = crate::decode::bitmap(asset, index)?;
-        let mips = mips.get_or_insert_with(|| MipMaker::new(device));
-        upload_bitmap(device, queue, mips, &bitmap, label)
+        upload_bitmap(device, queue, pipelines.mip_maker(device), &bitmap, label)
             .map_err(|e| log::warn!("kloub: image {index}: {e}; drawn white"))
             .ok()
     }
     #[cfg(not(target_arch = "wasm32"))]
     {
-        let _ = (device, queue, mips, asset, label);
+        let _ = (device, queue, pipelines, asset, label);
         log::warn!("kloub: image {index} was not decoded; drawn white");
         None
     }
