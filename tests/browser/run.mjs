@@ -1268,7 +1268,12 @@ for (const backend of BACKENDS) test(`${backend}: <kloub-viewer>: camera-orbit a
     v.setAttribute('max-camera-orbit', '30deg 80deg auto');
     v.setAttribute('camera-orbit', '80deg 20deg auto');
   });
-  await page.waitForFunction(() => Math.abs(document.querySelector('kloub-viewer').camera[0] - Math.PI / 6) < 1e-3, null, { timeout: 30000 });
+  // The camera eases to the new orbit: wait until both angles arrive (yaw clamped to 30deg; φ 20deg is within the
+  // limits, pitch 70deg), or time out if either never does.
+  await page.waitForFunction(() => {
+    const c = document.querySelector('kloub-viewer').camera;
+    return Math.abs(c[0] - Math.PI / 6) < 1e-3 && Math.abs(c[1] - (70 * Math.PI) / 180) < 1e-3;
+  }, null, { timeout: 30000, polling: 50 });
   c = await camera();
   // φ at most 80deg: the pitch at least 10deg; φ 20deg asked for is within (pitch 70deg).
   assert(near(c[1], (70 * Math.PI) / 180), `pitch within the limits: ${c}`);
