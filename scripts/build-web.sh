@@ -48,9 +48,14 @@ rm -f "$DIST/.wasm-opt-input"
 # server's embedding (server/build.rs) redo their work.
 install_if_changed() { cmp -s "$1" "$2/$(basename "$1")" || cp "$1" "$2/"; }
 # The element (the npm package's entry), its types, the app page built on it, and the embedding example.
-for f in kloub-viewer.js kloub-viewer.d.ts hash-state.js accessibility.js index.html app.js style.css embed.html embed.js; do
+for f in kloub-viewer.js kloub-viewer.d.ts hash-state.js accessibility.js validator-worker.js index.html app.js style.css embed.html embed.js; do
   install_if_changed "web/$f" "$DIST"
 done
+# The Khronos glTF-Validator (npm gltf-validator, Apache-2.0), fetched by validate() on its first call only.
+validator=node_modules/gltf-validator
+cmp -s "$validator/gltf_validator.dart.js" "$DIST/gltf-validator.js" || cp "$validator/gltf_validator.dart.js" "$DIST/gltf-validator.js"
+cmp -s "$validator/LICENSE" "$DIST/gltf-validator.LICENSE.txt" || cp "$validator/LICENSE" "$DIST/gltf-validator.LICENSE.txt"
+cmp -s "$validator/NOTICES" "$DIST/gltf-validator.NOTICES.txt" || cp "$validator/NOTICES" "$DIST/gltf-validator.NOTICES.txt"
 rm -f "$DIST/boot.js" "$DIST"/boot.js.*
 # web/dist is an npm-ready package: `npm pack web/dist` (or `npm run pack`) gives kloub-viewer-<version>.tgz.
 version=$(node -p "require('./package.json').version")
@@ -65,7 +70,7 @@ cat > "$DIST/package.json.new" <<JSON
   "module": "./kloub-viewer.js",
   "types": "./kloub-viewer.d.ts",
   "exports": { ".": { "types": "./kloub-viewer.d.ts", "default": "./kloub-viewer.js" }, "./kloub_web_bg.wasm": "./kloub_web_bg.wasm", "./kloub_widget_bg.wasm": "./kloub_widget_bg.wasm", "./kloub_widget_gl_bg.wasm": "./kloub_widget_gl_bg.wasm" },
-  "files": ["kloub-viewer.js", "kloub-viewer.d.ts", "hash-state.js", "accessibility.js", "kloub_web.js", "kloub_web_bg.wasm", "kloub_widget.js", "kloub_widget_bg.wasm", "kloub_widget_gl.js", "kloub_widget_gl_bg.wasm"],
+  "files": ["kloub-viewer.js", "kloub-viewer.d.ts", "hash-state.js", "accessibility.js", "validator-worker.js", "gltf-validator.js", "gltf-validator.LICENSE.txt", "gltf-validator.NOTICES.txt", "kloub_web.js", "kloub_web_bg.wasm", "kloub_widget.js", "kloub_widget_bg.wasm", "kloub_widget_gl.js", "kloub_widget_gl_bg.wasm"],
   "sideEffects": ["./kloub-viewer.js"]
 }
 JSON
@@ -78,7 +83,7 @@ import { join } from 'node:path';
 import zlib from 'node:zlib';
 const [dist, quality] = process.argv.slice(2);
 const C = zlib.constants;
-for (const name of ['index.html', 'app.js', 'hash-state.js', 'accessibility.js', 'kloub-viewer.js', 'embed.html', 'embed.js', 'style.css', 'kloub_web.js', 'kloub_web_bg.wasm', 'kloub_widget.js', 'kloub_widget_bg.wasm', 'kloub_widget_gl.js', 'kloub_widget_gl_bg.wasm']) {
+for (const name of ['index.html', 'app.js', 'hash-state.js', 'accessibility.js', 'validator-worker.js', 'gltf-validator.js', 'kloub-viewer.js', 'embed.html', 'embed.js', 'style.css', 'kloub_web.js', 'kloub_web_bg.wasm', 'kloub_widget.js', 'kloub_widget_bg.wasm', 'kloub_widget_gl.js', 'kloub_widget_gl_bg.wasm']) {
   const file = join(dist, name);
   if (!existsSync(file)) continue;
   const mtime = statSync(file).mtimeMs;

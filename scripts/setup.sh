@@ -36,8 +36,9 @@ if [ "$(wasm-bindgen --version 2>/dev/null | awk '{print $2}')" != "$WBG_VERSION
   cargo install wasm-bindgen-cli --version "$WBG_VERSION"
 fi
 
-# npm packages (binaryen's wasm-opt, playwright-core, pngjs, axe-core for the accessibility audit, gltfpack for
-# tests/optimized/ via scripts/make-optimized.sh). Never downloads a browser.
+# npm packages (binaryen's wasm-opt, playwright-core, pngjs, axe-core for the accessibility audit, gltfpack and
+# glTF Transform for tests/optimized/ via scripts/make-optimized.sh, draco3dgltf as the reference decoder).
+# Never downloads a browser.
 stamp=node_modules/.kloub-installed
 if [ ! -f "$stamp" ] || [ package.json -nt "$stamp" ] || { [ -f package-lock.json ] && [ package-lock.json -nt "$stamp" ]; }; then
   log "npm install"

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The README's test command: the whole suite.
 #   1. lints (clippy, deny unwrap outside tests)  2. Rust tests, native (unit, contracts, golden images on lavapipe,
-#   shader validation), then the core's import suite on wasm32 under Node (scripts/test-wasm.sh)  3. web bundle build
-#   4. browser tests on WebGPU and WebGL2 against the real `kloub serve`.
+#   shader validation), then the core's import suite on wasm32 under Node (scripts/test-wasm.sh), then each fuzz
+#   target for a few seconds (scripts/fuzz.sh)  3. web bundle build  4. browser tests on WebGPU and WebGL2 against the
+#   real `kloub serve`.
 # Ends with one line "tests: N passed, M failed" and exits non-zero on any failure.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -42,6 +43,16 @@ set -e
 read -r wasm_pass wasm_fail < <(results "$log")
 if [ "$wasm_rc" != 0 ] && [ "$wasm_fail" = 0 ]; then wasm_fail=1; fi
 rust_pass=$((rust_pass + wasm_pass)) rust_fail=$((rust_fail + wasm_fail))  # counted with the native Rust tests
+
+step "fuzz smoke (each target of core/fuzz for ${KLOUB_FUZZ_SECONDS:=10} s)"
+set +e
+bash scripts/fuzz.sh "$KLOUB_FUZZ_SECONDS" 2>&1 | tee "$log"
+fuzz_rc=${PIPESTATUS[0]}
+set -e
+fuzz_pass=$(grep -cE '^fuzz: [a-z_]+ ok' "$log" || true)
+fuzz_fail=$(grep -cE '^fuzz: [a-z_]+ FAILED' "$log" || true)
+if [ "$fuzz_rc" != 0 ] && [ "$fuzz_fail" = 0 ]; then fuzz_fail=1; fi
+rust_pass=$((rust_pass + fuzz_pass)) rust_fail=$((rust_fail + fuzz_fail))
 
 step "web bundle"
 bash scripts/build-web.sh

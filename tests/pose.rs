@@ -1106,8 +1106,8 @@ fn unknown_clip_lists_the_available_ones() {
 // ---------------------------------------------------------------- the sweep
 
 /// Every model of the asset library, one variant each (relative to `tests/assets`):
-/// glTF-Binary where there is one. RiggedSimple's Draco variant is readable by neither the
-/// reference nor kloub (which refuses its required extension); the embedded variants are in
+/// glTF-Binary where there is one. RiggedSimple's Draco variant is not readable by the reference
+/// (kloub's decode is compared with its original in server/tests/optimized.rs); the embedded variants are in
 /// [`embedded_data_uri_variants_match_the_reference`]. The quantized AnimatedMorphCube is here
 /// as well for its normalized BYTE/SHORT attributes, `byteStride` and normalized UNSIGNED_BYTE
 /// weight keys (KHR_mesh_quantization only widens the component types allowed; the reference

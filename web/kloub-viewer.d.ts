@@ -22,6 +22,37 @@ export interface KloubViewerEventMap {
   'poster-dismissed': CustomEvent<Record<string, never>>;
   /** The camera moved (after the frame that shows it). */
   'camera-change': CustomEvent<{ source: 'user-interaction' | 'none' }>;
+  /** `validate()` finished: the glTF-Validator's report and its counts. */
+  validation: CustomEvent<{ report: ValidationReport; errors: number; warnings: number; infos: number; hints: number }>;
+}
+
+/** One issue of a glTF-Validator report. */
+export interface ValidationIssue {
+  /** The validator's code, e.g. `ACCESSOR_INDEX_OOB`. */
+  code: string;
+  message: string;
+  /** 0 error, 1 warning, 2 info, 3 hint. */
+  severity: 0 | 1 | 2 | 3;
+  /** The JSON pointer of the offending element, when there is one. */
+  pointer?: string;
+  /** A byte offset into the file, for issues in binary data. */
+  offset?: number;
+}
+
+/** The Khronos glTF-Validator's report (its own format, as `validateBytes` gives it). */
+export interface ValidationReport {
+  uri: string;
+  mimeType?: string;
+  validatorVersion: string;
+  issues: {
+    numErrors: number;
+    numWarnings: number;
+    numInfos: number;
+    numHints: number;
+    messages: ValidationIssue[];
+    truncated: boolean;
+  };
+  info?: Record<string, unknown>;
 }
 
 export type SkinningMethod = 'rigid' | 'lbs' | 'dqs' | 'sjb';
@@ -187,6 +218,12 @@ export declare class KloubViewer extends HTMLElement {
   ): void;
   /** Shows a model from a URL or from files; resolves with its name once it is on screen. */
   load(urlOrFiles: string | URL | FileList | File[]): Promise<string>;
+  /**
+   * Runs the Khronos glTF-Validator (fetched on first use, run in a worker) on the shown model: its dropped files,
+   * or the file at `data-src` and what it refers to. Resolves with the report and dispatches `validation`; with
+   * `controls` the panel's Validation section lists it. Rejects when no model is shown or the files are gone.
+   */
+  validate(): Promise<ValidationReport>;
 
   /** Plays `name` as a click in the clip list does (crossfading when something plays). */
   playClip(name: string | null): void;

@@ -485,7 +485,41 @@ async function droppedFiles(dataTransfer) {
   return out;
 }
 
-export class KloubViewer extends HTMLElement {
+export /** The validator's worker, shared by the page's viewers (started by the first validate()). */
+let validatorWorker = null;
+let validatorRequests = 0;
+const validatorPending = new Map();
+
+/** Validates `request` ({ name, bytes, files, base }) in the validator's worker; resolves with the report. */
+async function validateInWorker(request) {
+  if (!validatorWorker) {
+    validatorWorker = (async () => {
+      // A worker from a blob: the page may come from another origin than the element.
+      const source = await fetch(new URL('./validator-worker.js', import.meta.url));
+      if (!source.ok) throw new Error(`validator-worker.js: HTTP ${source.status}`);
+      const blob = URL.createObjectURL(new Blob([await source.text()], { type: 'text/javascript' }));
+      const worker = new Worker(blob);
+      URL.revokeObjectURL(blob);
+      worker.onmessage = ({ data }) => {
+        const pending = validatorPending.get(data.id);
+        validatorPending.delete(data.id);
+        if (data.error) pending?.reject(new Error(data.error));
+        else pending?.resolve(data.report);
+      };
+      worker.postMessage({ validator: new URL('./gltf-validator.js', import.meta.url).href });
+      return worker;
+    })();
+    validatorWorker.catch(() => { validatorWorker = null; });
+  }
+  const worker = await validatorWorker;
+  const id = ++validatorRequests;
+  return new Promise((resolve, reject) => {
+    validatorPending.set(id, { resolve, reject });
+    worker.postMessage({ id, ...request });
+  });
+}
+
+class KloubViewer extends HTMLElement {
   static observedAttributes = [
     'src', 'autoplay', 'animation-name', 'speed', 'loop', 'crossfade-duration', 'layer-clip', 'layer-root',
     'skinning', 'backend', 'controls', 'min-pixel-ratio', 'background', 'grid', 'alt', 'loading', 'poster', 'reveal',
@@ -928,6 +962,7 @@ export class KloubViewer extends HTMLElement {
       const emit = (type, detail) => {
         // A request of the viewer's own, answered while the user's click is still being handled.
         if (type === 'kloub:open') this.#pickers[detail === 'folder' ? 1 : 0].click();
+        else if (type === 'kloub:validate') this.validate().catch(() => {});
         else if (type === 'kloub:wake') this.#wake(Number(detail));
         else if (type === 'kloub:lost') this.#onLost(detail);
         else queueMicrotask(() => this.#dispatch(type, detail));
@@ -1545,6 +1580,58 @@ export class KloubViewer extends HTMLElement {
       this.#loadFiles(entries).catch((e) => this.#fail(String(e)));
     }
     return done;
+  }
+
+  /**
+   * Validates the shown model with the Khronos glTF-Validator (fetched on the first call, run in a worker): the
+   * dropped files, or the file at `data-src` with the files it refers to. Resolves with the validator's report
+   * (`{ issues: { numErrors, numWarnings, numInfos, numHints, messages: [{ code, message, severity, pointer }] }, … }`;
+   * severity 0 error, 1 warning, 2 info, 3 hint) and dispatches `validation`; with `controls` the panel lists it.
+   */
+  async validate() {
+    const m = 'validate';
+    const viewer = this.#require();
+    const shown = this.dataset.model;
+    const finish = (summary) => {
+      if (typeof viewer.setValidation === 'function') viewer.setValidation(JSON.stringify(summary));
+    };
+    try {
+      if (!shown) throw new Error('no model is shown');
+      const src = this.dataset.src;
+      let request;
+      if (src) {
+        const response = await fetch(src);
+        if (!response.ok) throw new Error(`${src}: HTTP ${response.status}`);
+        request = { name: shown, bytes: await response.arrayBuffer(), files: null, base: new URL(src, location.href).href };
+      } else {
+        const entries = this.#files ?? [];
+        const main = entries.find((e) => e.name === shown || e.name.split('/').pop() === shown);
+        if (!main) throw new Error(`the files of ${shown} are not at hand`);
+        const files = {};
+        for (const e of entries) files[e.name.replace(/\\/g, '/')] = await e.file.arrayBuffer();
+        request = { name: main.name, bytes: files[main.name.replace(/\\/g, '/')], files, base: null };
+      }
+      if (/\.zip$/i.test(request.name)) throw new Error('a model inside a .zip archive cannot be validated; drop its files');
+      const report = await validateInWorker(request);
+      const issues = report.issues ?? {};
+      const summary = {
+        name: shown,
+        validator: `${report.validatorVersion ?? ''}`,
+        errors: issues.numErrors ?? 0,
+        warnings: issues.numWarnings ?? 0,
+        infos: issues.numInfos ?? 0,
+        hints: issues.numHints ?? 0,
+        truncated: issues.truncated === true,
+        issues: (issues.messages ?? []).slice(0, 500).map((i) => ({ severity: i.severity, code: i.code, pointer: i.pointer ?? '', message: i.message })),
+      };
+      finish(summary);
+      this.dispatchEvent(new CustomEvent('validation', { detail: { report, errors: summary.errors, warnings: summary.warnings, infos: summary.infos, hints: summary.hints } }));
+      return report;
+    } catch (e) {
+      const message = `${m}: ${e instanceof Error ? e.message : String(e)}`;
+      finish({ name: shown ?? '', error: message });
+      throw new Error(message);
+    }
   }
 
   // ---- the rest of the viewer ----

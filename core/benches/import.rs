@@ -1,54 +1,30 @@
-//! Import time of the characters as files are shipped: the original, gltfpack's quantized copy,
-//! and its meshopt-compressed copies (`EXT_meshopt_compression` -cc, `KHR_meshopt_compression`
-//! with version 1 of the attribute codec), from `tests/optimized` (scripts/make-optimized.sh).
-//! Images are left encoded (as the web builds import: the browser decodes them), so the times are
-//! the JSON, the accessors and the meshopt decoding.
+//! Draco and meshopt decoding speed and import time against three.js, native (see
+//! `import_cases.rs`): decoded MB/s of each compressed copy in tests/optimized, and
+//! milliseconds per import of each character and its copies without images. Part of
+//! `scripts/bench-import.sh`, which also runs the same cases as wasm in Node and three.js and
+//! the reference decoders from npm.
 //!
 //! ```text
-//! cargo bench -p kloub-core --bench import -- --warm-up-time 1 --measurement-time 3
+//! cargo bench -p kloub-core --bench import [-- FILTER]   # FILTER: part of a codec, variant or file name
 //! ```
-//! Compare the rows of one model with each other (ratios): the machine is shared and noisy.
 
-use criterion::{Criterion, criterion_group, criterion_main};
-use kloub_core::{ImportOptions, NoResolver, import};
-use std::hint::black_box;
-use std::path::Path;
+#[path = "import_cases.rs"]
+mod import_cases;
 
-/// (model, original file under tests/assets).
-const MODELS: [(&str, &str); 3] = [
-    ("Fox", "khronos/Fox/glTF-Binary/Fox.glb"),
-    ("CesiumMan", "khronos/CesiumMan/glTF-Binary/CesiumMan.glb"),
-    ("RobotExpressive", "threejs/RobotExpressive/RobotExpressive.glb"),
-];
-
-fn read(path: &Path) -> Option<Vec<u8>> {
-    std::fs::read(path).ok()
-}
-
-fn imports(c: &mut Criterion) {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-    let options = ImportOptions { decode_images: false, ..ImportOptions::default() };
-    let mut group = c.benchmark_group("import");
-    for (model, original) in MODELS {
-        let files = [
-            ("original", root.join("tests/assets").join(original)),
-            ("gltfpack", root.join(format!("tests/optimized/{model}.gltfpack.glb"))),
-            ("gltfpack-cc", root.join(format!("tests/optimized/{model}.gltfpack-cc.glb"))),
-            ("gltfpack-khr", root.join(format!("tests/optimized/{model}.gltfpack-khr.glb"))),
-        ];
-        for (variant, path) in files {
-            let Some(bytes) = read(&path) else { continue };
-            // Only files that import are measured (an error would be a bug the tests catch).
-            if import(&bytes, &NoResolver, &options).is_err() {
-                continue;
-            }
-            group.bench_function(format!("{model}/{variant} ({} B)", bytes.len()), |b| {
-                b.iter(|| black_box(import(black_box(&bytes), &NoResolver, &options)))
-            });
-        }
+fn main() {
+    let start = std::time::Instant::now();
+    let now = || start.elapsed().as_secs_f64() * 1000.0;
+    let filter: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with("--")).collect();
+    let wanted = |case: &import_cases::Case| {
+        filter.iter().all(|f| case.codec.contains(f.as_str()) || case.name.contains(f.as_str()))
+    };
+    for case in import_cases::decode_cases().iter().filter(|c| wanted(c)) {
+        let ms = import_cases::measure(case, &now);
+        let rate = case.decoded as f64 / (ms / 1000.0) / 1e6;
+        println!("decode native {} {} {} B: {rate:.1} MB/s", case.codec, case.name, case.decoded);
     }
-    group.finish();
+    for case in import_cases::import_cases().iter().filter(|c| wanted(c)) {
+        let ms = import_cases::measure(case, &now);
+        println!("import native {} {} {} B: {ms:.3} ms", case.codec, case.name, case.glb.len());
+    }
 }
-
-criterion_group!(benches, imports);
-criterion_main!(benches);

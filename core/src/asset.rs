@@ -58,6 +58,31 @@ pub struct Extensions {
     pub required: Vec<String>,
     /// The buffer views stored compressed, which the importer decoded.
     pub compressed_views: Vec<CompressedView>,
+    /// The primitives stored compressed (`KHR_draco_mesh_compression`), which the importer decoded.
+    pub compressed_primitives: Vec<CompressedPrimitive>,
+}
+
+/// A mesh primitive stored as a Draco stream (`KHR_draco_mesh_compression`), and what decoding
+/// it cost.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+pub struct CompressedPrimitive {
+    /// Index in `meshes`.
+    pub mesh: u32,
+    /// Index in the mesh's `primitives`.
+    pub primitive: u32,
+    /// The buffer view holding the stream.
+    pub view: u32,
+    /// The extension's name.
+    pub extension: String,
+    /// Bytes of the stream in the file.
+    pub compressed_bytes: u64,
+    /// Bytes of the accessors it decoded to (charged to the import budget).
+    pub decoded_bytes: u64,
+    /// Decoded vertices.
+    pub points: u64,
+    /// Decoded triangles.
+    pub triangles: u64,
 }
 
 /// A buffer view stored compressed (`EXT_meshopt_compression` or `KHR_meshopt_compression`),

@@ -186,6 +186,8 @@ JSON keys (--json), stable:
   extensions_used[], extensions_required[] (the file's extension names)
   compressed_views[]: view, extension, mode, filter, compressed_bytes, decoded_bytes
              (buffer views stored with EXT_/KHR_meshopt_compression, and what decoding cost)
+  compressed_primitives[]: mesh, primitive, view, extension, compressed_bytes, decoded_bytes,
+             points, triangles (primitives stored with KHR_draco_mesh_compression)
   warnings[]: pointer (JSON pointer), message
 Names are null when the file has none.";
 

@@ -18,6 +18,8 @@
 //!   "images":  [ {"index", "name", "width", "height", "decoded_bytes"} ],
 //!   "extensions_used": ["KHR_...", ...], "extensions_required": [...],
 //!   "compressed_views": [ {"view", "extension", "mode", "filter", "compressed_bytes", "decoded_bytes"} ],
+//!   "compressed_primitives": [ {"mesh", "primitive", "view", "extension", "compressed_bytes",
+//!                               "decoded_bytes", "points", "triangles"} ],
 //!   "warnings": [ {"pointer", "message"} ] }
 //! ```
 //!
@@ -59,6 +61,8 @@ pub struct InspectDoc {
     pub extensions_required: Vec<String>,
     /// Buffer views stored compressed (meshopt), with what decoding them cost.
     pub compressed_views: Vec<kloub_core::asset::CompressedView>,
+    /// Primitives stored compressed (Draco), with what decoding them cost.
+    pub compressed_primitives: Vec<kloub_core::asset::CompressedPrimitive>,
     /// Defects the importer repaired.
     pub warnings: Vec<WarningOut>,
 }
@@ -321,6 +325,7 @@ pub fn describe(asset_name: &str, asset: &Asset, warnings: &[Warning]) -> Inspec
         extensions_used: asset.extensions.used.clone(),
         extensions_required: asset.extensions.required.clone(),
         compressed_views: asset.extensions.compressed_views.clone(),
+        compressed_primitives: asset.extensions.compressed_primitives.clone(),
         warnings: warnings
             .iter()
             .map(|w| WarningOut { pointer: w.pointer.clone(), message: w.message.clone() })
@@ -414,6 +419,15 @@ fn write_text(doc: &InspectDoc, out: &mut String) -> std::fmt::Result {
         let packed: u64 = doc.compressed_views.iter().map(|c| c.compressed_bytes).sum();
         let decoded: u64 = doc.compressed_views.iter().map(|c| c.decoded_bytes).sum();
         writeln!(out, "compressed: {} buffer views, {packed} B decoded to {decoded} B", doc.compressed_views.len())?;
+    }
+    if !doc.compressed_primitives.is_empty() {
+        let packed: u64 = doc.compressed_primitives.iter().map(|c| c.compressed_bytes).sum();
+        let decoded: u64 = doc.compressed_primitives.iter().map(|c| c.decoded_bytes).sum();
+        writeln!(
+            out,
+            "compressed: {} Draco primitives, {packed} B decoded to {decoded} B",
+            doc.compressed_primitives.len()
+        )?;
     }
     writeln!(out, "\nwarnings:")?;
     if doc.warnings.is_empty() {

@@ -302,28 +302,74 @@ for (const backend of BACKENDS) {
     assert(coloured > 0.01, `only ${(coloured * 100).toFixed(2)}% of the viewport is coloured: the texture is missing`);
   });
 
-  test(`${backend}: a meshopt-compressed GLB (gltfpack -cc) looks like the original at the same time`, async (ctx) => {
+  test(`${backend}: optimized GLBs (meshopt from gltfpack -cc, Draco and WebP from glTF Transform) look like the original`, async (ctx) => {
     await openApp(ctx, backend);
     const original = join(SHARED, 'khronos/CesiumMan/glTF-Binary/CesiumMan.glb');
-    const packed = join(ROOT, 'tests/optimized/CesiumMan.gltfpack-cc.glb');
-    // The same view of both (without the grid, whose thin lines move with any change of framing).
+    // The same view of each (without the grid, whose thin lines move with any change of framing).
     await dropModel(ctx.page, original);
     await control(ctx.page, 'setGrid', false);
     const camera = await ctx.page.evaluate(() => document.querySelector('kloub-viewer').camera);
     const a = await still(ctx.page, null, 0.5);
-    savePng(a, `${backend}-meshopt-original.png`);
-    await dropModel(ctx.page, packed);
-    const d = await dataset(ctx.page);
-    assert(d.error === '', `an error was reported: ${d.error}`);
-    await ctx.page.evaluate((c) => { document.querySelector('kloub-viewer').camera = c; }, camera);
-    const b = await still(ctx.page, null, 0.5);
-    savePng(b, `${backend}-meshopt.png`);
-    const shown = ctx.logs.filter((l) => l.includes('showing CesiumMan.gltfpack-cc.glb'));
-    assert(shown.at(-1)?.includes('0 warnings'), `import warnings: ${shown.at(-1)}`);
-    assert(saturatedFraction(b) > 0.01, 'the texture is missing');
-    // Quantized positions, 8-bit octahedral normals and filtered rotations: a few edge pixels apart.
-    const differ = diffFraction(a, b, 24);
-    assert(differ < 0.01, `${(differ * 100).toFixed(2)}% of the pixels differ from the original's`);
+    savePng(a, `${backend}-optimized-original.png`);
+    for (const copy of ['CesiumMan.gltfpack-cc.glb', 'CesiumMan.draco.glb', 'CesiumMan.webp.glb']) {
+      await dropModel(ctx.page, join(ROOT, 'tests/optimized', copy));
+      const d = await dataset(ctx.page);
+      assert(d.error === '', `${copy}: an error was reported: ${d.error}`);
+      await ctx.page.evaluate((c) => { document.querySelector('kloub-viewer').camera = c; }, camera);
+      const b = await still(ctx.page, null, 0.5);
+      savePng(b, `${backend}-optimized-${copy.replace(/\.glb$/, '')}.png`);
+      const shown = ctx.logs.filter((l) => l.includes(`showing ${copy}`));
+      assert(shown.at(-1)?.includes('0 warnings'), `${copy}: import warnings: ${shown.at(-1)}`);
+      assert(saturatedFraction(b) > 0.01, `${copy}: the texture is missing`);
+      // Quantized positions, 8-bit octahedral normals and filtered rotations (meshopt), 14-bit positions
+      // (Draco), a lossy texture (WebP): a few edge pixels apart.
+      const differ = diffFraction(a, b, 24);
+      assert(differ < 0.01, `${copy}: ${(differ * 100).toFixed(2)}% of the pixels differ from the original's`);
+    }
+  });
+
+  if (backend === BACKENDS[0]) test(`${backend}: Validate runs the Khronos glTF-Validator on the dropped files (fetched only then) and the panel lists its report`, async (ctx) => {
+    const { page } = ctx;
+    await openApp(ctx, backend);
+    // RiggedSimple as a .gltf with its .bin, its POSITION accessor's max doubled: Kloub shows it (a bounds hint it
+    // does not use), the validator reports ACCESSOR_MAX_MISMATCH at that accessor.
+    const dir = join(SHARED, 'khronos/RiggedSimple/glTF');
+    const doc = JSON.parse(readFileSync(join(dir, 'RiggedSimple.gltf'), 'utf8'));
+    const position = doc.meshes[0].primitives[0].attributes.POSITION;
+    doc.accessors[position].max = doc.accessors[position].max.map((v) => v * 2 + 1);
+    await dropFiles(page, [{ name: 'RiggedSimple.gltf', bytes: Buffer.from(JSON.stringify(doc)) }, { path: join(dir, 'RiggedSimple0.bin') }]);
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.model === 'RiggedSimple.gltf' && document.querySelector('kloub-viewer').dataset.status === 'ready', 'RiggedSimple.gltf to load');
+    const fetched = () => page.evaluate(() => performance.getEntriesByType('resource').filter((r) => /gltf-validator\.js|validator-worker\.js/.test(r.name)).length);
+    assert(await fetched() === 0, 'the validator was fetched before it was asked for');
+    await page.evaluate(() => {
+      window.__validation = null;
+      document.querySelector('kloub-viewer').addEventListener('validation', (e) => { window.__validation = e.detail; });
+    });
+    // The panel's button, through its accessibility mirror (as a screen reader or a click would press it).
+    await page.waitForFunction(() => document.querySelector('kloub-viewer').shadowRoot.querySelector('.kloub-a11y button[aria-label="Validate"]'), null, { timeout: 10000 });
+    await page.evaluate(() => document.querySelector('kloub-viewer').shadowRoot.querySelector('.kloub-a11y button[aria-label="Validate"]').click());
+    await page.waitForFunction(() => window.__validation !== null, null, { timeout: 60000 });
+    const detail = await page.evaluate(() => window.__validation);
+    // (The worker fetches the validator itself: the page's own entries show the worker's script.)
+    assert(await fetched() >= 1, 'the validator\'s worker was not fetched');
+    const issue = detail.report.issues.messages.find((m) => m.code === 'ACCESSOR_MAX_MISMATCH');
+    assert(detail.errors >= 1 && issue, `the report: ${JSON.stringify(detail.report.issues).slice(0, 400)}`);
+    assert(issue.pointer.startsWith(`/accessors/${position}/max`), `pointer ${issue.pointer}`);
+    // The panel: the badge with the counts and the issue with its code and pointer.
+    const badge = `${detail.errors} error${detail.errors === 1 ? '' : 's'} · `;
+    await page.waitForFunction((badge) => document.querySelector('kloub-viewer').shadowRoot.querySelector('.kloub-a11y').textContent.includes(badge)
+      || [...document.querySelector('kloub-viewer').shadowRoot.querySelectorAll('.kloub-a11y [aria-label]')].some((n) => n.getAttribute('aria-label').includes(badge)), badge, { timeout: 10000 });
+    const listed = await page.evaluate((pointer) => {
+      const root = document.querySelector('kloub-viewer').shadowRoot.querySelector('.kloub-a11y');
+      const texts = [root.textContent, ...[...root.querySelectorAll('[aria-label]')].map((n) => n.getAttribute('aria-label'))];
+      return texts.some((t) => t.includes('ACCESSOR_MAX_MISMATCH')) && texts.some((t) => t.includes(pointer));
+    }, issue.pointer);
+    assert(listed, 'the panel does not list the issue with its code and pointer');
+    await waitFrames(page, 2);
+    savePng(PNG.sync.read(await page.screenshot()), `${backend}-validation.png`);
+    // The method gives the same report to a page author.
+    const again = await page.evaluate(() => document.querySelector('kloub-viewer').validate().then((r) => r.issues.numErrors));
+    assert(again === detail.errors, `validate() found ${again} errors, the panel ${detail.errors}`);
   });
 
   test(`${backend}: an image the browser cannot decode is drawn white with a warning; the model shows`, async (ctx) => {

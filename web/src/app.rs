@@ -493,6 +493,14 @@ impl App {
             // The element opens its file input (the click is still the user's gesture).
             self.stage.dataset.host().emit("kloub:open", if folder { "folder" } else { "files" });
         }
+        if actions.validate
+            && let Some(model) = &mut self.stage.model
+        {
+            // The element runs the validator and answers with setValidation.
+            model.validating = true;
+            model.validation = None;
+            self.stage.dataset.host().emit("kloub:validate", "");
+        }
         self.stage.finish_screenshot();
         if actions.save_sidecar
             && let Some(model) = &self.stage.model

@@ -139,6 +139,9 @@ pub enum Command {
     SetLighting(crate::render::uniforms::Lighting),
     /// Background (kept across models).
     SetBackground(crate::render::uniforms::Background),
+    /// The glTF-Validator's report on the shown model (the element ran it).
+    #[cfg(feature = "full")]
+    SetValidation(crate::validation::Validation),
     /// Turns the character into a ragdoll from the pose on screen.
     StartRagdoll,
     /// Ends the ragdoll at once (back to the animation).

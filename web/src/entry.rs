@@ -372,6 +372,16 @@ impl Viewer {
         Ok(())
     }
 
+    /// The glTF-Validator's report on the shown model, as the element's `validate()` summarises
+    /// it (see [`crate::validation::parse`]); the side panel lists it.
+    #[cfg(feature = "full")]
+    #[wasm_bindgen(js_name = setValidation)]
+    pub fn set_validation(&self, json: &str) -> Result<(), JsValue> {
+        let validation = crate::validation::parse(json).map_err(range_error)?;
+        self.controls.send(Command::SetValidation(validation));
+        Ok(())
+    }
+
     /// Fetches and shows the model at `url` (relative URIs inside resolve against it).
     #[wasm_bindgen(js_name = loadUrl)]
     pub fn load_url(&self, url: String) {

@@ -40,6 +40,8 @@ pub mod shared;
 pub mod stage;
 #[cfg(feature = "full")]
 pub mod ui;
+#[cfg(feature = "full")]
+pub mod validation;
 
 #[cfg(target_arch = "wasm32")]
 pub use entry::Viewer;

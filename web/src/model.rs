@@ -90,6 +90,12 @@ pub struct Model {
     /// Last frame's worlds of the main character (a ragdoll inherits their velocity).
     #[cfg(feature = "full")]
     previous: crate::ragdoll::PreviousWorlds,
+    /// The glTF-Validator's report on this model, once the panel's Validate ran it.
+    #[cfg(feature = "full")]
+    pub validation: Option<crate::validation::Validation>,
+    /// Whether the validator is running on this model.
+    #[cfg(feature = "full")]
+    pub validating: bool,
 }
 
 /// `x` rounded to five decimals, for the JSON state mirrors (stable text for equal values).
@@ -172,6 +178,10 @@ impl Model {
             ragdoll_options: kloub_core::ragdoll::RagdollOptions::default(),
             #[cfg(feature = "full")]
             previous: crate::ragdoll::PreviousWorlds::default(),
+            #[cfg(feature = "full")]
+            validation: None,
+            #[cfg(feature = "full")]
+            validating: false,
         })
     }
 

@@ -31,7 +31,8 @@ impl Component {
         })
     }
 
-    fn size(self) -> u64 {
+    /// Bytes per component.
+    pub(crate) fn size(self) -> u64 {
         match self {
             Self::I8 | Self::U8 => 1,
             Self::I16 | Self::U16 => 2,
@@ -45,6 +46,7 @@ impl Component {
     }
 
     /// One component as `f32` (normalized integers mapped to [0, 1] or [-1, 1]).
+    #[inline]
     fn to_f32(self, b: &[u8], normalized: bool) -> f32 {
         let (v, scale) = match self {
             Self::F32 => return f32::from_le_bytes([b[0], b[1], b[2], b[3]]),
@@ -58,6 +60,7 @@ impl Component {
     }
 
     /// One unsigned component as `u32` (0 for signed or float types, which callers refuse).
+    #[inline]
     fn to_u32(self, b: &[u8]) -> u32 {
         match self {
             Self::U8 => u32::from(b[0]),
@@ -114,6 +117,11 @@ impl Accessor {
     /// Components per element.
     pub fn components(&self) -> usize {
         self.rows * self.cols
+    }
+
+    /// The component type.
+    pub(crate) fn component(&self) -> Component {
+        self.component
     }
 }
 
@@ -367,6 +375,25 @@ impl<'a> Accessors<'a> {
         Ok(Sparse { count: sparse_count, indices_view, indices_offset, indices_component, values_view, values_offset })
     }
 
+    /// Points accessor `index` at `data`, decoded elsewhere (a Draco stream): `count` tightly
+    /// packed elements of its type in `component`. Its view, offset and sparse part are
+    /// replaced; the caller checked `index` and charged `data` to the budget.
+    pub fn replace(&mut self, index: u32, data: Vec<u8>, count: u64, component: Component) {
+        let Some(Ok(a)) = self.list.get_mut(index as usize) else { return };
+        let column = a.rows as u64 * component.size();
+        a.column_stride = if a.cols > 1 { column.next_multiple_of(4) } else { column };
+        a.element_size = a.column_stride * a.cols as u64;
+        a.extent = a.column_stride * (a.cols as u64 - 1) + column;
+        a.stride = a.element_size;
+        a.component = component;
+        a.count = count;
+        a.offset = 0;
+        a.sparse = None;
+        a.view = Some(self.views.len());
+        self.views.push(View { buffer: self.buffers.len(), offset: 0, length: data.len() as u64, stride: None });
+        self.buffers.push(Some(Cow::Owned(data)));
+    }
+
     /// Number of buffer views.
     pub fn view_count(&self) -> usize {
         self.views.len()
@@ -448,6 +475,11 @@ impl<'a> Accessors<'a> {
         let mut values = [T::default(); 16];
         let n = a.components();
         let csize = a.component.size();
+        // Each component's byte offset in its element (matrix columns padded to 4 bytes).
+        let mut offsets = [0u64; 16];
+        for (j, at) in offsets[..n].iter_mut().enumerate() {
+            *at = (j / a.rows) as u64 * a.column_stride + (j % a.rows) as u64 * csize;
+        }
         for i in 0..a.count {
             let element = match (next_index, &sparse) {
                 (Some(si), Some((s, _, sparse_values))) if si == i => {
@@ -473,8 +505,7 @@ impl<'a> Accessors<'a> {
             };
             match element {
                 Some(bytes) => {
-                    for (j, v) in values[..n].iter_mut().enumerate() {
-                        let at = (j / a.rows) as u64 * a.column_stride + (j % a.rows) as u64 * csize;
+                    for (v, &at) in values[..n].iter_mut().zip(&offsets[..n]) {
                         *v = decode(a.component, slice(bytes, at, csize).ok_or_else(out_of_bounds)?);
                     }
                 }

@@ -140,7 +140,6 @@ impl Budget {
     }
 
     /// Bytes left.
-    #[cfg(feature = "images")]
     pub fn left(&self) -> u64 {
         self.left
     }

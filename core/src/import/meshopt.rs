@@ -228,36 +228,47 @@ fn decode_vertices(out: &mut [u8], count: usize, stride: usize, src: &[u8], allo
                 }
             }
         }
-        for i in 0..block {
-            let element = &mut out[(first + i) * stride..(first + i + 1) * stride];
-            let delta = |k: usize| deltas[k * span + i];
-            for channel in 0..stride.div_ceil(4) {
-                let at = channel * 4;
-                let mode = channels.get(channel).copied().unwrap_or(0);
-                match mode & 15 {
-                    1 => {
-                        for half in [at, at + 2] {
-                            let d = u16::from_le_bytes([delta(half), delta(half + 1)]);
-                            let d = if d & 1 != 0 { !(d >> 1) } else { d >> 1 };
-                            let v = u16::from_le_bytes([last[half], last[half + 1]]).wrapping_add(d);
-                            last[half..half + 2].copy_from_slice(&v.to_le_bytes());
+        // Each channel's running value, byte position by byte position (a prefix sum per
+        // position, written straight into the elements).
+        let elements = &mut out[first * stride..(first + block) * stride];
+        for channel in 0..stride.div_ceil(4) {
+            let at = channel * 4;
+            let mode = channels.get(channel).copied().unwrap_or(0);
+            match mode & 15 {
+                1 => {
+                    for half in [at, at + 2] {
+                        let (low, high) = (&deltas[half * span..][..block], &deltas[(half + 1) * span..][..block]);
+                        let mut value = u16::from_le_bytes([last[half], last[half + 1]]);
+                        for ((element, &l), &h) in elements.chunks_exact_mut(stride).zip(low).zip(high) {
+                            let d = u16::from_le_bytes([l, h]);
+                            value = value.wrapping_add(if d & 1 != 0 { !(d >> 1) } else { d >> 1 });
+                            element[half..half + 2].copy_from_slice(&value.to_le_bytes());
                         }
+                        last[half..half + 2].copy_from_slice(&value.to_le_bytes());
                     }
-                    2 => {
-                        let d = u32::from_le_bytes([delta(at), delta(at + 1), delta(at + 2), delta(at + 3)]);
-                        let p = u32::from_le_bytes([last[at], last[at + 1], last[at + 2], last[at + 3]]);
-                        let v = p ^ d.rotate_right(u32::from(mode >> 4));
-                        last[at..at + 4].copy_from_slice(&v.to_le_bytes());
+                }
+                2 => {
+                    let rotate = u32::from(mode >> 4);
+                    let bytes: [&[u8]; 4] = std::array::from_fn(|k| &deltas[(at + k) * span..][..block]);
+                    let mut value = u32::from_le_bytes([last[at], last[at + 1], last[at + 2], last[at + 3]]);
+                    for (i, element) in elements.chunks_exact_mut(stride).enumerate() {
+                        let d = u32::from_le_bytes([bytes[0][i], bytes[1][i], bytes[2][i], bytes[3][i]]);
+                        value ^= d.rotate_right(rotate);
+                        element[at..at + 4].copy_from_slice(&value.to_le_bytes());
                     }
-                    _ => {
-                        let end = (at + 4).min(stride);
-                        for (k, value) in last[at..end].iter_mut().enumerate() {
-                            *value = value.wrapping_add(unzigzag8(delta(at + k)));
+                    last[at..at + 4].copy_from_slice(&value.to_le_bytes());
+                }
+                _ => {
+                    for k in at..(at + 4).min(stride) {
+                        let mut value = last[k];
+                        for (element, &d) in elements.chunks_exact_mut(stride).zip(&deltas[k * span..][..block]) {
+                            value = value.wrapping_add(unzigzag8(d));
+                            element[k] = value;
                         }
+                        last[k] = value;
                     }
                 }
             }
-            element.copy_from_slice(&last[..stride]);
         }
         first += block;
     }
@@ -273,18 +284,24 @@ fn decode_vertices(out: &mut [u8], count: usize, stride: usize, src: &[u8], allo
 fn decode_group(reader: &mut Reader<'_>, width: u32, deltas: &mut [u8]) -> Result<(), String> {
     match width {
         0 => deltas.fill(0),
-        8 => deltas.copy_from_slice(reader.take(16)?),
-        _ => {
-            let per_byte = (8 / width) as usize;
-            let sentinel = ((1u32 << width) - 1) as u8;
-            let packed = reader.take(16 / per_byte)?;
-            for (i, delta) in deltas.iter_mut().enumerate() {
-                let slot = (i % per_byte) as u32;
-                let shift = if width == 1 { slot } else { 8 - width * (slot + 1) };
-                let v = (packed[i / per_byte] >> shift) & sentinel;
-                *delta = if v == sentinel { reader.byte()? } else { v };
-            }
-        }
+        1 => unpack::<1>(reader, deltas)?,
+        2 => unpack::<2>(reader, deltas)?,
+        4 => unpack::<4>(reader, deltas)?,
+        _ => deltas.copy_from_slice(reader.take(16)?),
+    }
+    Ok(())
+}
+
+/// [`decode_group`] for `W` = 1, 2 or 4 bits.
+fn unpack<const W: u32>(reader: &mut Reader<'_>, deltas: &mut [u8]) -> Result<(), String> {
+    let per_byte = (8 / W) as usize;
+    let sentinel = ((1u32 << W) - 1) as u8;
+    let packed = reader.take(16 / per_byte)?;
+    for (i, delta) in deltas.iter_mut().enumerate() {
+        let slot = (i % per_byte) as u32;
+        let shift = if W == 1 { slot } else { 8 - W * (slot + 1) };
+        let v = (packed[i / per_byte] >> shift) & sentinel;
+        *delta = if v == sentinel { reader.byte()? } else { v };
     }
     Ok(())
 }
@@ -448,15 +465,21 @@ fn decode_indices(out: &mut [u8], count: usize, stride: usize, src: &[u8]) -> Re
 
 /// Rounds to the nearest integer (halves away from zero) and saturates, as the filters' `round`.
 fn round_i16(x: f32) -> i16 {
-    x.round() as i16
+    round(x).clamp(-32768, 32767) as i16
+}
+
+/// `x` rounded half away from zero (saturating, NaN → 0), as `f32::round` but without its libm
+/// call where the target has no rounding instruction (x86-64's baseline): the `as` cast truncates.
+fn round(x: f32) -> i32 {
+    (x + 0.5f32.copysign(x)) as i32
 }
 
 /// Filter 1 on four signed bytes: octahedral x, y, the K-bit 1.0, and a byte passed through.
 fn octahedral8(e: &mut [u8]) {
     let [x, y, z] = octahedral(f32::from(e[0] as i8), f32::from(e[1] as i8), f32::from(e[2] as i8));
-    e[0] = (x * 127.0).round() as i8 as u8;
-    e[1] = (y * 127.0).round() as i8 as u8;
-    e[2] = (z * 127.0).round() as i8 as u8;
+    e[0] = round(x * 127.0).clamp(-128, 127) as i8 as u8;
+    e[1] = round(y * 127.0).clamp(-128, 127) as i8 as u8;
+    e[2] = round(z * 127.0).clamp(-128, 127) as i8 as u8;
 }
 
 /// Filter 1 on four signed 16-bit components.
@@ -488,15 +511,11 @@ fn quaternion(e: &mut [u8]) {
     let y = f32::from(read(1)) / one * range;
     let z = f32::from(read(2)) / one * range;
     let w = (1.0 - x * x - y * y - z * z).max(0.0).sqrt();
-    let max = (read(3) & 3) as usize;
-    let mut q = [0i16; 4];
-    q[(max + 1) % 4] = round_i16(x * 32767.0);
-    q[(max + 2) % 4] = round_i16(y * 32767.0);
-    q[(max + 3) % 4] = round_i16(z * 32767.0);
-    q[max] = round_i16(w * 32767.0);
-    for (i, v) in q.into_iter().enumerate() {
-        e[2 * i..2 * i + 2].copy_from_slice(&v.to_le_bytes());
-    }
+    let max = u32::from(read(3) as u16 & 3);
+    // x, y, z, w as 16-bit lanes 0..3, rotated so that w lands in lane `max` and x, y, z follow it.
+    let lane = |v: f32| u64::from(round_i16(v * 32767.0) as u16);
+    let q = lane(x) | lane(y) << 16 | lane(z) << 32 | lane(w) << 48;
+    e.copy_from_slice(&q.rotate_left((max + 1) * 16).to_le_bytes());
 }
 
 /// Filter 3: a signed 8-bit exponent over a signed 24-bit mantissa, to a float.
@@ -504,7 +523,11 @@ fn exponential(e: &mut [u8]) {
     let v = i32::from_le_bytes([e[0], e[1], e[2], e[3]]);
     let exponent = v >> 24;
     let mantissa = (v << 8) >> 8;
-    let value = 2f32.powi(exponent) * mantissa as f32;
+    // 2^exponent from the bits of powers of two (powi is a libm call on x86-64): exact, as the
+    // exponent (-128..=127) splits into two normal ones.
+    let power = |e: i32| f32::from_bits(((e + 127) as u32) << 23);
+    let scale = if exponent >= -126 { power(exponent) } else { power(-126) * power(exponent + 126) };
+    let value = scale * mantissa as f32;
     e.copy_from_slice(&value.to_le_bytes());
 }
 
@@ -512,7 +535,7 @@ fn exponential(e: &mut [u8]) {
 fn color8(e: &mut [u8]) {
     let rgba = ycocg(i32::from(e[0]), i32::from(e[1] as i8), i32::from(e[2] as i8), u32::from(e[3]), 255.0);
     for (out, v) in e.iter_mut().zip(rgba) {
-        *out = v.round() as u8;
+        *out = round(v).clamp(0, 255) as u8;
     }
 }
 
@@ -524,7 +547,7 @@ fn color16(e: &mut [u8]) {
     let cg = i32::from(i16::from_le_bytes(read(2)));
     let rgba = ycocg(y, co, cg, u32::from(u16::from_le_bytes(read(3))), 65535.0);
     for (i, v) in rgba.into_iter().enumerate() {
-        e[2 * i..2 * i + 2].copy_from_slice(&(v.round() as u16).to_le_bytes());
+        e[2 * i..2 * i + 2].copy_from_slice(&(round(v).clamp(0, 65535) as u16).to_le_bytes());
     }
 }
 

@@ -10,6 +10,7 @@
 mod accessor;
 mod anim;
 mod container;
+mod draco;
 pub use container::{is_web_uri, percent_decode};
 mod json;
 mod material;
@@ -32,6 +33,7 @@ pub const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &[
     "EXT_texture_webp",
     "EXT_meshopt_compression",
     "KHR_meshopt_compression",
+    "KHR_draco_mesh_compression",
 ];
 
 /// Bytes charged per JSON value (a `serde_json::Value` plus, in objects, its key and map
@@ -190,7 +192,9 @@ pub fn import(bytes: &[u8], resolver: &dyn Resolver, options: &ImportOptions) ->
     check_version(root)?;
     check_required_extensions(root)?;
     let buffers = container::load_buffers(root, &container, resolver, &mut budget)?;
-    let accessors = Accessors::new(root, buffers, &mut budget)?;
+    let mut accessors = Accessors::new(root, buffers, &mut budget)?;
+    let (compressed_primitives, draco_warnings) = draco::decode_all(root, &mut accessors, &mut budget)?;
+    warnings.extend(draco_warnings);
     let mut cx = Cx { root, accessors, budget, warnings, resolver, options };
 
     let (images, usable_images) = material::images(&mut cx, options.decode_images)?;
@@ -264,6 +268,7 @@ pub fn import(bytes: &[u8], resolver: &dyn Resolver, options: &ImportOptions) ->
             used: names(root, "extensionsUsed")?,
             required: names(root, "extensionsRequired")?,
             compressed_views: std::mem::take(&mut cx.accessors.compressed),
+            compressed_primitives,
         },
     };
     Ok(Imported { asset, warnings: cx.warnings })

@@ -132,6 +132,13 @@ impl Stage {
             | Command::ShowModel(_) => {}
             Command::SelectJoint(node) => model.selected_joint = node,
             #[cfg(feature = "full")]
+            Command::SetValidation(validation) => {
+                if validation.name == model.name {
+                    model.validating = false;
+                    model.validation = Some(validation);
+                }
+            }
+            #[cfg(feature = "full")]
             Command::StartRagdoll => model.start_ragdoll()?,
             #[cfg(feature = "full")]
             Command::StopRagdoll => model.ragdoll = None,

@@ -17,6 +17,7 @@ mod animation;
 mod ik;
 mod scene;
 mod skinning;
+mod validation;
 
 use animation::{blend_panel, clips, layer_panel, playback, transition_settings};
 use ik::ik_panel;
@@ -92,6 +93,8 @@ pub struct PanelActions {
     pub help: bool,
     /// Ask the page for a file picker (`Some(true)`: a folder picker).
     pub open: Option<bool>,
+    /// Run the glTF-Validator on the shown model (the element does).
+    pub validate: bool,
 }
 
 /// Draws the side panel.
@@ -186,6 +189,9 @@ pub fn side_panel(
                     }
                 });
             });
+    }
+    if let Some(model) = &model {
+        section(ui, "Validation", |ui| validation::validation_panel(ui, model, &mut actions));
     }
     ui.separator();
 

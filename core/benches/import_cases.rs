@@ -1,0 +1,208 @@
+//! What `benches/import.rs` (native) and `tests/wasm_decode.rs` (wasm32 in Node) measure, and
+//! `scripts/bench-import.mjs` measures with the reference decoders and three.js in the same way:
+//! - **decoding**: the Draco and meshopt decoders on the compressed copies of `tests/optimized`,
+//!   through the importer. Each case is the file stripped to its compressed data (the buffers and
+//!   views, the compressed primitives and their accessors), so an import is a few hundred bytes
+//!   of JSON and the decoding. Speed is decoded bytes per second: the accessors' bytes for Draco
+//!   (in their component types, indices as 32-bit), the views' bytes for meshopt.
+//! - **import**: bytes → ready asset for each character and its optimized copies, without its
+//!   images (three.js's GLTFLoader cannot decode them in Node; Kloub's web builds leave them to
+//!   the browser too): `images`, `textures`, `samplers` and the materials' texture references
+//!   removed.
+
+use kloub_core::{ImportOptions, NoResolver, import};
+use serde_json::Value;
+
+/// One file, stripped.
+pub struct Case {
+    /// File name.
+    pub name: &'static str,
+    /// `draco` or `meshopt` (decoding), the variant (import).
+    pub codec: &'static str,
+    /// The stripped GLB.
+    pub glb: Vec<u8>,
+    /// Bytes decoded per import (decoding cases).
+    pub decoded: u64,
+}
+
+/// The compressed copies whose decoding is measured (compiled in: wasm has no file system).
+pub const FILES: [(&str, &[u8]); 8] = [
+    ("Fox.draco.glb", include_bytes!("../../tests/optimized/Fox.draco.glb")),
+    ("CesiumMan.draco.glb", include_bytes!("../../tests/optimized/CesiumMan.draco.glb")),
+    ("RobotExpressive.draco.glb", include_bytes!("../../tests/optimized/RobotExpressive.draco.glb")),
+    ("Fox.gltfpack-cc.glb", include_bytes!("../../tests/optimized/Fox.gltfpack-cc.glb")),
+    ("CesiumMan.gltfpack-cc.glb", include_bytes!("../../tests/optimized/CesiumMan.gltfpack-cc.glb")),
+    ("RobotExpressive.gltfpack-cc.glb", include_bytes!("../../tests/optimized/RobotExpressive.gltfpack-cc.glb")),
+    ("Fox.gltfpack-khr.glb", include_bytes!("../../tests/optimized/Fox.gltfpack-khr.glb")),
+    ("CesiumMan.gltfpack-khr.glb", include_bytes!("../../tests/optimized/CesiumMan.gltfpack-khr.glb")),
+];
+
+/// The files whose import is measured: (variant, file).
+pub const IMPORTS: [(&str, &str, &[u8]); 13] = [
+    ("original", "Fox.glb", include_bytes!("../../tests/assets/khronos/Fox/glTF-Binary/Fox.glb")),
+    ("gltfpack", "Fox.gltfpack.glb", include_bytes!("../../tests/optimized/Fox.gltfpack.glb")),
+    ("meshopt", "Fox.gltfpack-cc.glb", include_bytes!("../../tests/optimized/Fox.gltfpack-cc.glb")),
+    ("draco", "Fox.draco.glb", include_bytes!("../../tests/optimized/Fox.draco.glb")),
+    ("original", "CesiumMan.glb", include_bytes!("../../tests/assets/khronos/CesiumMan/glTF-Binary/CesiumMan.glb")),
+    ("gltfpack", "CesiumMan.gltfpack.glb", include_bytes!("../../tests/optimized/CesiumMan.gltfpack.glb")),
+    ("meshopt", "CesiumMan.gltfpack-cc.glb", include_bytes!("../../tests/optimized/CesiumMan.gltfpack-cc.glb")),
+    ("draco", "CesiumMan.draco.glb", include_bytes!("../../tests/optimized/CesiumMan.draco.glb")),
+    (
+        "original",
+        "RobotExpressive.glb",
+        include_bytes!("../../tests/assets/threejs/RobotExpressive/RobotExpressive.glb"),
+    ),
+    ("gltfpack", "RobotExpressive.gltfpack.glb", include_bytes!("../../tests/optimized/RobotExpressive.gltfpack.glb")),
+    (
+        "meshopt",
+        "RobotExpressive.gltfpack-cc.glb",
+        include_bytes!("../../tests/optimized/RobotExpressive.gltfpack-cc.glb"),
+    ),
+    ("draco", "RobotExpressive.draco.glb", include_bytes!("../../tests/optimized/RobotExpressive.draco.glb")),
+    ("original", "Knight.glb", include_bytes!("../../tests/assets/kaykit/Knight/Knight.glb")),
+];
+
+pub fn options() -> ImportOptions {
+    ImportOptions { decode_images: false, ..ImportOptions::default() }
+}
+
+/// Every file of [`IMPORTS`] without its images, checked to import.
+pub fn import_cases() -> Vec<Case> {
+    IMPORTS
+        .iter()
+        .map(|&(variant, name, bytes)| {
+            let (mut doc, bin) = split(bytes);
+            strip_images(&mut doc);
+            let glb = glb(&doc, bin);
+            import(&glb, &NoResolver, &options()).unwrap_or_else(|e| panic!("{name}: {e}"));
+            Case { name, codec: variant, glb, decoded: 0 }
+        })
+        .collect()
+}
+
+/// Removes the images, textures and samplers, and the materials' references to them.
+fn strip_images(doc: &mut Value) {
+    let root = doc.as_object_mut().expect("an object");
+    for key in ["images", "textures", "samplers"] {
+        root.remove(key);
+    }
+    for material in root.get_mut("materials").and_then(Value::as_array_mut).into_iter().flatten() {
+        let material = material.as_object_mut().expect("a material");
+        material.retain(|key, _| !key.ends_with("Texture"));
+        if let Some(pbr) = material.get_mut("pbrMetallicRoughness").and_then(Value::as_object_mut) {
+            pbr.retain(|key, _| !key.ends_with("Texture"));
+        }
+    }
+}
+
+/// Every file of [`FILES`], stripped and checked to import.
+pub fn decode_cases() -> Vec<Case> {
+    FILES
+        .iter()
+        .map(|&(name, bytes)| {
+            let (mut doc, bin) = split(bytes);
+            let draco = name.contains("draco");
+            strip(&mut doc, draco);
+            let glb = glb(&doc, bin);
+            let imported = import(&glb, &NoResolver, &options()).unwrap_or_else(|e| panic!("{name}: {e}"));
+            let ext = &imported.asset.extensions;
+            let decoded = if draco {
+                ext.compressed_primitives.iter().map(|c| c.decoded_bytes).sum()
+            } else {
+                ext.compressed_views.iter().map(|c| c.decoded_bytes).sum()
+            };
+            assert!(decoded > 0, "{name}: nothing compressed");
+            Case { name, codec: if draco { "draco" } else { "meshopt" }, glb, decoded }
+        })
+        .collect()
+}
+
+/// The JSON and BIN chunks of a GLB.
+fn split(bytes: &[u8]) -> (Value, &[u8]) {
+    let word = |at: usize| u32::from_le_bytes([bytes[at], bytes[at + 1], bytes[at + 2], bytes[at + 3]]) as usize;
+    let json_length = word(12);
+    let doc = serde_json::from_slice(&bytes[20..20 + json_length]).expect("JSON chunk");
+    let bin_at = 20 + json_length;
+    (doc, &bytes[bin_at + 8..bin_at + 8 + word(bin_at)])
+}
+
+/// Leaves the buffers and views, and (for Draco) the compressed primitives with their
+/// compressed attributes and indices and only the accessors these use.
+fn strip(doc: &mut Value, draco: bool) {
+    let root = doc.as_object_mut().expect("an object");
+    for key in ["nodes", "scenes", "scene", "skins", "animations", "materials", "textures", "images", "samplers"] {
+        root.remove(key);
+    }
+    let accessors = root.remove("accessors").unwrap_or_default();
+    if !draco {
+        root.remove("meshes");
+        return;
+    }
+    let mut kept = Vec::new();
+    let mut keep = |index: &mut Value| {
+        let old = index.as_u64().expect("an accessor index") as usize;
+        *index = Value::from(kept.len());
+        kept.push(accessors[old].clone());
+    };
+    for mesh in root.get_mut("meshes").and_then(Value::as_array_mut).into_iter().flatten() {
+        mesh.as_object_mut().expect("a mesh").remove("weights");
+        let primitives = mesh["primitives"].as_array_mut().expect("primitives");
+        primitives.retain(|p| p["extensions"]["KHR_draco_mesh_compression"].is_object());
+        for p in primitives {
+            let compressed = p["extensions"]["KHR_draco_mesh_compression"]["attributes"].clone();
+            let attributes = p["attributes"].as_object_mut().expect("attributes");
+            attributes.retain(|name, _| compressed.get(name).is_some());
+            attributes.values_mut().for_each(&mut keep);
+            let p = p.as_object_mut().expect("a primitive");
+            p.get_mut("indices").map(&mut keep);
+            p.remove("targets");
+            p.remove("material");
+        }
+    }
+    root.insert("accessors".into(), Value::Array(kept));
+}
+
+/// A GLB of `doc` and `bin`.
+fn glb(doc: &Value, bin: &[u8]) -> Vec<u8> {
+    let json = doc.to_string().into_bytes();
+    let pad = |n: usize| n.next_multiple_of(4);
+    let total = 12 + 8 + pad(json.len()) + 8 + pad(bin.len());
+    let mut out = Vec::with_capacity(total);
+    out.extend(b"glTF");
+    out.extend(2u32.to_le_bytes());
+    out.extend((total as u32).to_le_bytes());
+    out.extend((pad(json.len()) as u32).to_le_bytes());
+    out.extend(b"JSON");
+    out.extend(&json);
+    out.resize(20 + pad(json.len()), b' ');
+    out.extend((pad(bin.len()) as u32).to_le_bytes());
+    out.extend(b"BIN\0");
+    out.extend(bin);
+    out.resize(total, 0);
+    out
+}
+
+/// Milliseconds per import of `case`: the median of 7 batches of about 150 ms, timed by `now`
+/// (milliseconds).
+pub fn measure(case: &Case, now: &dyn Fn() -> f64) -> f64 {
+    let options = options();
+    let run = || std::hint::black_box(import(std::hint::black_box(&case.glb), &NoResolver, &options)).is_ok();
+    let start = now();
+    let mut calibration = 0u32;
+    while now() - start < 50.0 || calibration < 3 {
+        run();
+        calibration += 1;
+    }
+    let per_batch = ((150.0 / ((now() - start) / f64::from(calibration))) as u32).max(1);
+    let mut rates: Vec<f64> = (0..7)
+        .map(|_| {
+            let t = now();
+            for _ in 0..per_batch {
+                run();
+            }
+            (now() - t) / f64::from(per_batch)
+        })
+        .collect();
+    rates.sort_by(f64::total_cmp);
+    rates[3]
+}

@@ -1,0 +1,226 @@
+//! `KHR_draco_mesh_compression`: a primitive's attributes and indices stored as one Draco
+//! stream in a buffer view. Each such stream is decoded (draco-core, pure Rust, within the
+//! import budget) before the meshes are read, and the primitive's accessors are pointed at
+//! the decoded data, so everything after this reads them like any other accessor.
+
+use super::accessor::{Accessors, Component};
+use super::container::Budget;
+use super::json::{Obj, child, member_error, objects, opt_object, opt_u64, req_index};
+use crate::asset::CompressedPrimitive;
+use crate::error::{ImportError, Warning};
+use draco_core::{DecodeLimits, DecoderBuffer, Mesh, MeshDecoder, draco_types::DataType};
+
+/// The extension's name.
+pub(crate) const EXTENSION: &str = "KHR_draco_mesh_compression";
+
+/// An accessor that a Draco stream filled: which stream (buffer view) and attribute.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Source {
+    Attribute { view: u32, id: u64 },
+    Indices { view: u32 },
+}
+
+/// Decodes every Draco-compressed primitive of `root` into `accessors`. Returns what each
+/// decode cost (for `kloub inspect`) and the repaired defects.
+pub(crate) fn decode_all(
+    root: &Obj,
+    accessors: &mut Accessors<'_>,
+    budget: &mut Budget,
+) -> Result<(Vec<CompressedPrimitive>, Vec<Warning>), ImportError> {
+    let mut costs = Vec::new();
+    let mut warnings = Vec::new();
+    // What filled each accessor: one accessor may be shared by primitives that share the stream.
+    let mut filled: Vec<Option<Source>> = vec![None; accessors.len()];
+    for (m, (mesh, mptr)) in objects(root, "meshes", "")?.into_iter().enumerate() {
+        for (p, (prim, pptr)) in objects(mesh, "primitives", &mptr)?.into_iter().enumerate() {
+            let Some(x) = super::json::extension(prim, EXTENSION, &pptr)? else { continue };
+            let xptr = format!("{pptr}/extensions/{EXTENSION}");
+            let cost = decode_primitive(prim, &pptr, x, &xptr, accessors, budget, &mut filled, &mut warnings)?;
+            costs.push(CompressedPrimitive { mesh: m as u32, primitive: p as u32, ..cost });
+        }
+    }
+    Ok((costs, warnings))
+}
+
+/// Decodes one primitive's stream (its extension object `x` at `xptr`).
+#[allow(clippy::too_many_arguments)]
+fn decode_primitive(
+    prim: &Obj,
+    pptr: &str,
+    x: &Obj,
+    xptr: &str,
+    accessors: &mut Accessors<'_>,
+    budget: &mut Budget,
+    filled: &mut [Option<Source>],
+    warnings: &mut Vec<Warning>,
+) -> Result<CompressedPrimitive, ImportError> {
+    let mode = opt_u64(prim, "mode", pptr)?.unwrap_or(4);
+    if mode != 4 {
+        return Err(member_error(
+            pptr,
+            "mode",
+            format!("a Draco-compressed primitive must be TRIANGLES (4), not mode {mode}"),
+        ));
+    }
+    let view = req_index(x, "bufferView", xptr, accessors.view_count(), "bufferView")?;
+    let compressed = accessors.view_bytes(view as usize)?;
+    let compressed_bytes = compressed.len() as u64;
+    // The decoder's own ceiling is what is left of the import budget.
+    let left = budget.left();
+    let limits = DecodeLimits::default().with_max_decoded_bytes(left).with_max_points(u64::from(u32::MAX));
+    let mut buffer = DecoderBuffer::new(compressed).with_limits(limits);
+    let mut mesh = Mesh::new();
+    MeshDecoder::new()
+        .decode(&mut buffer, &mut mesh)
+        .map_err(|e| ImportError::new(child(xptr, "bufferView"), format!("the Draco stream does not decode: {e}")))?;
+    let points = mesh.num_points() as u64;
+    let triangles = mesh.num_faces() as u64;
+    if points == 0 || triangles == 0 {
+        return Err(ImportError::new(
+            child(xptr, "bufferView"),
+            format!("the Draco stream holds {points} points and {triangles} triangles: nothing to draw"),
+        ));
+    }
+
+    let attributes =
+        opt_object(prim, "attributes", pptr)?.ok_or_else(|| ImportError::new(child(pptr, "attributes"), "missing"))?;
+    let aptr = child(pptr, "attributes");
+    let compressed_attributes =
+        opt_object(x, "attributes", xptr)?.ok_or_else(|| ImportError::new(child(xptr, "attributes"), "missing"))?;
+    let cptr = child(xptr, "attributes");
+    let mut decoded_bytes = 0u64;
+    for (name, id) in compressed_attributes {
+        let idptr = child(&cptr, name);
+        let id = super::json::as_u64(id).ok_or_else(|| ImportError::new(&idptr, "expected a Draco attribute id"))?;
+        let attribute = u32::try_from(id)
+            .ok()
+            .and_then(|id| mesh.attribute_by_unique_id(id))
+            .ok_or_else(|| ImportError::new(&idptr, format!("the Draco stream has no attribute with id {id}")))?;
+        let index = req_index(attributes, name, &aptr, accessors.len(), "accessor").map_err(|_| {
+            ImportError::new(&idptr, format!("{name} is compressed, but the primitive has no accessor for it"))
+        })?;
+        let source = Source::Attribute { view, id };
+        if !claim(filled, index, source, &child(&aptr, name))? {
+            continue;
+        }
+        let accessor = accessors.get(index)?;
+        let (component, components) = (accessor.component(), accessor.components());
+        if usize::from(attribute.num_components()) != components {
+            return Err(ImportError::new(
+                &idptr,
+                format!(
+                    "the Draco attribute has {} components, accessor {index} ({}) has {components}",
+                    attribute.num_components(),
+                    accessor.type_name
+                ),
+            ));
+        }
+        let integer = !matches!(attribute.data_type(), DataType::Float32 | DataType::Float64);
+        if component != Component::F32 && !integer {
+            return Err(ImportError::new(
+                &idptr,
+                format!("the Draco attribute holds floats, accessor {index} holds integers"),
+            ));
+        }
+        let size = points
+            .checked_mul(components as u64)
+            .and_then(|n| n.checked_mul(component.size()))
+            .filter(|&n| n <= left)
+            .ok_or_else(|| ImportError::new(&idptr, "the decoded attribute exceeds the import budget"))?;
+        // The f32 values draco-core hands out and the accessor's bytes.
+        budget.take(size.checked_add(points * components as u64 * 4), &idptr, &format!("decoded {name}"))?;
+        let values = attribute.read_f32s(points as usize, components);
+        let mut bytes = Vec::with_capacity(size as usize);
+        for &v in &values {
+            push(&mut bytes, component, v).ok_or_else(|| {
+                ImportError::new(&idptr, format!("the Draco value {v} does not fit accessor {index}'s component type"))
+            })?;
+        }
+        if accessor.count != points {
+            warnings.push(Warning::new(
+                format!("/accessors/{index}/count"),
+                format!(
+                    "count {} differs from the {points} points of the Draco stream, which are used",
+                    accessor.count
+                ),
+            ));
+        }
+        accessors.replace(index, bytes, points, component);
+        decoded_bytes += size;
+    }
+
+    let index = super::json::opt_index(prim, "indices", pptr, accessors.len(), "accessor")?.ok_or_else(|| {
+        member_error(pptr, "indices", "a Draco-compressed primitive needs an indices accessor for its triangles")
+    })?;
+    if claim(filled, index, Source::Indices { view }, &child(pptr, "indices"))? {
+        let accessor = accessors.get(index)?;
+        let count = triangles * 3;
+        if accessor.count != count {
+            warnings.push(Warning::new(
+                format!("/accessors/{index}/count"),
+                format!(
+                    "count {} differs from the {count} indices of the Draco stream, which are used",
+                    accessor.count
+                ),
+            ));
+        }
+        // Written as 32-bit: a stream may decode to more points than its file declared.
+        let size = count * 4;
+        budget.take(Some(size), &child(pptr, "indices"), "decoded indices")?;
+        let mut bytes = Vec::with_capacity(size as usize);
+        for face in mesh.faces() {
+            for corner in face {
+                if u64::from(corner.0) >= points {
+                    return Err(ImportError::new(
+                        child(xptr, "bufferView"),
+                        format!("the Draco stream has a triangle corner {} outside its {points} points", corner.0),
+                    ));
+                }
+                bytes.extend_from_slice(&corner.0.to_le_bytes());
+            }
+        }
+        accessors.replace(index, bytes, count, Component::U32);
+        decoded_bytes += size;
+    }
+    Ok(CompressedPrimitive {
+        mesh: 0,
+        primitive: 0,
+        view,
+        extension: EXTENSION.to_owned(),
+        compressed_bytes,
+        decoded_bytes,
+        points,
+        triangles,
+    })
+}
+
+/// Records that `source` fills accessor `index`: false when it already did (a primitive
+/// sharing the stream), an error when another stream or attribute did.
+fn claim(filled: &mut [Option<Source>], index: u32, source: Source, ptr: &str) -> Result<bool, ImportError> {
+    match filled.get_mut(index as usize) {
+        Some(Some(s)) if *s == source => Ok(false),
+        Some(Some(_)) => Err(ImportError::new(
+            ptr,
+            format!("accessor {index} is filled from two different Draco attributes or streams"),
+        )),
+        Some(slot) => {
+            *slot = Some(source);
+            Ok(true)
+        }
+        None => Err(ImportError::new(ptr, format!("accessor {index} does not exist"))),
+    }
+}
+
+/// Appends `v` as one component of type `c` (integers must be whole and in range).
+fn push(bytes: &mut Vec<u8>, c: Component, v: f32) -> Option<()> {
+    let int = |lo: f32, hi: f32| (v.fract() == 0.0 && v >= lo && v <= hi).then_some(v);
+    match c {
+        Component::F32 => bytes.extend_from_slice(&v.to_le_bytes()),
+        Component::I8 => bytes.push(int(-128.0, 127.0)? as i8 as u8),
+        Component::U8 => bytes.push(int(0.0, 255.0)? as u8),
+        Component::I16 => bytes.extend_from_slice(&(int(-32768.0, 32767.0)? as i16).to_le_bytes()),
+        Component::U16 => bytes.extend_from_slice(&(int(0.0, 65535.0)? as u16).to_le_bytes()),
+        Component::U32 => bytes.extend_from_slice(&(int(0.0, 16_777_216.0)? as u32).to_le_bytes()),
+    }
+    Some(())
+}

@@ -1,0 +1,30 @@
+//! The decoding and import benchmark of `benches/import.rs` compiled to wasm32 and run in Node,
+//! where a web page decodes. Not a test: it prints figures (`scripts/bench-import.sh`). Natively
+//! this file is empty.
+#![cfg(target_arch = "wasm32")]
+
+#[path = "../benches/import_cases.rs"]
+mod import_cases;
+
+use wasm_bindgen::prelude::wasm_bindgen;
+use wasm_bindgen_test::{console_log, wasm_bindgen_test};
+
+#[wasm_bindgen]
+extern "C" {
+    /// `performance.now()`: milliseconds with sub-millisecond resolution.
+    #[wasm_bindgen(js_namespace = performance, js_name = now)]
+    fn performance_now() -> f64;
+}
+
+#[wasm_bindgen_test]
+fn decode_and_import_speed() {
+    for case in import_cases::decode_cases() {
+        let ms = import_cases::measure(&case, &performance_now);
+        let rate = case.decoded as f64 / (ms / 1000.0) / 1e6;
+        console_log!("decode wasm {} {} {} B: {rate:.1} MB/s", case.codec, case.name, case.decoded);
+    }
+    for case in import_cases::import_cases() {
+        let ms = import_cases::measure(&case, &performance_now);
+        console_log!("import wasm {} {} {} B: {ms:.3} ms", case.codec, case.name, case.glb.len());
+    }
+}

@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# Decoding speed and import time, in one run (core/benches/import_cases.rs says what is measured):
+# Kloub natively (cargo bench --bench import) and as wasm in Node (core/tests/wasm_decode.rs through
+# wasm-bindgen-test-runner, simd128 as the web build), the reference decoders from npm (draco3dgltf, meshoptimizer)
+# and three.js r187's GLTFLoader.parse in Node (scripts/bench-import.mjs). Prints two Markdown tables.
+#
+#   bash scripts/bench-import.sh
+set -euo pipefail
+cd "$(dirname "$0")/.."
+log=$(mktemp)
+trap 'rm -f "$log"' EXIT
+cargo bench -q -p kloub-core --bench import 2>/dev/null | grep -E '^(decode|import) ' >>"$log"
+CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUSTFLAGS="${CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUSTFLAGS:--C target-feature=+simd128}" \
+  CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUNNER="${CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUNNER:-wasm-bindgen-test-runner}" \
+  cargo test --release -p kloub-core --target wasm32-unknown-unknown --test wasm_decode -- --nocapture 2>/dev/null \
+  | grep -oE '(decode|import) wasm .*' >>"$log"
+node scripts/bench-import.mjs >>"$log"
+# "KIND SIDE CODEC FILE BYTES B: VALUE UNIT" → one row per file and kind.
+awk '
+  { kind = $1; side = $3 == "" ? "" : $2; file = $4; v[kind, side, file] = $(NF - 1); codec[file] = $3
+    if (side != "three" && side != "reference") bytes[kind, file] = $5
+    if (!((kind, file) in seen)) { seen[kind, file] = 1; order[kind, ++n[kind]] = file } }
+  END {
+    print "Decoding (MB/s of decoded data):\n"
+    print "| file | codec | decoded | Kloub native | Kloub wasm (Node) | reference (Node) | Kloub wasm / reference |"
+    print "|---|---|---:|---:|---:|---:|---:|"
+    for (i = 1; i <= n["decode"]; i++) {
+      f = order["decode", i]
+      printf "| %s | %s | %s B | %s | %s | %s | %.2f× |\n", f, codec[f], bytes["decode", f], v["decode", "native", f], v["decode", "wasm", f], v["decode", "reference", f], v["decode", "wasm", f] / v["decode", "reference", f]
+    }
+    print "\nImport without images (ms per file, to a ready asset / three.js scene):\n"
+    print "| file | variant | bytes | Kloub native | Kloub wasm (Node) | three.js r187 (Node) | three.js / Kloub wasm |"
+    print "|---|---|---:|---:|---:|---:|---:|"
+    for (i = 1; i <= n["import"]; i++) {
+      f = order["import", i]
+      printf "| %s | %s | %s | %s | %s | %s | %.2f× |\n", f, codec[f], bytes["import", f], v["import", "native", f], v["import", "wasm", f], v["import", "three", f], v["import", "three", f] / v["import", "wasm", f]
+    }
+  }' "$log"
