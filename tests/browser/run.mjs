@@ -1,6 +1,6 @@
 // Kloub browser tests: drive the real page served by `kloub serve` in Debian chromium, on WebGPU and WebGL2.
 // Prints one line per test and closes with "browser: N passed, M failed"; exits 1 on any failure.
-import { copyFileSync, mkdirSync, mkdtempSync, readFileSync, rmSync, writeFileSync } from 'node:fs';
+import { copyFileSync, mkdirSync, mkdtempSync, readFileSync, readdirSync, rmSync, writeFileSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { PNG } from 'pngjs';
 import { basename, join } from 'node:path';
@@ -325,6 +325,25 @@ for (const backend of BACKENDS) {
       // (Draco), a lossy texture (WebP): a few edge pixels apart.
       const differ = diffFraction(a, b, 24);
       assert(differ < 0.01, `${copy}: ${(differ * 100).toFixed(2)}% of the pixels differ from the original's`);
+    }
+  });
+
+  if (backend === BACKENDS[0]) test(`${backend}: every optimized copy in tests/optimized opens and animates (meshopt, Draco, WebP, quantized)`, async (ctx) => {
+    const { page } = ctx;
+    await openApp(ctx, backend);
+    const copies = readdirSync(join(ROOT, 'tests/optimized')).filter((f) => f.endsWith('.glb')).sort();
+    assert(copies.length >= 17, `${copies.length} copies`);
+    for (const copy of copies) {
+      await dropFiles(page, [{ path: join(ROOT, 'tests/optimized', copy) }]);
+      await waitForDataset(page, (name) => {
+        const d = document.querySelector('kloub-viewer').dataset;
+        return (d.model === name && d.status === 'ready') || d.status === 'error';
+      }, `${copy} to load`, 60000, copy);
+      const d = await dataset(page);
+      assert(d.status === 'ready' && d.error === '', `${copy}: ${d.error}`);
+      // Its clock runs: the copy animates.
+      const t0 = Number(d.time);
+      await page.waitForFunction((t0) => Number(document.querySelector('kloub-viewer').dataset.time) !== t0, t0, { timeout: 10000 });
     }
   });
 

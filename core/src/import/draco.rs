@@ -96,9 +96,13 @@ fn decode_primitive(
             .ok()
             .and_then(|id| mesh.attribute_by_unique_id(id))
             .ok_or_else(|| ImportError::new(&idptr, format!("the Draco stream has no attribute with id {id}")))?;
-        let index = req_index(attributes, name, &aptr, accessors.len(), "accessor").map_err(|_| {
-            ImportError::new(&idptr, format!("{name} is compressed, but the primitive has no accessor for it"))
-        })?;
+        if !attributes.contains_key(name) {
+            return Err(ImportError::new(
+                &idptr,
+                format!("{name} is compressed, but the primitive has no accessor for it"),
+            ));
+        }
+        let index = req_index(attributes, name, &aptr, accessors.len(), "accessor")?;
         let source = Source::Attribute { view, id };
         if !claim(filled, index, source, &child(&aptr, name))? {
             continue;

@@ -99,6 +99,12 @@ fn broken_draco_primitives_are_refused_at_their_pointer() {
             "no accessor for it",
         ),
         (
+            "attribute accessor out of range",
+            Box::new(|doc, _| doc["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = json!(9)),
+            "/meshes/0/primitives/0/attributes/POSITION".into(),
+            "",
+        ),
+        (
             "components unlike the accessor's",
             Box::new(|doc, _| doc["accessors"][0]["type"] = json!("VEC4")),
             format!("{X}/attributes/POSITION"),
