@@ -10,8 +10,9 @@ use crate::math::{Quat, QuatExt};
 /// Parses every animation.
 pub(crate) fn clips(cx: &mut Cx<'_>, nodes: &[Node]) -> Result<Vec<Clip>, ImportError> {
     let mut clips = Vec::new();
-    // Nodes given by a `matrix` (glTF animates only TRS nodes), warned about once each.
-    let node_objects = objects(cx.root, "nodes", "")?;
+    // Nodes given by a `matrix` (glTF animates only TRS nodes), warned about once each (the
+    // nodes were read as objects already).
+    let node_objects = super::json::array(cx.root, "nodes", "")?;
     let mut matrix_warned = vec![false; node_objects.len()];
     for (anim, ptr) in objects(cx.root, "animations", "")? {
         let samplers = objects(anim, "samplers", &ptr)?;
@@ -44,7 +45,7 @@ pub(crate) fn clips(cx: &mut Cx<'_>, nodes: &[Node]) -> Result<Vec<Clip>, Import
             }
             let n = node as usize;
             if target != ChannelTarget::Weights
-                && node_objects.get(n).is_some_and(|(o, _)| o.contains_key("matrix"))
+                && node_objects.get(n).and_then(serde_json::Value::as_object).is_some_and(|o| o.contains_key("matrix"))
                 && matrix_warned.get(n) == Some(&false)
             {
                 matrix_warned[n] = true;

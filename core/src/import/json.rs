@@ -49,7 +49,8 @@ pub(crate) fn objects<'a>(obj: &'a Obj, key: &str, ptr: &str) -> Result<Vec<(&'a
 
 /// The optional object `obj[key]`.
 pub(crate) fn opt_object<'a>(obj: &'a Obj, key: &str, ptr: &str) -> Result<Option<&'a Obj>, ImportError> {
-    obj.get(key).map(|v| object(v, &child(ptr, key))).transpose()
+    // The pointer is written only for an error (these reads run for every element of a file).
+    obj.get(key).map(|v| v.as_object().ok_or_else(|| member_error(ptr, key, "expected a JSON object"))).transpose()
 }
 
 /// The optional non-negative integer `obj[key]`; written as a float with no fraction (`1.0`)
@@ -76,7 +77,13 @@ pub(crate) fn req_u64(obj: &Obj, key: &str, ptr: &str) -> Result<u64, ImportErro
 
 /// The optional index `obj[key]` into an array of `len` `what`s, checked to be in range.
 pub(crate) fn opt_index(obj: &Obj, key: &str, ptr: &str, len: usize, what: &str) -> Result<Option<u32>, ImportError> {
-    opt_u64(obj, key, ptr)?.map(|i| check_index(i, len, what, &child(ptr, key))).transpose()
+    match opt_u64(obj, key, ptr)? {
+        None => Ok(None),
+        Some(i) => match u32::try_from(i) {
+            Ok(n) if u64::from(n) < len as u64 => Ok(Some(n)),
+            _ => Err(out_of_range(i, len, what, &child(ptr, key))),
+        },
+    }
 }
 
 /// The required index `obj[key]` into an array of `len` `what`s.
@@ -87,28 +94,34 @@ pub(crate) fn req_index(obj: &Obj, key: &str, ptr: &str, len: usize, what: &str)
 /// `i` as an index into `len` `what`s (error at `ptr` otherwise).
 pub(crate) fn check_index(i: u64, len: usize, what: &str, ptr: &str) -> Result<u32, ImportError> {
     match u32::try_from(i) {
-        Ok(n) if (n as u64) < len as u64 => Ok(n),
-        _ => Err(ImportError::new(ptr, format!("{what} index {i} is out of range (the document has {len})"))),
+        Ok(n) if u64::from(n) < len as u64 => Ok(n),
+        _ => Err(out_of_range(i, len, what, ptr)),
     }
 }
 
-/// A finite JSON number as `f32`.
-fn to_f32(v: &Value, ptr: &str) -> Result<f32, ImportError> {
-    let x = v.as_f64().ok_or_else(|| ImportError::new(ptr, format!("expected a number, got {v}")))? as f32;
-    if x.is_finite() { Ok(x) } else { Err(ImportError::new(ptr, format!("number {v} does not fit a 32-bit float"))) }
+fn out_of_range(i: u64, len: usize, what: &str, ptr: &str) -> ImportError {
+    ImportError::new(ptr, format!("{what} index {i} is out of range (the document has {len})"))
+}
+
+/// A finite JSON number as `f32` (errors at `ptr()`).
+fn to_f32(v: &Value, ptr: impl FnOnce() -> String) -> Result<f32, ImportError> {
+    match v.as_f64() {
+        None => Err(ImportError::new(ptr(), format!("expected a number, got {v}"))),
+        Some(x) if (x as f32).is_finite() => Ok(x as f32),
+        Some(_) => Err(ImportError::new(ptr(), format!("number {v} does not fit a 32-bit float"))),
+    }
 }
 
 /// The optional number `obj[key]`.
 pub(crate) fn opt_f32(obj: &Obj, key: &str, ptr: &str) -> Result<Option<f32>, ImportError> {
-    obj.get(key).map(|v| to_f32(v, &child(ptr, key))).transpose()
+    obj.get(key).map(|v| to_f32(v, || child(ptr, key))).transpose()
 }
 
 /// The optional array of numbers `obj[key]`.
 pub(crate) fn opt_f32_list(obj: &Obj, key: &str, ptr: &str) -> Result<Option<Vec<f32>>, ImportError> {
     let Some(v) = obj.get(key) else { return Ok(None) };
-    let p = child(ptr, key);
-    let items = v.as_array().ok_or_else(|| ImportError::new(&p, "expected an array of numbers"))?;
-    items.iter().enumerate().map(|(i, x)| to_f32(x, &child(&p, i))).collect::<Result<_, _>>().map(Some)
+    let items = v.as_array().ok_or_else(|| member_error(ptr, key, "expected an array of numbers"))?;
+    items.iter().enumerate().map(|(i, x)| to_f32(x, || format!("{ptr}/{key}/{i}"))).collect::<Result<_, _>>().map(Some)
 }
 
 /// The optional array of exactly `N` numbers `obj[key]`.
