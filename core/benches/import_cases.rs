@@ -164,22 +164,7 @@ fn strip(doc: &mut Value, draco: bool) {
 
 /// A GLB of `doc` and `bin`.
 fn glb(doc: &Value, bin: &[u8]) -> Vec<u8> {
-    let json = doc.to_string().into_bytes();
-    let pad = |n: usize| n.next_multiple_of(4);
-    let total = 12 + 8 + pad(json.len()) + 8 + pad(bin.len());
-    let mut out = Vec::with_capacity(total);
-    out.extend(b"glTF");
-    out.extend(2u32.to_le_bytes());
-    out.extend((total as u32).to_le_bytes());
-    out.extend((pad(json.len()) as u32).to_le_bytes());
-    out.extend(b"JSON");
-    out.extend(&json);
-    out.resize(20 + pad(json.len()), b' ');
-    out.extend((pad(bin.len()) as u32).to_le_bytes());
-    out.extend(b"BIN\0");
-    out.extend(bin);
-    out.resize(total, 0);
-    out
+    kloub_core::import::glb(doc.to_string().as_bytes(), Some(bin)).expect("a small file")
 }
 
 /// Milliseconds per import of `case`: the median of 7 batches of about 150 ms, timed by `now`

@@ -336,34 +336,38 @@ pub(crate) fn load_buffers<'a>(
     Ok(out)
 }
 
+/// A GLB file of `json` (the JSON chunk, padded with spaces to 4 bytes) and an optional BIN
+/// chunk (padded with zeros): the container the importer reads. `None` when the file would
+/// exceed the format's 4 GiB. (Tests, benchmarks and fuzz targets build their documents with it.)
+pub fn glb(json: &[u8], bin: Option<&[u8]>) -> Option<Vec<u8>> {
+    let pad = |n: usize| n.next_multiple_of(4);
+    let bin_length = bin.map_or(0, |b| 8 + pad(b.len()));
+    let total = 20 + pad(json.len()) + bin_length;
+    let total32 = u32::try_from(total).ok()?;
+    let mut out = Vec::with_capacity(total);
+    out.extend(b"glTF");
+    out.extend(2u32.to_le_bytes());
+    out.extend(total32.to_le_bytes());
+    out.extend((pad(json.len()) as u32).to_le_bytes());
+    out.extend(CHUNK_JSON.to_le_bytes());
+    out.extend(json);
+    out.resize(20 + pad(json.len()), b' ');
+    if let Some(bin) = bin {
+        out.extend((pad(bin.len()) as u32).to_le_bytes());
+        out.extend(CHUNK_BIN.to_le_bytes());
+        out.extend(bin);
+        out.resize(total, 0);
+    }
+    Some(out)
+}
+
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
 
-    /// A GLB from a JSON text and optional BIN payload (padded to 4 bytes).
+    /// [`super::glb`], which tests use with small documents only.
     pub(crate) fn glb(json: &[u8], bin: Option<&[u8]>) -> Vec<u8> {
-        let mut json = json.to_vec();
-        while !json.len().is_multiple_of(4) {
-            json.push(b' ');
-        }
-        let mut out = b"glTF".to_vec();
-        out.extend(2u32.to_le_bytes());
-        out.extend(0u32.to_le_bytes());
-        out.extend((json.len() as u32).to_le_bytes());
-        out.extend(CHUNK_JSON.to_le_bytes());
-        out.extend(&json);
-        if let Some(bin) = bin {
-            let mut bin = bin.to_vec();
-            while bin.len() % 4 != 0 {
-                bin.push(0);
-            }
-            out.extend((bin.len() as u32).to_le_bytes());
-            out.extend(CHUNK_BIN.to_le_bytes());
-            out.extend(&bin);
-        }
-        let len = out.len() as u32;
-        out[8..12].copy_from_slice(&len.to_le_bytes());
-        out
+        super::glb(json, bin).expect("a GLB under 4 GiB")
     }
 
     fn split_err(bytes: &[u8]) -> String {

@@ -11,7 +11,7 @@ mod accessor;
 mod anim;
 mod container;
 mod draco;
-pub use container::{is_web_uri, percent_decode};
+pub use container::{glb, is_web_uri, percent_decode};
 mod json;
 mod material;
 mod mesh;
