@@ -1598,7 +1598,9 @@ class KloubViewer extends HTMLElement {
     try {
       if (!shown) throw new Error('no model is shown');
       const src = this.dataset.src;
+      const zipped = 'a model inside a .zip archive cannot be validated; drop or link its files';
       let request;
+      if (src && /\.zip([?#]|$)/i.test(src)) throw new Error(zipped);
       if (src) {
         const response = await fetch(src);
         if (!response.ok) throw new Error(`${src}: HTTP ${response.status}`);
@@ -1606,12 +1608,12 @@ class KloubViewer extends HTMLElement {
       } else {
         const entries = this.#files ?? [];
         const main = entries.find((e) => e.name === shown || e.name.split('/').pop() === shown);
+        if (!main && entries.some((e) => /\.zip$/i.test(e.name))) throw new Error(zipped);
         if (!main) throw new Error(`the files of ${shown} are not at hand`);
         const files = {};
         for (const e of entries) files[e.name.replace(/\\/g, '/')] = await e.file.arrayBuffer();
         request = { name: main.name, bytes: files[main.name.replace(/\\/g, '/')], files, base: null };
       }
-      if (/\.zip$/i.test(request.name)) throw new Error('a model inside a .zip archive cannot be validated; drop its files');
       const report = await validateInWorker(request);
       const issues = report.issues ?? {};
       const summary = {

@@ -389,6 +389,11 @@ for (const backend of BACKENDS) {
     // The method gives the same report to a page author.
     const again = await page.evaluate(() => document.querySelector('kloub-viewer').validate().then((r) => r.issues.numErrors));
     assert(again === detail.errors, `validate() found ${again} errors, the panel ${detail.errors}`);
+    // A model from a .zip: the validator reads glTF, not archives, and validate() says so.
+    await dropFiles(page, [{ name: 'model.zip', bytes: makeZip([{ name: 'RiggedSimple.glb', bytes: readFileSync(RIGGED_SIMPLE) }]) }]);
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.model === 'RiggedSimple.glb' && document.querySelector('kloub-viewer').dataset.status === 'ready', 'the zipped model to load');
+    const refusal = await page.evaluate(() => document.querySelector('kloub-viewer').validate().then(() => 'resolved', (e) => e.message));
+    assert(/^validate: .*\.zip archive/.test(refusal), refusal);
   });
 
   test(`${backend}: an image the browser cannot decode is drawn white with a warning; the model shows`, async (ctx) => {
