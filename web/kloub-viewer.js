@@ -1086,6 +1086,9 @@ class KloubViewer extends HTMLElement {
    */
   [MOVE]() {
     if (!mounted.has(this)) return;
+    // One last frame of the old viewer applies the calls it has not drawn yet (a pause, a seek, a camera set just
+    // before the call that needed the full app), so that the snapshot below holds them.
+    if (this.#viewer && !this.#lost) this.#draw(performance.now());
     mounted.delete(this);
     const snapshot = { ...this.dataset };
     this.#a11y?.clear();
