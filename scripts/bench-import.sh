@@ -20,19 +20,18 @@ awk '
   { kind = $1; side = $3 == "" ? "" : $2; file = $4; v[kind, side, file] = $(NF - 1); codec[file] = $3
     if (side != "three" && side != "reference") bytes[kind, file] = $5
     if (!((kind, file) in seen)) { seen[kind, file] = 1; order[kind, ++n[kind]] = file } }
+  # One table: a row per file of `kind`, its `anchor` side beside Kloub native and wasm, and the ratio that is
+  # better above 1 (`faster` says whether that is Kloub wasm / anchor, as for MB/s, or anchor / Kloub wasm, as for ms).
+  function table(kind, title, anchor, heading, faster, suffix,   i, f, ratio) {
+    printf "%s\n\n| file | %s | %s | Kloub native | Kloub wasm (Node) | %s |\n|---|---|---:|---:|---:|---:|---:|\n", title, kind == "decode" ? "codec" : "variant", kind == "decode" ? "decoded" : "bytes", heading
+    for (i = 1; i <= n[kind]; i++) {
+      f = order[kind, i]
+      ratio = faster ? v[kind, "wasm", f] / v[kind, anchor, f] : v[kind, anchor, f] / v[kind, "wasm", f]
+      printf "| %s | %s | %s%s | %s | %s | %s | %.2f× |\n", f, codec[f], bytes[kind, f], suffix, v[kind, "native", f], v[kind, "wasm", f], v[kind, anchor, f], ratio
+    }
+  }
   END {
-    print "Decoding (MB/s of decoded data):\n"
-    print "| file | codec | decoded | Kloub native | Kloub wasm (Node) | reference (Node) | Kloub wasm / reference |"
-    print "|---|---|---:|---:|---:|---:|---:|"
-    for (i = 1; i <= n["decode"]; i++) {
-      f = order["decode", i]
-      printf "| %s | %s | %s B | %s | %s | %s | %.2f× |\n", f, codec[f], bytes["decode", f], v["decode", "native", f], v["decode", "wasm", f], v["decode", "reference", f], v["decode", "wasm", f] / v["decode", "reference", f]
-    }
-    print "\nImport without images (ms per file, to a ready asset / three.js scene):\n"
-    print "| file | variant | bytes | Kloub native | Kloub wasm (Node) | three.js r187 (Node) | three.js / Kloub wasm |"
-    print "|---|---|---:|---:|---:|---:|---:|"
-    for (i = 1; i <= n["import"]; i++) {
-      f = order["import", i]
-      printf "| %s | %s | %s | %s | %s | %s | %.2f× |\n", f, codec[f], bytes["import", f], v["import", "native", f], v["import", "wasm", f], v["import", "three", f], v["import", "three", f] / v["import", "wasm", f]
-    }
+    table("decode", "Decoding (MB/s of decoded data):", "reference", "reference (Node) | Kloub wasm / reference", 1, " B")
+    print ""
+    table("import", "Import without images (ms per file, to a ready asset / three.js scene):", "three", "three.js r187 (Node) | three.js / Kloub wasm", 0, "")
   }' "$log"

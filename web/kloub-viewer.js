@@ -485,13 +485,33 @@ async function droppedFiles(dataTransfer) {
   return out;
 }
 
-export /** The validator's worker, shared by the page's viewers (started by the first validate()). */
+/** The validator's worker, shared by the page's viewers (started by the first validate()). */
 let validatorWorker = null;
+/** The worker itself, once started (`validatorWorker` is the promise of it). */
+let validatorInstance = null;
 let validatorRequests = 0;
 const validatorPending = new Map();
+/** How long one validation may run before its worker is stopped (a validator that never answers). */
+const VALIDATION_TIMEOUT_MS = 180_000;
 
-/** Validates `request` ({ name, bytes, files, base }) in the validator's worker; resolves with the report. */
-async function validateInWorker(request) {
+/** Stops the validator's worker and rejects every pending validation with `message`. */
+function stopValidator(worker, message) {
+  worker.terminate();
+  if (validatorInstance !== worker) return;
+  validatorInstance = null;
+  validatorWorker = null;
+  for (const [id, pending] of validatorPending) {
+    clearTimeout(pending.timer);
+    validatorPending.delete(id);
+    pending.reject(new Error(message));
+  }
+}
+
+/**
+ * Validates `request` ({ name, bytes, files, base }) in the validator's worker; resolves with the report. `transfer`
+ * lists the buffers handed to the worker without a copy.
+ */
+async function validateInWorker(request, transfer) {
   if (!validatorWorker) {
     validatorWorker = (async () => {
       // A worker from a blob: the page may come from another origin than the element.
@@ -499,12 +519,22 @@ async function validateInWorker(request) {
       if (!source.ok) throw new Error(`validator-worker.js: HTTP ${source.status}`);
       const blob = URL.createObjectURL(new Blob([await source.text()], { type: 'text/javascript' }));
       const worker = new Worker(blob);
+      validatorInstance = worker;
       URL.revokeObjectURL(blob);
       worker.onmessage = ({ data }) => {
+        if (data.loadError) {
+          stopValidator(worker, data.loadError);
+          return;
+        }
         const pending = validatorPending.get(data.id);
         validatorPending.delete(data.id);
+        clearTimeout(pending?.timer);
         if (data.error) pending?.reject(new Error(data.error));
         else pending?.resolve(data.report);
+      };
+      worker.onerror = (event) => {
+        event.preventDefault();
+        stopValidator(worker, `the validator failed: ${event.message || 'its worker stopped'}`);
       };
       worker.postMessage({ validator: new URL('./gltf-validator.js', import.meta.url).href });
       return worker;
@@ -514,8 +544,12 @@ async function validateInWorker(request) {
   const worker = await validatorWorker;
   const id = ++validatorRequests;
   return new Promise((resolve, reject) => {
-    validatorPending.set(id, { resolve, reject });
-    worker.postMessage({ id, ...request });
+    const timer = setTimeout(
+      () => stopValidator(worker, `the validator did not answer within ${VALIDATION_TIMEOUT_MS / 1000} s`),
+      VALIDATION_TIMEOUT_MS,
+    );
+    validatorPending.set(id, { resolve, reject, timer });
+    worker.postMessage({ id, ...request }, transfer);
   });
 }
 
@@ -1603,21 +1637,25 @@ class KloubViewer extends HTMLElement {
       const src = this.dataset.src;
       const zipped = 'a model inside a .zip archive cannot be validated; drop or link its files';
       let request;
+      let transfer = [];
       if (src && /\.zip([?#]|$)/i.test(src)) throw new Error(zipped);
       if (src) {
         const response = await fetch(src);
         if (!response.ok) throw new Error(`${src}: HTTP ${response.status}`);
-        request = { name: shown, bytes: await response.arrayBuffer(), files: null, base: new URL(src, location.href).href };
+        const bytes = await response.arrayBuffer();
+        request = { name: shown, bytes, files: null, base: new URL(src, location.href).href };
+        transfer = [bytes];
       } else {
         const entries = this.#files ?? [];
         const main = entries.find((e) => e.name === shown || e.name.split('/').pop() === shown);
         if (!main && entries.some((e) => /\.zip$/i.test(e.name))) throw new Error(zipped);
         if (!main) throw new Error(`the files of ${shown} are not at hand`);
+        // The File objects themselves: the worker reads only the ones the model refers to, without a copy here.
         const files = {};
-        for (const e of entries) files[e.name.replace(/\\/g, '/')] = await e.file.arrayBuffer();
-        request = { name: main.name, bytes: files[main.name.replace(/\\/g, '/')], files, base: null };
+        for (const e of entries) files[e.name.replace(/\\/g, '/')] = e.file;
+        request = { name: main.name, bytes: main.file, files, base: null };
       }
-      const report = await validateInWorker(request);
+      const report = await validateInWorker(request, transfer);
       const issues = report.issues ?? {};
       const summary = {
         name: shown,

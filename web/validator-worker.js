@@ -4,8 +4,11 @@
 // element is served from another origin than the page) and sends the validator's absolute URL first.
 //
 // Messages in:  { validator: URL }                       once, first
-//               { id, name, bytes: ArrayBuffer, files: { [path]: ArrayBuffer } | null, base: URL | null }
+//               { id, name, bytes: ArrayBuffer | Blob, files: { [path]: Blob } | null, base: URL | null }
+//               (dropped files come as their File objects, which the page shares without a copy: only the ones the
+//               model refers to are read, here)
 // Messages out: { id, report }  (the validator's report object)  or  { id, error: string }
+//               { loadError: string }  (the validator script failed; nothing more comes from this worker)
 let validator = null;
 const queue = [];
 
@@ -37,13 +40,14 @@ async function validate({ name, bytes, files, base }) {
       const wanted = normalize(folderOf(name) + decodeURIComponent(uri));
       const file = files[wanted] ?? Object.entries(files).find(([path]) => path.split('/').pop() === wanted.split('/').pop())?.[1];
       if (!file) throw new Error(`${uri} was not among the dropped files`);
-      return new Uint8Array(file);
+      return new Uint8Array(await file.arrayBuffer());
     }
     const response = await fetch(new URL(uri, base));
     if (!response.ok) throw new Error(`${uri}: HTTP ${response.status}`);
     return new Uint8Array(await response.arrayBuffer());
   };
-  return validator.validateBytes(new Uint8Array(bytes), {
+  const main = bytes instanceof Blob ? await bytes.arrayBuffer() : bytes;
+  return validator.validateBytes(new Uint8Array(main), {
     uri: name,
     maxIssues: 1000,
     writeTimestamp: false,
@@ -64,14 +68,13 @@ onmessage = ({ data }) => {
     try {
       validator = validatorFrom(data.validator);
     } catch (e) {
-      for (const request of queue.splice(0)) postMessage({ id: request.id, error: `the validator could not be loaded: ${e.message ?? e}` });
-      self.failed = String(e.message ?? e);
+      // The element stops this worker and rejects what waits; its next validate() starts a new one.
+      postMessage({ loadError: `the validator could not be loaded: ${e.message ?? e}` });
       return;
     }
     for (const request of queue.splice(0)) handle(request);
     return;
   }
-  if (self.failed) postMessage({ id: data.id, error: `the validator could not be loaded: ${self.failed}` });
-  else if (validator) handle(data);
+  if (validator) handle(data);
   else queue.push(data);
 };

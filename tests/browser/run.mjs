@@ -364,6 +364,12 @@ for (const backend of BACKENDS) {
       window.__validation = null;
       document.querySelector('kloub-viewer').addEventListener('validation', (e) => { window.__validation = e.detail; });
     });
+    // A validator script that fails to load (a broken deploy, a flaky link): validate() says so, and the next call
+    // starts a new worker instead of failing for the rest of the page's life.
+    await page.context().route(/gltf-validator\.js$/, (route) => route.fulfill({ contentType: 'text/javascript', body: 'throw new Error("a broken validator");' }));
+    const broken = await page.evaluate(() => document.querySelector('kloub-viewer').validate().then(() => 'resolved', (e) => e.message));
+    assert(/^validate: the validator could not be loaded: .*a broken validator/.test(broken), broken);
+    await page.context().unroute(/gltf-validator\.js$/);
     // The panel's button, through its accessibility mirror (as a screen reader or a click would press it).
     await page.waitForFunction(() => document.querySelector('kloub-viewer').shadowRoot.querySelector('.kloub-a11y button[aria-label="Validate"]'), null, { timeout: 10000 });
     await page.evaluate(() => document.querySelector('kloub-viewer').shadowRoot.querySelector('.kloub-a11y button[aria-label="Validate"]').click());

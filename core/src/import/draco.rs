@@ -27,23 +27,38 @@ pub(crate) fn decode_all(
     accessors: &mut Accessors<'_>,
     budget: &mut Budget,
 ) -> Result<(Vec<CompressedPrimitive>, Vec<Warning>), ImportError> {
+    let mut state = State { filled: vec![None; accessors.len()], streams: Vec::new(), warnings: Vec::new() };
     let mut costs = Vec::new();
-    let mut warnings = Vec::new();
-    // What filled each accessor: one accessor may be shared by primitives that share the stream.
-    let mut filled: Vec<Option<Source>> = vec![None; accessors.len()];
     for (m, (mesh, mptr)) in objects(root, "meshes", "")?.into_iter().enumerate() {
         for (p, (prim, pptr)) in objects(mesh, "primitives", &mptr)?.into_iter().enumerate() {
             let Some(x) = super::json::extension(prim, EXTENSION, &pptr)? else { continue };
             let xptr = format!("{pptr}/extensions/{EXTENSION}");
-            let cost = decode_primitive(prim, &pptr, x, &xptr, accessors, budget, &mut filled, &mut warnings)?;
+            let cost = decode_primitive(prim, &pptr, x, &xptr, accessors, budget, &mut state)?;
             costs.push(CompressedPrimitive { mesh: m as u32, primitive: p as u32, ..cost });
         }
     }
-    Ok((costs, warnings))
+    Ok((costs, state.warnings))
+}
+
+/// What the decoding of one file has done so far.
+struct State {
+    /// What filled each accessor: one accessor may be shared by primitives that share the stream.
+    filled: Vec<Option<Source>>,
+    /// The streams decoded so far (buffer view, points, triangles): a stream that primitives
+    /// share is decoded once, unless one of them reads an attribute the others did not.
+    streams: Vec<(u32, u64, u64)>,
+    warnings: Vec<Warning>,
+}
+
+/// A compressed attribute of one primitive still to be written into its accessor.
+struct Pending<'a> {
+    name: &'a str,
+    ptr: String,
+    id: u64,
+    accessor: u32,
 }
 
 /// Decodes one primitive's stream (its extension object `x` at `xptr`).
-#[allow(clippy::too_many_arguments)]
 fn decode_primitive(
     prim: &Obj,
     pptr: &str,
@@ -51,8 +66,7 @@ fn decode_primitive(
     xptr: &str,
     accessors: &mut Accessors<'_>,
     budget: &mut Budget,
-    filled: &mut [Option<Source>],
-    warnings: &mut Vec<Warning>,
+    state: &mut State,
 ) -> Result<CompressedPrimitive, ImportError> {
     let mode = opt_u64(prim, "mode", pptr)?.unwrap_or(4);
     if mode != 4 {
@@ -63,12 +77,55 @@ fn decode_primitive(
         ));
     }
     let view = req_index(x, "bufferView", xptr, accessors.view_count(), "bufferView")?;
-    let compressed = accessors.view_bytes(view as usize)?;
-    let compressed_bytes = compressed.len() as u64;
+    let compressed_bytes = accessors.view_bytes(view as usize)?.len() as u64;
+
+    // Which accessors this primitive's stream fills that no primitive sharing it has filled.
+    let attributes =
+        opt_object(prim, "attributes", pptr)?.ok_or_else(|| ImportError::new(child(pptr, "attributes"), "missing"))?;
+    let aptr = child(pptr, "attributes");
+    let compressed_attributes =
+        opt_object(x, "attributes", xptr)?.ok_or_else(|| ImportError::new(child(xptr, "attributes"), "missing"))?;
+    let cptr = child(xptr, "attributes");
+    let mut pending = Vec::new();
+    for (name, id) in compressed_attributes {
+        let idptr = child(&cptr, name);
+        let id = super::json::as_u64(id).ok_or_else(|| ImportError::new(&idptr, "expected a Draco attribute id"))?;
+        if !attributes.contains_key(name) {
+            return Err(ImportError::new(
+                &idptr,
+                format!("{name} is compressed, but the primitive has no accessor for it"),
+            ));
+        }
+        let accessor = req_index(attributes, name, &aptr, accessors.len(), "accessor")?;
+        if claim(&mut state.filled, accessor, Source::Attribute { view, id }, &child(&aptr, name))? {
+            pending.push(Pending { name, ptr: idptr, id, accessor });
+        }
+    }
+    let indices = super::json::opt_index(prim, "indices", pptr, accessors.len(), "accessor")?.ok_or_else(|| {
+        member_error(pptr, "indices", "a Draco-compressed primitive needs an indices accessor for its triangles")
+    })?;
+    let fill_indices = claim(&mut state.filled, indices, Source::Indices { view }, &child(pptr, "indices"))?;
+    let cost = |points, triangles, decoded_bytes| CompressedPrimitive {
+        mesh: 0,
+        primitive: 0,
+        view,
+        extension: EXTENSION.to_owned(),
+        compressed_bytes,
+        decoded_bytes,
+        points,
+        triangles,
+    };
+    if pending.is_empty()
+        && !fill_indices
+        && let Some(&(_, points, triangles)) = state.streams.iter().find(|s| s.0 == view)
+    {
+        return Ok(cost(points, triangles, 0));
+    }
+
     // The decoder's own ceiling is what is left of the import budget.
     let left = budget.left();
     let limits = DecodeLimits::default().with_max_decoded_bytes(left).with_max_points(u64::from(u32::MAX));
-    let mut buffer = DecoderBuffer::new(compressed).with_limits(limits);
+    let mut buffer = DecoderBuffer::new(accessors.view_bytes(view as usize)?).with_limits(limits);
     let mut mesh = Mesh::new();
     MeshDecoder::new()
         .decode(&mut buffer, &mut mesh)
@@ -81,37 +138,19 @@ fn decode_primitive(
             format!("the Draco stream holds {points} points and {triangles} triangles: nothing to draw"),
         ));
     }
+    state.streams.push((view, points, triangles));
 
-    let attributes =
-        opt_object(prim, "attributes", pptr)?.ok_or_else(|| ImportError::new(child(pptr, "attributes"), "missing"))?;
-    let aptr = child(pptr, "attributes");
-    let compressed_attributes =
-        opt_object(x, "attributes", xptr)?.ok_or_else(|| ImportError::new(child(xptr, "attributes"), "missing"))?;
-    let cptr = child(xptr, "attributes");
     let mut decoded_bytes = 0u64;
-    for (name, id) in compressed_attributes {
-        let idptr = child(&cptr, name);
-        let id = super::json::as_u64(id).ok_or_else(|| ImportError::new(&idptr, "expected a Draco attribute id"))?;
+    for Pending { name, ptr, id, accessor: index } in pending {
         let attribute = u32::try_from(id)
             .ok()
             .and_then(|id| mesh.attribute_by_unique_id(id))
-            .ok_or_else(|| ImportError::new(&idptr, format!("the Draco stream has no attribute with id {id}")))?;
-        if !attributes.contains_key(name) {
-            return Err(ImportError::new(
-                &idptr,
-                format!("{name} is compressed, but the primitive has no accessor for it"),
-            ));
-        }
-        let index = req_index(attributes, name, &aptr, accessors.len(), "accessor")?;
-        let source = Source::Attribute { view, id };
-        if !claim(filled, index, source, &child(&aptr, name))? {
-            continue;
-        }
+            .ok_or_else(|| ImportError::new(&ptr, format!("the Draco stream has no attribute with id {id}")))?;
         let accessor = accessors.get(index)?;
         let (component, components) = (accessor.component(), accessor.components());
         if usize::from(attribute.num_components()) != components {
             return Err(ImportError::new(
-                &idptr,
+                &ptr,
                 format!(
                     "the Draco attribute has {} components, accessor {index} ({}) has {components}",
                     attribute.num_components(),
@@ -122,7 +161,7 @@ fn decode_primitive(
         let integer = !matches!(attribute.data_type(), DataType::Float32 | DataType::Float64);
         if component != Component::F32 && !integer {
             return Err(ImportError::new(
-                &idptr,
+                &ptr,
                 format!("the Draco attribute holds floats, accessor {index} holds integers"),
             ));
         }
@@ -130,44 +169,24 @@ fn decode_primitive(
             .checked_mul(components as u64)
             .and_then(|n| n.checked_mul(component.size()))
             .filter(|&n| n <= left)
-            .ok_or_else(|| ImportError::new(&idptr, "the decoded attribute exceeds the import budget"))?;
+            .ok_or_else(|| ImportError::new(&ptr, "the decoded attribute exceeds the import budget"))?;
         // The f32 values draco-core hands out and the accessor's bytes.
-        budget.take(size.checked_add(points * components as u64 * 4), &idptr, &format!("decoded {name}"))?;
+        budget.take(size.checked_add(points * components as u64 * 4), &ptr, &format!("decoded {name}"))?;
         let values = attribute.read_f32s(points as usize, components);
         let mut bytes = Vec::with_capacity(size as usize);
         for &v in &values {
             push(&mut bytes, component, v).ok_or_else(|| {
-                ImportError::new(&idptr, format!("the Draco value {v} does not fit accessor {index}'s component type"))
+                ImportError::new(&ptr, format!("the Draco value {v} does not fit accessor {index}'s component type"))
             })?;
         }
-        if accessor.count != points {
-            warnings.push(Warning::new(
-                format!("/accessors/{index}/count"),
-                format!(
-                    "count {} differs from the {points} points of the Draco stream, which are used",
-                    accessor.count
-                ),
-            ));
-        }
+        count_warning(&mut state.warnings, index, accessor.count, points, "points");
         accessors.replace(index, bytes, points, component);
         decoded_bytes += size;
     }
 
-    let index = super::json::opt_index(prim, "indices", pptr, accessors.len(), "accessor")?.ok_or_else(|| {
-        member_error(pptr, "indices", "a Draco-compressed primitive needs an indices accessor for its triangles")
-    })?;
-    if claim(filled, index, Source::Indices { view }, &child(pptr, "indices"))? {
-        let accessor = accessors.get(index)?;
+    if fill_indices {
         let count = triangles * 3;
-        if accessor.count != count {
-            warnings.push(Warning::new(
-                format!("/accessors/{index}/count"),
-                format!(
-                    "count {} differs from the {count} indices of the Draco stream, which are used",
-                    accessor.count
-                ),
-            ));
-        }
+        count_warning(&mut state.warnings, indices, accessors.get(indices)?.count, count, "indices");
         // Written as 32-bit: a stream may decode to more points than its file declared.
         let size = count * 4;
         budget.take(Some(size), &child(pptr, "indices"), "decoded indices")?;
@@ -183,19 +202,20 @@ fn decode_primitive(
                 bytes.extend_from_slice(&corner.0.to_le_bytes());
             }
         }
-        accessors.replace(index, bytes, count, Component::U32);
+        accessors.replace(indices, bytes, count, Component::U32);
         decoded_bytes += size;
     }
-    Ok(CompressedPrimitive {
-        mesh: 0,
-        primitive: 0,
-        view,
-        extension: EXTENSION.to_owned(),
-        compressed_bytes,
-        decoded_bytes,
-        points,
-        triangles,
-    })
+    Ok(cost(points, triangles, decoded_bytes))
+}
+
+/// Warns when accessor `index` declares `declared` elements and the stream decoded `decoded` `what`.
+fn count_warning(warnings: &mut Vec<Warning>, index: u32, declared: u64, decoded: u64, what: &str) {
+    if declared != decoded {
+        warnings.push(Warning::new(
+            format!("/accessors/{index}/count"),
+            format!("count {declared} differs from the {decoded} {what} of the Draco stream, which are used"),
+        ));
+    }
 }
 
 /// Records that `source` fills accessor `index`: false when it already did (a primitive

@@ -68,6 +68,39 @@ fn a_draco_primitive_decodes_into_its_accessors() {
 
 #[cfg_attr(not(target_arch = "wasm32"), test)]
 #[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+fn a_stream_that_primitives_share_is_decoded_once_per_set_of_attributes() {
+    let (mut doc, bin) = draco_doc(&stream());
+    // A second mesh with the same primitive: its accessors are filled already.
+    let prim = doc["meshes"][0]["primitives"][0].clone();
+    doc["meshes"].as_array_mut().expect("meshes").push(json!({"primitives": [prim.clone()]}));
+    let imported = run(&doc, &bin).expect("imports");
+    let cost = &imported.asset.extensions.compressed_primitives;
+    assert_eq!(cost.len(), 2);
+    assert_eq!(cost[0].decoded_bytes, 24 * 12 + 36 * 4);
+    assert_eq!((cost[1].decoded_bytes, cost[1].points, cost[1].triangles), (0, 24, 12), "decoded again");
+    assert_eq!(imported.asset.meshes[1].primitives[0].positions, imported.asset.meshes[0].primitives[0].positions);
+    // A third one that also reads the normals (a new accessor) decodes the stream for them.
+    doc["accessors"]
+        .as_array_mut()
+        .expect("accessors")
+        .push(json!({"componentType": 5126, "count": 24, "type": "VEC3"}));
+    let mut third = prim;
+    third["attributes"]["NORMAL"] = json!(2);
+    third["extensions"]["KHR_draco_mesh_compression"]["attributes"]["NORMAL"] = json!(0);
+    doc["meshes"].as_array_mut().expect("meshes").push(json!({"primitives": [third]}));
+    let imported = run(&doc, &bin).expect("imports");
+    let cost = &imported.asset.extensions.compressed_primitives;
+    assert_eq!(cost[2].decoded_bytes, 24 * 12, "only the normals are new");
+    assert!(
+        imported.asset.meshes[2].primitives[0]
+            .normals
+            .iter()
+            .all(|n| (n[0].hypot(n[1]).hypot(n[2]) - 1.0).abs() < 1e-3)
+    );
+}
+
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
 fn a_draco_count_unlike_the_accessors_is_a_warning() {
     let (mut doc, bin) = draco_doc(&stream());
     doc["accessors"][0]["count"] = json!(20);
