@@ -3,9 +3,10 @@
 //! normalized integers, sparse substitution).
 
 use super::container::Budget;
-use super::json::{Obj, child, member_error, objects, opt_bool, opt_object, opt_u64, req_index, req_u64};
+use super::json::{Obj, Ptr, child, items, member_error, opt_bool, opt_object, opt_u64, req_index, req_u64};
 use crate::error::ImportError;
 use std::borrow::Cow;
+use std::fmt::Display;
 
 /// An accessor component type.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -162,7 +163,7 @@ fn span(offset: u64, stride: u64, count: u64, element: u64) -> Option<u64> {
 /// stored as is.
 fn decompress(
     v: &Obj,
-    ptr: &str,
+    ptr: &Ptr<'_>,
     length: u64,
     buffers: &[Option<Cow<'_, [u8]>>],
     budget: &mut Budget,
@@ -231,7 +232,7 @@ impl<'a> Accessors<'a> {
     /// A view compressed with a meshopt extension is decoded here (into a buffer of its own,
     /// charged to the budget first).
     pub fn new(root: &Obj, mut buffers: Vec<Option<Cow<'a, [u8]>>>, budget: &mut Budget) -> Result<Self, ImportError> {
-        let view_objects = objects(root, "bufferViews", "")?;
+        let view_objects = items(root, "bufferViews", &"")?;
         budget.take_items(view_objects.len() as u64, size_of::<View>() as u64, "/bufferViews", "buffer views")?;
         let mut views = Vec::with_capacity(view_objects.len());
         let mut compressed = Vec::new();
@@ -264,7 +265,7 @@ impl<'a> Accessors<'a> {
             let buffer_len = buffers[buffer].as_ref().map_or(u64::MAX, |b| b.len() as u64);
             if offset.checked_add(length).is_none_or(|end| end > buffer_len) {
                 return Err(ImportError::new(
-                    ptr.as_str(),
+                    *ptr,
                     format!(
                         "byteOffset {offset} + byteLength {length} does not fit buffer {buffer} ({buffer_len} bytes)"
                     ),
@@ -272,7 +273,7 @@ impl<'a> Accessors<'a> {
             }
             views.push(View { buffer, offset, length, stride });
         }
-        let accessor_objects = objects(root, "accessors", "")?;
+        let accessor_objects = items(root, "accessors", &"")?;
         budget.take_items(accessor_objects.len() as u64, size_of::<Accessor>() as u64, "/accessors", "accessors")?;
         let mut list = Vec::with_capacity(accessor_objects.len());
         for (a, ptr) in &accessor_objects {
@@ -281,7 +282,7 @@ impl<'a> Accessors<'a> {
         Ok(Self { buffers, views, list, compressed })
     }
 
-    fn accessor(a: &Obj, ptr: &str, views: &[View]) -> Result<Accessor, ImportError> {
+    fn accessor(a: &Obj, ptr: &Ptr<'_>, views: &[View]) -> Result<Accessor, ImportError> {
         let code = req_u64(a, "componentType", ptr)?;
         let component = Component::from_gl(code)
             .ok_or_else(|| member_error(ptr, "componentType", format!("{code} is not a valid component type")))?;
@@ -309,13 +310,13 @@ impl<'a> Accessors<'a> {
             stride = vw.stride.unwrap_or(element_size);
             if stride < element_size {
                 return Err(ImportError::new(
-                    ptr,
+                    *ptr,
                     format!("byteStride {stride} of bufferView {v} is smaller than its {element_size}-byte elements"),
                 ));
             }
             if span(offset, stride, count, extent).is_none_or(|end| end > vw.length) {
                 return Err(ImportError::new(
-                    ptr,
+                    *ptr,
                     format!(
                         "count {count} does not fit bufferView {v} ({count} elements of {element_size} bytes, stride {stride}, from byteOffset {offset}; the view has {} bytes)",
                         vw.length
@@ -432,13 +433,18 @@ impl<'a> Accessors<'a> {
     }
 
     /// Refuses (at `use_ptr`) an accessor whose type is not one of `types`.
-    pub fn expect_type(&self, index: u32, use_ptr: &str, types: &[&str]) -> Result<&Accessor, ImportError> {
+    pub fn expect_type(
+        &self,
+        index: u32,
+        use_ptr: &(impl Display + ?Sized),
+        types: &[&str],
+    ) -> Result<&Accessor, ImportError> {
         let a = self.get(index)?;
         if types.contains(&a.type_name) {
             Ok(a)
         } else {
             Err(ImportError::new(
-                use_ptr,
+                use_ptr.to_string(),
                 format!("accessor {index} is {}, expected {}", a.type_name, types.join(" or ")),
             ))
         }
@@ -475,6 +481,16 @@ impl<'a> Accessors<'a> {
         let mut values = [T::default(); 16];
         let n = a.components();
         let csize = a.component.size();
+        // The common case first: dense data, each element's components side by side (no matrix
+        // column padding), read with the component size as a constant.
+        if let (Some(d), None, 1) = (dense, &sparse, a.cols) {
+            let read = |bytes: &[u8]| decode(a.component, bytes);
+            return match a.component.size() {
+                1 => dense_run::<1, T>(index, a, d, read, f),
+                2 => dense_run::<2, T>(index, a, d, read, f),
+                _ => dense_run::<4, T>(index, a, d, read, f),
+            };
+        }
         // Each component's byte offset in its element (matrix columns padded to 4 bytes).
         let mut offsets = [0u64; 16];
         for (j, at) in offsets[..n].iter_mut().enumerate() {
@@ -524,9 +540,10 @@ impl<'a> Accessors<'a> {
 
     /// Takes `count × N × 4` bytes from the budget and returns an empty vector with that capacity.
     fn allocate<T>(&self, index: u32, count: u64, budget: &mut Budget) -> Result<Vec<T>, ImportError> {
-        let ptr = format!("/accessors/{index}");
-        budget.take_items(count, size_of::<T>() as u64, &ptr, &format!("accessor {index} ({count} elements)"))?;
-        let n = usize::try_from(count).map_err(|_| ImportError::new(&ptr, format!("count {count} is too large")))?;
+        let ptr = format_args!("/accessors/{index}");
+        budget.take_items(count, size_of::<T>() as u64, &ptr, &format_args!("accessor {index} ({count} elements)"))?;
+        let n = usize::try_from(count)
+            .map_err(|_| ImportError::new(format!("/accessors/{index}"), format!("count {count} is too large")))?;
         Ok(Vec::with_capacity(n))
     }
 
@@ -535,7 +552,7 @@ impl<'a> Accessors<'a> {
     pub fn read_f32<const N: usize>(
         &self,
         index: u32,
-        use_ptr: &str,
+        use_ptr: &(impl Display + ?Sized),
         types: &[&str],
         finite: bool,
         budget: &mut Budget,
@@ -543,7 +560,7 @@ impl<'a> Accessors<'a> {
         let a = self.expect_type(index, use_ptr, types)?;
         if a.components() != N {
             return Err(ImportError::new(
-                use_ptr,
+                use_ptr.to_string(),
                 format!("accessor {index} has {} components, expected {N}", a.components()),
             ));
         }
@@ -590,14 +607,14 @@ impl<'a> Accessors<'a> {
     pub fn read_u32<const N: usize>(
         &self,
         index: u32,
-        use_ptr: &str,
+        use_ptr: &(impl Display + ?Sized),
         types: &[&str],
         budget: &mut Budget,
     ) -> Result<Vec<[u32; N]>, ImportError> {
         let a = self.expect_type(index, use_ptr, types)?;
         if !a.component.is_unsigned_int() || a.normalized || a.components() != N {
             return Err(ImportError::new(
-                use_ptr,
+                use_ptr.to_string(),
                 format!("accessor {index} must hold {N} unnormalized unsigned integers per element"),
             ));
         }
@@ -619,6 +636,31 @@ impl<'a> Accessors<'a> {
     pub fn is_small_uint(&self, index: u32) -> bool {
         self.get(index).is_ok_and(|a| matches!(a.component, Component::U8 | Component::U16))
     }
+}
+
+/// Calls `f(element_index, components)` for every element of dense accessor `index` (`a`)
+/// whose components of `S` bytes lie side by side, decoding each with `read`.
+fn dense_run<const S: usize, T: Copy + Default>(
+    index: u32,
+    a: &Accessor,
+    data: &[u8],
+    read: impl Fn(&[u8]) -> T,
+    mut f: impl FnMut(u64, &[T]) -> Result<(), ImportError>,
+) -> Result<(), ImportError> {
+    let n = a.components();
+    let mut values = [T::default(); 16];
+    for i in 0..a.count {
+        let element = usize::try_from(a.offset + i * a.stride)
+            .ok()
+            .and_then(|at| data.get(at..))
+            .and_then(|e| e.get(..n * S))
+            .ok_or_else(|| ImportError::new(format!("/accessors/{index}"), "element outside its buffer view"))?;
+        for (v, bytes) in values[..n].iter_mut().zip(element.chunks_exact(S)) {
+            *v = read(bytes);
+        }
+        f(i, &values[..n])?;
+    }
+    Ok(())
 }
 
 /// `bytes[at..at + len]` with checked arithmetic.

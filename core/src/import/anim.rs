@@ -1,7 +1,7 @@
 //! Animations → clips: channels validated against their nodes, keyframes repaired.
 
 use super::Cx;
-use super::json::{child, member_error, objects, opt_index, opt_object, opt_str, req_index};
+use super::json::{Ptr, child, items, member_error, opt_index, opt_object, opt_str, req_index};
 use crate::asset::Node;
 use crate::clip::{Channel, ChannelTarget, Clip, Interpolation};
 use crate::error::ImportError;
@@ -14,16 +14,16 @@ pub(crate) fn clips(cx: &mut Cx<'_>, nodes: &[Node]) -> Result<Vec<Clip>, Import
     // nodes were read as objects already).
     let node_objects = super::json::array(cx.root, "nodes", "")?;
     let mut matrix_warned = vec![false; node_objects.len()];
-    for (anim, ptr) in objects(cx.root, "animations", "")? {
-        let samplers = objects(anim, "samplers", &ptr)?;
+    for (anim, ptr) in items(cx.root, "animations", &"")? {
+        let samplers = items(anim, "samplers", &ptr)?;
         let mut channels = Vec::new();
-        for (channel, cptr) in objects(anim, "channels", &ptr)? {
+        for (channel, cptr) in items(anim, "channels", &ptr)? {
             let sampler = req_index(channel, "sampler", &cptr, samplers.len(), "sampler")? as usize;
-            let tptr = child(&cptr, "target");
-            let target = opt_object(channel, "target", &cptr)?.ok_or_else(|| ImportError::new(&tptr, "missing"))?;
+            let tptr = Ptr::member(&cptr, "target");
+            let target = opt_object(channel, "target", &cptr)?.ok_or_else(|| ImportError::new(tptr, "missing"))?;
             let path = opt_str(target, "path", &tptr)?.ok_or_else(|| member_error(&tptr, "path", "missing"))?;
             let Some(node) = opt_index(target, "node", &tptr, nodes.len(), "node")? else {
-                cx.warn(&tptr, "channel without a target node; ignored");
+                cx.warn(tptr, "channel without a target node; ignored");
                 continue;
             };
             let (target, width) = match path {
@@ -40,12 +40,12 @@ pub(crate) fn clips(cx: &mut Cx<'_>, nodes: &[Node]) -> Result<Vec<Clip>, Import
                 }
             };
             if width == 0 {
-                cx.warn(&tptr, format!("node {node} has no morph targets to animate; channel ignored"));
+                cx.warn(tptr, format!("node {node} has no morph targets to animate; channel ignored"));
                 continue;
             }
             let n = node as usize;
             if target != ChannelTarget::Weights
-                && node_objects.get(n).and_then(serde_json::Value::as_object).is_some_and(|o| o.contains_key("matrix"))
+                && node_objects.get(n).and_then(super::json::Value::as_object).is_some_and(|o| o.contains_key("matrix"))
                 && matrix_warned.get(n) == Some(&false)
             {
                 matrix_warned[n] = true;
@@ -75,7 +75,7 @@ pub(crate) fn clips(cx: &mut Cx<'_>, nodes: &[Node]) -> Result<Vec<Clip>, Import
 fn channel_from_sampler(
     cx: &mut Cx<'_>,
     s: &super::json::Obj,
-    sptr: &str,
+    sptr: &Ptr<'_>,
     node: u32,
     target: ChannelTarget,
     width: usize,
@@ -88,8 +88,8 @@ fn channel_from_sampler(
     };
     let input = req_index(s, "input", sptr, cx.accessors.len(), "accessor")?;
     let output = req_index(s, "output", sptr, cx.accessors.len(), "accessor")?;
-    let iptr = child(sptr, "input");
-    let optr = child(sptr, "output");
+    let iptr = Ptr::member(sptr, "input");
+    let optr = Ptr::member(sptr, "output");
     let mut times: Vec<f32> = cx
         .accessors
         .read_f32::<1>(input, &iptr, &["SCALAR"], false, &mut cx.budget)?
@@ -143,20 +143,20 @@ fn channel_from_sampler(
     times.truncate(kept);
     values.truncate(kept * per_key);
     if renormalized > 0 {
-        cx.warn(&optr, format!("{renormalized} rotation keyframes were not unit quaternions; normalized"));
+        cx.warn(optr, format!("{renormalized} rotation keyframes were not unit quaternions; normalized"));
     }
     if dropped > 0 {
         cx.warn(
-            sptr,
+            *sptr,
             format!("dropped {dropped} of {keys} keyframes (non-finite or non-increasing time, or non-finite value)"),
         );
     }
     if kept == 0 {
-        cx.warn(sptr, "no usable keyframes; channel ignored");
+        cx.warn(*sptr, "no usable keyframes; channel ignored");
         return Ok(None);
     }
     if interpolation == Interpolation::CubicSpline && kept < 2 {
-        cx.warn(sptr, "CUBICSPLINE needs at least 2 keyframes; the one key's value is held");
+        cx.warn(*sptr, "CUBICSPLINE needs at least 2 keyframes; the one key's value is held");
     }
     Ok(Some(Channel { node, target, interpolation, times, values, width: width as u32 }))
 }

@@ -6,6 +6,7 @@ use super::json::{Obj, child, objects, opt_str, req_u64};
 use crate::error::{ImportError, Warning};
 use base64::Engine;
 use std::borrow::Cow;
+use std::fmt::Display;
 
 const GLB_MAGIC: &[u8; 4] = b"glTF";
 const CHUNK_JSON: u32 = 0x4E4F_534A;
@@ -115,15 +116,21 @@ impl Budget {
         Self { limit, left: limit }
     }
 
-    /// Takes `bytes` (None = overflowed arithmetic) for `what`, or refuses at `ptr`.
-    pub fn take(&mut self, bytes: Option<u64>, ptr: &str, what: &str) -> Result<(), ImportError> {
+    /// Takes `bytes` (None = overflowed arithmetic) for `what`, or refuses at `ptr` (both
+    /// written out only for the refusal).
+    pub fn take(
+        &mut self,
+        bytes: Option<u64>,
+        ptr: &(impl Display + ?Sized),
+        what: &(impl Display + ?Sized),
+    ) -> Result<(), ImportError> {
         match bytes {
             Some(b) if b <= self.left => {
                 self.left -= b;
                 Ok(())
             }
             _ => Err(ImportError::new(
-                ptr,
+                ptr.to_string(),
                 format!(
                     "{what} needs {} bytes, more than the {} bytes left of the import budget ({} bytes)",
                     bytes.map_or_else(|| "more than 2^64".to_string(), |b| b.to_string()),
@@ -135,7 +142,13 @@ impl Budget {
     }
 
     /// `count × size` bytes for `what`.
-    pub fn take_items(&mut self, count: u64, size: u64, ptr: &str, what: &str) -> Result<(), ImportError> {
+    pub fn take_items(
+        &mut self,
+        count: u64,
+        size: u64,
+        ptr: &(impl Display + ?Sized),
+        what: &(impl Display + ?Sized),
+    ) -> Result<(), ImportError> {
         self.take(count.checked_mul(size), ptr, what)
     }
 

@@ -213,11 +213,11 @@ pub(crate) fn materials(cx: &mut Cx<'_>, usable_images: &[bool]) -> Result<Vec<M
 /// texture index that resolves to nothing is reported and the reference left out.
 fn texture_info<'a>(
     cx: &mut Cx<'_>,
-    obj: &'a Obj,
+    obj: &'a Obj<'a>,
     key: &str,
     ptr: &str,
     textures: usize,
-) -> Result<Option<(usize, &'a Obj, String)>, ImportError> {
+) -> Result<Option<(usize, &'a Obj<'a>, String)>, ImportError> {
     let Some(info) = opt_object(obj, key, ptr)? else {
         return Ok(None);
     };

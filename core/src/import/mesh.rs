@@ -2,10 +2,10 @@
 //! (strips, fans and loops converted to lists), morph targets, bounds.
 
 use super::Cx;
+use super::json::Value;
 use super::json::{Obj, child, member_error, objects, opt_f32_list, opt_index, opt_object, opt_u64};
 use crate::asset::{Mesh, MorphTarget, Primitive, Topology};
 use crate::error::ImportError;
-use serde_json::Value;
 
 /// Largest deviation of a weight sum from 1 accepted without a warning (quantized
 /// weights round to about 1/255 per component).
@@ -68,6 +68,7 @@ fn parse_mesh(cx: &mut Cx<'_>, mesh: &Obj, ptr: &str, material_count: usize) -> 
     };
     let target_names = mesh
         .get("extras")
+        .and_then(Value::as_object)
         .and_then(|e| e.get("targetNames"))
         .and_then(Value::as_array)
         .map(|names| names.iter().filter_map(Value::as_str).map(str::to_owned).collect())

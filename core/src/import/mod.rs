@@ -17,6 +17,7 @@ mod material;
 mod mesh;
 mod meshopt;
 mod scene;
+mod tree;
 
 use crate::asset::Asset;
 use crate::error::{ImportError, Warning};
@@ -165,7 +166,7 @@ pub struct Imported {
 
 /// Import state shared by the element parsers.
 pub(crate) struct Cx<'a> {
-    root: &'a Obj,
+    root: &'a Obj<'a>,
     accessors: Accessors<'a>,
     budget: Budget,
     warnings: Vec<Warning>,
@@ -186,8 +187,7 @@ pub fn import(bytes: &[u8], resolver: &dyn Resolver, options: &ImportOptions) ->
     let mut budget = Budget::new(options.budget_bytes);
     let container = container::split(bytes, &mut warnings)?;
     budget.take(Some(json_tree_estimate(container.json)), "", "the parsed JSON document")?;
-    let value: serde_json::Value =
-        serde_json::from_slice(container.json).map_err(|e| ImportError::new("", format!("invalid JSON: {e}")))?;
+    let value = tree::parse(container.json).map_err(|e| ImportError::new("", format!("invalid JSON: {e}")))?;
     let root = json::object(&value, "")?;
     check_version(root)?;
     check_required_extensions(root)?;

@@ -101,7 +101,7 @@ fn traversal_order(nodes: &[Node], max_depth: u32) -> Result<Vec<u32>, ImportErr
 fn rest_transform(cx: &mut Cx<'_>, node: &Obj, ptr: &str) -> Result<Transform, ImportError> {
     if let Some(m) = opt_f32_array::<16>(node, "matrix", ptr)? {
         let trs: Vec<&str> =
-            ["translation", "rotation", "scale"].into_iter().filter(|k| node.contains_key(*k)).collect();
+            ["translation", "rotation", "scale"].into_iter().filter(|k| node.contains_key(k)).collect();
         if !trs.is_empty() {
             cx.warn(
                 ptr,
