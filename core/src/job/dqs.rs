@@ -205,14 +205,13 @@ impl DqsJob<'_> {
     }
 }
 
-/// Dual-quaternion skinning of one vertex (shared with the spherical-joint-blend fallback).
-pub(crate) fn dqs_vertex(
+/// The blended, normalized dual quaternion of one vertex's influences, their blended stretch,
+/// and whether every influence is rigid.
+pub(crate) fn dq_blend(
     table: &[JointDq],
     joints: &[u16; 8],
     weights: &[f32; 8],
-    position: [f32; 3],
-    normal: Option<&[f32; 3]>,
-) -> Result<([f32; 3], Option<[f32; 3]>), JobError> {
+) -> Result<(DualQuat, Mat3, bool), JobError> {
     let (mut real, mut dual) = (Quat::from_xyzw(0.0, 0.0, 0.0, 0.0), Quat::from_xyzw(0.0, 0.0, 0.0, 0.0));
     let mut stretch = Mat3::ZERO;
     let mut all_rigid = true;
@@ -231,11 +230,22 @@ pub(crate) fn dqs_vertex(
         all_rigid &= joint.rigid;
     }
     let length = real.length();
-    let (dq, stretch) = if length > 1e-12 && length.is_finite() {
-        (DualQuat { real: real * (1.0 / length), dual: dual * (1.0 / length) }, stretch)
+    Ok(if length > 1e-12 && length.is_finite() {
+        (DualQuat { real: real * (1.0 / length), dual: dual * (1.0 / length) }, stretch, all_rigid)
     } else {
-        (DualQuat::IDENTITY, Mat3::IDENTITY)
-    };
+        (DualQuat::IDENTITY, Mat3::IDENTITY, true)
+    })
+}
+
+/// Dual-quaternion skinning of one vertex (shared with the spherical-joint-blend fallback).
+pub(crate) fn dqs_vertex(
+    table: &[JointDq],
+    joints: &[u16; 8],
+    weights: &[f32; 8],
+    position: [f32; 3],
+    normal: Option<&[f32; 3]>,
+) -> Result<([f32; 3], Option<[f32; 3]>), JobError> {
+    let (dq, stretch, all_rigid) = dq_blend(table, joints, weights)?;
     let p = Vec3::from(position);
     let p = if all_rigid { p } else { stretch * p };
     let n = normal.map(|n| {
@@ -244,6 +254,26 @@ pub(crate) fn dqs_vertex(
         (dq.real * n).try_normalize().unwrap_or(Vec3::ZERO).to_array()
     });
     Ok((dq.transform_point(p).to_array(), n))
+}
+
+/// The inverse of [`dqs_vertex`]: the bind-pose position (and normal direction, not
+/// normalized) that the influences carry to `position` (`normal`).
+pub(crate) fn dqs_unskin_vertex(
+    table: &[JointDq],
+    joints: &[u16; 8],
+    weights: &[f32; 8],
+    position: [f32; 3],
+    normal: Option<&[f32; 3]>,
+) -> Result<([f32; 3], Option<[f32; 3]>), JobError> {
+    let (dq, stretch, all_rigid) = dq_blend(table, joints, weights)?;
+    let back = dq.real.conjugate();
+    let p = back * (Vec3::from(position) - dq.translation());
+    let p = if all_rigid { p } else { stretch.inverse() * p };
+    let n = normal.map(|n| {
+        let n = back * Vec3::from(*n);
+        (if all_rigid { n } else { stretch.transpose() * n }).to_array()
+    });
+    Ok((p.to_array(), n))
 }
 
 /// Rigid skinning: each vertex follows its strongest influence only.

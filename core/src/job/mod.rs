@@ -10,6 +10,7 @@
 //! - [`skin::LbsJob`]: linear blend skinning of positions and normals (CPU reference);
 //! - [`dqs::DqPrepareJob`] + [`dqs::DqsJob`]: dual-quaternion skinning; [`dqs::RigidJob`]: strongest
 //!   influence only; [`sjb::SjbPlan`] + [`sjb::SjbJob`]: spherical joint blending;
+//! - [`sjbbe::SjbbeRig`] + [`sjbbe::SjbbeAlphaJob`] + [`sjbbe::SjbbeJob`]: SJB by example poses (§5.3);
 //! - [`ik::IkJob`]: inverse kinematics on the blended pose (CCD, two-bone) with joint limits.
 
 pub mod blend;
@@ -19,6 +20,7 @@ pub(crate) mod lanes;
 pub mod morph;
 pub mod sample;
 pub mod sjb;
+pub mod sjbbe;
 pub mod skin;
 pub mod world;
 

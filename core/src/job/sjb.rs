@@ -19,7 +19,7 @@
 
 use std::collections::HashMap;
 
-use super::dqs::{JointDq, dqs_vertex};
+use super::dqs::{JointDq, dqs_unskin_vertex, dqs_vertex};
 use super::skin::{check_vertex_streams, joint_at};
 use super::{check_eq, check_index};
 use crate::asset::Skin;
@@ -208,18 +208,16 @@ impl SjbJob<'_> {
     pub fn run(&mut self) -> Result<(), JobError> {
         self.validate()?;
         for v in 0..self.positions.len() {
-            let (joints, weights) = (&self.joints[v], &self.weights[v]);
-            let normal = self.normals.get(v);
-            let pivot = self.plan.pivots.get(self.plan.vertex_pivots[v] as usize);
-            let (p, n) = match pivot {
-                Some(pivot) => {
-                    match sjb_vertex(self.palette, self.joints_dq, pivot, joints, weights, self.positions[v], normal)? {
-                        Some(done) => done,
-                        None => dqs_vertex(self.joints_dq, joints, weights, self.positions[v], normal)?,
-                    }
-                }
-                None => dqs_vertex(self.joints_dq, joints, weights, self.positions[v], normal)?,
-            };
+            let (p, n) = sjb_skin_vertex(
+                self.palette,
+                self.joints_dq,
+                self.plan,
+                v,
+                &self.joints[v],
+                &self.weights[v],
+                self.positions[v],
+                self.normals.get(v),
+            )?;
             self.out_positions[v] = p;
             if let (Some(out), Some(n)) = (self.out_normals.get_mut(v), n) {
                 *out = n;
@@ -230,19 +228,69 @@ impl SjbJob<'_> {
 }
 
 /// A skinned position and, when the vertex has one, its normal.
-type SkinnedVertex = ([f32; 3], Option<[f32; 3]>);
+pub(crate) type SkinnedVertex = ([f32; 3], Option<[f32; 3]>);
 
-/// One vertex about its centre; `None` when an influence is scaled or sheared (the caller
-/// then falls back to dual quaternions).
-fn sjb_vertex(
+/// Vertex `v` (at `position`, `normal`) skinned as [`SjbJob`] does: about its joint centre
+/// where the plan has one and every influence is rigid, by dual quaternions otherwise.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn sjb_skin_vertex(
     palette: &[Mat4],
     table: &[JointDq],
-    pivot: &SjbPivot,
+    plan: &SjbPlan,
+    v: usize,
     joints: &[u16; 8],
     weights: &[f32; 8],
     position: [f32; 3],
     normal: Option<&[f32; 3]>,
-) -> Result<Option<SkinnedVertex>, JobError> {
+) -> Result<SkinnedVertex, JobError> {
+    if let Some(pivot) = plan.vertex_pivots.get(v).and_then(|&p| plan.pivots.get(p as usize))
+        && let Some(q) = sjb_rotation(table, pivot, joints, weights)?
+    {
+        let bind = Vec3::from(pivot.bind);
+        let current = joint_at(palette, pivot.joint)?.transform_point3(bind);
+        let p = q * (Vec3::from(position) - bind) + current;
+        let n = normal.map(|n| (q * Vec3::from(*n)).try_normalize().unwrap_or(Vec3::ZERO).to_array());
+        return Ok((p.to_array(), n));
+    }
+    dqs_vertex(table, joints, weights, position, normal)
+}
+
+/// The inverse of [`sjb_skin_vertex`] (eq. 5.1 solved for the bind-pose vertex, §5.3): the
+/// bind-pose position, and normal direction (not normalized), that skin to `position`
+/// (`normal`) under `palette`.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn sjb_unskin_vertex(
+    palette: &[Mat4],
+    table: &[JointDq],
+    plan: &SjbPlan,
+    v: usize,
+    joints: &[u16; 8],
+    weights: &[f32; 8],
+    position: [f32; 3],
+    normal: Option<&[f32; 3]>,
+) -> Result<SkinnedVertex, JobError> {
+    if let Some(pivot) = plan.vertex_pivots.get(v).and_then(|&p| plan.pivots.get(p as usize))
+        && let Some(q) = sjb_rotation(table, pivot, joints, weights)?
+    {
+        let bind = Vec3::from(pivot.bind);
+        let current = joint_at(palette, pivot.joint)?.transform_point3(bind);
+        let back = q.conjugate();
+        let p = back * (Vec3::from(position) - current) + bind;
+        let n = normal.map(|n| (back * Vec3::from(*n)).to_array());
+        return Ok((p.to_array(), n));
+    }
+    dqs_unskin_vertex(table, joints, weights, position, normal)
+}
+
+/// The blended rotation of a vertex about its centre (signs aligned to the driver's), or
+/// `None` when an influence is scaled or sheared (the caller then falls back to dual
+/// quaternions).
+fn sjb_rotation(
+    table: &[JointDq],
+    pivot: &SjbPivot,
+    joints: &[u16; 8],
+    weights: &[f32; 8],
+) -> Result<Option<Quat>, JobError> {
     let driver = joint_at(table, pivot.driver)?.dq.real;
     let mut q = Quat::from_xyzw(0.0, 0.0, 0.0, 0.0);
     for (&j, &w) in joints.iter().zip(weights) {
@@ -257,12 +305,7 @@ fn sjb_vertex(
         q += joint.dq.real * w;
     }
     let length = q.length();
-    let q = if length > 1e-12 && length.is_finite() { q * (1.0 / length) } else { Quat::IDENTITY };
-    let bind = Vec3::from(pivot.bind);
-    let current = joint_at(palette, pivot.joint)?.transform_point3(bind);
-    let p = q * (Vec3::from(position) - bind) + current;
-    let n = normal.map(|n| (q * Vec3::from(*n)).try_normalize().unwrap_or(Vec3::ZERO).to_array());
-    Ok(Some((p.to_array(), n)))
+    Ok(Some(if length > 1e-12 && length.is_finite() { q * (1.0 / length) } else { Quat::IDENTITY }))
 }
 
 #[cfg(test)]
