@@ -73,6 +73,7 @@ impl Workload {
             palette: &self.palette,
             joints_dq: &self.dqs,
             plan: Some(&self.plan),
+            examples: None,
             out_positions: &mut self.out_positions,
             out_normals: &mut self.out_normals,
         }

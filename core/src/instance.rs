@@ -4,10 +4,12 @@ use crate::asset::{Asset, MorphTarget};
 use crate::error::JobError;
 use std::collections::HashMap;
 
+use crate::examples::{Examples, PrimitiveExamples};
 use crate::job::dqs::{DqPrepareJob, JointDq, SkinningMethod};
 use crate::job::morph::MorphJob;
 use crate::job::sample::{SampleContext, SampleJob};
 use crate::job::sjb::SjbPlan;
+use crate::job::sjbbe::{MAX_EXAMPLES, SjbbeAlphaJob, SjbbeInput, SjbbeRig};
 use crate::job::skin::{PaletteJob, SkinJob, transform_normal};
 use crate::job::world::WorldJob;
 use crate::job::{check_eq, check_index};
@@ -39,6 +41,10 @@ pub struct Instance {
     skinning: SkinningMethod,
     /// Spherical-joint-blend centres per (node, primitive), built when that method is chosen.
     sjb_plans: HashMap<(u32, usize), SjbPlan>,
+    /// Example-pose rigs per (node, primitive) ([`Instance::set_examples`]).
+    sjbbe_rigs: HashMap<(u32, usize), SjbbeRig>,
+    /// α per bone of the rig being deformed (sized for the largest rig).
+    alphas: Vec<[f32; MAX_EXAMPLES]>,
 }
 
 impl Instance {
@@ -68,6 +74,8 @@ impl Instance {
             joint_dqs: vec![JointDq::default(); total],
             skinning: SkinningMethod::default(),
             sjb_plans: HashMap::new(),
+            sjbbe_rigs: HashMap::new(),
+            alphas: Vec::new(),
             pose,
         };
         // The asset's invariants make the rest pose valid; a failure would leave identity
@@ -87,7 +95,7 @@ impl Instance {
     /// blending builds the joint-centre plans of every skinned primitive of `asset` (once).
     pub fn set_skinning(&mut self, asset: &Asset, method: SkinningMethod) {
         self.skinning = method;
-        if method == SkinningMethod::SphericalJointBlend {
+        if method.uses_sjb_plan() {
             for node in 0..asset.nodes.len() as u32 {
                 let count = asset.nodes[node as usize]
                     .mesh
@@ -120,6 +128,67 @@ impl Instance {
                 .entry((node, primitive))
                 .or_insert_with(|| SjbPlan::build(skin, parents, &prim.joints, &prim.weights)),
         )
+    }
+
+    /// Sets the example poses of spherical joint blending by example
+    /// ([`SkinningMethod::SphericalJointBlendByExample`]): builds the rig of every skinned
+    /// primitive they shape. Nothing changes on error.
+    ///
+    /// # Errors
+    /// `"<pointer>: <message>"` naming the sidecar's example (`/examples/<joint>/<i>`): a target
+    /// the primitive lacks, or what [`SjbbeRig::build`] refuses.
+    pub fn set_examples(&mut self, asset: &Asset, examples: &Examples) -> Result<(), String> {
+        let mut rigs = HashMap::new();
+        for node in 0..asset.nodes.len() as u32 {
+            let n = &asset.nodes[node as usize];
+            let (Some(mesh), Some(skin)) = (n.mesh, n.skin) else { continue };
+            let count = asset.meshes.get(mesh as usize).map_or(0, |m| m.primitives.len());
+            for primitive in 0..count {
+                let PrimitiveExamples { poses, sources, sigma } =
+                    examples.for_primitive(asset, skin as usize, mesh, primitive)?;
+                if poses.is_empty() {
+                    continue;
+                }
+                let (Some(skin), Some(prim)) = (
+                    asset.skins.get(skin as usize),
+                    asset.meshes.get(mesh as usize).and_then(|m| m.primitives.get(primitive)),
+                ) else {
+                    continue;
+                };
+                let parents = &self.parents;
+                let plan = self
+                    .sjb_plans
+                    .entry((node, primitive))
+                    .or_insert_with(|| SjbPlan::build(skin, parents, &prim.joints, &prim.weights));
+                let input = SjbbeInput {
+                    skin,
+                    parents,
+                    positions: &prim.positions,
+                    normals: &prim.normals,
+                    joints: &prim.joints,
+                    weights: &prim.weights,
+                    plan,
+                };
+                let rig = SjbbeRig::build(input, &poses, &sigma).map_err(|e| {
+                    let pointer = e
+                        .example
+                        .and_then(|i| sources.get(i))
+                        .and_then(|&i| examples.poses.get(i))
+                        .map_or_else(|| "/examples".to_owned(), |p| p.pointer.clone());
+                    format!("{pointer}: {}", e.message)
+                })?;
+                rigs.insert((node, primitive), rig);
+            }
+        }
+        let bones = rigs.values().map(|r| r.bones.len()).max().unwrap_or(0);
+        self.alphas = vec![[0.0; MAX_EXAMPLES]; bones];
+        self.sjbbe_rigs = rigs;
+        Ok(())
+    }
+
+    /// The example-pose rig of `primitive` instanced by `node`, if examples shape it.
+    pub fn sjbbe_rig(&self, node: u32, primitive: usize) -> Option<&SjbbeRig> {
+        self.sjbbe_rigs.get(&(node, primitive))
     }
 
     /// The palettes of skin `skin` split into dual quaternions: current after each update while
@@ -192,7 +261,7 @@ impl Instance {
     /// Splits every palette for dual-quaternion skinning when that method is chosen (once per
     /// update, shared by every primitive of every skin).
     fn prepare_dual_quaternions(&mut self) -> Result<(), JobError> {
-        if !matches!(self.skinning, SkinningMethod::DualQuaternion | SkinningMethod::SphericalJointBlend) {
+        if !self.skinning.uses_dual_quaternions() {
             return Ok(());
         }
         DqPrepareJob { palette: &self.palettes, out: &mut self.joint_dqs }.run()
@@ -261,14 +330,24 @@ impl Instance {
         match skin {
             Some(s) => {
                 check_index("skin", s, asset.skins.len())?;
-                if self.skinning == SkinningMethod::SphericalJointBlend
-                    && !self.sjb_plans.contains_key(&(node, primitive))
-                {
+                if self.skinning.uses_sjb_plan() && !self.sjb_plans.contains_key(&(node, primitive)) {
                     self.sjb_plan(asset, node, primitive);
                 }
                 let range = self.palette_starts[s]..self.palette_starts[s + 1];
                 let palette = &self.palettes[range.clone()];
-                let plan = if self.skinning == SkinningMethod::SphericalJointBlend {
+                let rig = self
+                    .sjbbe_rigs
+                    .get(&(node, primitive))
+                    .filter(|_| self.skinning == SkinningMethod::SphericalJointBlendByExample);
+                let examples = match rig {
+                    Some(rig) => {
+                        let alphas = &mut self.alphas[..rig.bones.len()];
+                        SjbbeAlphaJob { rig, palette, out: alphas }.run()?;
+                        Some((rig, &*alphas))
+                    }
+                    None => None,
+                };
+                let plan = if self.skinning.uses_sjb_plan() {
                     Some(
                         self.sjb_plans
                             .get(&(node, primitive))
@@ -286,6 +365,7 @@ impl Instance {
                     palette,
                     joints_dq: &self.joint_dqs[range],
                     plan,
+                    examples,
                     out_positions,
                     out_normals,
                 }

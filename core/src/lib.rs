@@ -25,6 +25,7 @@ pub mod asset;
 pub mod candy;
 pub mod clip;
 pub mod error;
+pub mod examples;
 pub mod import;
 pub mod instance;
 pub mod job;

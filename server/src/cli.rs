@@ -257,6 +257,13 @@ pub struct PoseArgs {
     /// How skinned vertices follow their joints.
     #[arg(long, value_enum, default_value_t = SkinningArg::Lbs)]
     pub skinning: SkinningArg,
+    /// A `<model>.kloub.json` sidecar whose `examples` (example poses) shape `--skinning sjbbe`.
+    #[arg(long, value_name = "FILE.kloub.json")]
+    pub examples: Option<PathBuf>,
+    /// Sets JOINT's local rotation (a unit quaternion) after the clip is sampled; repeatable.
+    /// JOINT is a node name or index.
+    #[arg(long = "rotate", value_name = "JOINT:x,y,z,w", allow_hyphen_values = true)]
+    pub rotations: Vec<String>,
 }
 
 /// `--skinning` values.
@@ -271,6 +278,8 @@ pub enum SkinningArg {
     /// Spherical joint blending (rotation about the joint centre; dual quaternions where the
     /// influences do not share one).
     Sjb,
+    /// Spherical joint blending by example: SJB after the example poses of `--examples`.
+    Sjbbe,
 }
 
 /// `--easing` values.
@@ -419,7 +428,7 @@ fn run_serve(args: ServeArgs) -> ExitCode {
 
 fn run_pose(args: &PoseArgs) -> ExitCode {
     let file = args.file.display();
-    let request = PoseRequest {
+    let mut request = PoseRequest {
         clip: args.clip.clone(),
         times: args.times.clone(),
         rest: args.rest,
@@ -446,8 +455,20 @@ fn run_pose(args: &PoseArgs) -> ExitCode {
             SkinningArg::Lbs => SkinningMethod::Linear,
             SkinningArg::Dqs => SkinningMethod::DualQuaternion,
             SkinningArg::Sjb => SkinningMethod::SphericalJointBlend,
+            SkinningArg::Sjbbe => SkinningMethod::SphericalJointBlendByExample,
         },
+        examples: None,
+        rotations: args.rotations.clone(),
     };
+    if let Some(path) = &args.examples {
+        match std::fs::read_to_string(path) {
+            Ok(text) => request.examples = Some((path.display().to_string(), text)),
+            Err(e) => {
+                eprintln!("kloub: {}: {e}", path.display());
+                return ExitCode::FAILURE;
+            }
+        }
+    }
     let report = match pose::pose_file(&args.file, &request) {
         Ok(r) => r,
         Err(e) => {

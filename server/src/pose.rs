@@ -34,7 +34,9 @@
 use crate::paths;
 use kloub_core::animator::{Crossfade, Easing, Layer, Outgoing};
 use kloub_core::asset::{Asset, NodeIndex};
+use kloub_core::examples::Examples;
 use kloub_core::job::dqs::SkinningMethod;
+use kloub_core::math::Quat;
 use kloub_core::{Animator, ImportOptions, Imported, Instance, Resolver, Warning};
 use serde::Serialize;
 use serde::ser::SerializeMap;
@@ -56,6 +58,12 @@ pub struct PoseRequest {
     pub layers: Vec<LayerRequest>,
     /// How skinned vertices follow their joints (default: linear blend skinning).
     pub skinning: SkinningMethod,
+    /// A `<model>.kloub.json` sidecar's text whose `examples` shape `sjbbe` skinning, and its
+    /// name for messages.
+    pub examples: Option<(String, String)>,
+    /// `JOINT:x,y,z,w`: joints whose local rotation is set after the clip is sampled (joint by
+    /// name or node index; the name may contain `:`).
+    pub rotations: Vec<String>,
 }
 
 /// `--crossfade FROM:TO:DURATION --at T`: FROM plays from 0; at `at` seconds the base starts
@@ -580,9 +588,14 @@ pub fn pose_asset(asset_name: &str, asset: &Asset, request: &PoseRequest) -> Res
         ));
     }
 
+    let rotations = request.rotations.iter().map(|spec| parse_rotation(asset, spec)).collect::<Result<Vec<_>, _>>()?;
     let scene = asset.scene_nodes();
     let mut instance = Instance::new(asset);
     instance.set_skinning(asset, request.skinning);
+    if let Some((name, text)) = &request.examples {
+        let examples = Examples::from_json(asset, text).map_err(|e| PoseError::new(None, format!("{name}: {e}")))?;
+        instance.set_examples(asset, &examples).map_err(|e| PoseError::new(None, format!("{name}: {e}")))?;
+    }
     let mut positions = Vec::new();
     let mut normals = Vec::new();
     let mut frames = Vec::with_capacity(times.len());
@@ -595,6 +608,14 @@ pub fn pose_asset(asset_name: &str, asset: &Asset, request: &PoseRequest) -> Res
             instance.evaluate(asset, clip, time)
         };
         evaluated.map_err(|e| PoseError::new(clip_pointer, e.to_string()))?;
+        if !rotations.is_empty() {
+            for &(node, rotation) in &rotations {
+                if let Some(local) = instance.pose_mut().locals.get_mut(node as usize) {
+                    local.rotation = rotation;
+                }
+            }
+            instance.update(asset).map_err(|e| PoseError::new(None, e.to_string()))?;
+        }
 
         let worlds = instance.worlds();
         if worlds.len() != asset.nodes.len() {
@@ -624,7 +645,9 @@ pub fn pose_asset(asset_name: &str, asset: &Asset, request: &PoseRequest) -> Res
                     PoseError::new(Some(format!("/meshes/{mesh}/primitives/{primitive}")), e.to_string())
                 })?;
                 let flat: Vec<f32> = positions.iter().flatten().copied().collect();
-                let sjb_fallbacks = (request.skinning == SkinningMethod::SphericalJointBlend)
+                let sjb_fallbacks = request
+                    .skinning
+                    .uses_sjb_plan()
                     .then(|| instance.sjb_plan(asset, node, primitive).map(|p| p.fallbacks))
                     .flatten();
                 primitives.push(PrimitiveOut {
@@ -647,6 +670,27 @@ pub fn pose_asset(asset_name: &str, asset: &Asset, request: &PoseRequest) -> Res
         skinning: (request.skinning != SkinningMethod::Linear).then(|| request.skinning.name()),
         frames,
     })
+}
+
+/// `JOINT:x,y,z,w` → (node, unit rotation).
+fn parse_rotation(asset: &Asset, spec: &str) -> Result<(u32, Quat), PoseError> {
+    let bad = |why: String| PoseError::new(None, format!("--rotate {spec:?}: {why}"));
+    let (joint, quat) = spec.rsplit_once(':').ok_or_else(|| bad("expected JOINT:x,y,z,w".into()))?;
+    let node = asset
+        .nodes
+        .iter()
+        .position(|n| n.name.as_deref() == Some(joint))
+        .or_else(|| joint.parse::<usize>().ok().filter(|&i| i < asset.nodes.len()))
+        .ok_or_else(|| bad(format!("no joint named {joint:?} (or node index) in the file")))?;
+    let xs: Vec<f32> =
+        quat.split(',').map(|x| x.trim().parse::<f32>()).collect::<Result<_, _>>().map_err(|e| bad(e.to_string()))?;
+    let [x, y, z, w] = xs[..] else { return Err(bad(format!("{} numbers; expected x,y,z,w", xs.len()))) };
+    let q = Quat::from_xyzw(x, y, z, w);
+    let length = q.length();
+    if !length.is_finite() || (length - 1.0).abs() > 1e-3 {
+        return Err(bad(format!("not a unit quaternion (length {length})")));
+    }
+    Ok((node as u32, q.normalize()))
 }
 
 fn widen_vec(values: &[f32], node: u32) -> Result<Vec<f64>, PoseError> {

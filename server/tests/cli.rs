@@ -629,3 +629,68 @@ fn inspect_and_pose_read_a_zipped_gltf_folder() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("holds no .glb or .gltf model"));
     std::fs::remove_dir_all(&dir).expect("cleanup");
 }
+
+/// `kloub pose --skinning sjbbe --examples SIDECAR --rotate JOINT:q`: CesiumMan's left elbow
+/// with one example pose whose inline offsets lift its support by 0.01. At the example's
+/// rotation the support (the upper arm's vertices off the torso) is lifted by exactly that
+/// (SJB rotates the offset), every other vertex is SJB's; at the rest pose SJBBE is SJB;
+/// a broken sidecar names its pointer.
+#[test]
+fn pose_sjbbe_applies_example_poses_from_a_sidecar() {
+    use kloub_core::examples::{ExampleShape, Examples, JointExample};
+    let file = shared_assets().join("khronos/CesiumMan/glTF-Binary/CesiumMan.glb");
+    let dir = std::env::temp_dir().join(format!("kloub-sjbbe-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let joint = "Skeleton_arm_joint_L__3_";
+    let q = "0,0,0.5,0.8660254";
+    // The sidecar as the viewer saves it (inline offsets in base64).
+    let bytes = std::fs::read(&file).expect("CesiumMan");
+    let asset = kloub_core::import(&bytes, &kloub_core::NoResolver, &Default::default()).expect("imports").asset;
+    let node = asset.nodes.iter().position(|n| n.name.as_deref() == Some(joint)).expect("the elbow") as u32;
+    let examples = Examples {
+        poses: vec![JointExample {
+            node,
+            mesh: 0,
+            rotation: kloub_core::math::Quat::from_xyzw(0.0, 0.0, 0.5, 0.866_025_4),
+            shape: ExampleShape::Inline { positions: vec![[0.0, 0.01, 0.0]; 3273], normals: Vec::new() },
+            pointer: String::new(),
+        }],
+        sigma: Vec::new(),
+    };
+    let sidecar = serde_json::Value::Object(examples.to_json(&asset));
+    let path = dir.join("CesiumMan.kloub.json");
+    std::fs::write(&path, sidecar.to_string()).expect("write");
+    let sidecar_arg = path.to_str().expect("UTF-8");
+    let rotate = format!("{joint}:{q}");
+    let bent = ["--rest", "--rotate", rotate.as_str()];
+    let sjbbe = pose_json(&file, &[&bent[..], &["--skinning", "sjbbe", "--examples", sidecar_arg]].concat());
+    assert_eq!(sjbbe["skinning"], "sjbbe");
+    let sjb = pose_json(&file, &[&bent[..], &["--skinning", "sjb"]].concat());
+    let (a, b) = (positions(&sjbbe), positions(&sjb));
+    let moved: Vec<f64> =
+        a.iter().zip(&b).map(|(a, b)| (0..3).map(|i| (a[i] - b[i]).powi(2)).sum::<f64>().sqrt()).collect();
+    let lifted = moved.iter().filter(|&&d| (d - 0.01).abs() < 1e-4).count();
+    let still = moved.iter().filter(|&&d| d < 1e-6).count();
+    assert!(lifted > 50, "{lifted} vertices lifted by the example");
+    assert_eq!(lifted + still, moved.len(), "every vertex is either lifted by 0.01 or SJB's");
+    // The rest pose: no example weight.
+    let rest = pose_json(&file, &["--rest", "--skinning", "sjbbe", "--examples", sidecar_arg]);
+    let rest_sjb = pose_json(&file, &["--rest", "--skinning", "sjb"]);
+    let d = positions(&rest)
+        .iter()
+        .zip(positions(&rest_sjb))
+        .map(|(a, b)| (0..3).map(|i| (a[i] - b[i]).abs()).fold(0.0, f64::max))
+        .fold(0.0, f64::max);
+    assert!(d < 1e-6, "rest pose differs from SJB by {d}");
+    // A broken sidecar and a bad --rotate are errors with their pointer or argument.
+    std::fs::write(&path, r#"{"examples": {"Skeleton_arm_joint_L__3_": [{"rotation": [0, 0, 2, 0], "offsets": ""}]}}"#)
+        .expect("write");
+    let out =
+        kloub().arg("pose").arg(&file).args(["--skinning", "sjbbe", "--examples", sidecar_arg]).output().expect("runs");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("/examples/Skeleton_arm_joint_L__3_/0/rotation: not a unit quaternion"), "{stderr}");
+    let out = kloub().arg("pose").arg(&file).args(["--rotate", "nobody:0,0,0,1"]).output().expect("runs");
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no joint named \"nobody\""));
+    std::fs::remove_dir_all(&dir).expect("cleanup");
+}

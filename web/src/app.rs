@@ -6,8 +6,6 @@
 use egui::{Color32, Pos2, Rect, Sense};
 use glam::Vec3;
 
-use kloub_core::job::dqs::SkinningMethod;
-
 use crate::control::{Command, Controls, Wake};
 use crate::dom::{Dataset, Key};
 use crate::ik::IkState;
@@ -405,11 +403,8 @@ impl App {
 
         // Frames are painted on demand: a rate means something only while the model moves.
         let animating = self.stage.model.as_ref().is_some_and(Model::is_animating);
-        let sjb_fallbacks = if self.stage.skinning == SkinningMethod::SphericalJointBlend {
-            self.stage.scene.sjb_fallbacks()
-        } else {
-            Vec::new()
-        };
+        let sjb_fallbacks =
+            if self.stage.skinning.uses_sjb_plan() { self.stage.scene.sjb_fallbacks() } else { Vec::new() };
         let state = ui::PanelState {
             loading: self.stage.status == Status::Loading,
             backend: self.stage.backend,

@@ -27,6 +27,10 @@ pub enum SkinningMethod {
     /// Spherical joint blending ([`super::sjb`]): rotation about the shared joint centre,
     /// dual quaternions where the influences do not share one.
     SphericalJointBlend,
+    /// Spherical joint blending by example ([`super::sjbbe`]): SJB after the example poses'
+    /// offsets weighted by how close each joint is to its examples. Without examples it is
+    /// SJB. Not yet in [`SkinningMethod::ALL`]: the viewer lists it with its GPU path.
+    SphericalJointBlendByExample,
 }
 
 impl SkinningMethod {
@@ -46,7 +50,18 @@ impl SkinningMethod {
             SkinningMethod::Linear => "lbs",
             SkinningMethod::DualQuaternion => "dqs",
             SkinningMethod::SphericalJointBlend => "sjb",
+            SkinningMethod::SphericalJointBlendByExample => "sjbbe",
         }
+    }
+
+    /// Whether the method reads dual quaternions ([`super::dqs::DqPrepareJob`]).
+    pub fn uses_dual_quaternions(self) -> bool {
+        !matches!(self, SkinningMethod::Rigid | SkinningMethod::Linear)
+    }
+
+    /// Whether the method needs a joint-centre plan ([`super::sjb::SjbPlan`]).
+    pub fn uses_sjb_plan(self) -> bool {
+        matches!(self, SkinningMethod::SphericalJointBlend | SkinningMethod::SphericalJointBlendByExample)
     }
 
     /// The method named `name` ([`SkinningMethod::name`]).
@@ -387,6 +402,7 @@ mod tests {
             palette,
             joints_dq: &table,
             plan: Some(&plan),
+            examples: None,
             out_positions: &mut out,
             out_normals: &mut out_n,
         }

@@ -565,14 +565,14 @@ impl SjbbeJob<'_> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::super::sjb::SjbJob;
     use super::*;
     use std::f32::consts::{FRAC_PI_2, PI};
 
     /// A chain along X: joints 0..4 at x = 0, 1, 2, 3 (node j = joint j, each the parent of the
     /// next), plus joint 4 at x = 2 on joint 1 with joint 5 at x = 3 on it when `branch`.
-    fn skin(branch: bool) -> (Skin, Vec<Option<u32>>) {
+    pub(crate) fn skin(branch: bool) -> (Skin, Vec<Option<u32>>) {
         let mut xs = vec![0.0, 1.0, 2.0, 3.0];
         let mut parents = vec![None, Some(0), Some(1), Some(2)];
         if branch {
@@ -590,14 +590,14 @@ mod tests {
 
     /// A tube of radius 0.2 from x = 0 to 3, rings every 0.125, blended half and half at the
     /// joints x = 1 and x = 2.
-    struct Tube {
-        positions: Vec<[f32; 3]>,
-        normals: Vec<[f32; 3]>,
-        joints: Vec<[u16; 8]>,
-        weights: Vec<[f32; 8]>,
+    pub(crate) struct Tube {
+        pub(crate) positions: Vec<[f32; 3]>,
+        pub(crate) normals: Vec<[f32; 3]>,
+        pub(crate) joints: Vec<[u16; 8]>,
+        pub(crate) weights: Vec<[f32; 8]>,
     }
 
-    fn tube() -> Tube {
+    pub(crate) fn tube() -> Tube {
         let mut t = Tube { positions: Vec::new(), normals: Vec::new(), joints: Vec::new(), weights: Vec::new() };
         for ring in 0..=24 {
             let x = ring as f32 * 0.125;
@@ -620,14 +620,14 @@ mod tests {
     }
 
     /// The palette with joint 2 (and 3) turned by `rotation` about joint 2's centre.
-    fn palette(rotation: Quat, joints: usize) -> Vec<Mat4> {
+    pub(crate) fn palette(rotation: Quat, joints: usize) -> Vec<Mat4> {
         let carry = Mat4::from_translation(Vec3::new(2.0, 0.0, 0.0))
             * Mat4::from_quat(rotation)
             * Mat4::from_translation(Vec3::new(-2.0, 0.0, 0.0));
         (0..joints).map(|j| if j == 2 || j == 3 { carry } else { Mat4::IDENTITY }).collect()
     }
 
-    fn sjb(t: &Tube, plan: &SjbPlan, palette: &[Mat4]) -> Vec<[f32; 3]> {
+    pub(crate) fn sjb(t: &Tube, plan: &SjbPlan, palette: &[Mat4]) -> Vec<[f32; 3]> {
         let mut table = vec![JointDq::default(); palette.len()];
         DqPrepareJob { palette, out: &mut table }.run().expect("sized");
         let (mut out, mut out_n) = (vec![[0.0; 3]; t.positions.len()], vec![[0.0; 3]; t.normals.len()]);

@@ -2,6 +2,7 @@
 
 use super::dqs::{DqsJob, JointDq, RigidJob, SkinningMethod};
 use super::sjb::{SjbJob, SjbPlan};
+use super::sjbbe::{MAX_EXAMPLES, SjbbeJob, SjbbeRig};
 use super::world::affine_mul;
 use super::{check_eq, check_index, check_len};
 use crate::error::JobError;
@@ -401,7 +402,7 @@ mod simd {
 }
 
 /// Skins with any [`SkinningMethod`]: the one entry point the instance, the tests and the
-/// benchmarks use, dispatching to [`LbsJob`], [`RigidJob`], [`DqsJob`] or [`SjbJob`].
+/// benchmarks use, dispatching to [`LbsJob`], [`RigidJob`], [`DqsJob`], [`SjbJob`] or [`SjbbeJob`].
 #[derive(Debug)]
 pub struct SkinJob<'a> {
     /// The method.
@@ -419,8 +420,10 @@ pub struct SkinJob<'a> {
     /// The palette split for dual quaternions ([`DqPrepareJob`](super::dqs::DqPrepareJob)); read
     /// by DQS and SJB only.
     pub joints_dq: &'a [JointDq],
-    /// Joint centres of this primitive; required by SJB only.
+    /// Joint centres of this primitive; required by SJB and SJBBE.
     pub plan: Option<&'a SjbPlan>,
+    /// The example poses of this primitive and their current weights (SJBBE; `None` is SJB).
+    pub examples: Option<(&'a SjbbeRig, &'a [[f32; MAX_EXAMPLES]])>,
     /// Output positions, at least `positions.len()`.
     pub out_positions: &'a mut [[f32; 3]],
     /// Output normals, at least `normals.len()`.
@@ -447,9 +450,27 @@ impl SkinJob<'_> {
                 DqsJob { positions, normals, joints, weights, joints_dq: self.joints_dq, out_positions, out_normals }
                     .run()
             }
-            SkinningMethod::SphericalJointBlend => {
+            SkinningMethod::SphericalJointBlend | SkinningMethod::SphericalJointBlendByExample => {
                 let plan =
                     self.plan.ok_or_else(|| JobError::InvalidInput("spherical joint blending needs a plan".into()))?;
+                if let Some((rig, alphas)) =
+                    self.examples.filter(|_| self.method == SkinningMethod::SphericalJointBlendByExample)
+                {
+                    return SjbbeJob {
+                        positions,
+                        normals,
+                        joints,
+                        weights,
+                        palette: self.palette,
+                        joints_dq: self.joints_dq,
+                        plan,
+                        rig,
+                        alphas,
+                        out_positions,
+                        out_normals,
+                    }
+                    .run();
+                }
                 SjbJob {
                     positions,
                     normals,

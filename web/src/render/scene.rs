@@ -7,7 +7,6 @@ use kloub_core::Instance;
 use kloub_core::asset::{AlphaMode, Asset, Material};
 
 use super::camera::Camera;
-use kloub_core::job::dqs::SkinningMethod;
 use kloub_core::job::sjb::SjbPlan;
 
 use super::mesh::{GeometryVertex, GpuPrimitive, interleave, pivot_buffer};
@@ -1155,7 +1154,7 @@ impl GpuScene {
         let draws = self.draws.len();
         for (c, instance) in instances.iter().enumerate() {
             let method = instance.skinning();
-            let dual = matches!(method, SkinningMethod::DualQuaternion | SkinningMethod::SphericalJointBlend);
+            let dual = method.uses_dual_quaternions();
             let first = c as u32 * self.joints;
             for (skin, &base) in self.skin_base.iter().enumerate() {
                 let dqs = dual.then(|| instance.joint_dqs(skin));

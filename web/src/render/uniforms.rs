@@ -301,7 +301,8 @@ pub fn skin_code(method: SkinningMethod) -> u32 {
         SkinningMethod::Rigid => 0,
         SkinningMethod::Linear => 1,
         SkinningMethod::DualQuaternion => 2,
-        SkinningMethod::SphericalJointBlend => 3,
+        // The examples' offsets come in as morph deltas: the shader's part is SJB's.
+        SkinningMethod::SphericalJointBlend | SkinningMethod::SphericalJointBlendByExample => 3,
     }
 }
 

@@ -40,7 +40,7 @@ pub(super) fn skinning_panel(ui: &mut egui::Ui, state: &PanelState<'_>, actions:
     if toggle.changed() {
         actions.commands.push(Command::SetHeatmap(heatmap));
     }
-    if state.skinning == SkinningMethod::SphericalJointBlend {
+    if state.skinning.uses_sjb_plan() {
         let (vertices, fallbacks) =
             state.sjb_fallbacks.iter().fold((0, 0), |(v, f), &(_, vertices, fallbacks)| (v + vertices, f + fallbacks));
         ui.label(format!("{fallbacks} of {vertices} vertices share no joint centre and use DQS"))
@@ -54,6 +54,7 @@ pub(super) fn method_label(method: SkinningMethod) -> &'static str {
         SkinningMethod::Linear => "Linear blend (LBS)",
         SkinningMethod::DualQuaternion => "Dual quaternion (DQS)",
         SkinningMethod::SphericalJointBlend => "Spherical joint blend (SJB)",
+        SkinningMethod::SphericalJointBlendByExample => "SJB by example (SJBBE)",
     }
 }
 
@@ -68,6 +69,9 @@ pub(super) fn method_hint(method: SkinningMethod) -> &'static str {
         }
         SkinningMethod::SphericalJointBlend => {
             "Rotates vertices about their shared joint centre (Hejl); vertices whose joints share no centre use DQS"
+        }
+        SkinningMethod::SphericalJointBlendByExample => {
+            "SJB after the example poses' shapes, weighted by how close each joint is to its examples (Houska)"
         }
     }
 }

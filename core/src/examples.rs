@@ -1,0 +1,536 @@
+//! Example poses for spherical joint blending by example ([`crate::job::sjbbe`]) in the
+//! `<model>.kloub.json` sidecar:
+//!
+//! ```json
+//! { "examples": {
+//!     "arm_joint_L_2": [
+//!       { "rotation": [0, 0, 0.7071068, 0.7071068], "target": "Flex", "space": "rest" },
+//!       { "rotation": [0, 0, -0.5, 0.8660254], "mesh": "Body", "offsets": "AAAAAAAA…", "normals": "…" } ] },
+//!   "example_sigma": { "arm_joint_L_2": 0.8 } }
+//! ```
+//!
+//! - Joints and meshes are named as in the file (or given by index); `rotation` is the joint's
+//!   local rotation `[x, y, z, w]` (unit) in the example, the other joints at the reference pose.
+//! - `target` names (the mesh's `extras.targetNames`) or indexes a morph target of the skinned
+//!   mesh; `space` says what it holds: `"rest"` (default), offsets already in the reference
+//!   pose, as a corrective shape key; `"posed"`, the shape as seen in the example pose, taken
+//!   back to the reference pose (seed 001 §5.3).
+//! - Or inline offsets in the reference pose, as the viewer saves them: `offsets` (and
+//!   optionally `normals`) is standard base64 of little-endian `f32` x, y, z per vertex of the
+//!   mesh, its primitives one after another.
+//! - `mesh` (name or index) defaults to the first mesh skinned by a skin with that joint.
+//! - `example_sigma` sets a joint's σ (radians of arc, default 1 as in the seed).
+//!
+//! Every error names its JSON pointer; [`crate::instance::Instance::set_examples`] adds those
+//! that need the rig (a joint with several children, examples too alike).
+
+use base64::Engine;
+use serde_json::{Map, Value, json};
+
+use crate::asset::Asset;
+use crate::job::sjbbe::{ExamplePose, ExampleSpace, MAX_EXAMPLES};
+use crate::math::Quat;
+
+/// The example poses of one model.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Examples {
+    /// Every example, in the sidecar's order.
+    pub poses: Vec<JointExample>,
+    /// σ per joint node, where set.
+    pub sigma: Vec<(u32, f32)>,
+}
+
+/// One example pose.
+#[derive(Clone, Debug, PartialEq)]
+pub struct JointExample {
+    /// The joint's node.
+    pub node: u32,
+    /// The skinned mesh it shapes.
+    pub mesh: u32,
+    /// The joint's local rotation in the example.
+    pub rotation: Quat,
+    /// Its shape.
+    pub shape: ExampleShape,
+    /// Its JSON pointer in the sidecar (`/examples/<joint>/<i>`), for errors found later.
+    pub pointer: String,
+}
+
+/// Where an example's shape comes from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ExampleShape {
+    /// A morph target of the mesh (index), holding offsets or the posed shape.
+    Target {
+        /// The target's index.
+        index: u32,
+        /// What it holds.
+        space: ExampleSpace,
+    },
+    /// Offsets in the reference pose per vertex of the mesh (its primitives in order).
+    Inline {
+        /// Position offsets.
+        positions: Vec<[f32; 3]>,
+        /// Normal offsets; empty for none.
+        normals: Vec<[f32; 3]>,
+    },
+}
+
+/// A JSON pointer token (`~` → `~0`, `/` → `~1`).
+fn escape(name: &str) -> String {
+    name.replace('~', "~0").replace('/', "~1")
+}
+
+/// The vertex count of every primitive of `mesh` together.
+fn mesh_vertices(asset: &Asset, mesh: u32) -> usize {
+    asset.meshes.get(mesh as usize).map_or(0, |m| m.primitives.iter().map(|p| p.positions.len()).sum())
+}
+
+impl Examples {
+    /// Reads the `examples` and `example_sigma` members of a sidecar (absent: no examples).
+    ///
+    /// # Errors
+    /// `"<pointer>: <message>"` for malformed JSON, an unknown joint, mesh or target, a
+    /// rotation that is not a unit quaternion, an unknown `space`, more than
+    /// [`MAX_EXAMPLES`] for a joint, inline data of the wrong length or not base64.
+    pub fn from_json(asset: &Asset, json: &str) -> Result<Self, String> {
+        let root: Value = serde_json::from_str(json).map_err(|e| format!("not JSON: {e}"))?;
+        let mut out = Examples::default();
+        let node_named = |name: &str, pointer: &str| -> Result<u32, String> {
+            asset
+                .nodes
+                .iter()
+                .position(|n| n.name.as_deref() == Some(name))
+                .map(|n| n as u32)
+                .ok_or_else(|| format!("{pointer}: no joint named {name:?} in the model"))
+        };
+        if let Some(examples) = root.get("examples") {
+            let examples = examples.as_object().ok_or("/examples: expected an object of joints")?;
+            for (joint, list) in examples {
+                let jptr = format!("/examples/{}", escape(joint));
+                let node = node_named(joint, &jptr)?;
+                let skinned_by = |mesh: u32| {
+                    asset.nodes.iter().any(|n| {
+                        n.mesh == Some(mesh)
+                            && n.skin
+                                .and_then(|s| asset.skins.get(s as usize))
+                                .is_some_and(|s| s.joints.contains(&node))
+                    })
+                };
+                let list = list.as_array().ok_or_else(|| format!("{jptr}: expected a list of example poses"))?;
+                if list.len() > MAX_EXAMPLES {
+                    return Err(format!(
+                        "{jptr}/{MAX_EXAMPLES}: {} example poses for {joint:?}; at most {MAX_EXAMPLES} per joint",
+                        list.len()
+                    ));
+                }
+                for (i, example) in list.iter().enumerate() {
+                    let ptr = format!("{jptr}/{i}");
+                    let example = example.as_object().ok_or_else(|| format!("{ptr}: expected an object"))?;
+                    let mesh = match example.get("mesh") {
+                        None => (0..asset.meshes.len() as u32)
+                            .find(|&m| skinned_by(m))
+                            .ok_or_else(|| format!("{ptr}: no mesh is skinned by a skin with joint {joint:?}"))?,
+                        Some(m) => {
+                            let mesh = match m {
+                                Value::String(name) => {
+                                    asset.meshes.iter().position(|x| x.name.as_deref() == Some(name.as_str()))
+                                }
+                                _ => m.as_u64().map(|i| i as usize).filter(|&i| i < asset.meshes.len()),
+                            }
+                            .ok_or_else(|| format!("{ptr}/mesh: no mesh {m} in the model"))?
+                                as u32;
+                            if !skinned_by(mesh) {
+                                return Err(format!(
+                                    "{ptr}/mesh: mesh {m} is not skinned by a skin with joint {joint:?}"
+                                ));
+                            }
+                            mesh
+                        }
+                    };
+                    let rotation = rotation(example.get("rotation"), &format!("{ptr}/rotation"))?;
+                    let shape = shape(asset, mesh, example, &ptr)?;
+                    out.poses.push(JointExample { node, mesh, rotation, shape, pointer: ptr });
+                }
+            }
+        }
+        if let Some(sigma) = root.get("example_sigma") {
+            let sigma = sigma.as_object().ok_or("/example_sigma: expected an object of joints")?;
+            for (joint, value) in sigma {
+                let ptr = format!("/example_sigma/{}", escape(joint));
+                let node = node_named(joint, &ptr)?;
+                let s = value
+                    .as_f64()
+                    .map(|v| v as f32)
+                    .filter(|v| v.is_finite() && *v >= 1e-3 && *v <= 10.0)
+                    .ok_or_else(|| format!("{ptr}: expected σ in radians, from 0.001 to 10"))?;
+                out.sigma.push((node, s));
+            }
+        }
+        Ok(out)
+    }
+
+    /// The sidecar members that reproduce these examples (merge them into a sidecar's object);
+    /// inline shapes as base64.
+    pub fn to_json(&self, asset: &Asset) -> Map<String, Value> {
+        let name = |node: u32| {
+            asset.nodes.get(node as usize).and_then(|n| n.name.clone()).unwrap_or_else(|| format!("node {node}"))
+        };
+        let mut joints = Map::new();
+        for e in &self.poses {
+            let mut entry = Map::new();
+            let q = e.rotation;
+            entry.insert("rotation".into(), json!([q.x, q.y, q.z, q.w]));
+            entry.insert("mesh".into(), json!(e.mesh));
+            match &e.shape {
+                ExampleShape::Target { index, space } => {
+                    entry.insert("target".into(), json!(index));
+                    let space = if *space == ExampleSpace::Rest { "rest" } else { "posed" };
+                    entry.insert("space".into(), json!(space));
+                }
+                ExampleShape::Inline { positions, normals } => {
+                    entry.insert("offsets".into(), json!(encode(positions)));
+                    if !normals.is_empty() {
+                        entry.insert("normals".into(), json!(encode(normals)));
+                    }
+                }
+            }
+            let list = joints.entry(name(e.node)).or_insert_with(|| json!([]));
+            if let Value::Array(list) = list {
+                list.push(Value::Object(entry));
+            }
+        }
+        let mut out = Map::new();
+        out.insert("examples".into(), Value::Object(joints));
+        if !self.sigma.is_empty() {
+            let sigma: Map<String, Value> = self.sigma.iter().map(|&(n, s)| (name(n), json!(s))).collect();
+            out.insert("example_sigma".into(), Value::Object(sigma));
+        }
+        out
+    }
+
+    /// The examples that shape `primitive` of `mesh` under `skin`'s joints, as
+    /// [`crate::job::sjbbe::SjbbeRig::build`] takes them.
+    pub fn for_primitive(
+        &self,
+        asset: &Asset,
+        skin: usize,
+        mesh: u32,
+        primitive: usize,
+    ) -> Result<PrimitiveExamples, String> {
+        let (Some(skin), Some(m)) = (asset.skins.get(skin), asset.meshes.get(mesh as usize)) else {
+            return Ok(Default::default());
+        };
+        let Some(prim) = m.primitives.get(primitive) else { return Ok(Default::default()) };
+        let first_vertex: usize = m.primitives[..primitive].iter().map(|p| p.positions.len()).sum();
+        let joint_of = |node: u32| skin.joints.iter().position(|&j| j == node).map(|j| j as u16);
+        let (mut poses, mut sources) = (Vec::new(), Vec::new());
+        for (i, e) in self.poses.iter().enumerate() {
+            let Some(joint) = joint_of(e.node).filter(|_| e.mesh == mesh) else { continue };
+            let (positions, normals, space) = match &e.shape {
+                ExampleShape::Target { index, space } => {
+                    let target = prim.targets.get(*index as usize).ok_or_else(|| {
+                        format!("{}/target: primitive {primitive} has no morph target {index}", e.pointer)
+                    })?;
+                    let (positions, normals) = match space {
+                        // The posed shape: the reference vertices moved by the target.
+                        ExampleSpace::Posed => (
+                            add(&prim.positions, &target.positions),
+                            if target.normals.is_empty() { Vec::new() } else { add(&prim.normals, &target.normals) },
+                        ),
+                        ExampleSpace::Rest => (target.positions.clone(), target.normals.clone()),
+                    };
+                    (positions, normals, *space)
+                }
+                ExampleShape::Inline { positions, normals } => {
+                    let range = first_vertex..first_vertex + prim.positions.len();
+                    let part = |v: &Vec<[f32; 3]>| v.get(range.clone()).map(<[_]>::to_vec).unwrap_or_default();
+                    (part(positions), part(normals), ExampleSpace::Rest)
+                }
+            };
+            poses.push(ExamplePose { joint, rotation: e.rotation, positions, normals, space });
+            sources.push(i);
+        }
+        let sigma = self.sigma.iter().filter_map(|&(n, s)| Some((joint_of(n)?, s))).collect();
+        Ok(PrimitiveExamples { poses, sources, sigma })
+    }
+}
+
+/// The examples of one primitive ([`Examples::for_primitive`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PrimitiveExamples {
+    /// The poses, with the skin's joint indices.
+    pub poses: Vec<ExamplePose>,
+    /// Each pose's index in [`Examples::poses`].
+    pub sources: Vec<usize>,
+    /// σ per skin joint, where set.
+    pub sigma: Vec<(u16, f32)>,
+}
+
+/// `base + delta` per vertex (a target shorter than the base adds nothing past its end).
+fn add(base: &[[f32; 3]], delta: &[[f32; 3]]) -> Vec<[f32; 3]> {
+    base.iter()
+        .enumerate()
+        .map(|(i, b)| {
+            let d = delta.get(i).copied().unwrap_or([0.0; 3]);
+            [b[0] + d[0], b[1] + d[1], b[2] + d[2]]
+        })
+        .collect()
+}
+
+/// A unit quaternion `[x, y, z, w]` at `ptr`.
+fn rotation(value: Option<&Value>, ptr: &str) -> Result<Quat, String> {
+    let v = value.ok_or_else(|| format!("{ptr}: missing"))?;
+    let xs: Vec<f32> = v
+        .as_array()
+        .filter(|a| a.len() == 4)
+        .and_then(|a| a.iter().map(|x| x.as_f64().map(|x| x as f32)).collect())
+        .ok_or_else(|| format!("{ptr}: expected [x, y, z, w]"))?;
+    let q = Quat::from_xyzw(xs[0], xs[1], xs[2], xs[3]);
+    let length = q.length();
+    if !length.is_finite() || (length - 1.0).abs() > 1e-3 {
+        return Err(format!("{ptr}: not a unit quaternion (length {length})"));
+    }
+    Ok(q.normalize())
+}
+
+/// An example's shape: a morph target or inline offsets.
+fn shape(asset: &Asset, mesh: u32, example: &Map<String, Value>, ptr: &str) -> Result<ExampleShape, String> {
+    let m = &asset.meshes[mesh as usize];
+    match (example.get("target"), example.get("offsets")) {
+        (Some(_), Some(_)) => Err(format!("{ptr}: give either target or offsets, not both")),
+        (None, None) => Err(format!("{ptr}: missing target (a morph target) or offsets (inline)")),
+        (Some(t), None) => {
+            let count = m.primitives.first().map_or(0, |p| p.targets.len());
+            let index = match t {
+                Value::String(name) => m.target_names.iter().position(|n| n == name),
+                _ => t.as_u64().map(|i| i as usize).filter(|&i| i < count),
+            }
+            .filter(|&i| i < count)
+            .ok_or_else(|| format!("{ptr}/target: mesh {mesh} has no morph target {t} ({count} targets)"))?;
+            let space = match example.get("space").map(|s| s.as_str()) {
+                None | Some(Some("rest")) => ExampleSpace::Rest,
+                Some(Some("posed")) => ExampleSpace::Posed,
+                Some(_) => return Err(format!("{ptr}/space: expected \"rest\" or \"posed\"")),
+            };
+            Ok(ExampleShape::Target { index: index as u32, space })
+        }
+        (None, Some(offsets)) => {
+            let n = mesh_vertices(asset, mesh);
+            let positions = decode(offsets, n, &format!("{ptr}/offsets"))?;
+            let normals = match example.get("normals") {
+                Some(v) => decode(v, n, &format!("{ptr}/normals"))?,
+                None => Vec::new(),
+            };
+            Ok(ExampleShape::Inline { positions, normals })
+        }
+    }
+}
+
+/// `count` vectors from base64 of little-endian `f32` triples, finite.
+fn decode(value: &Value, count: usize, ptr: &str) -> Result<Vec<[f32; 3]>, String> {
+    let text = value.as_str().ok_or_else(|| format!("{ptr}: expected base64 text"))?;
+    let expected = count * 12;
+    // Checked against the mesh before decoding: 4 characters per 3 bytes.
+    if text.len() != expected.div_ceil(3) * 4 {
+        return Err(format!(
+            "{ptr}: {} base64 characters; {count} vertices need {}",
+            text.len(),
+            expected.div_ceil(3) * 4
+        ));
+    }
+    let bytes =
+        base64::engine::general_purpose::STANDARD.decode(text).map_err(|e| format!("{ptr}: not base64 ({e})"))?;
+    if bytes.len() != expected {
+        return Err(format!("{ptr}: {} bytes; {count} vertices need {expected}", bytes.len()));
+    }
+    let mut out = Vec::with_capacity(count);
+    for (v, chunk) in bytes.chunks_exact(12).enumerate() {
+        let f = |k: usize| f32::from_le_bytes([chunk[4 * k], chunk[4 * k + 1], chunk[4 * k + 2], chunk[4 * k + 3]]);
+        let xyz = [f(0), f(1), f(2)];
+        if !xyz.iter().all(|x| x.is_finite()) {
+            return Err(format!("{ptr}: vertex {v} is not finite"));
+        }
+        out.push(xyz);
+    }
+    Ok(out)
+}
+
+/// Base64 of little-endian `f32` triples.
+fn encode(values: &[[f32; 3]]) -> String {
+    let bytes: Vec<u8> = values.iter().flatten().flat_map(|x| x.to_le_bytes()).collect();
+    base64::engine::general_purpose::STANDARD.encode(bytes)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::asset::{Mesh, MorphTarget, Node, Primitive, Scene, Topology};
+    use crate::instance::Instance;
+    use crate::job::dqs::SkinningMethod;
+    use crate::job::sjbbe::tests::{skin, tube};
+    use crate::math::{Transform, Vec3};
+
+    /// The SJBBE test tube as a model: joints Root, Upper, Lower, End along X, mesh "Tube" with
+    /// one morph target "Bulge" (the ring normals × 0.04).
+    fn model() -> Asset {
+        let (skin, parents) = skin(false);
+        let t = tube();
+        let names = ["Root", "Upper", "Lower", "End"];
+        let mut nodes: Vec<Node> = (0..4)
+            .map(|j| Node {
+                name: Some(names[j].into()),
+                parent: parents[j],
+                children: if j < 3 { vec![j as u32 + 1] } else { Vec::new() },
+                rest: Transform {
+                    translation: Vec3::new(if j == 0 { 0.0 } else { 1.0 }, 0.0, 0.0),
+                    ..Transform::IDENTITY
+                },
+                ..Node::default()
+            })
+            .collect();
+        nodes.push(Node { name: Some("Body".into()), mesh: Some(0), skin: Some(0), ..Node::default() });
+        let bulge: Vec<[f32; 3]> = t.normals.iter().map(|n| [0.0, n[1] * 0.04, n[2] * 0.04]).collect();
+        let primitive = Primitive {
+            topology: Topology::Points,
+            vertex_count: t.positions.len() as u32,
+            indices: (0..t.positions.len() as u32).collect(),
+            positions: t.positions,
+            normals: t.normals,
+            joints: t.joints,
+            weights: t.weights,
+            targets: vec![MorphTarget { positions: bulge, ..MorphTarget::default() }],
+            ..Primitive::default()
+        };
+        Asset {
+            nodes,
+            order: vec![0, 1, 2, 3, 4],
+            scenes: vec![Scene { name: None, roots: vec![0, 4] }],
+            default_scene: Some(0),
+            meshes: vec![Mesh {
+                name: Some("Tube".into()),
+                primitives: vec![primitive],
+                weights: vec![0.0],
+                target_names: vec!["Bulge".into()],
+            }],
+            skins: vec![skin],
+            weight_offsets: vec![0; 5],
+            ..Asset::default()
+        }
+    }
+
+    const BENT: &str = "[0, 0, 0.70710677, 0.70710677]";
+
+    fn sidecar(examples: &str) -> String {
+        format!(r#"{{ "examples": {{ {examples} }} }}"#)
+    }
+
+    fn refused(asset: &Asset, json: &str) -> String {
+        match Examples::from_json(asset, json) {
+            Err(e) => e,
+            Ok(examples) => Instance::new(asset).set_examples(asset, &examples).expect_err("refused"),
+        }
+    }
+
+    #[cfg_attr(not(target_arch = "wasm32"), test)]
+    #[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+    fn broken_examples_name_their_pointer() {
+        let asset = model();
+        let cases = [
+            (sidecar(&format!(r#""Nope": [{{"rotation": {BENT}, "target": 0}}]"#)), "/examples/Nope: no joint"),
+            (
+                sidecar(r#""Lower": [{"rotation": [0, 0, 0.5, 0.5], "target": 0}]"#),
+                "/examples/Lower/0/rotation: not a unit",
+            ),
+            (sidecar(&format!(r#""Lower": [{{"rotation": {BENT}, "target": "Flex"}}]"#)), "/examples/Lower/0/target:"),
+            (sidecar(&format!(r#""Lower": [{{"rotation": {BENT}, "target": 3}}]"#)), "/examples/Lower/0/target:"),
+            (
+                sidecar(&format!(r#""Lower": [{{"rotation": {BENT}, "target": 0, "space": "wherever"}}]"#)),
+                "/examples/Lower/0/space:",
+            ),
+            (
+                sidecar(&format!(r#""Lower": [{{"rotation": {BENT}, "offsets": "AAAA"}}]"#)),
+                "/examples/Lower/0/offsets: 4 base64",
+            ),
+            (sidecar(&format!(r#""Lower": [{{"rotation": {BENT}}}]"#)), "/examples/Lower/0: missing target"),
+            (
+                sidecar(&format!(r#""Lower": [{{"rotation": {BENT}, "target": 0, "mesh": "Hat"}}]"#)),
+                "/examples/Lower/0/mesh:",
+            ),
+            (
+                sidecar(&format!(
+                    r#""Lower": [{}]"#,
+                    [BENT; 5].map(|q| format!(r#"{{"rotation": {q}, "target": 0}}"#)).join(",")
+                )),
+                "/examples/Lower/4:",
+            ),
+            (
+                sidecar(&format!(r#""End": [{{"rotation": {BENT}, "target": 0}}]"#)),
+                "/examples/End/0: the joint has 0 child joints",
+            ),
+            (
+                sidecar(&format!(
+                    r#""Lower": [{{"rotation": {BENT}, "target": 0}}, {{"rotation": {BENT}, "target": "Bulge"}}]"#
+                )),
+                "/examples/Lower/1: example 0 and example 1",
+            ),
+            (r#"{ "examples": {}, "example_sigma": { "Lower": -1 } }"#.to_owned(), "/example_sigma/Lower:"),
+            ("{ \"examples\": [] }".to_owned(), "/examples: expected an object"),
+        ];
+        for (json, expected) in cases {
+            let e = refused(&asset, &json);
+            assert!(e.starts_with(expected), "{json}\n  gave {e}\n  expected {expected}…");
+        }
+    }
+
+    #[cfg_attr(not(target_arch = "wasm32"), test)]
+    #[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+    fn inline_examples_round_trip_exactly() {
+        let asset = model();
+        let offsets: Vec<[f32; 3]> = (0..200).map(|v| [v as f32 * 1e-3, 0.1 / (v as f32 + 1.0), -0.3]).collect();
+        let examples = Examples {
+            poses: vec![JointExample {
+                node: 2,
+                mesh: 0,
+                rotation: Quat::from_rotation_z(0.7),
+                shape: ExampleShape::Inline { positions: offsets.clone(), normals: offsets },
+                pointer: "/examples/Lower/0".into(),
+            }],
+            sigma: vec![(2, 0.8)],
+        };
+        let json = serde_json::to_string(&examples.to_json(&asset)).expect("JSON");
+        let back = Examples::from_json(&asset, &json).expect("reads back");
+        assert_eq!(back, examples);
+    }
+
+    #[cfg_attr(not(target_arch = "wasm32"), test)]
+    #[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+    fn an_instance_with_examples_bulges_only_near_the_example_pose() {
+        let asset = model();
+        let json = sidecar(&format!(r#""Lower": [{{"rotation": {BENT}, "target": "Bulge", "space": "rest"}}]"#));
+        let examples = Examples::from_json(&asset, &json).expect("reads");
+        let mut instance = Instance::new(&asset);
+        instance.set_skinning(&asset, SkinningMethod::SphericalJointBlendByExample);
+        instance.set_examples(&asset, &examples).expect("builds");
+        let rig = instance.sjbbe_rig(4, 0).expect("a rig for the tube").clone();
+        let deform = |instance: &mut Instance, method, rotation: Quat| {
+            instance.set_skinning(&asset, method);
+            instance.evaluate(&asset, None, 0.0).expect("rest");
+            instance.pose_mut().locals[2].rotation = rotation;
+            instance.update(&asset).expect("update");
+            let (mut p, mut n) = (Vec::new(), Vec::new());
+            instance.deform_primitive(&asset, 4, 0, &mut p, &mut n).expect("deform");
+            p
+        };
+        let bent = Quat::from_rotation_z(std::f32::consts::FRAC_PI_2);
+        let by_example = deform(&mut instance, SkinningMethod::SphericalJointBlendByExample, bent);
+        let plain = deform(&mut instance, SkinningMethod::SphericalJointBlend, bent);
+        for (v, (a, b)) in by_example.iter().zip(&plain).enumerate() {
+            let moved = Vec3::from(*a).distance(Vec3::from(*b));
+            let expected = if rig.vertex_slot[v] == crate::job::sjbbe::NO_SLOT { 0.0 } else { 0.04 };
+            assert!((moved - expected).abs() < 1e-4, "vertex {v} moved {moved}, expected {expected}");
+        }
+        // At the reference pose SJBBE is SJB.
+        let rest = deform(&mut instance, SkinningMethod::SphericalJointBlendByExample, Quat::IDENTITY);
+        let rest_sjb = deform(&mut instance, SkinningMethod::SphericalJointBlend, Quat::IDENTITY);
+        assert!(rest.iter().zip(&rest_sjb).all(|(a, b)| Vec3::from(*a).distance(Vec3::from(*b)) < 1e-6));
+    }
+}
