@@ -27,8 +27,10 @@
 use base64::Engine;
 use serde_json::{Map, Value, json};
 
-use crate::asset::Asset;
-use crate::job::sjbbe::{ExamplePose, ExampleSpace, MAX_EXAMPLES};
+use crate::asset::{Asset, MorphTarget};
+use crate::error::JobError;
+use crate::instance::Instance;
+use crate::job::sjbbe::{ExamplePose, ExampleSpace, MAX_EXAMPLES, NO_SLOT, SjbbeAlphaJob, SjbbeRig};
 use crate::math::Quat;
 
 /// The example poses of one model.
@@ -265,6 +267,154 @@ pub struct PrimitiveExamples {
     pub sigma: Vec<(u16, f32)>,
 }
 
+/// Example poses compiled into morph targets, for renderers that morph and skin on the GPU:
+/// `SJB(v + Σ α offset)` is SJB over morph targets whose weights are α. Each mesh shaped by
+/// examples gains one target per (joint, example) of its rig, holding that example's offsets on
+/// the joint's support and zero elsewhere; each frame [`ExampleTargets::write_weights`] sets
+/// those targets' weights to α (or to zero for another skinning method). The asset's own
+/// targets and the clips that animate them are unchanged.
+#[derive(Clone, Debug, Default)]
+pub struct ExampleTargets {
+    /// Per node instancing a shaped mesh: its rig's bones and where their weights go.
+    nodes: Vec<NodeTargets>,
+    /// α scratch, sized for the largest rig.
+    alphas: Vec<[f32; MAX_EXAMPLES]>,
+}
+
+/// One node's example weights.
+#[derive(Clone, Debug)]
+struct NodeTargets {
+    skin: usize,
+    /// The rig whose bones give α (the node's first shaped primitive's; all of a mesh's
+    /// primitives share the bones).
+    rig: SjbbeRig,
+    /// Index in the pose's weights of the first example target.
+    first_weight: usize,
+}
+
+impl ExampleTargets {
+    /// `asset` with the example targets of every mesh that `examples` shape (through the rigs
+    /// of `instance`, made for `asset` with [`Instance::set_examples`]), and what writes their
+    /// weights. Without examples the asset is returned as it is.
+    pub fn compile(asset: &Asset, instance: &Instance) -> (Asset, ExampleTargets) {
+        let mut out = asset.clone();
+        let mut added: Vec<usize> = vec![0; asset.meshes.len()];
+        // Each mesh's targets come from the first node that instances it with a rig.
+        for (m, mesh) in asset.meshes.iter().enumerate() {
+            let Some(node) = (0..asset.nodes.len() as u32)
+                .find(|&n| asset.nodes[n as usize].mesh == Some(m as u32) && instance.sjbbe_rig(n, 0).is_some())
+            else {
+                continue;
+            };
+            let Some(keys) = instance.sjbbe_rig(node, 0).map(|r| rig_keys(r)) else { continue };
+            for (p, prim) in mesh.primitives.iter().enumerate() {
+                let rig = instance.sjbbe_rig(node, p);
+                for &(bone, example) in &keys {
+                    let offsets = |normals: bool| -> Vec<[f32; 3]> {
+                        (0..prim.positions.len())
+                            .map(|v| {
+                                let Some(rig) = rig else { return [0.0; 3] };
+                                match rig.vertex_slot.get(v).copied() {
+                                    Some(s) if s != NO_SLOT && rig.slot_bone.get(s as usize) == Some(&bone) => {
+                                        let table = if normals { &rig.normal_offsets } else { &rig.offsets };
+                                        table.get(s as usize).map_or([0.0; 3], |o| o[example])
+                                    }
+                                    _ => [0.0; 3],
+                                }
+                            })
+                            .collect()
+                    };
+                    let normals = if prim.normals.is_empty() { Vec::new() } else { offsets(true) };
+                    let tangents = if prim.targets.iter().any(|t| !t.tangents.is_empty()) && !prim.tangents.is_empty() {
+                        vec![[0.0; 3]; prim.positions.len()]
+                    } else {
+                        Vec::new()
+                    };
+                    out.meshes[m].primitives[p].targets.push(MorphTarget {
+                        positions: offsets(false),
+                        normals,
+                        tangents,
+                    });
+                }
+            }
+            for &(bone, example) in &keys {
+                let joint = instance.sjbbe_rig(node, 0).and_then(|r| r.bones.get(bone as usize)).map_or(0, |b| b.joint);
+                let name = asset
+                    .skins
+                    .iter()
+                    .find_map(|s| s.joints.get(joint as usize))
+                    .and_then(|&n| asset.nodes.get(n as usize)?.name.clone())
+                    .unwrap_or_else(|| format!("joint {joint}"));
+                out.meshes[m].weights.push(0.0);
+                if !out.meshes[m].target_names.is_empty() {
+                    out.meshes[m].target_names.push(format!("sjbbe {name} {example}"));
+                }
+            }
+            added[m] = keys.len();
+        }
+        // Node weights, their offsets in the pose, and which nodes write α.
+        let mut targets = ExampleTargets::default();
+        let mut total = 0u32;
+        for (n, node) in out.nodes.iter_mut().enumerate() {
+            let extra = node.mesh.map_or(0, |m| added.get(m as usize).copied().unwrap_or(0));
+            out.weight_offsets[n] = total;
+            let own = node.weights.len();
+            if extra > 0 {
+                node.weights.extend(std::iter::repeat_n(0.0, extra));
+                let (Some(skin), Some(rig)) = (node.skin, instance.sjbbe_rig(n as u32, 0)) else { continue };
+                targets.nodes.push(NodeTargets {
+                    skin: skin as usize,
+                    rig: rig.clone(),
+                    first_weight: total as usize + own,
+                });
+            }
+            total += node.weights.len() as u32;
+        }
+        out.weight_total = total;
+        let bones = targets.nodes.iter().map(|t| t.rig.bones.len()).max().unwrap_or(0);
+        targets.alphas = vec![[0.0; MAX_EXAMPLES]; bones];
+        (out, targets)
+    }
+
+    /// Whether any node has example targets.
+    pub fn is_empty(&self) -> bool {
+        self.nodes.is_empty()
+    }
+
+    /// Writes each example target's weight into `instance`'s pose: α from the current palettes
+    /// when `on`, zero otherwise. Call after the pose and palettes are updated, before
+    /// deforming or drawing (the weights do not move the skeleton).
+    ///
+    /// # Errors
+    /// A rig that does not fit the instance's palettes (made for another asset).
+    pub fn write_weights(&mut self, instance: &mut Instance, on: bool) -> Result<(), JobError> {
+        for t in &self.nodes {
+            let alphas = &mut self.alphas[..t.rig.bones.len()];
+            if on {
+                SjbbeAlphaJob { rig: &t.rig, palette: instance.palette(t.skin), out: alphas }.run()?;
+            } else {
+                alphas.fill([0.0; MAX_EXAMPLES]);
+            }
+            let weights = &mut instance.pose_mut().weights;
+            let mut k = t.first_weight;
+            for (bone, alpha) in t.rig.bones.iter().zip(alphas.iter()) {
+                for &a in &alpha[..bone.rotations.len()] {
+                    if let Some(w) = weights.get_mut(k) {
+                        *w = a;
+                    }
+                    k += 1;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A rig's (bone, example) pairs in order: its example targets.
+fn rig_keys(rig: &SjbbeRig) -> Vec<(u16, usize)> {
+    rig.bones.iter().enumerate().flat_map(|(b, bone)| (0..bone.rotations.len()).map(move |e| (b as u16, e))).collect()
+}
+
 /// `base + delta` per vertex (a target shorter than the base adds nothing past its end).
 fn add(base: &[[f32; 3]], delta: &[[f32; 3]]) -> Vec<[f32; 3]> {
     base.iter()
@@ -387,7 +537,13 @@ mod tests {
                 ..Node::default()
             })
             .collect();
-        nodes.push(Node { name: Some("Body".into()), mesh: Some(0), skin: Some(0), ..Node::default() });
+        nodes.push(Node {
+            name: Some("Body".into()),
+            mesh: Some(0),
+            skin: Some(0),
+            weights: vec![0.0],
+            ..Node::default()
+        });
         let bulge: Vec<[f32; 3]> = t.normals.iter().map(|n| [0.0, n[1] * 0.04, n[2] * 0.04]).collect();
         let primitive = Primitive {
             topology: Topology::Points,
@@ -413,6 +569,7 @@ mod tests {
             }],
             skins: vec![skin],
             weight_offsets: vec![0; 5],
+            weight_total: 1,
             ..Asset::default()
         }
     }
@@ -532,5 +689,51 @@ mod tests {
         let rest = deform(&mut instance, SkinningMethod::SphericalJointBlendByExample, Quat::IDENTITY);
         let rest_sjb = deform(&mut instance, SkinningMethod::SphericalJointBlend, Quat::IDENTITY);
         assert!(rest.iter().zip(&rest_sjb).all(|(a, b)| Vec3::from(*a).distance(Vec3::from(*b)) < 1e-6));
+    }
+
+    #[cfg_attr(not(target_arch = "wasm32"), test)]
+    #[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+    fn examples_as_morph_targets_weighted_by_alpha_are_sjbbe() {
+        let asset = model();
+        let json = sidecar(&format!(
+            r#""Lower": [{{"rotation": {BENT}, "target": "Bulge"}}, {{"rotation": [0, 0, -0.5, 0.8660254], "offsets": "{}"}}]"#,
+            super::encode(&vec![[0.0, 0.0, 0.03]; 200])
+        ));
+        let examples = Examples::from_json(&asset, &json).expect("reads");
+        let mut reference = Instance::new(&asset);
+        reference.set_skinning(&asset, SkinningMethod::SphericalJointBlendByExample);
+        reference.set_examples(&asset, &examples).expect("builds");
+        let (derived, mut targets) = ExampleTargets::compile(&asset, &reference);
+        assert_eq!(derived.meshes[0].primitives[0].targets.len(), 3, "the asset's target and two examples");
+        assert_eq!(derived.weight_total, 3);
+        let mut gpu_like = Instance::new(&derived);
+        gpu_like.set_skinning(&derived, SkinningMethod::SphericalJointBlend);
+        for degrees in [0.0f32, 30.0, 90.0, -60.0, -100.0] {
+            let rotation = Quat::from_rotation_z(degrees.to_radians());
+            let run = |instance: &mut Instance, asset: &Asset, targets: Option<(&mut ExampleTargets, bool)>| {
+                instance.evaluate(asset, None, 0.0).expect("rest");
+                instance.pose_mut().locals[2].rotation = rotation;
+                instance.update(asset).expect("update");
+                if let Some((t, on)) = targets {
+                    t.write_weights(instance, on).expect("weights");
+                }
+                let (mut p, mut n) = (Vec::new(), Vec::new());
+                instance.deform_primitive(asset, 4, 0, &mut p, &mut n).expect("deform");
+                (p, n)
+            };
+            let (want, want_n) = run(&mut reference, &asset, None);
+            let (got, got_n) = run(&mut gpu_like, &derived, Some((&mut targets, true)));
+            let far = |a: &[[f32; 3]], b: &[[f32; 3]]| {
+                a.iter().zip(b).map(|(a, b)| Vec3::from(*a).distance(Vec3::from(*b))).fold(0.0, f32::max)
+            };
+            assert!(far(&want, &got) < 1e-5, "{degrees}°: {}", far(&want, &got));
+            assert!(far(&want_n, &got_n) < 1e-4, "{degrees}°: normals {}", far(&want_n, &got_n));
+            // Off: plain SJB.
+            reference.set_skinning(&asset, SkinningMethod::SphericalJointBlend);
+            let (sjb, _) = run(&mut reference, &asset, None);
+            reference.set_skinning(&asset, SkinningMethod::SphericalJointBlendByExample);
+            let (off, _) = run(&mut gpu_like, &derived, Some((&mut targets, false)));
+            assert!(far(&sjb, &off) < 1e-6, "{degrees}°: off is not SJB");
+        }
     }
 }
