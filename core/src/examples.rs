@@ -306,7 +306,7 @@ impl ExampleTargets {
             else {
                 continue;
             };
-            let Some(keys) = instance.sjbbe_rig(node, 0).map(|r| rig_keys(r)) else { continue };
+            let Some(keys) = instance.sjbbe_rig(node, 0).map(rig_keys) else { continue };
             for (p, prim) in mesh.primitives.iter().enumerate() {
                 let rig = instance.sjbbe_rig(node, p);
                 for &(bone, example) in &keys {
