@@ -55,7 +55,7 @@ export interface ValidationReport {
   info?: Record<string, unknown>;
 }
 
-export type SkinningMethod = 'rigid' | 'lbs' | 'dqs' | 'sjb';
+export type SkinningMethod = 'rigid' | 'lbs' | 'dqs' | 'sjb' | 'sjbbe';
 export type SkinningPath = 'gpu' | 'compute' | 'cpu';
 export type LoopMode = 'once' | 'repeat' | 'pingpong';
 export type Backend = 'auto' | 'webgpu' | 'webgl2';

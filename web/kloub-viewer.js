@@ -379,7 +379,7 @@ canvas { display: block; width: 100%; height: 100%; outline: none; touch-action:
 `;
 
 const LOOP_MODES = new Set(['once', 'repeat', 'pingpong']);
-const SKINNING = ['rigid', 'lbs', 'dqs', 'sjb'];
+const SKINNING = ['rigid', 'lbs', 'dqs', 'sjb', 'sjbbe'];
 const SKINNING_PATHS = ['gpu', 'compute', 'cpu'];
 const IK_SOLVERS = ['ccd', 'twobone', 'fabrik', 'dls'];
 const LIGHTING = ['studio', 'outdoor', 'flat', 'rim'];

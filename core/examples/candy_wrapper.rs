@@ -1,5 +1,6 @@
 //! Prints the candy-wrapper quality tables of BENCHMARKS.md: volume ratio to rest under bend
-//! and radius kept at the joint under twist, for every skinning method (CPU reference).
+//! and radius kept at the joint under twist, for every skinning method (CPU reference; `sjbbe`
+//! with the rig's example pose).
 //!
 //! `cargo run --release -p kloub-core --example candy_wrapper`
 
@@ -10,6 +11,8 @@ use kloub_core::job::dqs::SkinningMethod;
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let rig = CandyWrapper::new();
     let mut instance = Instance::new(&rig.asset);
+    // sjbbe: the rig's example pose (Joint bent 90°, a bulge keeping the volume there).
+    instance.set_examples(&rig.asset, &rig.examples())?;
     let (mut positions, mut normals) = (Vec::new(), Vec::new());
     let mut table = |title: &str,
                      column: &str,

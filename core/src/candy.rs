@@ -2,17 +2,23 @@
 //! (seed 001's test model), with the quality measures the viewer shows and the tests check.
 //!
 //! The cylinder lies along +X from x = −1 to x = 1 (radius [`RADIUS`]), closed by caps.
-//! Joint 0 (`Root`) sits at its left end, joint 1 (`Joint`) at x = 0; vertices within
+//! Joint 0 (`Root`) sits at its left end, joint 1 (`Joint`) at x = 0 and an unweighted `Tip`
+//! at the right end (it gives `Joint`'s bone a direction); vertices within
 //! [`BLEND_HALF_WIDTH`] of the joint blend linearly between the two. Twisting `Joint` about X
 //! collapses linear blend skinning at the joint (the candy wrapper); bending it about Z loses
 //! volume. Vertex colours stripe the surface so twist is visible.
+//!
+//! [`CandyWrapper::examples`] is an example pose for spherical joint blending by example:
+//! `Joint` bent 90° with a bulge around the joint whose height keeps the volume at that bend.
 
 use std::f32::consts::TAU;
 
 use crate::asset::{Asset, Material, Mesh, Node, Primitive, Scene, Skin, Topology};
 use crate::clip::{Channel, ChannelTarget, Clip, Interpolation};
 use crate::error::JobError;
+use crate::examples::{ExampleShape, Examples, JointExample};
 use crate::instance::Instance;
+use crate::job::dqs::SkinningMethod;
 use crate::math::{Mat4, Quat, Transform, Vec3};
 
 /// Cylinder radius.
@@ -27,6 +33,8 @@ pub const SEGMENTS: usize = 32;
 pub const JOINT_RING: usize = RINGS / 2;
 /// Node index of the twisting joint.
 pub const JOINT_NODE: u32 = 1;
+/// Bend of the example pose ([`CandyWrapper::examples`]), degrees.
+pub const EXAMPLE_BEND: f32 = 90.0;
 
 /// Quality of a deformed candy wrapper relative to its rest shape.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -66,13 +74,14 @@ impl CandyWrapper {
         };
         let nodes = vec![
             joint("Root", None, vec![1], -1.0),
-            joint("Joint", Some(0), vec![], 1.0),
+            joint("Joint", Some(0), vec![3], 1.0),
             Node { name: Some("Cylinder".into()), mesh: Some(0), skin: Some(0), ..Node::default() },
+            joint("Tip", Some(1), vec![], 1.0),
         ];
         let skin = Skin {
             name: Some("CandyWrapper".into()),
-            joints: vec![0, 1],
-            inverse_bind: vec![Mat4::from_translation(Vec3::X), Mat4::IDENTITY],
+            joints: vec![0, 1, 3],
+            inverse_bind: vec![Mat4::from_translation(Vec3::X), Mat4::IDENTITY, Mat4::from_translation(-Vec3::X)],
             skeleton: Some(0),
         };
         let material = Material {
@@ -84,7 +93,7 @@ impl CandyWrapper {
         };
         let asset = Asset {
             nodes,
-            order: vec![0, 1, 2],
+            order: vec![0, 1, 2, 3],
             scenes: vec![Scene { name: Some("Candy wrapper".into()), roots: vec![0, 2] }],
             default_scene: Some(0),
             meshes: vec![Mesh { name: Some("Cylinder".into()), primitives: vec![primitive], ..Mesh::default() }],
@@ -92,7 +101,7 @@ impl CandyWrapper {
             materials: vec![material],
             images: Vec::new(),
             clips: vec![swing("Twist", Vec3::X, 180.0), swing("Bend", Vec3::Z, 150.0)],
-            weight_offsets: vec![0; 3],
+            weight_offsets: vec![0; 4],
             weight_total: 0,
             extensions: Default::default(),
         };
@@ -102,14 +111,80 @@ impl CandyWrapper {
     /// Poses `instance` (made for [`CandyWrapper::asset`]): `Joint` twisted about the bone
     /// axis by `twist_degrees`, then bent about Z by `bend_degrees`.
     pub fn pose(&self, instance: &mut Instance, twist_degrees: f32, bend_degrees: f32) -> Result<(), JobError> {
-        instance.pose_mut().reset_to_rest(&self.asset);
+        self.pose_in(&self.asset, instance, twist_degrees, bend_degrees)
+    }
+
+    /// [`CandyWrapper::pose`] for an instance of `asset`: the rig's asset or one made from it
+    /// (with the example pose's morph targets, [`crate::examples::ExampleTargets`]).
+    pub fn pose_in(
+        &self,
+        asset: &Asset,
+        instance: &mut Instance,
+        twist_degrees: f32,
+        bend_degrees: f32,
+    ) -> Result<(), JobError> {
+        instance.pose_mut().reset_to_rest(asset);
         let local = instance
             .pose_mut()
             .locals
             .get_mut(JOINT_NODE as usize)
             .ok_or_else(|| JobError::InvalidInput("the instance is not of the candy wrapper".into()))?;
         local.rotation = joint_rotation(twist_degrees, bend_degrees);
-        instance.update(&self.asset)
+        instance.update(asset)
+    }
+
+    /// The example pose of spherical joint blending by example: `Joint` bent [`EXAMPLE_BEND`]
+    /// degrees about Z, its support (the vertices `Root` moves) bulged radially around the
+    /// joint, `h · exp(−(x / 0.3)²)`, with `h` found so that the bent cylinder keeps its rest
+    /// volume. Offsets in the rest pose, as the viewer saves them.
+    pub fn examples(&self) -> Examples {
+        let side = |h: f32| -> Vec<[f32; 3]> {
+            let p = &self.asset.meshes[0].primitives[0];
+            (0..p.positions.len())
+                .map(|v| {
+                    if v >= RINGS * SEGMENTS {
+                        return [0.0; 3];
+                    }
+                    let [x, y, z] = p.positions[v];
+                    let bump = h * (-(x / 0.3).powi(2)).exp() / RADIUS;
+                    [0.0, y * bump, z * bump]
+                })
+                .collect()
+        };
+        let with = |h: f32| Examples {
+            poses: vec![JointExample {
+                node: JOINT_NODE,
+                mesh: 0,
+                rotation: joint_rotation(0.0, EXAMPLE_BEND),
+                shape: ExampleShape::Inline { positions: side(h), normals: Vec::new() },
+                pointer: "/examples/Joint/0".into(),
+            }],
+            sigma: Vec::new(),
+        };
+        // The volume grows with the bulge: bisect for the rest volume.
+        let volume = |h: f32| -> Option<f32> {
+            let mut instance = Instance::new(&self.asset);
+            instance.set_skinning(&self.asset, SkinningMethod::SphericalJointBlendByExample);
+            instance.set_examples(&self.asset, &with(h)).ok()?;
+            self.pose(&mut instance, 0.0, EXAMPLE_BEND).ok()?;
+            let (mut p, mut n) = (Vec::new(), Vec::new());
+            instance.deform_primitive(&self.asset, 2, 0, &mut p, &mut n).ok()?;
+            Some(self.quality(&p).volume_ratio)
+        };
+        let (mut lo, mut hi) = (0.0f32, 0.2 * RADIUS);
+        for _ in 0..24 {
+            let mid = 0.5 * (lo + hi);
+            match volume(mid) {
+                Some(v) if v < 1.0 => lo = mid,
+                _ => hi = mid,
+            }
+        }
+        with(0.5 * (lo + hi))
+    }
+
+    /// [`CandyWrapper::examples`] as a `.kloub.json` sidecar.
+    pub fn example_sidecar(&self) -> String {
+        serde_json::Value::Object(self.examples().to_json(&self.asset)).to_string()
     }
 
     /// Quality of `positions` (the deformed vertices of the cylinder, in its vertex order).
@@ -226,6 +301,7 @@ mod tests {
     fn measure(rig: &CandyWrapper, method: SkinningMethod, twist: f32, bend: f32) -> Quality {
         let mut instance = Instance::new(&rig.asset);
         instance.set_skinning(&rig.asset, method);
+        instance.set_examples(&rig.asset, &rig.examples()).expect("the example builds");
         rig.pose(&mut instance, twist, bend).expect("poses");
         let (mut p, mut n) = (Vec::new(), Vec::new());
         instance.deform_primitive(&rig.asset, 2, 0, &mut p, &mut n).expect("deforms");
@@ -264,6 +340,21 @@ mod tests {
             let q = measure(&rig, method, 0.0, 90.0);
             assert!(q.volume_ratio.is_finite() && q.volume_ratio > 0.5, "{method:?}: {q:?}");
         }
+    }
+
+    #[test]
+    fn the_example_pose_keeps_the_volume_at_its_bend_and_sjb_elsewhere_at_rest() {
+        let rig = CandyWrapper::new();
+        let sjbbe = |bend| measure(&rig, SkinningMethod::SphericalJointBlendByExample, 0.0, bend);
+        let sjb = |bend| measure(&rig, SkinningMethod::SphericalJointBlend, 0.0, bend);
+        assert!((sjbbe(EXAMPLE_BEND).volume_ratio - 1.0).abs() < 1e-4, "{:?}", sjbbe(EXAMPLE_BEND));
+        assert!(sjb(EXAMPLE_BEND).volume_ratio < 0.999, "SJB loses volume at 90°: {:?}", sjb(EXAMPLE_BEND));
+        assert_eq!(sjbbe(0.0), sjb(0.0));
+        // Half way the bulge is partly there.
+        let (a, b) = (sjbbe(45.0).volume_ratio, sjb(45.0).volume_ratio);
+        assert!(a > b, "at 45° SJBBE {a} SJB {b}");
+        let json = rig.example_sidecar();
+        assert_eq!(Examples::from_json(&rig.asset, &json).expect("reads back"), rig.examples());
     }
 
     #[test]

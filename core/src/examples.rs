@@ -439,7 +439,8 @@ fn rotation(value: Option<&Value>, ptr: &str) -> Result<Quat, String> {
     if !length.is_finite() || (length - 1.0).abs() > 1e-3 {
         return Err(format!("{ptr}: not a unit quaternion (length {length})"));
     }
-    Ok(q.normalize())
+    // Kept as written (the rig normalizes): a sidecar read and written back is unchanged.
+    Ok(q)
 }
 
 /// An example's shape: a morph target or inline offsets.

@@ -1,5 +1,6 @@
 // Kloub browser tests: drive the real page served by `kloub serve` in Debian chromium, on WebGPU and WebGL2.
 // Prints one line per test and closes with "browser: N passed, M failed"; exits 1 on any failure.
+import { execFileSync } from 'node:child_process';
 import { copyFileSync, mkdirSync, mkdtempSync, readFileSync, readdirSync, rmSync, writeFileSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { PNG } from 'pngjs';
@@ -15,6 +16,34 @@ import { registerWidgetTests } from './widget.mjs';
 const BACKENDS = (process.env.KLOUB_BACKENDS ?? 'webgpu,webgl2').split(',');
 const FOX = join(SHARED, 'khronos/Fox/glTF-Binary/Fox.glb');
 const RIGGED_SIMPLE = join(SHARED, 'khronos/RiggedSimple/glTF-Binary/RiggedSimple.glb');
+
+/** Column-major 4×4 product a · b. */
+function multiply(a, b) {
+  const out = new Array(16).fill(0);
+  for (let c = 0; c < 4; c++) for (let r = 0; r < 4; r++) for (let k = 0; k < 4; k++) out[c * 4 + r] += a[k * 4 + r] * b[c * 4 + k];
+  return out;
+}
+
+/** The inverse of a column-major rotation-and-translation matrix (scale 1). */
+function invertRigid(m) {
+  const out = new Array(16).fill(0);
+  for (let c = 0; c < 3; c++) for (let r = 0; r < 3; r++) out[c * 4 + r] = m[r * 4 + c];
+  for (let r = 0; r < 3; r++) out[12 + r] = -(out[r] * m[12] + out[4 + r] * m[13] + out[8 + r] * m[14]);
+  out[15] = 1;
+  return out;
+}
+
+/** The unit quaternion [x, y, z, w] of a column-major matrix's rotation (scale 1). */
+function quaternionOf(m) {
+  const [m00, m10, m20, m01, m11, m21, m02, m12, m22] = [m[0], m[1], m[2], m[4], m[5], m[6], m[8], m[9], m[10]];
+  const w = Math.sqrt(Math.max(0, 1 + m00 + m11 + m22)) / 2;
+  const x = Math.sign(m21 - m12) * Math.sqrt(Math.max(0, 1 + m00 - m11 - m22)) / 2;
+  const y = Math.sign(m02 - m20) * Math.sqrt(Math.max(0, 1 - m00 + m11 - m22)) / 2;
+  const z = Math.sign(m10 - m01) * Math.sqrt(Math.max(0, 1 - m00 - m11 + m22)) / 2;
+  const n = Math.hypot(x, y, z, w);
+  return [x / n, y / n, z / n, w / n];
+}
+
 const ROBOT = join(SHARED, 'threejs/RobotExpressive/RobotExpressive.glb');
 const RIGGED_FIGURE = join(SHARED, 'khronos/RiggedFigure/glTF-Binary/RiggedFigure.glb');
 const CESIUM_MAN = ['CesiumMan.gltf', 'CesiumMan_data.bin', 'CesiumMan_img0.jpg'].map((f) => join(SHARED, 'khronos/CesiumMan/glTF', f));
@@ -208,6 +237,20 @@ for (const backend of BACKENDS) {
     }
     const changed = diffFraction(shots.lbs, shots.dqs);
     assert(changed > 0.004, `switching LBS to DQS changed only ${(changed * 100).toFixed(3)}% of the viewport`);
+    // Bent 90° the sample's example pose keeps the volume under SJBBE, which SJB loses a little of.
+    await control(page, 'setCandyPose', 0, 90);
+    const volume = async (method) => {
+      await control(page, 'setSkinning', method);
+      await waitForDataset(page, (m) => document.querySelector('kloub-viewer').dataset.skinning === m, `skinning ${method}`, 30000, method);
+      await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
+      return Number((await dataset(page)).quality.split(',')[1]);
+    };
+    const [sjbVolume, sjbbeVolume] = [await volume('sjb'), await volume('sjbbe')];
+    assert(sjbbeVolume === 1 && sjbVolume < 1, `volume at 90°: SJB ${sjbVolume}, SJBBE ${sjbbeVolume}`);
+    await control(page, 'setSkinning', 'sjb');
+    await control(page, 'setCandyPose', 150, 0);
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.skinning === 'sjb', 'SJB again');
+    await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
     if (backend === 'webgpu') {
       await control(page, 'setSkinningPath', 'compute');
       await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.skinningPath === 'compute', 'the compute path', 30000);
@@ -345,6 +388,53 @@ for (const backend of BACKENDS) {
       const t0 = Number(d.time);
       await page.waitForFunction((t0) => Number(document.querySelector('kloub-viewer').dataset.time) !== t0, t0, { timeout: 10000 });
     }
+  });
+
+  test(`${backend}: a sidecar's example poses shape skinning="sjbbe" (SJB by example) and leave the other methods alone`, async (ctx) => {
+    const { page } = ctx;
+    await openApp(ctx, backend);
+    // CesiumMan's left elbow with one example pose: its rotation in the walk at 0.6 s (from `kloub pose`'s world
+    // matrices: parent⁻¹ · joint), whose inline offsets move the elbow's support (the upper arm off the torso)
+    // 0.25 along +X in the rest pose. Paused there, α = 1.
+    const doc = JSON.parse(execFileSync(join(ROOT, 'target/debug/kloub'), ['pose', CESIUM_MAN[0], '--time', '0.6'], { maxBuffer: 1 << 26 }));
+    const world = (name) => doc.frames[0].nodes.find((n) => n.name === name).world;
+    const local = multiply(invertRigid(world('Skeleton_arm_joint_L__4_')), world('Skeleton_arm_joint_L__3_'));
+    const offsets = new Float32Array(3273 * 3);
+    for (let v = 0; v < 3273; v++) offsets[3 * v] = 0.25;
+    const sidecar = { examples: { Skeleton_arm_joint_L__3_: [
+      { rotation: quaternionOf(local), offsets: Buffer.from(offsets.buffer).toString('base64') },
+    ] } };
+    await dropFiles(page, [
+      ...CESIUM_MAN.map((path) => ({ path })),
+      { name: 'CesiumMan.kloub.json', bytes: Buffer.from(JSON.stringify(sidecar)) },
+    ]);
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.model === 'CesiumMan.gltf' && document.querySelector('kloub-viewer').dataset.status === 'ready', 'CesiumMan with its sidecar');
+    await page.evaluate(() => { const v = document.querySelector('kloub-viewer'); v.pause(); v.currentTime = 0.6; });
+    const shot = async (method) => {
+      await control(page, 'setSkinning', method);
+      await waitForDataset(page, (m) => document.querySelector('kloub-viewer').dataset.skinning === m, `skinning ${method}`, 30000, method);
+      // A paused viewer paints only on change: two animation frames let the change land.
+      await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
+      return viewportShot(page);
+    };
+    const sjb = await shot('sjb');
+    const sjbbe = await shot('sjbbe');
+    savePng(sjbbe, `${backend}-sjbbe.png`);
+    const changed = diffFraction(sjb, sjbbe);
+    assert(changed > 0.002, `the example changed only ${(changed * 100).toFixed(3)}% of the viewport`);
+    const back = diffFraction(sjb, await shot('sjb'));
+    assert(back < 0.0005, `SJB after SJBBE differs in ${(back * 100).toFixed(3)}% of the viewport: the example weights stayed`);
+    // The CPU reference path draws SJBBE like the GPU.
+    await control(page, 'setSkinningPath', 'cpu');
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.skinningPath === 'cpu', 'the CPU path', 30000);
+    const cpu = diffFraction(sjbbe, await shot('sjbbe'));
+    assert(cpu < 0.001, `SJBBE on the CPU and on the GPU differ in ${(cpu * 100).toFixed(3)}% of the viewport`);
+    // A broken sidecar dropped on the model: an error naming its pointer, the model stays.
+    await dropFiles(page, [{ name: 'CesiumMan.kloub.json', bytes: Buffer.from(JSON.stringify({ examples: { Skeleton_arm_joint_L__3_: [{ rotation: [0, 0, 2, 0], offsets: '' }] } })) }]);
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.error !== '', 'the sidecar error');
+    const d = await dataset(page);
+    assert(d.error.includes('/examples/Skeleton_arm_joint_L__3_/0/rotation'), d.error);
+    assert(d.model === 'CesiumMan.gltf', `the model went: ${d.model}`);
   });
 
   if (backend === BACKENDS[0]) test(`${backend}: Validate runs the Khronos glTF-Validator on the dropped files (fetched only then) and the panel lists its report`, async (ctx) => {

@@ -2,6 +2,7 @@
 //! ([`kloub_core::candy::CandyWrapper`]) with twist and bend sliders and a live quality
 //! readout for every skinning method.
 
+use kloub_core::Asset;
 use kloub_core::Instance;
 use kloub_core::candy::{CandyWrapper, Quality};
 use kloub_core::job::dqs::SkinningMethod;
@@ -23,9 +24,9 @@ pub struct CandyPanel {
     /// The sliders pose the rig (instead of the playing clip).
     pub manual: bool,
     /// Quality of the current pose per method, in [`SkinningMethod::ALL`] order.
-    pub quality: [Quality; 4],
+    pub quality: [Quality; SkinningMethod::ALL.len()],
     /// Volume ratio per bend of [`TABLE_BENDS`], per method.
-    pub volume_table: [[f32; 4]; 6],
+    pub volume_table: [[f32; SkinningMethod::ALL.len()]; 6],
     measure: Instance,
     positions: Vec<[f32; 3]>,
     normals: Vec<[f32; 3]>,
@@ -35,15 +36,19 @@ impl CandyPanel {
     /// The rig at rest, with its volume table measured.
     pub fn new() -> Self {
         let rig = CandyWrapper::new();
-        let measure = Instance::new(&rig.asset);
+        let mut measure = Instance::new(&rig.asset);
+        // SJBBE measures with the rig's example pose (the shown model gets it from its sidecar).
+        if let Err(e) = measure.set_examples(&rig.asset, &rig.examples()) {
+            log::warn!("candy wrapper: {e}");
+        }
         let unit = Quality { radius_kept: 1.0, volume_ratio: 1.0 };
         let mut panel = Self {
             rig,
             twist: 150.0,
             bend: 0.0,
             manual: true,
-            quality: [unit; 4],
-            volume_table: [[1.0; 4]; 6],
+            quality: [unit; SkinningMethod::ALL.len()],
+            volume_table: [[1.0; SkinningMethod::ALL.len()]; 6],
             measure,
             positions: Vec::new(),
             normals: Vec::new(),
@@ -62,14 +67,15 @@ impl CandyPanel {
             name: "Candy wrapper".into(),
             asset: std::sync::Arc::new(self.rig.asset.clone()),
             warnings: Vec::new(),
-            sidecar: None,
+            // The example pose of spherical joint blending by example.
+            sidecar: Some(self.rig.example_sidecar()),
         }
     }
 
-    /// Poses `instance` by the sliders (when [`CandyPanel::manual`]).
-    pub fn apply(&self, instance: &mut Instance) -> Result<(), String> {
+    /// Poses `instance` (of `asset`, the shown model's) by the sliders (when [`CandyPanel::manual`]).
+    pub fn apply(&self, asset: &Asset, instance: &mut Instance) -> Result<(), String> {
         if self.manual {
-            self.rig.pose(instance, self.twist, self.bend).map_err(|e| e.to_string())?;
+            self.rig.pose_in(asset, instance, self.twist, self.bend).map_err(|e| e.to_string())?;
         }
         Ok(())
     }
@@ -86,7 +92,11 @@ impl CandyPanel {
         let asset = &self.rig.asset;
         self.measure.set_skinning(asset, method);
         let posed = match pose {
-            Some(pose) => self.measure.evaluate_pose(asset, pose).map_err(|e| e.to_string()),
+            // The shown pose's joints (its weights are the example targets' of the shown model).
+            Some(pose) => {
+                self.measure.pose_mut().locals.clone_from(&pose.locals);
+                self.measure.update(asset).map_err(|e| e.to_string())
+            }
             None => self.rig.pose(&mut self.measure, twist, bend).map_err(|e| e.to_string()),
         };
         let deformed = posed.and_then(|()| {

@@ -55,6 +55,15 @@ pub fn predecoded() -> usize {
     web::PREDECODED.with(|n| n.get())
 }
 
+/// Lets `derived` (an asset made from `base`, with the same images: the example poses' morph
+/// targets added) use `base`'s decoded bitmaps; `base` keeps them (closing them when it goes).
+pub fn share(base: &Arc<Asset>, derived: &Arc<Asset>) {
+    #[cfg(target_arch = "wasm32")]
+    web::share(base, derived);
+    #[cfg(not(target_arch = "wasm32"))]
+    let _ = (base, derived);
+}
+
 /// Lets the bitmaps of assets no viewer shows any more go (closed at once, not left to the
 /// garbage collector): with [`crate::render::scene::release_unused_uploads`].
 pub fn release_unused() {
@@ -91,6 +100,8 @@ mod web {
         warnings: Vec<Warning>,
         /// Viewers waiting for the bitmaps.
         waiting: Vec<Wake>,
+        /// Whether the bitmaps are this entry's to close (not another asset's, [`share`]d).
+        owns: bool,
     }
 
     thread_local! {
@@ -103,11 +114,24 @@ mod web {
         ENTRIES.with(|entries| entries.borrow_mut().iter_mut().find(|e| std::ptr::eq(e.asset.as_ptr(), asset)).map(f))
     }
 
+    pub fn share(base: &Arc<Asset>, derived: &Arc<Asset>) {
+        let Some((bitmaps, warnings)) = find(base, |e| (e.bitmaps.clone(), e.warnings.clone())) else { return };
+        ENTRIES.with(|entries| {
+            entries.borrow_mut().push(Entry {
+                asset: Arc::downgrade(derived),
+                bitmaps,
+                warnings,
+                waiting: Vec::new(),
+                owns: false,
+            });
+        });
+    }
+
     pub fn release_unused() {
         ENTRIES.with(|entries| {
             entries.borrow_mut().retain(|e| {
                 let alive = e.asset.strong_count() > 0;
-                if !alive {
+                if !alive && e.owns {
                     for bitmap in e.bitmaps.iter().flatten().flatten() {
                         bitmap.close();
                     }
@@ -137,6 +161,7 @@ mod web {
                         bitmaps: None,
                         warnings: Vec::new(),
                         waiting: wake.into_iter().collect(),
+                        owns: true,
                     });
                 });
                 let asset = asset.clone();

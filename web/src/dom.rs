@@ -34,7 +34,7 @@ pub enum Key {
     Crossfade,
     /// The layer as `"CLIP@ROOT:WEIGHT"`; `""` without a layer.
     Layer,
-    /// The skinning method: `"rigid"` | `"lbs"` | `"dqs"` | `"sjb"`.
+    /// The skinning method: `"rigid"` | `"lbs"` | `"dqs"` | `"sjb"` | `"sjbbe"`.
     Skinning,
     /// Where vertices are deformed: `"gpu"` | `"compute"` | `"cpu"`.
     SkinningPath,

@@ -670,12 +670,13 @@ impl Viewer {
         Ok(())
     }
 
-    /// Skinning method: `"rigid"`, `"lbs"` (linear blend), `"dqs"` (dual quaternion) or `"sjb"`
-    /// (spherical joint blending). Kept across models.
+    /// Skinning method: `"rigid"`, `"lbs"` (linear blend), `"dqs"` (dual quaternion), `"sjb"`
+    /// (spherical joint blending) or `"sjbbe"` (SJB by the sidecar's example poses). Kept across
+    /// models.
     #[wasm_bindgen(js_name = setSkinning)]
     pub fn set_skinning(&self, method: &str) -> Result<(), JsValue> {
         let method = SkinningMethod::from_name(method).ok_or_else(|| {
-            range_error(format!("skinning {method:?}: expected \"rigid\", \"lbs\", \"dqs\" or \"sjb\""))
+            range_error(format!("skinning {method:?}: expected \"rigid\", \"lbs\", \"dqs\", \"sjb\" or \"sjbbe\""))
         })?;
         self.controls.send_global(Command::SetSkinning(method));
         Ok(())

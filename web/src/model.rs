@@ -7,6 +7,8 @@ use glam::Vec3;
 use kloub_core::animator::{Crossfade, Layer};
 use kloub_core::asset::NodeIndex;
 use kloub_core::clip::Clip;
+use kloub_core::examples::{ExampleTargets, Examples};
+use kloub_core::job::dqs::SkinningMethod;
 use kloub_core::player::{LoopMode, Player};
 use kloub_core::rig::JointSettings;
 use kloub_core::{Animator, Asset, Instance, Warning};
@@ -60,6 +62,11 @@ pub struct Model {
     pub layer: LayerDraft,
     /// Joint limits and stiffness for IK: humanoid defaults, edited by a dropped sidecar.
     pub joint_settings: JointSettings,
+    /// The asset as imported: `asset` is this plus the example poses' morph targets when the
+    /// sidecar has examples (spherical joint blending by example), else the same.
+    pub base_asset: std::sync::Arc<Asset>,
+    /// The sidecar's example poses and their morph targets' weights, when it has any.
+    pub examples: Option<(Examples, ExampleTargets)>,
     /// The candy-wrapper sample's sliders and readout, when this model is that sample.
     pub candy: Option<CandyPanel>,
     /// Extra copies of the character in a grid (seed 000 demo 05): each plays what the main
@@ -123,8 +130,21 @@ impl Model {
     pub fn new(loaded: LoadedModel, clip: Option<usize>) -> Result<Self, String> {
         let LoadedModel { name, asset, warnings, sidecar } = loaded;
         let mut joint_settings = JointSettings::humanoid(&asset);
+        let base_asset = asset.clone();
+        let mut examples = None;
+        let mut asset = asset;
         if let Some(text) = &sidecar {
             joint_settings.apply_json(&asset, text).map_err(|e| format!("{name}: sidecar: {e}"))?;
+            let read = Examples::from_json(&asset, text).map_err(|e| format!("{name}: sidecar: {e}"))?;
+            if !read.poses.is_empty() {
+                // The examples become morph targets whose weights are α (drawn by SJB on the GPU).
+                let mut rigs = Instance::new(&asset);
+                rigs.set_examples(&asset, &read).map_err(|e| format!("{name}: sidecar: {e}"))?;
+                let (derived, targets) = ExampleTargets::compile(&asset, &rigs);
+                asset = std::sync::Arc::new(derived);
+                crate::decode::share(&base_asset, &asset);
+                examples = Some((read, targets));
+            }
         }
         let mut instance = Instance::new(&asset);
         let mut animator = Animator::new(&asset);
@@ -163,6 +183,8 @@ impl Model {
             blend_weights,
             layer,
             joint_settings,
+            base_asset,
+            examples,
             candy: None,
             copies: Vec::new(),
             copy_spacing: 1.0,
@@ -239,9 +261,9 @@ impl Model {
             animator.evaluate(&self.asset, instance).map_err(|e| e.to_string())?;
         }
         if let Some(candy) = &mut self.candy {
-            candy.apply(&mut self.instance)?;
+            candy.apply(&self.asset, &mut self.instance)?;
             for (_, instance) in &mut self.copies {
-                candy.apply(instance)?;
+                candy.apply(&self.asset, instance)?;
             }
             candy.update_quality(self.instance.pose());
         }
@@ -260,6 +282,14 @@ impl Model {
         if !ragdoll_owns {
             crate::ik::apply_all(&mut self.ik, &self.asset, &mut self.instance)?;
         }
+        // The example poses' weights (α under SJBBE, zero under the other methods).
+        if let Some((_, targets)) = &mut self.examples {
+            let on = self.instance.skinning() == SkinningMethod::SphericalJointBlendByExample;
+            targets.write_weights(&mut self.instance, on).map_err(|e| e.to_string())?;
+            for (_, instance) in &mut self.copies {
+                targets.write_weights(instance, on).map_err(|e| e.to_string())?;
+            }
+        }
         // The morph sliders win over the clip (the main character only: copies keep the clip's).
         if self.morph_overrides.iter().any(Option::is_some) {
             let weights = &mut self.instance.pose_mut().weights;
@@ -275,7 +305,12 @@ impl Model {
     /// The `<model>.kloub.json` sidecar of the current joint settings (what differs from the
     /// humanoid defaults).
     pub fn sidecar_json(&self) -> String {
-        self.joint_settings.to_json(&self.asset, &JointSettings::humanoid(&self.asset))
+        let text = self.joint_settings.to_json(&self.base_asset, &JointSettings::humanoid(&self.base_asset));
+        let Some((examples, _)) = &self.examples else { return text };
+        // The example poses too, so that dropping the file back restores them.
+        let mut doc: serde_json::Map<String, serde_json::Value> = serde_json::from_str(&text).unwrap_or_default();
+        doc.extend(examples.to_json(&self.base_asset));
+        serde_json::to_string_pretty(&doc).unwrap_or(text)
     }
 
     /// `dataset.ik`: `"EFFECTOR:ERROR"` per goal (error with five decimals), `;`-separated;

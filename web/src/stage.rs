@@ -716,6 +716,23 @@ impl Stage {
         let Some(model) = &mut self.model else {
             return Err("drop the model first, then its .kloub.json (or both together)".into());
         };
+        // Example poses change the model's morph targets: it is shown again with the sidecar,
+        // as if both had been dropped together.
+        if let Some(file) = files.last() {
+            let text = std::str::from_utf8(&file.bytes).map_err(|_| format!("{}: not UTF-8 text", file.name))?;
+            let examples = kloub_core::examples::Examples::from_json(&model.base_asset, text)
+                .map_err(|e| format!("{}: {e}", file.name))?;
+            if !examples.poses.is_empty() || model.examples.is_some() {
+                let decoded = crate::decode::warnings(&model.base_asset);
+                let loaded = load::LoadedModel {
+                    name: model.name.clone(),
+                    asset: model.base_asset.clone(),
+                    warnings: model.warnings.iter().filter(|w| !decoded.contains(w)).cloned().collect(),
+                    sidecar: Some(text.to_owned()),
+                };
+                return self.install(loaded, None);
+            }
+        }
         for file in files {
             let text = std::str::from_utf8(&file.bytes).map_err(|_| format!("{}: not UTF-8 text", file.name))?;
             model.joint_settings.apply_json(&model.asset, text).map_err(|e| format!("{}: {e}", file.name))?;

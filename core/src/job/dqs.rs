@@ -29,21 +29,22 @@ pub enum SkinningMethod {
     SphericalJointBlend,
     /// Spherical joint blending by example ([`super::sjbbe`]): SJB after the example poses'
     /// offsets weighted by how close each joint is to its examples. Without examples it is
-    /// SJB. Not yet in [`SkinningMethod::ALL`]: the viewer lists it with its GPU path.
+    /// SJB.
     SphericalJointBlendByExample,
 }
 
 impl SkinningMethod {
     /// Every method, in menu order.
-    pub const ALL: [SkinningMethod; 4] = [
+    pub const ALL: [SkinningMethod; 5] = [
         SkinningMethod::Rigid,
         SkinningMethod::Linear,
         SkinningMethod::DualQuaternion,
         SkinningMethod::SphericalJointBlend,
+        SkinningMethod::SphericalJointBlendByExample,
     ];
 
     /// The short name used by `kloub pose --skinning` and the page (`rigid`, `lbs`, `dqs`,
-    /// `sjb`).
+    /// `sjb`, `sjbbe`).
     pub fn name(self) -> &'static str {
         match self {
             SkinningMethod::Rigid => "rigid",
