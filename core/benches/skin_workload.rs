@@ -1,13 +1,15 @@
 //! The CPU skinning workload shared by `benches/skin.rs` (native, criterion) and
 //! `tests/wasm_skin.rs` (wasm32 in Node): CesiumMan's skinned mesh posed mid-walk, its vertex
 //! streams repeated to [`VERTICES`] vertices so they do not fit any cache, skinned by every
-//! method; plus a `stream` kernel that reads and writes the same bytes with almost no
+//! method (`sjbbe` with one example pose on the left elbow, at its rotation in this pose so that
+//! its offsets all apply); plus a `stream` kernel that reads and writes the same bytes with almost no
 //! arithmetic — the memory-bandwidth bound of this data layout on this machine.
 
 use kloub_core::Instance;
 use kloub_core::asset::Asset;
 use kloub_core::job::dqs::{DqPrepareJob, JointDq, SkinningMethod};
 use kloub_core::job::sjb::SjbPlan;
+use kloub_core::job::sjbbe::{ExamplePose, ExampleSpace, MAX_EXAMPLES, SjbbeAlphaJob, SjbbeInput, SjbbeRig};
 use kloub_core::job::skin::SkinJob;
 use kloub_core::math::Mat4;
 
@@ -26,6 +28,8 @@ pub struct Workload {
     pub palette: Vec<Mat4>,
     pub dqs: Vec<JointDq>,
     pub plan: SjbPlan,
+    pub rig: SjbbeRig,
+    pub alphas: Vec<[f32; MAX_EXAMPLES]>,
     pub out_positions: Vec<[f32; 3]>,
     pub out_normals: Vec<[f32; 3]>,
 }
@@ -49,14 +53,40 @@ impl Workload {
         let parents: Vec<Option<u32>> = asset.nodes.iter().map(|n| n.parent).collect();
         let (joints, weights) = (repeat(&p.joints), repeat(&p.weights));
         let plan = SjbPlan::build(&asset.skins[skin], &parents, &joints, &weights);
+        let (positions, normals) = (repeat(&p.positions), repeat(&p.normals));
+        // One example pose on the left elbow, at the elbow's rotation in this pose (α = 1).
+        let elbow = asset.nodes.iter().position(|n| n.name.as_deref() == Some("Skeleton_arm_joint_L__3_"));
+        let elbow = elbow.expect("CesiumMan's left elbow");
+        let joint = asset.skins[skin].joints.iter().position(|&j| j as usize == elbow).expect("a joint") as u16;
+        let example = ExamplePose {
+            joint,
+            rotation: instance.pose().locals[elbow].rotation,
+            positions: vec![[0.0, 0.0, 0.01]; VERTICES],
+            normals: vec![[0.0, 0.01, 0.0]; VERTICES],
+            space: ExampleSpace::Rest,
+        };
+        let input = SjbbeInput {
+            skin: &asset.skins[skin],
+            parents: &parents,
+            positions: &positions,
+            normals: &normals,
+            joints: &joints,
+            weights: &weights,
+            plan: &plan,
+        };
+        let rig = SjbbeRig::build(input, &[example], &[]).expect("the example builds");
+        let mut alphas = vec![[0.0; MAX_EXAMPLES]; rig.bones.len()];
+        SjbbeAlphaJob { rig: &rig, palette: &palette, out: &mut alphas }.run().expect("α");
         Self {
-            positions: repeat(&p.positions),
-            normals: repeat(&p.normals),
+            positions,
+            normals,
             joints,
             weights,
             palette,
             dqs,
             plan,
+            rig,
+            alphas,
             out_positions: vec![[0.0; 3]; VERTICES],
             out_normals: vec![[0.0; 3]; VERTICES],
         }
@@ -73,7 +103,7 @@ impl Workload {
             palette: &self.palette,
             joints_dq: &self.dqs,
             plan: Some(&self.plan),
-            examples: None,
+            examples: Some((&self.rig, &self.alphas)),
             out_positions: &mut self.out_positions,
             out_normals: &mut self.out_normals,
         }
