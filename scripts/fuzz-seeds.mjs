@@ -3,7 +3,7 @@
 //   gltf_files  each .gltf with one external .bin: the JSON, a NUL byte, the .bin
 //   draco       the Draco stream of every KHR_draco_mesh_compression primitive
 //   meshopt     every meshopt-compressed view, as its four parameter bytes and its data (core/fuzz/fuzz_targets/meshopt.rs)
-//   sidecar     a few sidecars for Fox (joint limits and stiffness)
+//   sidecar     a few sidecars for Fox (joint limits and stiffness, example poses)
 //
 //   node scripts/fuzz-seeds.mjs OUT_DIR [EXTRA_DIR]
 import { mkdirSync, readFileSync, readdirSync, statSync, writeFileSync, existsSync } from 'node:fs';
@@ -84,6 +84,11 @@ const sidecars = [
   '{"ik":{}}',
   '{"ik":{"limits":{"b_Neck_04":{"hinge":{"axis":[1,0,0],"min":-45,"max":45}}},"stiffness":{"b_Neck_04":0.5}}}',
   '{"ik":{"limits":{"b_Spine01_02":{"ball":{"axis":[0,1,0],"swing":30,"twist":[-10,10]}},"b_Head_05":"free"}}}',
+  // Example poses (SJB by example) on the left forearm: inline offsets for Fox's 1,728 vertices.
+  JSON.stringify({ examples: { b_LeftForeArm_010: [
+    { rotation: [0, 0, 0.5, 0.8660254], offsets: Buffer.from(new Float32Array(1728 * 3).fill(0.5).buffer).toString('base64') },
+    { rotation: [0, 0, -0.3, 0.9539392], offsets: Buffer.from(new Float32Array(1728 * 3).buffer).toString('base64'), normals: Buffer.from(new Float32Array(1728 * 3).fill(0.1).buffer).toString('base64') },
+  ] }, example_sigma: { b_LeftForeArm_010: 0.7 } }),
 ];
 sidecars.forEach((s, i) => write('sidecar', `fox-${i}.kloub.json`, s));
 console.log(`fuzz-seeds: ${n} seeds in ${out}`);
