@@ -357,7 +357,9 @@ impl ExampleTargets {
         let mut total = 0u32;
         for (n, node) in out.nodes.iter_mut().enumerate() {
             let extra = node.mesh.map_or(0, |m| added.get(m as usize).copied().unwrap_or(0));
-            out.weight_offsets[n] = total;
+            if let Some(offset) = out.weight_offsets.get_mut(n) {
+                *offset = total;
+            }
             let own = node.weights.len();
             if extra > 0 {
                 node.weights.extend(std::iter::repeat_n(0.0, extra));

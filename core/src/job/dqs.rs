@@ -10,6 +10,7 @@
 //! a single influence and reduces to plain DQS where every `Sᵢ = I`.
 
 use super::check_len;
+use super::sjb::Way;
 use super::skin::{check_vertex_streams, joint_at, transform_normal};
 use crate::error::JobError;
 use crate::math::{Mat3, Mat4, Quat, Vec3};
@@ -261,20 +262,14 @@ pub(crate) fn dqs_vertex(
     position: [f32; 3],
     normal: Option<&[f32; 3]>,
 ) -> Result<([f32; 3], Option<[f32; 3]>), JobError> {
-    let (dq, stretch, all_rigid) = dq_blend(table, joints, weights)?;
-    let p = Vec3::from(position);
-    let p = if all_rigid { p } else { stretch * p };
-    let n = normal.map(|n| {
-        let n = Vec3::from(*n);
-        let n = if all_rigid { n } else { stretch.inverse().transpose() * n };
-        (dq.real * n).try_normalize().unwrap_or(Vec3::ZERO).to_array()
-    });
-    Ok((dq.transform_point(p).to_array(), n))
+    dqs_vertex_way(Way::Skin, table, joints, weights, position, normal)
 }
 
-/// The inverse of [`dqs_vertex`]: the bind-pose position (and normal direction, not
-/// normalized) that the influences carry to `position` (`normal`).
-pub(crate) fn dqs_unskin_vertex(
+/// [`dqs_vertex`], or ([`Way::Unskin`]) its inverse: the bind-pose position (and normal
+/// direction, not normalized) that the influences carry to `position` (`normal`).
+#[inline]
+pub(crate) fn dqs_vertex_way(
+    way: Way,
     table: &[JointDq],
     joints: &[u16; 8],
     weights: &[f32; 8],
@@ -282,14 +277,27 @@ pub(crate) fn dqs_unskin_vertex(
     normal: Option<&[f32; 3]>,
 ) -> Result<([f32; 3], Option<[f32; 3]>), JobError> {
     let (dq, stretch, all_rigid) = dq_blend(table, joints, weights)?;
-    let back = dq.real.conjugate();
-    let p = back * (Vec3::from(position) - dq.translation());
-    let p = if all_rigid { p } else { stretch.inverse() * p };
-    let n = normal.map(|n| {
-        let n = back * Vec3::from(*n);
-        (if all_rigid { n } else { stretch.transpose() * n }).to_array()
-    });
-    Ok((p.to_array(), n))
+    let (p, n) = (Vec3::from(position), normal.map(|n| Vec3::from(*n)));
+    Ok(match way {
+        Way::Skin => {
+            let p = if all_rigid { p } else { stretch * p };
+            let n = n.map(|n| {
+                let n = if all_rigid { n } else { stretch.inverse().transpose() * n };
+                (dq.real * n).try_normalize().unwrap_or(Vec3::ZERO).to_array()
+            });
+            (dq.transform_point(p).to_array(), n)
+        }
+        Way::Unskin => {
+            let back = dq.real.conjugate();
+            let p = back * (p - dq.translation());
+            let p = if all_rigid { p } else { stretch.inverse() * p };
+            let n = n.map(|n| {
+                let n = back * n;
+                (if all_rigid { n } else { stretch.transpose() * n }).to_array()
+            });
+            (p.to_array(), n)
+        }
+    })
 }
 
 /// Rigid skinning: each vertex follows its strongest influence only.

@@ -19,7 +19,7 @@
 
 use std::collections::HashMap;
 
-use super::dqs::{JointDq, dqs_unskin_vertex, dqs_vertex};
+use super::dqs::{JointDq, dqs_vertex_way};
 use super::skin::{check_vertex_streams, joint_at};
 use super::{check_eq, check_index};
 use crate::asset::Skin;
@@ -230,8 +230,51 @@ impl SjbJob<'_> {
 /// A skinned position and, when the vertex has one, its normal.
 pub(crate) type SkinnedVertex = ([f32; 3], Option<[f32; 3]>);
 
-/// Vertex `v` (at `position`, `normal`) skinned as [`SjbJob`] does: about its joint centre
-/// where the plan has one and every influence is rigid, by dual quaternions otherwise.
+/// Which way a per-vertex transform runs: skinning a bind-pose vertex, or its inverse (the
+/// bind-pose vertex, and normal direction not normalized, that skins to a given one; §5.3).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Way {
+    Skin,
+    Unskin,
+}
+
+/// Vertex `v` (at `position`, `normal`) skinned as [`SjbJob`] does — about its joint centre
+/// where the plan has one and every influence is rigid, by dual quaternions otherwise — or,
+/// [`Way::Unskin`], taken back to the bind pose (eq. 5.1 solved for the bind-pose vertex).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub(crate) fn sjb_vertex_way(
+    way: Way,
+    palette: &[Mat4],
+    table: &[JointDq],
+    plan: &SjbPlan,
+    v: usize,
+    joints: &[u16; 8],
+    weights: &[f32; 8],
+    position: [f32; 3],
+    normal: Option<&[f32; 3]>,
+) -> Result<SkinnedVertex, JobError> {
+    if let Some(pivot) = plan.vertex_pivots.get(v).and_then(|&p| plan.pivots.get(p as usize))
+        && let Some(q) = sjb_rotation(table, pivot, joints, weights)?
+    {
+        let bind = Vec3::from(pivot.bind);
+        let current = joint_at(palette, pivot.joint)?.transform_point3(bind);
+        let (p, n) = match way {
+            Way::Skin => (
+                q * (Vec3::from(position) - bind) + current,
+                normal.map(|n| (q * Vec3::from(*n)).try_normalize().unwrap_or(Vec3::ZERO)),
+            ),
+            Way::Unskin => {
+                let back = q.conjugate();
+                (back * (Vec3::from(position) - current) + bind, normal.map(|n| back * Vec3::from(*n)))
+            }
+        };
+        return Ok((p.to_array(), n.map(|n| n.to_array())));
+    }
+    dqs_vertex_way(way, table, joints, weights, position, normal)
+}
+
+/// [`sjb_vertex_way`] skinning.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn sjb_skin_vertex(
     palette: &[Mat4],
@@ -243,43 +286,7 @@ pub(crate) fn sjb_skin_vertex(
     position: [f32; 3],
     normal: Option<&[f32; 3]>,
 ) -> Result<SkinnedVertex, JobError> {
-    if let Some(pivot) = plan.vertex_pivots.get(v).and_then(|&p| plan.pivots.get(p as usize))
-        && let Some(q) = sjb_rotation(table, pivot, joints, weights)?
-    {
-        let bind = Vec3::from(pivot.bind);
-        let current = joint_at(palette, pivot.joint)?.transform_point3(bind);
-        let p = q * (Vec3::from(position) - bind) + current;
-        let n = normal.map(|n| (q * Vec3::from(*n)).try_normalize().unwrap_or(Vec3::ZERO).to_array());
-        return Ok((p.to_array(), n));
-    }
-    dqs_vertex(table, joints, weights, position, normal)
-}
-
-/// The inverse of [`sjb_skin_vertex`] (eq. 5.1 solved for the bind-pose vertex, §5.3): the
-/// bind-pose position, and normal direction (not normalized), that skin to `position`
-/// (`normal`) under `palette`.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn sjb_unskin_vertex(
-    palette: &[Mat4],
-    table: &[JointDq],
-    plan: &SjbPlan,
-    v: usize,
-    joints: &[u16; 8],
-    weights: &[f32; 8],
-    position: [f32; 3],
-    normal: Option<&[f32; 3]>,
-) -> Result<SkinnedVertex, JobError> {
-    if let Some(pivot) = plan.vertex_pivots.get(v).and_then(|&p| plan.pivots.get(p as usize))
-        && let Some(q) = sjb_rotation(table, pivot, joints, weights)?
-    {
-        let bind = Vec3::from(pivot.bind);
-        let current = joint_at(palette, pivot.joint)?.transform_point3(bind);
-        let back = q.conjugate();
-        let p = back * (Vec3::from(position) - current) + bind;
-        let n = normal.map(|n| (back * Vec3::from(*n)).to_array());
-        return Ok((p.to_array(), n));
-    }
-    dqs_unskin_vertex(table, joints, weights, position, normal)
+    sjb_vertex_way(Way::Skin, palette, table, plan, v, joints, weights, position, normal)
 }
 
 /// The blended rotation of a vertex about its centre (signs aligned to the driver's), or
@@ -426,7 +433,8 @@ mod tests {
         .run()
         .expect("valid");
         for v in 0..2 {
-            let (want, _) = dqs_vertex(&table, &joints[v], &weights[v], positions[v], None).expect("valid");
+            let (want, _) =
+                super::super::dqs::dqs_vertex(&table, &joints[v], &weights[v], positions[v], None).expect("valid");
             assert_eq!(out[v], want);
         }
     }

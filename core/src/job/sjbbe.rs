@@ -23,7 +23,7 @@
 use std::fmt;
 
 use super::dqs::{DqPrepareJob, JointDq};
-use super::sjb::{SjbPlan, sjb_skin_vertex, sjb_unskin_vertex};
+use super::sjb::{SjbPlan, Way, sjb_skin_vertex, sjb_vertex_way};
 use super::skin::check_vertex_streams;
 use super::{check_eq, check_index, check_len};
 use crate::asset::Skin;
@@ -306,7 +306,8 @@ impl SjbbeRig {
                             DqPrepareJob { palette: &palettes[slot], out: &mut table }
                                 .run()
                                 .map_err(|x| error(Some(i), joint, x.to_string()))?;
-                            let (p0, n0) = sjb_unskin_vertex(
+                            let (p0, n0) = sjb_vertex_way(
+                                Way::Unskin,
                                 &palettes[slot],
                                 &table,
                                 plan,
