@@ -2,7 +2,7 @@
 //   "#v=1&src=URL&clip=NAME&t=SECONDS&paused=1&speed=X&layer=CLIP@ROOT:WEIGHT&skinning=M&path=P&camera=6 numbers
 //    &loop=once|pingpong&overlays=skeleton,bounds,…&bg=grey|light|transparent&light=outdoor|flat|rim&grid=0&heatmap=1&copies=N
 //    &fade=SECONDS,EASING,OUTGOING&blend=[[clip,weight],…]&ik=[{effector,depth,target,solver,…},…]
-//    &morphs=[[node,target,weight],…]"
+//    &morphs=[[node,target,weight],…]&pose={"JOINT":[x,y,z,w],…}"
 // Only values that differ from the viewer's defaults are written, so a default view has no hash. Reading ignores
 // unknown keys and drops malformed values (each with a console warning), so a link made by a newer page still
 // opens what this one understands. Pure functions over a <kloub-viewer>'s data-* state, shared by the app page
@@ -20,7 +20,7 @@ const PATHS = ['gpu', 'compute', 'cpu'];
 const SOLVERS = ['ccd', 'twobone', 'fabrik', 'dls'];
 const DEFAULT_TRANSITION = '0.300,smoothstep,freeze';
 const KEYS = new Set(['v', 'src', 'clip', 't', 'paused', 'speed', 'layer', 'skinning', 'path', 'camera', 'loop',
-  'overlays', 'bg', 'light', 'grid', 'heatmap', 'copies', 'fade', 'blend', 'ik', 'morphs']);
+  'overlays', 'bg', 'light', 'grid', 'heatmap', 'copies', 'fade', 'blend', 'ik', 'morphs', 'pose']);
 
 const finite = (v) => typeof v === 'number' && Number.isFinite(v);
 const point = (v) => Array.isArray(v) && v.length === 3 && v.every(finite);
@@ -65,6 +65,7 @@ export function viewToHash(state, src) {
   if (state.blend) p.set('blend', state.blend);
   if (state.ikGoals) p.set('ik', state.ikGoals);
   if (state.morphs) p.set('morphs', state.morphs);
+  if (state.pose) p.set('pose', state.pose);
   const text = p.toString();
   return text ? `#v=${HASH_VERSION}&${text}` : '';
 }
@@ -161,6 +162,13 @@ export function hashToView(hash, warn = (message) => console.warn(`kloub: URL ha
     if (ok) view.morphs = morphs.map(([node, target, weight]) => ({ node, target, weight }));
     else bad('morphs');
   }
+  if (p.has('pose')) {
+    const pose = json(p.get('pose'));
+    const held = pose && typeof pose === 'object' && !Array.isArray(pose) ? Object.entries(pose) : [];
+    const unit = (q) => Array.isArray(q) && q.length === 4 && q.every(finite) && Math.abs(Math.hypot(...q) - 1) <= 1e-3;
+    if (held.length > 0 && held.length <= 1024 && held.every(([, q]) => unit(q))) view.pose = held;
+    else bad('pose');
+  }
   return view;
 }
 
@@ -192,6 +200,7 @@ export function applyView(viewer, v, warn = () => {}) {
       }
     }],
     ['morphs', () => { for (const m of v.morphs) viewer.setMorphWeight(m.node, m.target, m.weight); }],
+    ['pose', () => { for (const [joint, q] of v.pose) viewer.setJointRotation(joint, q); }],
     ['time', () => { viewer.currentTime = v.time; }],
   ];
   for (const [key, set] of apply) {

@@ -100,6 +100,8 @@ export interface KloubViewerState {
   ikGoals?: string;
   /** JSON array of held morph weights: `[node, targetIndex, weight]`. */
   morphs?: string;
+  /** JSON object of the joint rotations `setJointRotation` holds: `{"JOINT": [x, y, z, w]}`; empty without. */
+  pose?: string;
   /** JSON array of the model file names of a drop or zip holding several; empty for one model. */
   models?: string;
   /** Where each IK goal's pole marker is drawn, `"x,y"` in CSS px of the canvas, `;` per goal. */
@@ -251,6 +253,12 @@ export declare class KloubViewer extends HTMLElement {
   selectJoint(name: string | null): void;
   /** Holds morph target `target` (index or name) of the mesh on node `node` at `weight`; null lets the clip drive it. */
   setMorphWeight(node: string, target: number | string, weight: number | null): void;
+  /** Holds joint `name`'s local rotation (a unit quaternion `[x, y, z, w]` in its parent's frame) over the animation; null lets the animation drive it again. IK solves on top. */
+  setJointRotation(name: string, rotation: [number, number, number, number] | null): void;
+  /** Joint `name`'s local rotation `[x, y, z, w]` in the last drawn pose (held or animated). */
+  jointRotation(name: string): [number, number, number, number];
+  /** Lets the animation drive every joint again. */
+  resetPose(): void;
   setLighting(name: 'studio' | 'outdoor' | 'flat' | 'rim'): void;
   setBackground(name: Background): void;
   /** Downloads the view as `<model>.png`. */

@@ -1775,6 +1775,28 @@ class KloubViewer extends HTMLElement {
     if (weight !== undefined && weight !== null) num(m, 'weight', weight, { min: -10, max: 10 });
     this.#call(m, (v) => v.setMorphWeight(node, target, weight ?? undefined));
   }
+  /**
+   * Holds joint `name`'s local rotation (a unit quaternion `[x, y, z, w]` in its parent's frame) over the animation;
+   * null lets the animation drive it again. IK solves on top of it.
+   */
+  setJointRotation(name, rotation) {
+    const m = 'setJointRotation';
+    str(m, 'name', name);
+    if (rotation !== null && rotation !== undefined) {
+      if (!Array.isArray(rotation) || rotation.length !== 4) throw new TypeError(`${m}: rotation must be [x, y, z, w], got ${describe(rotation)}`);
+      rotation.forEach((x, i) => num(m, `rotation[${i}]`, x, { min: -1.001, max: 1.001 }));
+    }
+    this.#call(m, (v) => v.setJointRotation(name, rotation ?? undefined));
+  }
+  /** Joint `name`'s local rotation `[x, y, z, w]` in the last drawn pose (held or animated). */
+  jointRotation(name) {
+    str('jointRotation', 'name', name);
+    return Array.from(this.#call('jointRotation', (v) => v.jointRotation(name)));
+  }
+  /** Lets the animation drive every joint again (drops the rotations `setJointRotation` holds). */
+  resetPose() {
+    this.#call('resetPose', (v) => v.resetPose());
+  }
   /** Lighting preset: studio, outdoor, flat or rim. */
   setLighting(name) {
     oneOf('setLighting', 'name', name, LIGHTING);

@@ -437,6 +437,43 @@ for (const backend of BACKENDS) {
     assert(d.model === 'CesiumMan.gltf', `the model went: ${d.model}`);
   });
 
+  test(`${backend}: setJointRotation holds a joint over the animation, jointRotation reads it, resetPose lets go; data-pose and the URL hash keep it`, async (ctx) => {
+    const { page } = ctx;
+    await openApp(ctx, backend);
+    const joint = 'b_LeftForeArm_010';
+    await page.evaluate(() => { const v = document.querySelector('kloub-viewer'); v.pause(); v.currentTime = 0.3; });
+    await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
+    const before = await viewportShot(page);
+    const animated = await page.evaluate((j) => document.querySelector('kloub-viewer').jointRotation(j), joint);
+    assert(animated.length === 4 && Math.abs(Math.hypot(...animated) - 1) < 1e-4, `jointRotation: ${animated}`);
+    const q = [0, 0, Math.SQRT1_2, Math.SQRT1_2];
+    await page.evaluate(([j, q]) => document.querySelector('kloub-viewer').setJointRotation(j, q), [joint, q]);
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.pose !== '', 'the held pose');
+    await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
+    const near = (a, b) => a.every((x, i) => Math.abs(x - b[i]) < 1e-4);
+    const held = await page.evaluate((j) => document.querySelector('kloub-viewer').jointRotation(j), joint);
+    assert(near(held, q), `held ${held}`);
+    assert(near(JSON.parse((await dataset(page)).pose)[joint], q), `data-pose ${(await dataset(page)).pose}`);
+    const shot = await viewportShot(page);
+    savePng(shot, `${backend}-pose-held.png`);
+    assert(diffFraction(before, shot) > 0.001, 'holding the forearm changed nothing on screen');
+    // Playing keeps it held; the hash carries it.
+    await page.evaluate(() => document.querySelector('kloub-viewer').play());
+    await waitFrames(page, 3);
+    assert(near(await page.evaluate((j) => document.querySelector('kloub-viewer').jointRotation(j), joint), q), 'the clip took the joint back');
+    await page.waitForFunction(() => location.hash.includes('pose='), null, { timeout: 10000 });
+    // Bad calls throw and change nothing.
+    for (const args of [[joint, [0, 0, 0.5, 0.5]], ['nobody', q], [joint, [0, 0, 1]]]) {
+      const error = await page.evaluate((a) => { try { document.querySelector('kloub-viewer').setJointRotation(...a); return null; } catch (e) { return e.message; } }, args);
+      assert(error && error.startsWith('setJointRotation'), `setJointRotation(${JSON.stringify(args)}) gave ${error}`);
+    }
+    await page.evaluate(() => document.querySelector('kloub-viewer').resetPose());
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.pose === '', 'the pose let go');
+    await page.evaluate(() => document.querySelector('kloub-viewer').pause());
+    await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
+    assert(!near(await page.evaluate((j) => document.querySelector('kloub-viewer').jointRotation(j), joint), q), 'resetPose kept the rotation');
+  });
+
   if (backend === BACKENDS[0]) test(`${backend}: Validate runs the Khronos glTF-Validator on the dropped files (fetched only then) and the panel lists its report`, async (ctx) => {
     const { page } = ctx;
     await openApp(ctx, backend);

@@ -161,6 +161,16 @@ pub enum Command {
     SetOverlays(crate::stage::Overlays),
     /// Selects a joint (its axes and channel plot); `None` clears.
     SelectJoint(Option<u32>),
+    /// Holds node `node`'s local rotation at `rotation` (a unit quaternion x, y, z, w) over the
+    /// animation; `None` lets the animation drive it again.
+    SetJointRotation {
+        /// The node.
+        node: u32,
+        /// The rotation held.
+        rotation: Option<[f32; 4]>,
+    },
+    /// Lets the animation drive every joint again (drops every held rotation).
+    ResetPose,
     /// Shows model `i` of the files dropped together (the side panel's model list).
     ShowModel(usize),
     /// Shows the "drop to open" hint (the page handles drag-and-drop itself).
@@ -209,6 +219,8 @@ struct Shared {
     compute: bool,
     prefs: Prefs,
     morphs: Vec<Vec<String>>,
+    /// The shown model's local rotations this frame, by node.
+    rotations: Vec<[f32; 4]>,
 }
 
 /// Asks a viewer for a frame: its egui context's repaint (the full app), or the element's
@@ -360,6 +372,23 @@ impl Controls {
     /// How the next models start.
     pub fn prefs(&self) -> Prefs {
         self.0.borrow().prefs.clone()
+    }
+
+    /// The local rotation (x, y, z, w) of the joint or node named `name` in the shown model's
+    /// last drawn pose.
+    ///
+    /// # Errors
+    /// An unknown name, or no pose drawn yet.
+    pub fn joint_rotation(&self, name: &str) -> Result<[f32; 4], String> {
+        let node = self.node_index(name)?;
+        self.0.borrow().rotations.get(node as usize).copied().ok_or_else(|| format!("{name:?} has no pose yet"))
+    }
+
+    /// The app's side: the shown model's local rotations of this frame (the vector is reused).
+    pub(crate) fn publish_rotations(&self, rotations: impl Iterator<Item = [f32; 4]>) {
+        let mut shared = self.0.borrow_mut();
+        shared.rotations.clear();
+        shared.rotations.extend(rotations);
     }
 
     /// Names of the shown model's clips.

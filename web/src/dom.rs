@@ -87,6 +87,8 @@ pub enum Key {
     /// Morph weights held by the page or the panel: a JSON array of `[node, target, weight]`
     /// (`""` when the clip drives them all).
     Morphs,
+    /// The joint rotations held by `setJointRotation`: `{"JOINT": [x, y, z, w]}`; `""` without.
+    Pose,
     /// The models of a drop (or zip archive) holding several, a JSON array of file names, which
     /// the panel lists to switch between; `""` for one model.
     Models,
@@ -97,7 +99,7 @@ pub enum Key {
 
 impl Key {
     /// Every key, in a fixed order.
-    pub const ALL: [Key; 39] = [
+    pub const ALL: [Key; 40] = [
         Key::Backend,
         Key::Status,
         Key::Model,
@@ -135,6 +137,7 @@ impl Key {
         Key::Transition,
         Key::IkGoals,
         Key::Morphs,
+        Key::Pose,
         Key::Models,
         Key::Panel,
     ];
@@ -180,6 +183,7 @@ impl Key {
             Key::Transition => "transition",
             Key::IkGoals => "ikGoals",
             Key::Morphs => "morphs",
+            Key::Pose => "pose",
             Key::Models => "models",
         }
     }

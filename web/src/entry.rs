@@ -486,6 +486,45 @@ impl Viewer {
         Ok(())
     }
 
+    /// Holds joint `name`'s local rotation at `rotation` (a unit quaternion `[x, y, z, w]`, in
+    /// its parent's frame) over the animation; `null` lets the animation drive it again.
+    #[wasm_bindgen(js_name = setJointRotation)]
+    pub fn set_joint_rotation(&self, name: String, rotation: Option<Vec<f32>>) -> Result<(), JsValue> {
+        let node = self.controls.node_index(&name).map_err(range_error)?;
+        let rotation = match rotation.as_deref() {
+            None => None,
+            Some(&[x, y, z, w]) => {
+                let length = (x * x + y * y + z * z + w * w).sqrt();
+                if !length.is_finite() || (length - 1.0).abs() > 1e-3 {
+                    return Err(range_error(format!(
+                        "setJointRotation: [{x}, {y}, {z}, {w}] is not a unit quaternion (length {length})"
+                    )));
+                }
+                Some([x, y, z, w])
+            }
+            Some(other) => {
+                return Err(range_error(format!(
+                    "setJointRotation: expected [x, y, z, w], got {} numbers",
+                    other.len()
+                )));
+            }
+        };
+        self.controls.send(Command::SetJointRotation { node, rotation });
+        Ok(())
+    }
+
+    /// The local rotation `[x, y, z, w]` of joint `name` in the last drawn pose (held or animated).
+    #[wasm_bindgen(js_name = jointRotation)]
+    pub fn joint_rotation(&self, name: String) -> Result<Vec<f32>, JsValue> {
+        self.controls.joint_rotation(&name).map(|q| q.to_vec()).map_err(range_error)
+    }
+
+    /// Lets the animation drive every joint again.
+    #[wasm_bindgen(js_name = resetPose)]
+    pub fn reset_pose(&self) {
+        self.controls.send(Command::ResetPose);
+    }
+
     /// Lighting preset: `"studio"`, `"outdoor"`, `"flat"` or `"rim"`.
     #[wasm_bindgen(js_name = setLighting)]
     pub fn set_lighting(&self, name: &str) -> Result<(), JsValue> {

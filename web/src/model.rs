@@ -85,6 +85,8 @@ pub struct Model {
     pub selected_joint: Option<NodeIndex>,
     /// Morph weights set by the panel's sliders, by pose weight slot (`None`: animated).
     pub morph_overrides: Vec<Option<f32>>,
+    /// Local rotations held over the animation, by node (`setJointRotation`; `None`: animated).
+    pub rotation_overrides: Vec<Option<glam::Quat>>,
     /// Joints worth offering as IK end effectors, best first, with their chain depth
     /// ([`crate::ik::default_effectors`], found once per model).
     pub ik_offers: Vec<(NodeIndex, usize)>,
@@ -155,6 +157,7 @@ impl Model {
         let key_times = asset.clips.iter().map(key_times).collect();
         let in_joint_tree = joint_tree_nodes(&asset);
         let asset_weight_slots = instance.pose().weights.len();
+        let node_count = asset.nodes.len();
         let ik_offers = crate::ik::default_effectors(&asset);
         let mut blend_weights = vec![0.0; asset.clips.len()];
         if let Some(w) = clip.and_then(|c| blend_weights.get_mut(c)) {
@@ -193,6 +196,7 @@ impl Model {
             ik_selected: 0,
             selected_joint: None,
             morph_overrides: vec![None; asset_weight_slots],
+            rotation_overrides: vec![None; node_count],
             ik_offers,
             #[cfg(feature = "full")]
             ragdoll: None,
@@ -267,6 +271,15 @@ impl Model {
             }
             candy.update_quality(self.instance.pose());
         }
+        // Held joint rotations win over the clip (the main character only), before IK solves on top.
+        if self.rotation_overrides.iter().any(Option::is_some) {
+            for (local, held) in self.instance.pose_mut().locals.iter_mut().zip(&self.rotation_overrides) {
+                if let Some(q) = held {
+                    local.rotation = *q;
+                }
+            }
+            self.instance.update(&self.asset).map_err(|e| e.to_string())?;
+        }
         // The ragdoll's bodies own the skeleton (blended over the animation while handing back).
         #[cfg(feature = "full")]
         let ragdoll_owns = match &mut self.ragdoll {
@@ -311,6 +324,22 @@ impl Model {
         let mut doc: serde_json::Map<String, serde_json::Value> = serde_json::from_str(&text).unwrap_or_default();
         doc.extend(examples.to_json(&self.base_asset));
         serde_json::to_string_pretty(&doc).unwrap_or(text)
+    }
+
+    /// `dataset.pose`: the held joint rotations as a JSON object `{"JOINT": [x, y, z, w]}` (five
+    /// decimals); `""` when none is held.
+    pub fn pose_json(&self) -> String {
+        if self.rotation_overrides.iter().all(Option::is_none) {
+            return String::new();
+        }
+        let held: serde_json::Map<String, serde_json::Value> = (0u32..)
+            .zip(&self.rotation_overrides)
+            .filter_map(|(n, q)| {
+                let q = (*q)?;
+                Some((self.node_name(n), serde_json::json!([round5(q.x), round5(q.y), round5(q.z), round5(q.w)])))
+            })
+            .collect();
+        serde_json::Value::Object(held).to_string()
     }
 
     /// `dataset.ik`: `"EFFECTOR:ERROR"` per goal (error with five decimals), `;`-separated;

@@ -766,6 +766,7 @@ impl Stage {
         let started = web_time::Instant::now();
         let result = model.evaluate();
         self.stages.animate = smooth(self.stages.animate, started.elapsed().as_secs_f32() * 1000.0);
+        self.controls.publish_rotations(model.instance.pose().locals.iter().map(|l| l.rotation.to_array()));
         if let Err(e) = result {
             // Fall back to the rest pose so the error is reported once, not every frame.
             let message = format!("{}: cannot play {:?}: {e}", model.name, model.clip_name(model.animator.main().clip));

@@ -163,6 +163,14 @@ impl Stage {
             | Command::StopRagdoll
             | Command::RagdollToAnimation(_)
             | Command::SetRagdollOptions { .. } => return Err("the ragdoll needs the full app".into()),
+            Command::SetJointRotation { node, rotation } => {
+                let slot = model
+                    .rotation_overrides
+                    .get_mut(node as usize)
+                    .ok_or_else(|| format!("node {node} does not exist"))?;
+                *slot = rotation.map(|[x, y, z, w]| glam::Quat::from_xyzw(x, y, z, w).normalize());
+            }
+            Command::ResetPose => model.rotation_overrides.fill(None),
             Command::SetMorph { node, target, weight } => {
                 let n = model.asset.nodes.get(node as usize).ok_or_else(|| format!("node {node} does not exist"))?;
                 if target >= n.weights.len() {

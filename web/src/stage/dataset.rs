@@ -52,6 +52,7 @@ impl Stage {
         d.set(Key::IkGoals, &model.map_or(String::new(), Model::ik_goals_json));
         d.set(Key::Blend, &model.map_or(String::new(), Model::blend_summary));
         d.set(Key::Morphs, &model.map_or(String::new(), Model::morphs_json));
+        d.set(Key::Pose, &model.map_or(String::new(), Model::pose_json));
         let t = &self.transition;
         let transition = format!(
             "{:.3},{},{}",
