@@ -17,6 +17,12 @@ const BACKENDS = (process.env.KLOUB_BACKENDS ?? 'webgpu,webgl2').split(',');
 const FOX = join(SHARED, 'khronos/Fox/glTF-Binary/Fox.glb');
 const RIGGED_SIMPLE = join(SHARED, 'khronos/RiggedSimple/glTF-Binary/RiggedSimple.glb');
 
+/** Clicks the element matching `selector` in the viewer's accessibility mirror. */
+async function inMirrorClick(page, selector) {
+  await page.waitForFunction((s) => document.querySelector('kloub-viewer').shadowRoot.querySelector(`.kloub-a11y ${s}`), selector, { timeout: 10000 });
+  await page.evaluate((s) => document.querySelector('kloub-viewer').shadowRoot.querySelector(`.kloub-a11y ${s}`).click(), selector);
+}
+
 /** Column-major 4×4 product a · b. */
 function multiply(a, b) {
   const out = new Array(16).fill(0);
@@ -469,6 +475,20 @@ for (const backend of BACKENDS) {
     }
     await page.evaluate(() => document.querySelector('kloub-viewer').resetPose());
     await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.pose === '', 'the pose let go');
+    // The panel's Pose fields of the selected joint (through the accessibility mirror, as a screen reader or a
+    // keyboard would use them): Z set to 45° holds the joint.
+    await page.evaluate((j) => document.querySelector('kloub-viewer').selectJoint(j), joint);
+    await page.waitForFunction(() => document.querySelector('kloub-viewer').shadowRoot.querySelector('.kloub-a11y input[aria-label="Z"]'), null, { timeout: 10000 });
+    await page.evaluate(() => {
+      const z = document.querySelector('kloub-viewer').shadowRoot.querySelector('.kloub-a11y input[aria-label="Z"]');
+      z.value = '45';
+      z.dispatchEvent(new Event('input', { bubbles: true }));
+    });
+    await waitForDataset(page, (j) => (document.querySelector('kloub-viewer').dataset.pose ?? '').includes(j), 'the field to hold the joint', 10000, joint);
+    const fromField = await page.evaluate((j) => document.querySelector('kloub-viewer').jointRotation(j), joint);
+    assert(Math.abs(Math.hypot(...fromField) - 1) < 1e-4, `the field's rotation ${fromField}`);
+    await inMirrorClick(page, 'button[aria-label="Reset all"]');
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.pose === '', 'Reset all');
     await page.evaluate(() => document.querySelector('kloub-viewer').pause());
     await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
     assert(!near(await page.evaluate((j) => document.querySelector('kloub-viewer').jointRotation(j), joint), q), 'resetPose kept the rotation');

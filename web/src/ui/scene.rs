@@ -309,6 +309,7 @@ pub(super) fn joint_panel(ui: &mut egui::Ui, model: &Model, memory: &mut PanelMe
     egui::CollapsingHeader::new(format!("Joint: {}", model.node_name(joint))).id_salt("joint").default_open(true).show(
         ui,
         |ui| {
+            pose_fields(ui, model, joint, actions);
             let main = model.animator.main();
             let clip = main.clip.and_then(|c| model.asset.clips.get(c));
             let channels: Vec<_> = clip
@@ -337,6 +338,54 @@ pub(super) fn joint_panel(ui: &mut egui::Ui, model: &Model, memory: &mut PanelMe
             }
         },
     );
+}
+
+/// Free posing (seed 001 App. C): the joint's local rotation as three angles in degrees (XYZ
+/// Euler, in its parent's frame), held over the animation once edited; reset joint / reset all.
+fn pose_fields(ui: &mut egui::Ui, model: &Model, joint: NodeIndex, actions: &mut PanelActions) {
+    let Some(local) = model.instance.pose().locals.get(joint as usize) else { return };
+    let held = model.rotation_overrides.get(joint as usize).is_some_and(Option::is_some);
+    let (x, y, z) = local.rotation.to_euler(glam::EulerRot::XYZ);
+    let mut angles = [x.to_degrees(), y.to_degrees(), z.to_degrees()];
+    let mut changed = false;
+    ui.horizontal(|ui| {
+        ui.label("Pose").on_hover_text(
+            "The joint's rotation in its parent's frame (X, Y, Z Euler angles in degrees): edit to hold it over the \
+             animation",
+        );
+        for (angle, axis) in angles.iter_mut().zip(["X", "Y", "Z"]) {
+            let label = ui.label(axis);
+            let response = ui
+                .add(egui::DragValue::new(angle).speed(0.5).suffix("°").range(-180.0..=180.0).max_decimals(1))
+                .labelled_by(label.id);
+            changed |= response.on_hover_text(format!("Rotation about {axis}, degrees")).changed();
+        }
+    });
+    if changed {
+        let [x, y, z] = angles.map(f32::to_radians);
+        let q = glam::Quat::from_euler(glam::EulerRot::XYZ, x, y, z).normalize();
+        actions.commands.push(Command::SetJointRotation { node: joint, rotation: Some(q.to_array()) });
+    }
+    ui.horizontal(|ui| {
+        if ui
+            .add_enabled(held, egui::Button::new("Reset joint"))
+            .on_hover_text("Let the animation drive this joint")
+            .clicked()
+        {
+            actions.commands.push(Command::SetJointRotation { node: joint, rotation: None });
+        }
+        let any = model.rotation_overrides.iter().any(Option::is_some);
+        if ui
+            .add_enabled(any, egui::Button::new("Reset all"))
+            .on_hover_text("Let the animation drive every joint")
+            .clicked()
+        {
+            actions.commands.push(Command::ResetPose);
+        }
+        if held {
+            ui.weak("held");
+        }
+    });
 }
 
 /// Samples across a clip in the channel plot.
