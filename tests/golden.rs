@@ -13,7 +13,10 @@
 //! its own folder. `"model": "procedural:candy-wrapper"` is kloub_core's two-bone cylinder,
 //! posed by `"twist"` and `"bend"` (degrees).
 //! The camera is [`Camera::frame_to_fit`] of the posed scene bounds with the default yaw and
-//! pitch. On failure `tests/out/<case>/actual.png` and `diff.png` are written. A missing
+//! pitch. `"examples"` gives example poses for `"skinning": "sjbbe"`: `"procedural"` (the candy
+//! wrapper's own) or a sidecar file in the case's folder; they are drawn as the viewer draws
+//! them (morph targets weighted by α). `"rotate": {"JOINT": [x, y, z, w]}` holds joints' local
+//! rotations after the clip. On failure `tests/out/<case>/actual.png` and `diff.png` are written. A missing
 //! `expected.png` is written and the test fails; `KLOUB_BLESS=1` rewrites every
 //! `expected.png` and passes.
 
@@ -21,13 +24,14 @@ use std::path::{Path, PathBuf};
 
 use image::{Rgba, RgbaImage};
 use kloub_core::candy::CandyWrapper;
+use kloub_core::examples::{ExampleTargets, Examples};
 use kloub_core::job::dqs::SkinningMethod;
 use kloub_core::{Asset, ImportOptions, Instance, MapResolver};
 use kloub_web::render::offscreen::Offscreen;
 use kloub_web::render::{Camera, SkinningPath};
 
 /// Cases that must exist (so deleting a folder cannot make the suite pass).
-const REQUIRED_CASES: [&str; 7] = [
+const REQUIRED_CASES: [&str; 10] = [
     "cesiumman_t0.5",
     "riggedsimple_t1.0",
     "texture_transform",
@@ -35,6 +39,9 @@ const REQUIRED_CASES: [&str; 7] = [
     "candy_lbs_twist150",
     "candy_dqs_twist150",
     "candy_sjb_twist150",
+    "candy_sjbbe_bend90",
+    "candy_sjbbe_bend45",
+    "cesiumman_sjbbe_elbow",
 ];
 
 /// `"model"` of the procedural candy-wrapper rig ([`CandyWrapper`]).
@@ -149,18 +156,52 @@ fn run_case(offscreen: &Offscreen, dir: &Path, bless: bool) -> Option<String> {
         Some(rig) => rig.asset.clone(),
         None => load(model),
     };
+    // Example poses: compiled into morph targets as the viewer does.
+    let mut targets = None;
+    let asset = match manifest.get("examples").and_then(|e| e.as_str()) {
+        None => asset,
+        Some(source) => {
+            let examples = match (source, &candy) {
+                ("procedural", Some(rig)) => rig.examples(),
+                _ => {
+                    let text =
+                        std::fs::read_to_string(dir.join(source)).unwrap_or_else(|e| panic!("{name}: {source}: {e}"));
+                    Examples::from_json(&asset, &text).unwrap_or_else(|e| panic!("{name}: {source}: {e}"))
+                }
+            };
+            let mut rigs = Instance::new(&asset);
+            rigs.set_examples(&asset, &examples).unwrap_or_else(|e| panic!("{name}: examples: {e}"));
+            let (derived, t) = ExampleTargets::compile(&asset, &rigs);
+            targets = Some(t);
+            derived
+        }
+    };
     let (mut instance, mut camera) = pose(&asset, clip, time, view);
-    if let Some(method) = manifest.get("skinning").and_then(|m| m.as_str()) {
-        let method =
-            SkinningMethod::from_name(method).unwrap_or_else(|| panic!("{name}: unknown skinning method {method:?}"));
+    let mut method = SkinningMethod::Linear;
+    if let Some(name_of_method) = manifest.get("skinning").and_then(|m| m.as_str()) {
+        method = SkinningMethod::from_name(name_of_method)
+            .unwrap_or_else(|| panic!("{name}: unknown skinning method {name_of_method:?}"));
         instance.set_skinning(&asset, method);
         instance.update(&asset).expect("updating");
     }
     if let Some(rig) = &candy {
         let angle = |key: &str| manifest.get(key).and_then(|v| v.as_f64()).unwrap_or(0.0) as f32;
-        rig.pose(&mut instance, angle("twist"), angle("bend")).expect("posing the candy wrapper");
+        rig.pose_in(&asset, &mut instance, angle("twist"), angle("bend")).expect("posing the candy wrapper");
         let (min, max) = instance.scene_bounds(&asset).expect("drawable");
         camera.frame_to_fit(min, max);
+    }
+    if let Some(rotate) = manifest.get("rotate").and_then(|r| r.as_object()) {
+        for (joint, q) in rotate {
+            let node = asset.nodes.iter().position(|n| n.name.as_deref() == Some(joint.as_str()));
+            let node = node.unwrap_or_else(|| panic!("{name}: no joint {joint:?}"));
+            let q: Vec<f32> =
+                q.as_array().expect("[x, y, z, w]").iter().filter_map(|x| x.as_f64()).map(|x| x as f32).collect();
+            instance.pose_mut().locals[node].rotation = kloub_core::math::Quat::from_slice(&q).normalize();
+        }
+        instance.update(&asset).expect("updating");
+    }
+    if let Some(t) = &mut targets {
+        t.write_weights(&mut instance, method == SkinningMethod::SphericalJointBlendByExample).expect("α");
     }
     let mut renderer = offscreen.scene_renderer(&asset).unwrap_or_else(|e| panic!("{name}: uploading: {e}"));
     let actual = offscreen
