@@ -412,6 +412,24 @@ impl ExampleTargets {
     }
 }
 
+impl ExampleTargets {
+    /// The example weights in `instance`'s pose now, for the first node that draws examples:
+    /// `(skin, joint in that skin, example of that joint, α)` (for a readout).
+    pub fn current(&self, instance: &Instance) -> Vec<(usize, u16, usize, f32)> {
+        let Some(t) = self.nodes.first() else { return Vec::new() };
+        let weights = &instance.pose().weights;
+        let mut out = Vec::new();
+        let mut k = t.first_weight;
+        for bone in &t.rig.bones {
+            for e in 0..bone.rotations.len() {
+                out.push((t.skin, bone.joint, e, weights.get(k).copied().unwrap_or(0.0)));
+                k += 1;
+            }
+        }
+        out
+    }
+}
+
 /// A rig's (bone, example) pairs in order: its example targets.
 fn rig_keys(rig: &SjbbeRig) -> Vec<(u16, usize)> {
     rig.bones.iter().enumerate().flat_map(|(b, bone)| (0..bone.rotations.len()).map(move |e| (b as u16, e))).collect()

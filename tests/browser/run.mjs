@@ -426,6 +426,12 @@ for (const backend of BACKENDS) {
     const sjb = await shot('sjb');
     const sjbbe = await shot('sjbbe');
     savePng(sjbbe, `${backend}-sjbbe.png`);
+    // The skinning section reads out the example's weight: 1 at the example's rotation.
+    await page.waitForFunction(() => {
+      const root = document.querySelector('kloub-viewer').shadowRoot.querySelector('.kloub-a11y');
+      const texts = [root.textContent, ...[...root.querySelectorAll('[aria-label]')].map((n) => n.getAttribute('aria-label'))];
+      return texts.some((t) => t.includes('Example poses (1)')) && texts.some((t) => t.includes('α 1.00'));
+    }, null, { timeout: 10000 });
     const changed = diffFraction(sjb, sjbbe);
     assert(changed > 0.002, `the example changed only ${(changed * 100).toFixed(3)}% of the viewport`);
     const back = diffFraction(sjb, await shot('sjb'));

@@ -22,7 +22,7 @@ mod validation;
 use animation::{blend_panel, clips, layer_panel, playback, transition_settings};
 use ik::ik_panel;
 use scene::{copies_control, joint_panel, morph_panel, outline_panel, ragdoll_panel, view_panel};
-use skinning::{candy_panel, skinning_panel};
+use skinning::{candy_panel, examples_panel, skinning_panel};
 
 /// Read-only facts the panel shows.
 pub struct PanelState<'a> {
@@ -214,7 +214,10 @@ pub fn side_panel(
                 ui.separator();
             }
             if model.asset.skins.iter().any(|s| !s.joints.is_empty()) {
-                section(ui, "Skinning", |ui| skinning_panel(ui, state, &mut actions));
+                section(ui, "Skinning", |ui| {
+                    skinning_panel(ui, state, &mut actions);
+                    examples_panel(ui, model, state.skinning);
+                });
                 ui.separator();
             }
             section(ui, "IK", |ui| ik_panel(ui, model, &mut actions));

@@ -129,3 +129,26 @@ pub(super) fn candy_panel(ui: &mut egui::Ui, candy: &CandyPanel, current: Skinni
         });
     });
 }
+
+/// The example poses of SJB by example and their weights α now (seed 001 §5.3: 1 at an
+/// example, 0 at the rest pose, interpolated between by radial basis functions).
+pub(super) fn examples_panel(ui: &mut egui::Ui, model: &crate::model::Model, skinning: SkinningMethod) {
+    let Some((examples, targets)) = &model.examples else { return };
+    let current = targets.current(&model.instance);
+    ui.label(format!("Example poses ({})", examples.poses.len())).on_hover_text(
+        "From the sidecar: under SJBBE each example's shape is blended in by how close its joint is to the example \
+         (α: 1 at the example, 0 at rest)",
+    );
+    if skinning != SkinningMethod::SphericalJointBlendByExample {
+        ui.weak("Choose SJB by example to apply them.");
+    }
+    egui::Grid::new("sjbbe examples").striped(true).show(ui, |ui| {
+        for (skin, joint, example, alpha) in current {
+            let node = model.asset.skins.get(skin).and_then(|s| s.joints.get(usize::from(joint))).copied();
+            ui.label(node.map_or_else(|| format!("joint {joint}"), |n| model.node_name(n)));
+            ui.label(format!("#{}", example + 1));
+            ui.label(format!("α {alpha:.2}"));
+            ui.end_row();
+        }
+    });
+}
