@@ -284,6 +284,7 @@ pub struct ExampleTargets {
 /// One node's example weights.
 #[derive(Clone, Debug)]
 struct NodeTargets {
+    node: u32,
     skin: usize,
     /// The rig whose bones give α (the node's first shaped primitive's; all of a mesh's
     /// primitives share the bones).
@@ -365,6 +366,7 @@ impl ExampleTargets {
                 node.weights.extend(std::iter::repeat_n(0.0, extra));
                 let (Some(skin), Some(rig)) = (node.skin, instance.sjbbe_rig(n as u32, 0)) else { continue };
                 targets.nodes.push(NodeTargets {
+                    node: n as u32,
                     skin: skin as usize,
                     rig: rig.clone(),
                     first_weight: total as usize + own,
@@ -413,6 +415,26 @@ impl ExampleTargets {
 }
 
 impl ExampleTargets {
+    /// Takes the rigs of `instance` (made for the asset [`ExampleTargets::compile`] was given,
+    /// with the same examples but other σ): the targets' offsets do not depend on σ, only α does.
+    ///
+    /// # Errors
+    /// A node whose rig is missing or has other joints or examples (different examples).
+    pub fn update_rigs(&mut self, instance: &Instance) -> Result<(), String> {
+        let mut rigs = Vec::with_capacity(self.nodes.len());
+        for t in &self.nodes {
+            let rig = instance.sjbbe_rig(t.node, 0).ok_or("the examples changed: no rig for a node that had one")?;
+            if rig_keys(rig) != rig_keys(&t.rig) {
+                return Err("the examples changed: other joints or examples".into());
+            }
+            rigs.push(rig.clone());
+        }
+        for (t, rig) in self.nodes.iter_mut().zip(rigs) {
+            t.rig = rig;
+        }
+        Ok(())
+    }
+
     /// The example weights in `instance`'s pose now, for the first node that draws examples:
     /// `(skin, joint in that skin, example of that joint, α)` (for a readout).
     pub fn current(&self, instance: &Instance) -> Vec<(usize, u16, usize, f32)> {

@@ -441,6 +441,26 @@ for (const backend of BACKENDS) {
     await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.skinningPath === 'cpu', 'the CPU path', 30000);
     const cpu = diffFraction(sjbbe, await shot('sjbbe'));
     assert(cpu < 0.001, `SJBBE on the CPU and on the GPU differ in ${(cpu * 100).toFixed(3)}% of the viewport`);
+    // σ: off the example's rotation a narrower Gaussian gives less of it.
+    const alpha = () => page.evaluate(() => {
+      const m = document.querySelector('kloub-viewer').shadowRoot.querySelector('.kloub-a11y').textContent.match(/α (-?\d+\.\d\d)/);
+      return m ? Number(m[1]) : null;
+    });
+    await page.evaluate(() => { document.querySelector('kloub-viewer').currentTime = 0.25; });
+    await page.waitForFunction(() => document.querySelector('kloub-viewer').dataset.time === '0.250', null, { timeout: 10000 });
+    await page.waitForFunction(() => !/α 1\.00/.test(document.querySelector('kloub-viewer').shadowRoot.querySelector('.kloub-a11y').textContent), null, { timeout: 10000 });
+    const wide = await alpha();
+    await page.evaluate(() => {
+      const slider = document.querySelector('kloub-viewer').shadowRoot.querySelector('.kloub-a11y input[type="range"][aria-label="σ Skeleton_arm_joint_L__3_"]');
+      slider.value = '0.3';
+      slider.dispatchEvent(new Event('input', { bubbles: true }));
+    });
+    await page.waitForFunction((w) => {
+      const m = document.querySelector('kloub-viewer').shadowRoot.querySelector('.kloub-a11y').textContent.match(/α (-?\d+\.\d\d)/);
+      return m && Number(m[1]) !== w;
+    }, wide, { timeout: 10000 });
+    const narrow = await alpha();
+    assert(Math.abs(narrow) < Math.abs(wide), `α ${wide} at σ 1, ${narrow} at σ 0.3`);
     // A broken sidecar dropped on the model: an error naming its pointer, the model stays.
     await dropFiles(page, [{ name: 'CesiumMan.kloub.json', bytes: Buffer.from(JSON.stringify({ examples: { Skeleton_arm_joint_L__3_: [{ rotation: [0, 0, 2, 0], offsets: '' }] } })) }]);
     await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.error !== '', 'the sidecar error');

@@ -171,6 +171,13 @@ pub enum Command {
     },
     /// Lets the animation drive every joint again (drops every held rotation).
     ResetPose,
+    /// Sets σ (radians of arc) of a joint's example poses (SJB by example).
+    SetExampleSigma {
+        /// The joint's node.
+        node: u32,
+        /// σ.
+        sigma: f32,
+    },
     /// Shows model `i` of the files dropped together (the side panel's model list).
     ShowModel(usize),
     /// Shows the "drop to open" hint (the page handles drag-and-drop itself).

@@ -326,6 +326,23 @@ impl Model {
         serde_json::to_string_pretty(&doc).unwrap_or(text)
     }
 
+    /// Sets σ (radians of arc) of joint node `node`'s example poses: their weights are solved
+    /// again; the morph targets stay.
+    ///
+    /// # Errors
+    /// No examples, or σ the rig refuses (too small for examples this far apart, or too large).
+    pub fn set_example_sigma(&mut self, node: NodeIndex, sigma: f32) -> Result<(), String> {
+        let Some((examples, targets)) = &mut self.examples else { return Err("the model has no example poses".into()) };
+        let mut next = examples.clone();
+        next.sigma.retain(|&(n, _)| n != node);
+        next.sigma.push((node, sigma));
+        let mut rigs = Instance::new(&self.base_asset);
+        rigs.set_examples(&self.base_asset, &next).map_err(|e| format!("{}: σ {sigma}: {e}", self.name))?;
+        targets.update_rigs(&rigs)?;
+        *examples = next;
+        Ok(())
+    }
+
     /// `dataset.pose`: the held joint rotations as a JSON object `{"JOINT": [x, y, z, w]}` (five
     /// decimals); `""` when none is held.
     pub fn pose_json(&self) -> String {

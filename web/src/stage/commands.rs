@@ -171,6 +171,7 @@ impl Stage {
                 *slot = rotation.map(|[x, y, z, w]| glam::Quat::from_xyzw(x, y, z, w).normalize());
             }
             Command::ResetPose => model.rotation_overrides.fill(None),
+            Command::SetExampleSigma { node, sigma } => model.set_example_sigma(node, sigma)?,
             Command::SetMorph { node, target, weight } => {
                 let n = model.asset.nodes.get(node as usize).ok_or_else(|| format!("node {node} does not exist"))?;
                 if target >= n.weights.len() {

@@ -216,7 +216,7 @@ pub fn side_panel(
             if model.asset.skins.iter().any(|s| !s.joints.is_empty()) {
                 section(ui, "Skinning", |ui| {
                     skinning_panel(ui, state, &mut actions);
-                    examples_panel(ui, model, state.skinning);
+                    examples_panel(ui, model, state.skinning, &mut actions);
                 });
                 ui.separator();
             }

@@ -132,7 +132,12 @@ pub(super) fn candy_panel(ui: &mut egui::Ui, candy: &CandyPanel, current: Skinni
 
 /// The example poses of SJB by example and their weights α now (seed 001 §5.3: 1 at an
 /// example, 0 at the rest pose, interpolated between by radial basis functions).
-pub(super) fn examples_panel(ui: &mut egui::Ui, model: &crate::model::Model, skinning: SkinningMethod) {
+pub(super) fn examples_panel(
+    ui: &mut egui::Ui,
+    model: &crate::model::Model,
+    skinning: SkinningMethod,
+    actions: &mut PanelActions,
+) {
     let Some((examples, targets)) = &model.examples else { return };
     let current = targets.current(&model.instance);
     ui.label(format!("Example poses ({})", examples.poses.len())).on_hover_text(
@@ -141,6 +146,24 @@ pub(super) fn examples_panel(ui: &mut egui::Ui, model: &crate::model::Model, ski
     );
     if skinning != SkinningMethod::SphericalJointBlendByExample {
         ui.weak("Choose SJB by example to apply them.");
+    }
+    // σ per joint: how far from its examples a pose still takes part of them.
+    let mut joints: Vec<u32> = examples.poses.iter().map(|p| p.node).collect();
+    joints.dedup();
+    for node in joints {
+        let mut sigma =
+            examples.sigma.iter().find(|(n, _)| *n == node).map_or(kloub_core::job::sjbbe::DEFAULT_SIGMA, |s| s.1);
+        let name = format!("σ {}", model.node_name(node));
+        ui.horizontal(|ui| {
+            let label = ui.label(&name);
+            let response = ui
+                .add(egui::Slider::new(&mut sigma, 0.1..=3.0).suffix(" rad").max_decimals(2))
+                .labelled_by(label.id)
+                .on_hover_text("The Gaussians' width over the arc between bone directions (the seed's is 1)");
+            if response.drag_stopped() || (response.changed() && !response.dragged()) {
+                actions.commands.push(Command::SetExampleSigma { node, sigma });
+            }
+        });
     }
     egui::Grid::new("sjbbe examples").striped(true).show(ui, |ui| {
         for (skin, joint, example, alpha) in current {
