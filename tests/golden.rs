@@ -162,7 +162,7 @@ fn run_case(offscreen: &Offscreen, dir: &Path, bless: bool) -> Option<String> {
         None => asset,
         Some(source) => {
             let examples = match (source, &candy) {
-                ("procedural", Some(rig)) => rig.examples(),
+                ("procedural", Some(rig)) => rig.examples().clone(),
                 _ => {
                     let text =
                         std::fs::read_to_string(dir.join(source)).unwrap_or_else(|e| panic!("{name}: {source}: {e}"));

@@ -224,7 +224,7 @@ fn sjbbe_on_the_gpu_matches_the_cpu_sjbbe() {
         (
             "candy wrapper",
             &rig.asset,
-            rig.examples(),
+            rig.examples().clone(),
             [90.0f32, 45.0, 130.0]
                 .into_iter()
                 .map(|bend| -> Pose<'_> {

@@ -12,7 +12,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let rig = CandyWrapper::new();
     let mut instance = Instance::new(&rig.asset);
     // sjbbe: the rig's example pose (Joint bent 90°, a bulge keeping the volume there).
-    instance.set_examples(&rig.asset, &rig.examples())?;
+    instance.set_examples(&rig.asset, rig.examples())?;
     let (mut positions, mut normals) = (Vec::new(), Vec::new());
     let mut table = |title: &str,
                      column: &str,

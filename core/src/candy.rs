@@ -52,6 +52,8 @@ pub struct CandyWrapper {
     /// The asset to load into the viewer or an [`Instance`].
     pub asset: Asset,
     rest_volume: f32,
+    /// [`CandyWrapper::examples`], found on first use (a bisection over deformations).
+    examples: std::cell::OnceCell<Examples>,
 }
 
 impl Default for CandyWrapper {
@@ -105,7 +107,7 @@ impl CandyWrapper {
             weight_total: 0,
             extensions: Default::default(),
         };
-        CandyWrapper { asset, rest_volume }
+        CandyWrapper { asset, rest_volume, examples: std::cell::OnceCell::new() }
     }
 
     /// Poses `instance` (made for [`CandyWrapper::asset`]): `Joint` twisted about the bone
@@ -136,8 +138,13 @@ impl CandyWrapper {
     /// The example pose of spherical joint blending by example: `Joint` bent [`EXAMPLE_BEND`]
     /// degrees about Z, its support (the vertices `Root` moves) bulged radially around the
     /// joint, `h · exp(−(x / 0.3)²)`, with `h` found so that the bent cylinder keeps its rest
-    /// volume. Offsets in the rest pose, as the viewer saves them.
-    pub fn examples(&self) -> Examples {
+    /// volume. Offsets in the rest pose, as the viewer saves them. Found once per rig.
+    pub fn examples(&self) -> &Examples {
+        self.examples.get_or_init(|| self.find_examples())
+    }
+
+    /// [`CandyWrapper::examples`], bisecting for the bulge's height.
+    fn find_examples(&self) -> Examples {
         let side = |h: f32| -> Vec<[f32; 3]> {
             let p = &self.asset.meshes[0].primitives[0];
             (0..p.positions.len())
@@ -301,7 +308,7 @@ mod tests {
     fn measure(rig: &CandyWrapper, method: SkinningMethod, twist: f32, bend: f32) -> Quality {
         let mut instance = Instance::new(&rig.asset);
         instance.set_skinning(&rig.asset, method);
-        instance.set_examples(&rig.asset, &rig.examples()).expect("the example builds");
+        instance.set_examples(&rig.asset, rig.examples()).expect("the example builds");
         rig.pose(&mut instance, twist, bend).expect("poses");
         let (mut p, mut n) = (Vec::new(), Vec::new());
         instance.deform_primitive(&rig.asset, 2, 0, &mut p, &mut n).expect("deforms");
@@ -354,7 +361,7 @@ mod tests {
         let (a, b) = (sjbbe(45.0).volume_ratio, sjb(45.0).volume_ratio);
         assert!(a > b, "at 45° SJBBE {a} SJB {b}");
         let json = rig.example_sidecar();
-        assert_eq!(Examples::from_json(&rig.asset, &json).expect("reads back"), rig.examples());
+        assert_eq!(Examples::from_json(&rig.asset, &json).expect("reads back"), *rig.examples());
     }
 
     #[test]

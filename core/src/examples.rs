@@ -31,7 +31,8 @@ use crate::asset::{Asset, MorphTarget};
 use crate::error::JobError;
 use crate::instance::Instance;
 use crate::job::sjbbe::{ExamplePose, ExampleSpace, MAX_EXAMPLES, NO_SLOT, SjbbeAlphaJob, SjbbeRig};
-use crate::math::Quat;
+use crate::math::{Quat, QuatExt};
+use crate::rig::escape;
 
 /// The example poses of one model.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -74,11 +75,6 @@ pub enum ExampleShape {
         /// Normal offsets; empty for none.
         normals: Vec<[f32; 3]>,
     },
-}
-
-/// A JSON pointer token (`~` → `~0`, `/` → `~1`).
-fn escape(name: &str) -> String {
-    name.replace('~', "~0").replace('/', "~1")
 }
 
 /// The vertex count of every primitive of `mesh` together.
@@ -476,13 +472,10 @@ fn rotation(value: Option<&Value>, ptr: &str) -> Result<Quat, String> {
         .filter(|a| a.len() == 4)
         .and_then(|a| a.iter().map(|x| x.as_f64().map(|x| x as f32)).collect())
         .ok_or_else(|| format!("{ptr}: expected [x, y, z, w]"))?;
-    let q = Quat::from_xyzw(xs[0], xs[1], xs[2], xs[3]);
-    let length = q.length();
-    if !length.is_finite() || (length - 1.0).abs() > 1e-3 {
-        return Err(format!("{ptr}: not a unit quaternion (length {length})"));
-    }
     // Kept as written (the rig normalizes): a sidecar read and written back is unchanged.
-    Ok(q)
+    Quat::from_xyzw(xs[0], xs[1], xs[2], xs[3])
+        .check_unit()
+        .map_err(|length| format!("{ptr}: not a unit quaternion (length {length})"))
 }
 
 /// An example's shape: a morph target or inline offsets.

@@ -45,7 +45,14 @@ impl Transform {
 pub trait QuatExt: Sized {
     /// The unit quaternion, or `None` when the length is zero or not finite.
     fn try_normalize_quat(self) -> Option<Self>;
+
+    /// `Err(length)` when a rotation given as input (a sidecar, the CLI, the page) is not a unit
+    /// quaternion within [`UNIT_QUAT_TOLERANCE`] of length 1; its reader normalizes it after.
+    fn check_unit(self) -> Result<Self, f32>;
 }
+
+/// How far from length 1 a rotation given as input may be.
+pub const UNIT_QUAT_TOLERANCE: f32 = 1e-3;
 
 impl QuatExt for Quat {
     #[inline]
@@ -53,6 +60,12 @@ impl QuatExt for Quat {
         let v = Vec4::from(self);
         let len = v.length();
         (len.is_finite() && len > 1e-12).then(|| Quat::from_vec4(v / len))
+    }
+
+    #[inline]
+    fn check_unit(self) -> Result<Self, f32> {
+        let length = self.length();
+        if length.is_finite() && (length - 1.0).abs() <= UNIT_QUAT_TOLERANCE { Ok(self) } else { Err(length) }
     }
 }
 

@@ -36,7 +36,7 @@ use kloub_core::animator::{Crossfade, Easing, Layer, Outgoing};
 use kloub_core::asset::{Asset, NodeIndex};
 use kloub_core::examples::Examples;
 use kloub_core::job::dqs::SkinningMethod;
-use kloub_core::math::Quat;
+use kloub_core::math::{Quat, QuatExt};
 use kloub_core::{Animator, ImportOptions, Imported, Instance, Resolver, Warning};
 use serde::Serialize;
 use serde::ser::SerializeMap;
@@ -685,11 +685,9 @@ fn parse_rotation(asset: &Asset, spec: &str) -> Result<(u32, Quat), PoseError> {
     let xs: Vec<f32> =
         quat.split(',').map(|x| x.trim().parse::<f32>()).collect::<Result<_, _>>().map_err(|e| bad(e.to_string()))?;
     let [x, y, z, w] = xs[..] else { return Err(bad(format!("{} numbers; expected x,y,z,w", xs.len()))) };
-    let q = Quat::from_xyzw(x, y, z, w);
-    let length = q.length();
-    if !length.is_finite() || (length - 1.0).abs() > 1e-3 {
-        return Err(bad(format!("not a unit quaternion (length {length})")));
-    }
+    let q = Quat::from_xyzw(x, y, z, w)
+        .check_unit()
+        .map_err(|length| bad(format!("not a unit quaternion (length {length})")))?;
     Ok((node as u32, q.normalize()))
 }
 

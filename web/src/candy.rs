@@ -38,7 +38,7 @@ impl CandyPanel {
         let rig = CandyWrapper::new();
         let mut measure = Instance::new(&rig.asset);
         // SJBBE measures with the rig's example pose (the shown model gets it from its sidecar).
-        if let Err(e) = measure.set_examples(&rig.asset, &rig.examples()) {
+        if let Err(e) = measure.set_examples(&rig.asset, rig.examples()) {
             log::warn!("candy wrapper: {e}");
         }
         let unit = Quality { radius_kept: 1.0, volume_ratio: 1.0 };

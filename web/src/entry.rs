@@ -494,12 +494,12 @@ impl Viewer {
         let rotation = match rotation.as_deref() {
             None => None,
             Some(&[x, y, z, w]) => {
-                let length = (x * x + y * y + z * z + w * w).sqrt();
-                if !length.is_finite() || (length - 1.0).abs() > 1e-3 {
-                    return Err(range_error(format!(
+                use kloub_core::math::QuatExt;
+                glam::Quat::from_xyzw(x, y, z, w).check_unit().map_err(|length| {
+                    range_error(format!(
                         "setJointRotation: [{x}, {y}, {z}, {w}] is not a unit quaternion (length {length})"
-                    )));
-                }
+                    ))
+                })?;
                 Some([x, y, z, w])
             }
             Some(other) => {

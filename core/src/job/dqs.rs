@@ -212,7 +212,14 @@ impl DqsJob<'_> {
         self.validate()?;
         let table = self.joints_dq;
         for v in 0..self.positions.len() {
-            let (p, n) = dqs_vertex(table, &self.joints[v], &self.weights[v], self.positions[v], self.normals.get(v))?;
+            let (p, n) = dqs_vertex_way(
+                Way::Skin,
+                table,
+                &self.joints[v],
+                &self.weights[v],
+                self.positions[v],
+                self.normals.get(v),
+            )?;
             self.out_positions[v] = p;
             if let (Some(out), Some(n)) = (self.out_normals.get_mut(v), n) {
                 *out = n;
@@ -254,19 +261,9 @@ pub(crate) fn dq_blend(
     })
 }
 
-/// Dual-quaternion skinning of one vertex (shared with the spherical-joint-blend fallback).
-pub(crate) fn dqs_vertex(
-    table: &[JointDq],
-    joints: &[u16; 8],
-    weights: &[f32; 8],
-    position: [f32; 3],
-    normal: Option<&[f32; 3]>,
-) -> Result<([f32; 3], Option<[f32; 3]>), JobError> {
-    dqs_vertex_way(Way::Skin, table, joints, weights, position, normal)
-}
-
-/// [`dqs_vertex`], or ([`Way::Unskin`]) its inverse: the bind-pose position (and normal
-/// direction, not normalized) that the influences carry to `position` (`normal`).
+/// Dual-quaternion skinning of one vertex ([`Way::Skin`]; shared with the spherical-joint-blend
+/// fallback) or ([`Way::Unskin`]) its inverse: the bind-pose position (and normal direction,
+/// not normalized) that the influences carry to `position` (`normal`).
 #[inline]
 pub(crate) fn dqs_vertex_way(
     way: Way,

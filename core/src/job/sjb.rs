@@ -208,7 +208,8 @@ impl SjbJob<'_> {
     pub fn run(&mut self) -> Result<(), JobError> {
         self.validate()?;
         for v in 0..self.positions.len() {
-            let (p, n) = sjb_skin_vertex(
+            let (p, n) = sjb_vertex_way(
+                Way::Skin,
                 self.palette,
                 self.joints_dq,
                 self.plan,
@@ -272,21 +273,6 @@ pub(crate) fn sjb_vertex_way(
         return Ok((p.to_array(), n.map(|n| n.to_array())));
     }
     dqs_vertex_way(way, table, joints, weights, position, normal)
-}
-
-/// [`sjb_vertex_way`] skinning.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn sjb_skin_vertex(
-    palette: &[Mat4],
-    table: &[JointDq],
-    plan: &SjbPlan,
-    v: usize,
-    joints: &[u16; 8],
-    weights: &[f32; 8],
-    position: [f32; 3],
-    normal: Option<&[f32; 3]>,
-) -> Result<SkinnedVertex, JobError> {
-    sjb_vertex_way(Way::Skin, palette, table, plan, v, joints, weights, position, normal)
 }
 
 /// The blended rotation of a vertex about its centre (signs aligned to the driver's), or
@@ -434,7 +420,8 @@ mod tests {
         .expect("valid");
         for v in 0..2 {
             let (want, _) =
-                super::super::dqs::dqs_vertex(&table, &joints[v], &weights[v], positions[v], None).expect("valid");
+                super::super::dqs::dqs_vertex_way(Way::Skin, &table, &joints[v], &weights[v], positions[v], None)
+                    .expect("valid");
             assert_eq!(out[v], want);
         }
     }

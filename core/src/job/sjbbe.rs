@@ -23,12 +23,12 @@
 use std::fmt;
 
 use super::dqs::{DqPrepareJob, JointDq};
-use super::sjb::{SjbPlan, Way, sjb_skin_vertex, sjb_vertex_way};
+use super::sjb::{SjbPlan, Way, sjb_vertex_way};
 use super::skin::check_vertex_streams;
 use super::{check_eq, check_index, check_len};
 use crate::asset::Skin;
 use crate::error::JobError;
-use crate::math::{Mat4, Quat, Vec3};
+use crate::math::{Mat4, Quat, QuatExt, Vec3};
 
 /// Example poses per joint at most (as in the seed).
 pub const MAX_EXAMPLES: usize = 4;
@@ -230,8 +230,7 @@ impl SjbbeRig {
             let mut palettes = Vec::with_capacity(mine.len());
             for &i in &mine {
                 let e = &examples[i];
-                let length = e.rotation.length();
-                if !length.is_finite() || (length - 1.0).abs() > 1e-3 {
+                if let Err(length) = e.rotation.check_unit() {
                     return Err(error(
                         Some(i),
                         joint,
@@ -546,7 +545,8 @@ impl SjbbeJob<'_> {
                 }
             }
             let normal = n.map(|n| n.to_array());
-            let (p, n) = sjb_skin_vertex(
+            let (p, n) = sjb_vertex_way(
+                Way::Skin,
                 self.palette,
                 self.joints_dq,
                 self.plan,
