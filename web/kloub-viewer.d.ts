@@ -102,6 +102,8 @@ export interface KloubViewerState {
   morphs?: string;
   /** JSON object of the joint rotations `setJointRotation` holds: `{"JOINT": [x, y, z, w]}`; empty without. */
   pose?: string;
+  /** `animate`, `pose` (pose mode) or `sculpt` (an example pose being sculpted). */
+  mode?: 'animate' | 'pose' | 'sculpt';
   /** JSON array of the model file names of a drop or zip holding several; empty for one model. */
   models?: string;
   /** Where each IK goal's pole marker is drawn, `"x,y"` in CSS px of the canvas, `;` per goal. */
@@ -259,6 +261,10 @@ export declare class KloubViewer extends HTMLElement {
   jointRotation(name: string): [number, number, number, number];
   /** Lets the animation drive every joint again. */
   resetPose(): void;
+  /** Pose mode on or off (`data-mode`): the clip stops where it is, a click on the model selects a joint and the gizmo's three rings turn it; leaving plays the clip again if it played. Needs the full app: on the light widget build the page loads it first. */
+  setPoseMode(on: boolean): void;
+  /** Records joint `name`'s rotation on screen as a new example pose of SJB by example and opens the sculpt on its support (`data-mode="sculpt"`); the panel's Done adds it. Errors (a joint without a parent joint or with several children, a bone left where it is at rest, four examples already) come as `error` events. Needs the full app. */
+  addExamplePose(name: string): void;
   setLighting(name: 'studio' | 'outdoor' | 'flat' | 'rim'): void;
   setBackground(name: Background): void;
   /** Downloads the view as `<model>.png`. */

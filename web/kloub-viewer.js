@@ -1797,6 +1797,16 @@ class KloubViewer extends HTMLElement {
   resetPose() {
     this.#call('resetPose', (v) => v.resetPose());
   }
+  /** Pose mode on or off: the clip stops where it is, a click selects a joint, the gizmo's rings turn it. */
+  setPoseMode(on) {
+    bool('setPoseMode', 'on', on);
+    this.#call('setPoseMode', (v) => v.setPoseMode(on), true);
+  }
+  /** Records joint `name`'s rotation on screen as a new example pose (SJB by example) and opens the sculpt on its support. */
+  addExamplePose(name) {
+    str('addExamplePose', 'name', name);
+    this.#call('addExamplePose', (v) => v.addExamplePose(name), true);
+  }
   /** Lighting preset: studio, outdoor, flat or rim. */
   setLighting(name) {
     oneOf('setLighting', 'name', name, LIGHTING);
@@ -1942,6 +1952,7 @@ class KloubViewer extends HTMLElement {
   static async _testGlCanvas() { return (await loadRuntime())._testGlCanvas() ?? null; }
 
   /** The ARIA role and name of every control of the panels as the viewer built them ([[role, name], …]). */
+  _testGizmo() { const g = this.#viewer?._testGizmo?.() ?? ''; return g === '' ? null : JSON.parse(g); }
   _testAccessibilityControls() { return JSON.parse(this.#viewer?._testAccessibilityControls?.() ?? '[]'); }
   /** The build the page runs: 'widget', 'widget-gl' or 'full' (null before the first element mounted). */
   static _testBuild() { return build; }

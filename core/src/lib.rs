@@ -35,6 +35,7 @@ pub mod pose;
 #[cfg(feature = "physics")]
 pub mod ragdoll;
 pub mod rig;
+pub mod sculpt;
 #[cfg(test)]
 mod testutil;
 

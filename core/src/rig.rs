@@ -109,7 +109,7 @@ impl JointSettings {
 }
 
 /// A JSON pointer token (`~` → `~0`, `/` → `~1`).
-pub(crate) fn escape(name: &str) -> String {
+pub fn escape(name: &str) -> String {
     name.replace('~', "~0").replace('/', "~1")
 }
 

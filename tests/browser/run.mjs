@@ -469,6 +469,101 @@ for (const backend of BACKENDS) {
     assert(d.model === 'CesiumMan.gltf', `the model went: ${d.model}`);
   });
 
+  test(`${backend}: pose mode: a click selects a joint, a gizmo ring turns it; addExamplePose sculpts an example that is added, saved and dropped back exactly`, async (ctx) => {
+    const { page } = ctx;
+    await openApp(ctx, backend);
+    await dropFiles(page, CESIUM_MAN.map((path) => ({ path })));
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.model === 'CesiumMan.gltf' && document.querySelector('kloub-viewer').dataset.status === 'ready', 'CesiumMan');
+    const joint = 'Skeleton_arm_joint_L__3_';
+    const el = () => document.querySelector('kloub-viewer');
+    const frames = () => page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
+    // The canvas's offset on the page: the hook reports canvas pixels.
+    const offset = await page.evaluate(() => { const r = document.querySelector('kloub-viewer').getBoundingClientRect(); return [r.left, r.top]; });
+    const gizmo = async () => {
+      await frames();
+      return page.evaluate(() => document.querySelector('kloub-viewer')._testGizmo());
+    };
+    await control(page, 'setPoseMode', true);
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.mode === 'pose', 'pose mode');
+    assert((await dataset(page)).playing !== 'true', 'pose mode stops the clip');
+    // A click near a joint selects it: find the elbow's place, clear the selection, click there.
+    await control(page, 'selectJoint', joint);
+    await waitForDataset(page, (j) => document.querySelector('kloub-viewer').dataset.joint === j, 'the elbow selected', 10000, joint);
+    let g = await gizmo();
+    assert(g && g.rings && g.rings.length === 3, `the gizmo: ${JSON.stringify(g)}`);
+    await control(page, 'selectJoint', null);
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.joint === '', 'no joint selected');
+    await page.mouse.click(offset[0] + g.joint[0], offset[1] + g.joint[1]);
+    await waitForDataset(page, (j) => document.querySelector('kloub-viewer').dataset.joint === j, 'the click selects the elbow', 10000, joint);
+    // Drag the Z ring along itself: the joint turns about its parent's Z, held in data-pose.
+    g = await gizmo();
+    const before = await page.evaluate((j) => document.querySelector('kloub-viewer').jointRotation(j), joint);
+    const [hx, hy] = g.rings[2];
+    const [cx, cy] = g.joint;
+    const len = Math.hypot(hx - cx, hy - cy) || 1;
+    const tangent = [-(hy - cy) / len, (hx - cx) / len];
+    await page.mouse.move(offset[0] + hx, offset[1] + hy);
+    await page.mouse.down();
+    for (let i = 1; i <= 8; i++) await page.mouse.move(offset[0] + hx + tangent[0] * 6 * i, offset[1] + hy + tangent[1] * 6 * i);
+    await page.mouse.up();
+    await waitForDataset(page, (j) => (document.querySelector('kloub-viewer').dataset.pose ?? '').includes(j), 'the dragged joint held', 10000, joint);
+    const after = await page.evaluate((j) => document.querySelector('kloub-viewer').jointRotation(j), joint);
+    const dot = Math.abs(before.reduce((s, x, i) => s + x * after[i], 0));
+    const turned = 2 * Math.acos(Math.min(1, dot)) * 180 / Math.PI;
+    assert(turned > 5, `the ring drag turned the joint ${turned.toFixed(2)}°`);
+    // Add an example pose at that rotation: the sculpt opens, under SJB by example.
+    await control(page, 'addExamplePose', joint);
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.mode === 'sculpt', 'the sculpt');
+    assert((await dataset(page)).skinning === 'sjbbe', 'the sculpt shows SJB by example');
+    g = await gizmo();
+    const shape = await viewportShot(page);
+    // Inflate strokes across the joint (its support is the upper arm around it).
+    for (const dy of [-4, 0, 4]) {
+      await page.mouse.move(offset[0] + g.joint[0] - 24, offset[1] + g.joint[1] + dy);
+      await page.mouse.down();
+      for (let i = 1; i <= 12; i++) await page.mouse.move(offset[0] + g.joint[0] - 24 + 4 * i, offset[1] + g.joint[1] + dy);
+      await page.mouse.up();
+    }
+    await frames();
+    const sculpted = await viewportShot(page);
+    const changed = diffFraction(shape, sculpted);
+    savePng(sculpted, `${backend}-sculpt.png`);
+    assert(changed > 0.0005, `the strokes changed ${(changed * 100).toFixed(3)}% of the viewport`);
+    await page.waitForFunction(() => /[1-9]\d* dabs/.test(document.querySelector('kloub-viewer').shadowRoot.querySelector('.kloub-a11y').textContent), null, { timeout: 10000 });
+    // Done: the example is added. The joint still holds its rotation, so α is near 1 (not exactly: the example
+    // pose is the bind pose with the elbow turned, and the walk also moves the joints' translations a little).
+    await inMirrorClick(page, 'button[aria-label="Done"]');
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.mode === 'pose', 'back in pose mode');
+    await page.waitForFunction(() => document.querySelector('kloub-viewer').shadowRoot.querySelector('.kloub-a11y').textContent.includes('Example poses (1)'), null, { timeout: 10000 });
+    const alpha = await page.evaluate(() => Number(document.querySelector('kloub-viewer').shadowRoot.querySelector('.kloub-a11y').textContent.match(/α (-?\d+\.\d\d)/)?.[1]));
+    assert(alpha > 0.85 && alpha <= 1.0, `α ${alpha} at the example's rotation`);
+    assert((await dataset(page)).pose.includes(joint), 'the held rotation survives Done');
+    // Save: the sidecar holds the example inline; dropped back, it is restored exactly (saved again, the same bytes).
+    const save = async () => {
+      const download = page.waitForEvent('download', { timeout: 15000 });
+      await inMirrorClick(page, 'button[aria-label="Save examples"]');
+      const file = await (await download).path();
+      return readFileSync(file, 'utf8');
+    };
+    const saved = await save();
+    const doc = JSON.parse(saved);
+    const example = doc.examples?.[joint]?.[0];
+    assert(example && typeof example.offsets === 'string' && example.offsets.length > 100, `the saved sidecar: ${saved.slice(0, 300)}`);
+    const q = example.rotation;
+    assert(Math.abs(Math.abs(q.reduce((s, x, i) => s + x * after[i], 0)) - 1) < 1e-4, `the example's rotation ${q} is the posed one ${after}`);
+    await dropFiles(page, [{ name: 'CesiumMan.kloub.json', bytes: Buffer.from(saved) }]);
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.status === 'ready' && document.querySelector('kloub-viewer').dataset.mode === 'animate', 'CesiumMan again with its sidecar');
+    await page.waitForFunction(() => document.querySelector('kloub-viewer').shadowRoot.querySelector('.kloub-a11y').textContent.includes('Example poses (1)'), null, { timeout: 10000 });
+    assert((await save()) === saved, 'the sidecar saved after dropping it back differs');
+    // Delete removes it.
+    await inMirrorClick(page, `button[aria-label="Delete example 1 of ${joint}"]`);
+    await page.waitForFunction(() => !document.querySelector('kloub-viewer').shadowRoot.querySelector('.kloub-a11y').textContent.includes('Example poses'), null, { timeout: 10000 });
+    // A joint without a parent joint cannot have an example: an error, the model stays.
+    await control(page, 'addExamplePose', 'Skeleton_torso_joint_1');
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.error !== '', 'the refusal');
+    assert((await dataset(page)).error.includes('parent joint'), (await dataset(page)).error);
+  });
+
   test(`${backend}: setJointRotation holds a joint over the animation, jointRotation reads it, resetPose lets go; data-pose and the URL hash keep it`, async (ctx) => {
     const { page } = ctx;
     await openApp(ctx, backend);

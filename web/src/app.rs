@@ -17,6 +17,7 @@ use crate::ui;
 
 pub use crate::stage::{AppConfig, DEFAULT_CROSSFADE};
 
+mod posing;
 mod viewport;
 
 use viewport::IkHandle;
@@ -47,6 +48,14 @@ pub struct App {
     ik_markers: Vec<Pos2>,
     /// Where each goal's pole marker was painted (`None`: no pole).
     ik_pole_markers: Vec<Option<Pos2>>,
+    /// The gizmo ring being dragged in pose mode.
+    gizmo_drag: Option<posing::GizmoDrag>,
+    /// Where the gizmo's rings could be grabbed last frame (X, Y, Z; none while sculpting),
+    /// and its joint.
+    gizmo_handles: Option<(Option<[Pos2; 3]>, Pos2)>,
+    /// A sculpt stroke under way: the pointer at the last dab, that dab's centre (model
+    /// space) and its depth.
+    sculpt_stroke: Option<(Pos2, Vec3, f32)>,
 }
 
 /// Speed a click gives a ragdoll body, in skeleton sizes per second.
@@ -147,6 +156,9 @@ impl App {
             panel: ui::PanelMemory::default(),
             viewport: None,
             ik_drag: None,
+            gizmo_drag: None,
+            gizmo_handles: None,
+            sculpt_stroke: None,
             sheet_open: false,
             overlay_scratch: OverlayScratch::default(),
             help: false,

@@ -178,6 +178,34 @@ pub enum Command {
         /// σ.
         sigma: f32,
     },
+    /// Enters or leaves pose mode ("Animate | Pose").
+    #[cfg(feature = "full")]
+    SetPoseMode(bool),
+    /// Whether posing keeps joints within their IK limits.
+    #[cfg(feature = "full")]
+    SetPoseWithinLimits(bool),
+    /// Records joint node `n`'s rotation as a new example pose and opens the sculpt on it.
+    #[cfg(feature = "full")]
+    AddExamplePose(u32),
+    /// The sculpt's brush, radius (fraction of the model's size) and strength (0..1).
+    #[cfg(feature = "full")]
+    SetBrush {
+        /// The brush.
+        brush: kloub_core::sculpt::Brush,
+        /// Its radius.
+        radius: f32,
+        /// Its strength.
+        strength: f32,
+    },
+    /// Ends the sculpt: its shape becomes an example pose.
+    #[cfg(feature = "full")]
+    FinishSculpt,
+    /// Drops the sculpt.
+    #[cfg(feature = "full")]
+    CancelSculpt,
+    /// Deletes example pose `i` (in the sidecar's order).
+    #[cfg(feature = "full")]
+    DeleteExample(usize),
     /// Shows model `i` of the files dropped together (the side panel's model list).
     ShowModel(usize),
     /// Shows the "drop to open" hint (the page handles drag-and-drop itself).

@@ -89,6 +89,9 @@ pub enum Key {
     Morphs,
     /// The joint rotations held by `setJointRotation`: `{"JOINT": [x, y, z, w]}`; `""` without.
     Pose,
+    /// `"animate"`, `"pose"` (pose mode: `setPoseMode`) or `"sculpt"` (an example pose being
+    /// sculpted: `addExamplePose`).
+    Mode,
     /// The models of a drop (or zip archive) holding several, a JSON array of file names, which
     /// the panel lists to switch between; `""` for one model.
     Models,
@@ -99,7 +102,7 @@ pub enum Key {
 
 impl Key {
     /// Every key, in a fixed order.
-    pub const ALL: [Key; 40] = [
+    pub const ALL: [Key; 41] = [
         Key::Backend,
         Key::Status,
         Key::Model,
@@ -138,6 +141,7 @@ impl Key {
         Key::IkGoals,
         Key::Morphs,
         Key::Pose,
+        Key::Mode,
         Key::Models,
         Key::Panel,
     ];
@@ -184,6 +188,7 @@ impl Key {
             Key::IkGoals => "ikGoals",
             Key::Morphs => "morphs",
             Key::Pose => "pose",
+            Key::Mode => "mode",
             Key::Models => "models",
         }
     }

@@ -519,6 +519,34 @@ impl Viewer {
         self.controls.joint_rotation(&name).map(|q| q.to_vec()).map_err(range_error)
     }
 
+    #[cfg(feature = "full")]
+    /// Enters (`true`) or leaves pose mode: the clip stops where it is, clicks select joints and
+    /// the gizmo turns them; leaving plays the clip again if it played.
+    #[wasm_bindgen(js_name = setPoseMode)]
+    pub fn set_pose_mode(&self, on: bool) {
+        self.controls.send(Command::SetPoseMode(on));
+    }
+
+    #[cfg(feature = "full")]
+    /// Records joint `name`'s rotation on screen as a new example pose (SJB by example) and
+    /// opens the sculpt on its support (pose mode).
+    #[wasm_bindgen(js_name = addExamplePose)]
+    pub fn add_example_pose(&self, name: String) -> Result<(), JsValue> {
+        let node = self.controls.node_index(&name).map_err(range_error)?;
+        self.controls.send(Command::AddExamplePose(node));
+        Ok(())
+    }
+
+    #[cfg(feature = "full")]
+    /// Test hook: where the pose gizmo's rings can be grabbed, `[[x, y] of X, Y, Z, [x, y] of
+    /// the joint]` in CSS pixels of the canvas, as drawn last frame; `""` without a gizmo.
+    #[wasm_bindgen(js_name = _testGizmo)]
+    pub fn test_gizmo(&self) -> String {
+        let mut out = String::new();
+        self.with_view(|v| out = v.app.gizmo_json());
+        out
+    }
+
     /// Lets the animation drive every joint again.
     #[wasm_bindgen(js_name = resetPose)]
     pub fn reset_pose(&self) {

@@ -30,6 +30,8 @@ pub mod model;
 #[cfg(feature = "full")]
 pub mod overlay;
 pub mod page;
+#[cfg(feature = "full")]
+pub mod pose;
 #[cfg(target_arch = "wasm32")]
 pub mod prefetch;
 #[cfg(feature = "full")]

@@ -87,6 +87,18 @@ pub struct Model {
     pub morph_overrides: Vec<Option<f32>>,
     /// Local rotations held over the animation, by node (`setJointRotation`; `None`: animated).
     pub rotation_overrides: Vec<Option<glam::Quat>>,
+    /// Pose mode ("Animate | Pose"): the clip stopped, clicks select joints, the gizmo turns them.
+    #[cfg(feature = "full")]
+    pub pose_mode: bool,
+    /// Whether the clip played when pose mode began (it plays again when it ends).
+    #[cfg(feature = "full")]
+    pub resume_playing: bool,
+    /// Whether posing keeps each joint within its IK limits (the joint settings).
+    #[cfg(feature = "full")]
+    pub pose_within_limits: bool,
+    /// The example pose being sculpted ([`crate::pose`]).
+    #[cfg(feature = "full")]
+    pub sculpt: Option<crate::pose::SculptState>,
     /// Joints worth offering as IK end effectors, best first, with their chain depth
     /// ([`crate::ik::default_effectors`], found once per model).
     pub ik_offers: Vec<(NodeIndex, usize)>,
@@ -199,6 +211,14 @@ impl Model {
             rotation_overrides: vec![None; node_count],
             ik_offers,
             #[cfg(feature = "full")]
+            pose_mode: false,
+            #[cfg(feature = "full")]
+            resume_playing: false,
+            #[cfg(feature = "full")]
+            pose_within_limits: false,
+            #[cfg(feature = "full")]
+            sculpt: None,
+            #[cfg(feature = "full")]
             ragdoll: None,
             #[cfg(feature = "full")]
             ragdoll_options: kloub_core::ragdoll::RagdollOptions::default(),
@@ -271,6 +291,20 @@ impl Model {
             }
             candy.update_quality(self.instance.pose());
         }
+        // While an example pose is sculpted the skin holds that pose, its examples weighted in.
+        #[cfg(feature = "full")]
+        if let Some(state) = &self.sculpt {
+            for &(n, t) in &state.locals {
+                if let Some(local) = self.instance.pose_mut().locals.get_mut(n as usize) {
+                    *local = t;
+                }
+            }
+            self.instance.update(&self.asset).map_err(|e| e.to_string())?;
+            if let Some((_, targets)) = &mut self.examples {
+                targets.write_weights(&mut self.instance, true).map_err(|e| e.to_string())?;
+            }
+            return Ok(());
+        }
         // Held joint rotations win over the clip (the main character only), before IK solves on top.
         if self.rotation_overrides.iter().any(Option::is_some) {
             for (local, held) in self.instance.pose_mut().locals.iter_mut().zip(&self.rotation_overrides) {
@@ -318,8 +352,13 @@ impl Model {
     /// The `<model>.kloub.json` sidecar of the current joint settings (what differs from the
     /// humanoid defaults).
     pub fn sidecar_json(&self) -> String {
+        self.sidecar_json_with(self.examples.as_ref().map(|(e, _)| e))
+    }
+
+    /// [`Model::sidecar_json`] with `examples` in place of the model's.
+    pub fn sidecar_json_with(&self, examples: Option<&Examples>) -> String {
         let text = self.joint_settings.to_json(&self.base_asset, &JointSettings::humanoid(&self.base_asset));
-        let Some((examples, _)) = &self.examples else { return text };
+        let Some(examples) = examples else { return text };
         // The example poses too, so that dropping the file back restores them.
         let mut doc: serde_json::Map<String, serde_json::Value> = serde_json::from_str(&text).unwrap_or_default();
         doc.extend(examples.to_json(&self.base_asset));

@@ -222,6 +222,9 @@ pub struct Stage {
     #[cfg_attr(not(feature = "full"), expect(dead_code, reason = "the panels show it"))]
     pub(crate) backend: &'static str,
     pub(crate) scene: SceneRenderer,
+    /// The sculpt the renderer shows: its id and version ([`crate::pose::SculptState`]).
+    #[cfg(feature = "full")]
+    sculpt_shown: Option<(u64, u64)>,
     pub(crate) camera: Camera,
     pub(crate) model: Option<Model>,
     /// Transition settings of the clip list (duration 0: cut).
@@ -329,6 +332,8 @@ impl Stage {
             gpu,
             backend,
             scene,
+            #[cfg(feature = "full")]
+            sculpt_shown: None,
             camera: Camera::default(),
             model: None,
             transition: Crossfade { duration: DEFAULT_CROSSFADE, ..Crossfade::default() },
@@ -743,6 +748,46 @@ impl Stage {
         Ok(())
     }
 
+    /// Shows the model again with `examples` (the sculpt's "Done", an example deleted): its
+    /// morph targets change, so it is installed again as if its sidecar had been dropped,
+    /// keeping the camera, the clip and its time, the held rotations, the selected joint and
+    /// pose mode.
+    #[cfg(feature = "full")]
+    pub(crate) fn set_examples(&mut self, examples: kloub_core::examples::Examples) -> Result<(), String> {
+        let Some(model) = &self.model else { return Ok(()) };
+        let decoded = crate::decode::warnings(&model.base_asset);
+        let loaded = load::LoadedModel {
+            name: model.name.clone(),
+            asset: model.base_asset.clone(),
+            warnings: model.warnings.iter().filter(|w| !decoded.contains(w)).cloned().collect(),
+            sidecar: Some(model.sidecar_json_with(Some(&examples))),
+        };
+        let camera = self.camera;
+        let main = model.animator.main();
+        let (clip, time, playing) = (main.clip, main.time, model.is_playing());
+        let (overrides, selected) = (model.rotation_overrides.clone(), model.selected_joint);
+        let (pose_mode, resume, within) = (model.pose_mode, model.resume_playing, model.pose_within_limits);
+        let shown_url = self.shown_url.clone();
+        self.install(loaded, None)?;
+        self.camera = camera;
+        self.shown_url = shown_url;
+        let transition = Crossfade { duration: 0.0, ..self.transition };
+        if let Some(model) = &mut self.model {
+            if model.animator.main().clip != clip {
+                model.play_clip(clip, transition)?;
+            }
+            model.seek(time);
+            model.set_playing(playing);
+            model.rotation_overrides = overrides;
+            model.selected_joint = selected;
+            model.pose_mode = pose_mode;
+            model.resume_playing = resume;
+            model.pose_within_limits = within;
+            model.evaluate()?;
+        }
+        Ok(())
+    }
+
     pub(crate) fn fail(&mut self, message: String) {
         log::warn!("kloub: {message}");
         self.dataset.host().emit("error", &message);
@@ -765,6 +810,15 @@ impl Stage {
         let Some(model) = &mut self.model else { return };
         let started = web_time::Instant::now();
         let result = model.evaluate();
+        // A sculpt's shape goes to the renderer when a dab changed it.
+        #[cfg(feature = "full")]
+        {
+            let shown = model.sculpt.as_ref().map(|s| (s.id, s.version));
+            if shown != self.sculpt_shown {
+                self.scene.set_sculpt(model.sculpt.as_ref().map(|s| s.mesh(&model.asset)));
+                self.sculpt_shown = shown;
+            }
+        }
         self.stages.animate = smooth(self.stages.animate, started.elapsed().as_secs_f32() * 1000.0);
         self.controls.publish_rotations(model.instance.pose().locals.iter().map(|l| l.rotation.to_array()));
         if let Err(e) = result {

@@ -276,9 +276,8 @@ impl SjbbeRig {
 
             // The support and its offsets.
             let bone = rig.bones.len() as u16;
-            let influenced = |v: usize, j: u16| joints[v].iter().zip(&weights[v]).any(|(&x, &w)| x == j && w > 0.0);
             for v in 0..n {
-                if !influenced(v, parent) || grandparent.is_some_and(|g| influenced(v, g)) {
+                if !in_support(&joints[v], &weights[v], parent, grandparent) {
                     continue;
                 }
                 if rig.vertex_slot[v] != NO_SLOT {
@@ -338,6 +337,26 @@ impl SjbbeRig {
         }
         Ok(rig)
     }
+}
+
+/// Whether a vertex with `joints` and `weights` is in the support of a joint whose parent joint
+/// is `parent` and grandparent `grandparent` (§5.3): influenced by the parent, not by the
+/// grandparent. Supports of different joints are disjoint unless they share a parent.
+pub fn in_support(joints: &[u16; 8], weights: &[f32; 8], parent: u16, grandparent: Option<u16>) -> bool {
+    let influenced = |j: u16| joints.iter().zip(weights).any(|(&x, &w)| x == j && w > 0.0);
+    influenced(parent) && !grandparent.is_some_and(influenced)
+}
+
+/// The parent and grandparent joints of skin joint `joint` (the joints its support is read
+/// from, [`in_support`]); `None` when it has no parent joint.
+pub fn support_joints(skin: &Skin, parents: &[Option<u32>], joint: u16) -> Option<(u16, Option<u16>)> {
+    let parent_joint = |j: u16| -> Option<u16> {
+        let node = *skin.joints.get(j as usize)?;
+        let parent = parents.get(node as usize).copied().flatten()?;
+        skin.joints.iter().position(|&n| n == parent).map(|p| p as u16)
+    };
+    let parent = parent_joint(joint)?;
+    Some((parent, parent_joint(parent)))
 }
 
 /// Whether joint `j` descends from joint `ancestor`.

@@ -106,7 +106,10 @@ impl App {
             })
             .unwrap_or_default();
         let handle_at = |p: Pos2| nearest_within(p, markers.iter().map(|&(handle, at, _)| (at, handle)));
-        if response.drag_started_by(egui::PointerButton::Primary) && !shift {
+        // Pose mode first: its gizmo, joint picking and sculpt strokes.
+        let posing = self.pose_input(ui, &response, &projection, origin, shift);
+        let pose_mode = self.stage.model.as_ref().is_some_and(|m| m.pose_mode);
+        if response.drag_started_by(egui::PointerButton::Primary) && !shift && !pose_mode {
             // Where the press was: a quick drag may have moved off the handle before egui calls it a drag.
             let pressed_at = ui.input(|i| i.pointer.press_origin());
             self.ik_drag = pressed_at.or_else(|| response.interact_pointer_pos()).and_then(handle_at);
@@ -128,7 +131,9 @@ impl App {
                 ragdoll.push(body, dir * speed, at);
             }
         }
-        if let Some(handle) = self.ik_drag {
+        if posing {
+            // Taken by pose mode.
+        } else if let Some(handle) = self.ik_drag {
             if let (Some(&(_, _, depth)), Some(pointer), Some(ik)) = (
                 markers.iter().find(|m| m.0 == handle),
                 response.interact_pointer_pos(),
@@ -304,8 +309,8 @@ impl App {
             {
                 overlay::paint_box(&painter, projection, bounds, origin);
             }
-            // A file without meshes (a bare skeleton) always shows its skeleton.
-            if self.stage.overlays.skeleton || !model.has_meshes() {
+            // A file without meshes (a bare skeleton) always shows its skeleton (pose mode draws its own).
+            if (self.stage.overlays.skeleton || !model.has_meshes()) && !model.pose_mode {
                 let points = overlay::joint_points(model, projection, origin);
                 let hovered = response.hover_pos().and_then(|p| nearest_within(p, points.iter().copied()));
                 overlay::paint_skeleton(&painter, model, &points, model.selected_joint, hovered);
@@ -320,6 +325,7 @@ impl App {
                 overlay::paint_axes(&painter, model, projection, origin, joint, size);
             }
         }
+        self.paint_pose(&ui.painter_at(rect), response, projection, origin);
         self.ik_markers.clear();
         self.ik_pole_markers.clear();
         if let Some(model) = self.stage.model.as_ref() {

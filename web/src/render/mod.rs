@@ -58,5 +58,5 @@ pub mod texture;
 pub mod uniforms;
 
 pub use camera::Camera;
-pub use scene::{RenderTimes, SceneRenderer, SkinningPath, display_msaa, msaa_samples, scene_format};
+pub use scene::{RenderTimes, SceneRenderer, SculptMesh, SkinningPath, display_msaa, msaa_samples, scene_format};
 pub use uniforms::Ground;

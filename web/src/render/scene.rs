@@ -288,7 +288,23 @@ struct Scratch {
     cpu_skin: std::time::Duration,
     /// Time the last prepare took (palettes, CPU deformation, uploads).
     prepare: std::time::Duration,
+    /// A sculpted shape drawn in place of the main character's deformation.
+    sculpt: Option<SculptMesh>,
 }
+
+/// The vertices of a mesh node as a sculpt shows them ([`SceneRenderer::set_sculpt`]): per
+/// primitive, positions and normals in model space, drawn as they are for the main
+/// character (copies deform as usual).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SculptMesh {
+    /// The node drawing the mesh.
+    pub node: u32,
+    /// Per sculpted primitive.
+    pub primitives: Vec<SculptedPrimitive>,
+}
+
+/// `(primitive, positions, normals)` of a [`SculptMesh`] (normals empty for a primitive without).
+pub type SculptedPrimitive = (usize, Vec<[f32; 3]>, Vec<[f32; 3]>);
 
 /// CPU time of the renderer's stages in the last frame, in milliseconds.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -625,6 +641,12 @@ impl SceneRenderer {
     /// pose's bounding-box diagonal. Only on the vertex-shader path (other paths draw normally).
     pub fn set_heatmap(&mut self, on: bool) {
         self.heatmap = on.then_some(HEATMAP_FULL_SCALE);
+    }
+
+    /// Draws `sculpt`'s vertices in place of its node's deformation (CPU path for those
+    /// primitives) until set to `None`.
+    pub fn set_sculpt(&mut self, sculpt: Option<SculptMesh>) {
+        self.scratch.sculpt = sculpt;
     }
 
     /// Whether the deviation heatmap is on.
@@ -1181,7 +1203,9 @@ impl GpuScene {
                 continue;
             };
             let deforms = draw.morphed || draw.skin.is_some();
-            draw.on_cpu = (deforms && path == SkinningPath::Cpu) || (draw.morphed && draw.morph.is_none());
+            let sculpted = (scratch.sculpt.as_ref())
+                .is_some_and(|s| s.node == draw.node && s.primitives.iter().any(|p| p.0 == draw.primitive));
+            draw.on_cpu = sculpted || (deforms && path == SkinningPath::Cpu) || (draw.morphed && draw.morph.is_none());
             draw.on_compute = !draw.on_cpu
                 && path == SkinningPath::Compute
                 && kit.is_some()
@@ -1207,15 +1231,23 @@ impl GpuScene {
                 };
                 let (uniform, vertex) = if draw.on_cpu {
                     let skin_started = web_time::Instant::now();
-                    instance
-                        .deform_primitive(
-                            asset,
-                            draw.node,
-                            draw.primitive,
-                            &mut scratch.positions,
-                            &mut scratch.normals,
-                        )
-                        .map_err(|e| format!("deforming node {} primitive {}: {e}", draw.node, draw.primitive))?;
+                    let shown = (scratch.sculpt.as_ref())
+                        .filter(|s| c == 0 && s.node == draw.node)
+                        .and_then(|s| s.primitives.iter().find(|p| p.0 == draw.primitive));
+                    if let Some((_, positions, normals)) = shown {
+                        scratch.positions.clone_from(positions);
+                        scratch.normals.clone_from(normals);
+                    } else {
+                        instance
+                            .deform_primitive(
+                                asset,
+                                draw.node,
+                                draw.primitive,
+                                &mut scratch.positions,
+                                &mut scratch.normals,
+                            )
+                            .map_err(|e| format!("deforming node {} primitive {}: {e}", draw.node, draw.primitive))?;
+                    }
                     scratch.cpu_skin += skin_started.elapsed();
                     if scratch.positions.len() != gpu.vertex_count as usize {
                         return Err(format!(

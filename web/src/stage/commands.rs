@@ -95,6 +95,26 @@ impl Stage {
                 self.error_window = None;
                 return Ok(());
             }
+            #[cfg(feature = "full")]
+            Command::FinishSculpt => {
+                let Some(model) = &mut self.model else { return Ok(()) };
+                let next = model.finish_sculpt()?;
+                return self.set_examples(next);
+            }
+            #[cfg(feature = "full")]
+            Command::DeleteExample(i) => {
+                let Some(model) = &mut self.model else { return Ok(()) };
+                let next = model.without_example(i)?;
+                return self.set_examples(next);
+            }
+            #[cfg(feature = "full")]
+            Command::AddExamplePose(joint) => {
+                let Some(model) = &mut self.model else { return Ok(()) };
+                model.start_sculpt(joint)?;
+                // The sculpt is shown under SJB by example: the menus and data-skinning say so.
+                self.skinning = kloub_core::job::dqs::SkinningMethod::SphericalJointBlendByExample;
+                return Ok(());
+            }
             _ => {}
         }
         let Some(model) = &mut self.model else { return Ok(()) };
@@ -130,6 +150,22 @@ impl Stage {
             | Command::SetLighting(_)
             | Command::SetBackground(_)
             | Command::ShowModel(_) => {}
+            #[cfg(feature = "full")]
+            Command::FinishSculpt | Command::DeleteExample(_) | Command::AddExamplePose(_) => {}
+            #[cfg(feature = "full")]
+            Command::SetPoseMode(on) => model.set_pose_mode(on),
+            #[cfg(feature = "full")]
+            Command::SetPoseWithinLimits(on) => model.pose_within_limits = on,
+            #[cfg(feature = "full")]
+            Command::SetBrush { brush, radius, strength } => {
+                if let Some(state) = &mut model.sculpt {
+                    state.brush = brush;
+                    state.radius = if radius.is_finite() { radius.clamp(0.005, 0.5) } else { state.radius };
+                    state.strength = if strength.is_finite() { strength.clamp(0.0, 1.0) } else { state.strength };
+                }
+            }
+            #[cfg(feature = "full")]
+            Command::CancelSculpt => model.sculpt = None,
             Command::SelectJoint(node) => model.selected_joint = node,
             #[cfg(feature = "full")]
             Command::SetValidation(validation) => {
@@ -169,6 +205,17 @@ impl Stage {
                     .get_mut(node as usize)
                     .ok_or_else(|| format!("node {node} does not exist"))?;
                 *slot = rotation.map(|[x, y, z, w]| glam::Quat::from_xyzw(x, y, z, w).normalize());
+                // Posing within limits: the nearest rotation the joint's IK limit allows.
+                #[cfg(feature = "full")]
+                if model.pose_within_limits
+                    && let (Some(q), Some(limit), Some(n)) = (
+                        slot.as_mut(),
+                        model.joint_settings.limits.get(node as usize),
+                        model.asset.nodes.get(node as usize),
+                    )
+                {
+                    *q = limit.clamp(n.rest.rotation, *q).normalize();
+                }
             }
             Command::ResetPose => model.rotation_overrides.fill(None),
             Command::SetExampleSigma { node, sigma } => model.set_example_sigma(node, sigma)?,

@@ -53,6 +53,10 @@ impl Stage {
         d.set(Key::Blend, &model.map_or(String::new(), Model::blend_summary));
         d.set(Key::Morphs, &model.map_or(String::new(), Model::morphs_json));
         d.set(Key::Pose, &model.map_or(String::new(), Model::pose_json));
+        #[cfg(feature = "full")]
+        d.set(Key::Mode, model.map_or("animate", Model::mode_name));
+        #[cfg(not(feature = "full"))]
+        d.set(Key::Mode, "animate");
         let t = &self.transition;
         let transition = format!(
             "{:.3},{},{}",

@@ -15,6 +15,7 @@ use crate::render::SkinningPath;
 
 mod animation;
 mod ik;
+mod pose;
 mod scene;
 mod skinning;
 mod validation;
@@ -197,6 +198,10 @@ pub fn side_panel(
 
     if let Some(model) = model {
         egui::ScrollArea::vertical().id_salt("panel").auto_shrink([false, true]).show(ui, |ui| {
+            if model.asset.skins.iter().any(|s| !s.joints.is_empty()) {
+                section(ui, "Pose", |ui| pose::pose_panel(ui, model, &mut actions));
+                ui.separator();
+            }
             if !model.clip_names.is_empty() {
                 section(ui, "Clips", |ui| clips(ui, model, transition, memory, &mut actions));
                 ui.separator();

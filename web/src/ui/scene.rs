@@ -309,7 +309,10 @@ pub(super) fn joint_panel(ui: &mut egui::Ui, model: &Model, memory: &mut PanelMe
     egui::CollapsingHeader::new(format!("Joint: {}", model.node_name(joint))).id_salt("joint").default_open(true).show(
         ui,
         |ui| {
-            pose_fields(ui, model, joint, actions);
+            // In pose mode the pose section shows them.
+            if !model.pose_mode {
+                pose_fields(ui, model, joint, actions);
+            }
             let main = model.animator.main();
             let clip = main.clip.and_then(|c| model.asset.clips.get(c));
             let channels: Vec<_> = clip
@@ -342,7 +345,7 @@ pub(super) fn joint_panel(ui: &mut egui::Ui, model: &Model, memory: &mut PanelMe
 
 /// Free posing (seed 001 App. C): the joint's local rotation as three angles in degrees (XYZ
 /// Euler, in its parent's frame), held over the animation once edited; reset joint / reset all.
-fn pose_fields(ui: &mut egui::Ui, model: &Model, joint: NodeIndex, actions: &mut PanelActions) {
+pub(super) fn pose_fields(ui: &mut egui::Ui, model: &Model, joint: NodeIndex, actions: &mut PanelActions) {
     let Some(local) = model.instance.pose().locals.get(joint as usize) else { return };
     let held = model.rotation_overrides.get(joint as usize).is_some_and(Option::is_some);
     let (x, y, z) = local.rotation.to_euler(glam::EulerRot::XYZ);

@@ -168,10 +168,37 @@ pub(super) fn examples_panel(
     egui::Grid::new("sjbbe examples").striped(true).show(ui, |ui| {
         for (skin, joint, example, alpha) in current {
             let node = model.asset.skins.get(skin).and_then(|s| s.joints.get(usize::from(joint))).copied();
-            ui.label(node.map_or_else(|| format!("joint {joint}"), |n| model.node_name(n)));
+            let name = node.map_or_else(|| format!("joint {joint}"), |n| model.node_name(n));
+            ui.label(&name);
             ui.label(format!("#{}", example + 1));
             ui.label(format!("α {alpha:.2}"));
+            // The example's place in the sidecar's list: the joint's `example`-th.
+            let index =
+                (examples.poses.iter().enumerate()).filter(|(_, p)| Some(p.node) == node).nth(example).map(|(i, _)| i);
+            if let Some(index) = index {
+                let delete =
+                    ui.small_button("Delete").on_hover_text(format!("Delete example #{} of {name}", example + 1));
+                delete.widget_info(|| {
+                    egui::WidgetInfo::labeled(
+                        egui::Role::Button,
+                        true,
+                        format!("Delete example {} of {name}", example + 1),
+                    )
+                });
+                if delete.clicked() {
+                    actions.commands.push(Command::DeleteExample(index));
+                }
+            }
             ui.end_row();
         }
     });
+    if ui
+        .button("Save examples")
+        .on_hover_text(
+            "Download <model>.kloub.json with the example poses and joint settings (drop it back to restore them)",
+        )
+        .clicked()
+    {
+        actions.save_sidecar = true;
+    }
 }
