@@ -1876,7 +1876,8 @@ class KloubViewer extends HTMLElement {
     const viewer = this.#require();
     const entry = this.#samples.find((s) => s.name === name);
     if (entry) {
-      viewer.loadUrl(entry.url);
+      // A sample with a sidecar (example poses, joint settings) loads with it.
+      viewer.loadUrl(typeof entry.sidecar === 'string' && entry.sidecar !== '' ? `${entry.url}#sidecar=${entry.sidecar}` : entry.url);
       return;
     }
     try {
@@ -1887,8 +1888,8 @@ class KloubViewer extends HTMLElement {
     }
   }
   /**
-   * The Samples menu's library: `[{name, url, attribution?, licence?, clips?, joints?, size?, default?}]`, the
-   * shape of `kloub serve`'s `/api/assets` (the app page sets it from there). Entries without a name or URL are
+   * The Samples menu's library: `[{name, url, attribution?, licence?, clips?, joints?, size?, default?, sidecar?}]`
+   * (`sidecar`: a `.kloub.json` loaded with the model), the shape of `kloub serve`'s `/api/assets` (the app page sets it from there). Entries without a name or URL are
    * left out; setting anything but an array throws a TypeError.
    */
   get samples() { return this.#samples.map((s) => ({ ...s })); }

@@ -1035,12 +1035,16 @@ for (const backend of BACKENDS) {
       throw e;
     });
     assert((await dataset(page)).src === '/assets/AnimatedMorphSphere/AnimatedMorphSphere.glb', 'data-src is the sample URL');
-    // From a page script, by name; the link carries it.
+    // From a page script, by name; the link carries it. CesiumMan comes with its sidecar: example poses sculpted
+    // for SJB by example (web/assets/CesiumMan/CesiumMan.kloub.json).
+    const cesium = samples.find((s) => s.name === 'CesiumMan');
+    assert(cesium.sidecar === '/assets/CesiumMan/CesiumMan.kloub.json', `CesiumMan's sidecar: ${cesium.sidecar}`);
     await control(page, 'loadSample', 'CesiumMan');
     await waitForDataset(page, () => {
       const d = document.querySelector('kloub-viewer').dataset;
-      return d.model === 'CesiumMan.glb' && d.status === 'ready' && d.src === '/assets/CesiumMan/CesiumMan.glb';
+      return d.model === 'CesiumMan.glb' && d.status === 'ready' && d.src === '/assets/CesiumMan/CesiumMan.glb#sidecar=/assets/CesiumMan/CesiumMan.kloub.json';
     }, 'CesiumMan by loadSample');
+    await page.waitForFunction(() => document.querySelector('kloub-viewer').shadowRoot.querySelector('.kloub-a11y').textContent.includes('Example poses (2)'), null, { timeout: 10000 });
     await page.waitForFunction(() => decodeURIComponent(location.hash).includes('src=/assets/CesiumMan/CesiumMan.glb'), null, { timeout: 10000 });
     const thrown = await page.evaluate(() => {
       try { document.querySelector('kloub-viewer').loadSample('Nobody'); return null; } catch (e) { return `${e.name}: ${e.message}`; }

@@ -218,7 +218,20 @@ pub fn fetch_into(url: String, inbox: Inbox, wake: crate::control::Wake) {
         return;
     }
     wasm_bindgen_futures::spawn_local(async move {
-        let (files, shared) = match fetch_model(&url, &inbox, &wake).await {
+        // `model.glb#sidecar=model.kloub.json`: the model with its sidecar (a sample's example poses).
+        let (model, sidecar) = split_sidecar(&url);
+        let fetched = fetch_model(model, &inbox, &wake).await;
+        let fetched = match (fetched, sidecar) {
+            (Ok(mut files), Some(sidecar)) => match fetch_sidecar(model, sidecar, &inbox, &wake).await {
+                Ok(file) => {
+                    files.push(file);
+                    Ok(files)
+                }
+                Err(e) => Err(e),
+            },
+            (fetched, _) => fetched,
+        };
+        let (files, shared) = match fetched {
             Ok(files) => (Ok(Vec::new()), Some(std::rc::Rc::new(files))),
             Err(e) => (Err(e), None),
         };
@@ -266,6 +279,37 @@ async fn fetch_model(url: &str, inbox: &Inbox, wake: &crate::control::Wake) -> R
     }
     Ok(files)
 }
+
+/// `model.glb#sidecar=model.kloub.json` split into the model's URL and its sidecar's (relative
+/// to the model's); a URL without that fragment has no sidecar.
+pub fn split_sidecar(url: &str) -> (&str, Option<&str>) {
+    match url.split_once("#sidecar=") {
+        Some((model, sidecar)) if !sidecar.is_empty() => (model, Some(sidecar)),
+        _ => (url, None),
+    }
+}
+
+/// The sidecar at `sidecar` (relative to `model`'s URL), named `<model>.kloub.json` so that it
+/// is imported with the model.
+#[cfg(target_arch = "wasm32")]
+async fn fetch_sidecar(
+    model: &str,
+    sidecar: &str,
+    inbox: &Inbox,
+    wake: &crate::control::Wake,
+) -> Result<SourceFile, String> {
+    let base = absolute_url(model)?;
+    let address = web_sys::Url::new_with_base(sidecar, &base)
+        .map_err(|_| format!("{model}: the sidecar {sidecar:?} is not a valid URL"))?
+        .href();
+    let stem = file_name_of_url(model).rsplit_once('.').map_or(file_name_of_url(model), |(stem, _)| stem);
+    let name = format!("{stem}.kloub.json");
+    let bytes = fetch_bytes(&address, &name, MAX_SIDECAR_BYTES, inbox, wake).await?;
+    Ok(SourceFile { name, bytes })
+}
+
+/// Largest sidecar fetched with a model (example poses hold offsets per vertex).
+const MAX_SIDECAR_BYTES: u64 = 64 << 20;
 
 /// `url` made absolute against the page's address.
 #[cfg(target_arch = "wasm32")]

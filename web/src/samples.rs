@@ -30,6 +30,9 @@ pub struct SampleEntry {
     pub size: u64,
     /// Whether this is the model the page opens with (`/models/default.glb`).
     pub default: bool,
+    /// The URL of its `<model>.kloub.json` sidecar (example poses, joint settings), loaded
+    /// with it; empty for none.
+    pub sidecar: String,
 }
 
 impl SampleEntry {
@@ -43,6 +46,9 @@ impl SampleEntry {
             parts.push(format!("{} joints", self.joints));
         }
         let mut text = parts.join(" · ");
+        if !self.sidecar.is_empty() {
+            text.push_str("\nWith a sidecar: example poses for SJB by example, joint settings");
+        }
         if !self.attribution.is_empty() {
             text.push_str("\n\n");
             text.push_str(&self.attribution);
@@ -50,15 +56,22 @@ impl SampleEntry {
         text
     }
 
+    /// The URL the Samples menu loads: the model's, with `#sidecar=` and the sidecar's when it
+    /// has one ([`crate::load::split_sidecar`]).
+    pub fn load_url(&self) -> String {
+        if self.sidecar.is_empty() { self.url.clone() } else { format!("{}#sidecar={}", self.url, self.sidecar) }
+    }
+
     /// Whether this entry is what a model loaded from `url` shows.
     pub fn is_shown_from(&self, url: &str) -> bool {
+        let (url, _) = crate::load::split_sidecar(url);
         let path = url.split(['?', '#']).next().unwrap_or(url);
         url == self.url || (self.default && path.ends_with("/models/default.glb"))
     }
 }
 
 /// Parses the library's JSON: an array of `{name, url, attribution?, licence?, clips?, joints?,
-/// size?, default?}` (the shape of `kloub serve`'s `/api/assets`). Entries without a name or
+/// size?, default?, sidecar?}` (the shape of `kloub serve`'s `/api/assets`). Entries without a name or
 /// URL and entries the server could not import (`error`) are left out; anything that is not
 /// such an array is an error naming what was wrong.
 pub fn parse(json: &str) -> Result<Vec<SampleEntry>, String> {
@@ -90,6 +103,7 @@ pub fn parse(json: &str) -> Result<Vec<SampleEntry>, String> {
             joints: usize::try_from(count(item, "joints")).unwrap_or(usize::MAX),
             size: count(item, "size"),
             default: item.get("default").and_then(Value::as_bool).unwrap_or(false),
+            sidecar: text(item, "sidecar"),
         });
     }
     Ok(entries)
@@ -117,7 +131,8 @@ mod tests {
       {"name": "Broken", "url": "/assets/Broken.glb", "error": "not glTF"},
       {"name": "", "url": "/assets/NoName.glb"},
       "not an object",
-      {"name": "Man", "url": "/assets/men/Man.glb", "clips": ["Walk"], "licence": null}
+      {"name": "Man", "url": "/assets/men/Man.glb", "clips": ["Walk"], "licence": null,
+       "sidecar": "/assets/men/Man.kloub.json"}
     ]"##;
 
     #[test]
@@ -131,7 +146,10 @@ mod tests {
         assert!(fox.summary().starts_with("0.2 MB · 3 clips · 24 joints\n\nLow-poly fox"), "{}", fox.summary());
         let man = &entries[1];
         assert_eq!((man.licence.as_str(), man.default, man.clips), ("", false, 1));
-        assert_eq!(man.summary(), "0.0 MB · 1 clip");
+        assert!(man.summary().starts_with("0.0 MB · 1 clip\nWith a sidecar"), "{}", man.summary());
+        assert_eq!(man.load_url(), "/assets/men/Man.glb#sidecar=/assets/men/Man.kloub.json");
+        assert!(man.is_shown_from(&man.load_url()));
+        assert_eq!(fox.load_url(), "/assets/Fox.glb");
     }
 
     #[test]

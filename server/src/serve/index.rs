@@ -39,6 +39,10 @@ pub struct AssetEntry {
     pub clips: Vec<String>,
     /// Number of distinct nodes used as joints by the model's skins.
     pub joints: usize,
+    /// URL path of the `<stem>.kloub.json` sidecar beside the model (example poses, joint
+    /// settings), which the viewer's Samples menu loads with it; absent without one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sidecar: Option<String>,
     /// Why the model did not import; absent when it did.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub error: Option<String>,
@@ -83,8 +87,15 @@ fn entry(root: &Root, all: &[String], path: &str) -> AssetEntry {
         size: 0,
         clips: Vec::new(),
         joints: 0,
+        sidecar: None,
         error: None,
     };
+    let dir = folder(path);
+    let sidecar =
+        if dir.is_empty() { format!("{}.kloub.json", entry.name) } else { format!("{dir}/{}.kloub.json", entry.name) };
+    if all.iter().any(|p| *p == sidecar) {
+        entry.sidecar = Some(url_of(&sidecar));
+    }
     let bytes = match root.read(path, options.budget_bytes) {
         Ok(b) => b,
         Err(e) => {
@@ -238,6 +249,7 @@ mod tests {
             ("men/Man.gltf", SKINNED_GLTF.as_bytes()),
             ("men/data file.bin", &[0u8; 16]),
             ("men/README.md", b"# Man\n\nSome text\n(c) Copyright 2020 Someone\n"),
+            ("men/Man.kloub.json", b"{}"),
             ("Fox.glb", b"glTF not really"),
             ("Fox.LICENSE.md", b"  CC0  \n"),
             ("Fox.gltf.txt", b"not a model"),
@@ -263,6 +275,8 @@ mod tests {
         assert_eq!(man.size, SKINNED_GLTF.len() as u64 + 16);
         assert_eq!(man.clips, vec!["Wave", "clip 1"]);
         assert_eq!(man.joints, 2, "distinct joint nodes");
+        assert_eq!(man.sidecar.as_deref(), Some("/assets/men/Man.kloub.json"), "the sidecar beside it");
+        assert_eq!(fox.sidecar, None);
         assert_eq!(
             man.licence.as_deref(),
             Some("(c) Copyright 2020 Someone"),

@@ -143,7 +143,7 @@ pub fn side_panel(
                 for (i, sample) in state.samples.iter().enumerate() {
                     let shown = state.shown_sample == Some(i);
                     if ui.selectable_label(shown, &sample.name).on_hover_text(sample.summary()).clicked() {
-                        actions.commands.push(Command::LoadUrl(sample.url.clone()));
+                        actions.commands.push(Command::LoadUrl(sample.load_url()));
                         ui.close();
                     }
                 }
