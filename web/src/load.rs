@@ -309,6 +309,7 @@ async fn fetch_sidecar(
 }
 
 /// Largest sidecar fetched with a model (example poses hold offsets per vertex).
+#[cfg(target_arch = "wasm32")]
 const MAX_SIDECAR_BYTES: u64 = 64 << 20;
 
 /// `url` made absolute against the page's address.

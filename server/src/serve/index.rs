@@ -93,7 +93,7 @@ fn entry(root: &Root, all: &[String], path: &str) -> AssetEntry {
     let dir = folder(path);
     let sidecar =
         if dir.is_empty() { format!("{}.kloub.json", entry.name) } else { format!("{dir}/{}.kloub.json", entry.name) };
-    if all.iter().any(|p| *p == sidecar) {
+    if all.contains(&sidecar) {
         entry.sidecar = Some(url_of(&sidecar));
     }
     let bytes = match root.read(path, options.budget_bytes) {
