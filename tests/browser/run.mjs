@@ -555,6 +555,11 @@ for (const backend of BACKENDS) {
     await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.status === 'ready' && document.querySelector('kloub-viewer').dataset.mode === 'animate', 'CesiumMan again with its sidecar');
     await page.waitForFunction(() => document.querySelector('kloub-viewer').shadowRoot.querySelector('.kloub-a11y').textContent.includes('Example poses (1)'), null, { timeout: 10000 });
     assert((await save()) === saved, 'the sidecar saved after dropping it back differs');
+    // Selecting the example in the list poses the joint as in the example: α 1 there.
+    await inMirrorClick(page, `button[aria-label="Pose example 1 of ${joint}"]`);
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.mode === 'pose', 'pose mode from the list');
+    const posed = await page.evaluate((j) => document.querySelector('kloub-viewer').jointRotation(j), joint);
+    assert(Math.abs(Math.abs(q.reduce((s, x, i) => s + x * posed[i], 0)) - 1) < 1e-4, `posed as the example: ${posed} vs ${q}`);
     // Delete removes it.
     await inMirrorClick(page, `button[aria-label="Delete example 1 of ${joint}"]`);
     await page.waitForFunction(() => !document.querySelector('kloub-viewer').shadowRoot.querySelector('.kloub-a11y').textContent.includes('Example poses'), null, { timeout: 10000 });

@@ -175,7 +175,23 @@ pub(super) fn examples_panel(
             // The example's place in the sidecar's list: the joint's `example`-th.
             let index =
                 (examples.poses.iter().enumerate()).filter(|(_, p)| Some(p.node) == node).nth(example).map(|(i, _)| i);
-            if let Some(index) = index {
+            if let (Some(index), Some(node)) = (index, node) {
+                // Select: the joint posed at the example's rotation (α 1 there), in pose mode.
+                let show = ui.small_button("Pose").on_hover_text(format!("Pose {name} as in example #{}", example + 1));
+                show.widget_info(|| {
+                    egui::WidgetInfo::labeled(
+                        egui::Role::Button,
+                        true,
+                        format!("Pose example {} of {name}", example + 1),
+                    )
+                });
+                if show.clicked()
+                    && let Some(e) = examples.poses.get(index)
+                {
+                    actions.commands.push(Command::SetPoseMode(true));
+                    actions.commands.push(Command::SelectJoint(Some(node)));
+                    actions.commands.push(Command::SetJointRotation { node, rotation: Some(e.rotation.to_array()) });
+                }
                 let delete =
                     ui.small_button("Delete").on_hover_text(format!("Delete example #{} of {name}", example + 1));
                 delete.widget_info(|| {
