@@ -39,7 +39,8 @@ fn sculpt_example(asset: &Asset, rotation: Quat, passes: usize) -> JointExample 
     let mut instance = Instance::new(asset);
     // As the viewer does: the bind pose with the elbow turned, placed where the model stands.
     let placement = instance.worlds()[mesh_node as usize];
-    for (n, t) in example_pose_locals(asset, instance.pose(), elbow, rotation, placement).expect("the example pose") {
+    for (n, t) in example_pose_locals(asset, instance.pose(), 0, elbow, rotation, placement).expect("the example pose")
+    {
         instance.pose_mut().locals[n as usize] = t;
     }
     instance.update(asset).expect("updating");

@@ -133,10 +133,17 @@ const PREDECODE_LIMIT = 64 << 20;
  * the viewer would after its import (same options), and the viewer takes the bitmaps (`takeImages`) instead of
  * decoding them again. What no viewer takes within a minute is dropped.
  */
+/** `url` made absolute, without a `#sidecar=` fragment (the model's download is the same with or without one). */
+function modelHref(url) {
+  const u = new URL(url, document.baseURI);
+  if (u.hash.startsWith('#sidecar=')) u.hash = '';
+  return u.href;
+}
+
 function prefetchModel(src) {
   let href;
   try {
-    href = new URL(src, document.baseURI).href;
+    href = modelHref(src);
   } catch {
     return;
   }
@@ -171,7 +178,7 @@ function takeImages(url) {
 function takeFrom(url, field, pick) {
   let href;
   try {
-    href = new URL(url, document.baseURI).href;
+    href = modelHref(url);
   } catch {
     return undefined;
   }

@@ -5,7 +5,8 @@
 //! joint's support with brushes ([`Sculpt::dab`]: inflate, deflate, smooth, grab), and
 //! [`Sculpt::finish`] takes the sculpted shape back to the reference pose through the inverse
 //! of SJB (§5.3) as offsets the sidecar saves inline. The brushes move welded vertices (those
-//! that share a bind position across a UV seam) together, so seams never open.
+//! of a primitive that share a bind position across a UV seam) together, so its seams do not
+//! open (a seam between two primitives of the mesh is not welded).
 //!
 //! Nothing here runs per frame: a dab is one user gesture.
 
@@ -19,18 +20,20 @@ use crate::math::{Mat4, Quat, QuatExt, Transform, Vec3};
 use crate::pose::Pose;
 
 /// The local transforms that put `pose`'s skeleton in the example pose of joint node `node`:
-/// every joint of the skin that holds it at its bind pose placed by `placement` (world =
+/// every joint of skin `skin` (the skin of the mesh being shaped) at its bind pose placed by
+/// `placement` (world =
 /// `placement` · inverse bind matrix⁻¹; the identity gives the palettes of
 /// [`crate::job::sjbbe`]'s example poses, the world of the mesh's node shows the skin where
 /// the model stands), `node` turned to `rotation` (its bind translation and scale kept). Nodes
 /// outside the skin keep `pose`'s transforms.
 ///
 /// # Errors
-/// `node` is in no skin, a rotation that is not a unit quaternion, or an inverse bind matrix
-/// that cannot be inverted or decomposed.
+/// No skin `skin` or `node` not among its joints, a rotation that is not a unit quaternion,
+/// or an inverse bind matrix that cannot be inverted or decomposed.
 pub fn example_pose_locals(
     asset: &Asset,
     pose: &Pose,
+    skin: usize,
     node: u32,
     rotation: Quat,
     placement: Mat4,
@@ -39,9 +42,9 @@ pub fn example_pose_locals(
     rotation.check_unit().map_err(|length| format!("the rotation is not a unit quaternion (length {length})"))?;
     let skin = asset
         .skins
-        .iter()
-        .find(|s| s.joints.contains(&node))
-        .ok_or_else(|| format!("{} is not a joint of a skin", name(node)))?;
+        .get(skin)
+        .filter(|s| s.joints.contains(&node))
+        .ok_or_else(|| format!("{} is not a joint of skin {skin}", name(node)))?;
     let n = asset.nodes.len();
     if pose.locals.len() != n {
         return Err(format!("the pose has {} nodes, the model {n}", pose.locals.len()));
@@ -162,6 +165,8 @@ pub struct SculptPrimitive {
     groups: Vec<Vec<u32>>,
     /// Each group's neighbouring groups (across the primitive's edges).
     neighbours: Vec<Vec<u32>>,
+    /// Each group's neighbouring vertices off the support (they stay; smoothing averages them in).
+    fixed: Vec<Vec<u32>>,
     /// Triangles, as vertex indices.
     triangles: Vec<[u32; 3]>,
 }
@@ -247,16 +252,19 @@ impl Sculpt {
                 groups[g as usize].push(v);
             }
             let mut neighbours: Vec<Vec<u32>> = vec![Vec::new(); groups.len()];
+            let mut fixed: Vec<Vec<u32>> = vec![Vec::new(); groups.len()];
             for t in &triangles {
-                for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
+                for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0]), (t[1], t[0]), (t[2], t[1]), (t[0], t[2])] {
                     let (ga, gb) = (group_of[a as usize], group_of[b as usize]);
-                    if ga != u32::MAX && gb != u32::MAX && ga != gb {
-                        if !neighbours[ga as usize].contains(&gb) {
-                            neighbours[ga as usize].push(gb);
+                    if ga == u32::MAX {
+                        continue;
+                    }
+                    if gb == u32::MAX {
+                        if !fixed[ga as usize].contains(&b) {
+                            fixed[ga as usize].push(b);
                         }
-                        if !neighbours[gb as usize].contains(&ga) {
-                            neighbours[gb as usize].push(ga);
-                        }
+                    } else if ga != gb && !neighbours[ga as usize].contains(&gb) {
+                        neighbours[ga as usize].push(gb);
                     }
                 }
             }
@@ -270,9 +278,15 @@ impl Sculpt {
                 group_of,
                 groups,
                 neighbours,
+                fixed,
                 triangles,
             };
             s.base_faces = s.face_normals();
+            if prim.normals.is_empty() {
+                // Without normals of its own the surface's are the faces'.
+                s.normals.clone_from(&s.base_faces);
+                s.base_normals.clone_from(&s.base_faces);
+            }
             primitives.push(s);
         }
         if primitives.is_empty() {
@@ -322,13 +336,15 @@ impl Sculpt {
                         Brush::Inflate => normal() * (INFLATE_STEP * radius * strength * falloff),
                         Brush::Deflate => normal() * (-INFLATE_STEP * radius * strength * falloff),
                         Brush::Smooth => {
-                            let around = &s.neighbours[g];
-                            if around.is_empty() {
+                            // Neighbours on the support and the fixed ones around it (the edge stays put).
+                            let (around, fixed) = (&s.neighbours[g], &s.fixed[g]);
+                            let count = around.len() + fixed.len();
+                            if count == 0 {
                                 return None;
                             }
-                            let mean = around.iter().map(|&h| at(&s.groups[h as usize], &s.positions)).sum::<Vec3>()
-                                / around.len() as f32;
-                            (mean - p) * (strength * falloff)
+                            let sum = around.iter().map(|&h| at(&s.groups[h as usize], &s.positions)).sum::<Vec3>()
+                                + fixed.iter().map(|&v| Vec3::from(s.positions[v as usize])).sum::<Vec3>();
+                            (sum / count as f32 - p) * (strength * falloff)
                         }
                         Brush::Grab => drag * falloff,
                     };
@@ -506,7 +522,7 @@ mod tests {
         let candy = CandyWrapper::new();
         let asset = &candy.asset;
         let mut instance = Instance::new(asset);
-        let locals = example_pose_locals(asset, instance.pose(), JOINT_NODE, joint_rotation(0.0, bend), PLACE)
+        let locals = example_pose_locals(asset, instance.pose(), 0, JOINT_NODE, joint_rotation(0.0, bend), PLACE)
             .unwrap_or_else(|e| panic!("{e}"));
         for (node, t) in locals {
             instance.pose_mut().locals[node as usize] = t;
@@ -543,9 +559,9 @@ mod tests {
                 assert!(palette.abs_diff_eq(Mat4::IDENTITY, 1e-5), "joint {j}: {palette}");
             }
         }
-        assert!(example_pose_locals(&candy.asset, instance.pose(), 99, q, Mat4::IDENTITY).is_err());
+        assert!(example_pose_locals(&candy.asset, instance.pose(), 0, 99, q, Mat4::IDENTITY).is_err());
         let long = Quat::from_xyzw(0.0, 0.0, 2.0, 0.0);
-        assert!(example_pose_locals(&candy.asset, instance.pose(), JOINT_NODE, long, Mat4::IDENTITY).is_err());
+        assert!(example_pose_locals(&candy.asset, instance.pose(), 0, JOINT_NODE, long, Mat4::IDENTITY).is_err());
     }
 
     #[test]
@@ -605,7 +621,8 @@ mod tests {
         let mut check = Instance::new(asset);
         check.set_skinning(asset, SkinningMethod::SphericalJointBlendByExample);
         check.set_examples(asset, &examples).unwrap_or_else(|e| panic!("{e}"));
-        let locals = example_pose_locals(asset, check.pose(), JOINT_NODE, q, PLACE).unwrap_or_else(|e| panic!("{e}"));
+        let locals =
+            example_pose_locals(asset, check.pose(), 0, JOINT_NODE, q, PLACE).unwrap_or_else(|e| panic!("{e}"));
         for (n, t) in locals {
             check.pose_mut().locals[n as usize] = t;
         }
@@ -618,6 +635,45 @@ mod tests {
             .map(|(a, b)| Vec3::from(*a).distance(Vec3::from(*b)))
             .fold(0.0, f32::max);
         assert!(worst <= 1e-5 * diagonal(asset), "SJBBE at the example differs from the sculpt by {worst}");
+    }
+
+    #[test]
+    fn a_mesh_without_normals_inflates_along_its_faces_and_smoothing_keeps_the_edge() {
+        let (mut candy, _, node) = candy_at(60.0);
+        candy.asset.meshes[0].primitives[0].normals.clear();
+        let asset = &candy.asset;
+        let q = joint_rotation(0.0, 60.0);
+        let mut instance = Instance::new(asset);
+        for (n, t) in
+            example_pose_locals(asset, instance.pose(), 0, JOINT_NODE, q, PLACE).unwrap_or_else(|e| panic!("{e}"))
+        {
+            instance.pose_mut().locals[n as usize] = t;
+        }
+        instance.update(asset).unwrap_or_else(|e| panic!("{e}"));
+        let mut sculpt =
+            Sculpt::start(asset, &mut instance, node, JOINT_NODE, q, PLACE).unwrap_or_else(|e| panic!("{e}"));
+        let start = sculpt.clone();
+        let s = &sculpt.primitives[0];
+        let v = s.support[s.support.len() / 2] as usize;
+        let at = Vec3::from(s.positions[v]);
+        let inflate = Dab { brush: Brush::Inflate, center: at, radius: 0.3, strength: 1.0, drag: Vec3::ZERO };
+        assert!(sculpt.dab(&inflate) > 0);
+        let moved = Vec3::from(sculpt.primitives[0].positions[v]) - at;
+        assert!((moved.length() - INFLATE_STEP * 0.3).abs() < 0.01, "inflated by {moved}");
+        // Outwards: away from the bone's axis through the joint.
+        let joint = instance.worlds()[JOINT_NODE as usize].w_axis.truncate();
+        assert!(moved.dot(at - joint) > 0.0, "inflate moved {moved} towards the inside");
+        // Smoothing over the support's edge leaves the vertices off it where they are.
+        let smooth = Dab { brush: Brush::Smooth, center: at, radius: 5.0, strength: 1.0, drag: Vec3::ZERO };
+        for _ in 0..20 {
+            sculpt.dab(&smooth);
+        }
+        let p = &sculpt.primitives[0];
+        for i in 0..p.positions.len() {
+            if !p.on_support(i) {
+                assert_eq!(p.positions[i], start.primitives[0].positions[i]);
+            }
+        }
     }
 
     #[test]

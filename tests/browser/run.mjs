@@ -560,13 +560,24 @@ for (const backend of BACKENDS) {
     await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.mode === 'pose', 'pose mode from the list');
     const posed = await page.evaluate((j) => document.querySelector('kloub-viewer').jointRotation(j), joint);
     assert(Math.abs(Math.abs(q.reduce((s, x, i) => s + x * posed[i], 0)) - 1) < 1e-4, `posed as the example: ${posed} vs ${q}`);
+    // A second example where the first one is: refused before any sculpting, nothing changes.
+    const twin = await page.evaluate((j) => {
+      try { document.querySelector('kloub-viewer').addExamplePose(j); return null; } catch (e) { return `${e.name}: ${e.message}`; }
+    }, joint);
+    // Refused at once (a RangeError) or when the command is applied (data-error and an error event).
+    const refused = twin ?? (await page.waitForFunction(() => /same way/.test(document.querySelector('kloub-viewer').dataset.error) && document.querySelector('kloub-viewer').dataset.error, null, { timeout: 10000 }).then((h) => h.jsonValue()));
+    assert(refused.includes('same way'), `a twin example: ${refused}`);
+    await frames();
+    assert((await dataset(page)).mode === 'pose', 'a refused example opened the sculpt');
     // Delete removes it.
     await inMirrorClick(page, `button[aria-label="Delete example 1 of ${joint}"]`);
     await page.waitForFunction(() => !document.querySelector('kloub-viewer').shadowRoot.querySelector('.kloub-a11y').textContent.includes('Example poses'), null, { timeout: 10000 });
     // A joint without a parent joint cannot have an example: an error, the model stays.
-    await control(page, 'addExamplePose', 'Skeleton_torso_joint_1');
-    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.error !== '', 'the refusal');
-    assert((await dataset(page)).error.includes('parent joint'), (await dataset(page)).error);
+    const rootless = await page.evaluate(() => {
+      try { document.querySelector('kloub-viewer').addExamplePose('Skeleton_torso_joint_1'); return null; } catch (e) { return `${e.name}: ${e.message}`; }
+    });
+    const why = rootless ?? (await page.waitForFunction(() => /parent joint/.test(document.querySelector('kloub-viewer').dataset.error) && document.querySelector('kloub-viewer').dataset.error, null, { timeout: 10000 }).then((h) => h.jsonValue()));
+    assert(why.includes('parent joint'), why);
   });
 
   test(`${backend}: setJointRotation holds a joint over the animation, jointRotation reads it, resetPose lets go; data-pose and the URL hash keep it`, async (ctx) => {

@@ -14,6 +14,7 @@ use crate::load::LoadedModel;
 pub const TABLE_BENDS: [f32; 6] = [0.0, 30.0, 60.0, 90.0, 120.0, 150.0];
 
 /// The sample's panel state, owned by the model showing the rig.
+#[derive(Clone)]
 pub struct CandyPanel {
     /// The rig.
     pub rig: CandyWrapper,

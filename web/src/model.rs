@@ -326,7 +326,12 @@ impl Model {
         };
         #[cfg(not(feature = "full"))]
         let ragdoll_owns = false;
-        if !ragdoll_owns {
+        // IK goals rest while posing (the gizmo turns what IK would otherwise own).
+        #[cfg(feature = "full")]
+        let posing = self.pose_mode;
+        #[cfg(not(feature = "full"))]
+        let posing = false;
+        if !ragdoll_owns && !posing {
             crate::ik::apply_all(&mut self.ik, &self.asset, &mut self.instance)?;
         }
         // The example poses' weights (α under SJBBE, zero under the other methods).

@@ -11,7 +11,9 @@
 //!   shape back to the reference pose as the example's offsets and shows the model again with
 //!   the example added (the stage reinstalls it, [`crate::stage::Stage::set_examples`]).
 
+use kloub_core::Instance;
 use kloub_core::examples::{Examples, JointExample};
+use kloub_core::job::dqs::SkinningMethod;
 use kloub_core::math::Transform;
 use kloub_core::sculpt::{Brush, Dab, Sculpt};
 
@@ -42,6 +44,8 @@ pub struct SculptState {
     pub dabs: u32,
     /// Tells this sculpt from the ones before it (with `version`, what the renderer shows).
     pub id: u64,
+    /// The skinning method before the sculpt (Cancel goes back to it).
+    pub previous: SkinningMethod,
 }
 
 /// The next sculpt's [`SculptState::id`].
@@ -65,8 +69,8 @@ impl SculptState {
 
 impl Model {
     /// Enters or leaves pose mode. Entering stops the clip where it is (remembering whether it
-    /// played) and shows the skeleton's joints to click; leaving plays again if it played and
-    /// drops an unfinished sculpt.
+    /// played), ends a ragdoll and shows the skeleton's joints to click (IK goals rest while
+    /// posing); leaving plays again if it played and drops an unfinished sculpt.
     pub fn set_pose_mode(&mut self, on: bool) {
         if on == self.pose_mode {
             return;
@@ -75,6 +79,8 @@ impl Model {
         if on {
             self.resume_playing = self.is_playing();
             self.set_playing(false);
+            // Posing starts from the animation's pose: a ragdoll lets go of the skeleton.
+            self.ragdoll = None;
         } else {
             self.sculpt = None;
             if self.resume_playing {
@@ -90,13 +96,31 @@ impl Model {
 
     /// Starts sculpting an example pose of joint node `joint` at its rotation on screen: the
     /// model is shown in that example pose (see the module docs) and the brushes move the
-    /// joint's support. Enters pose mode.
+    /// joint's support. Enters pose mode. Nothing changes on error. `previous` is the skinning
+    /// method to go back to on Cancel (the stage then shows SJB by example).
     ///
     /// # Errors
-    /// No skinned mesh with that joint, a joint without a parent joint or whose bone has no
-    /// single child, already [`kloub_core::job::sjbbe::MAX_EXAMPLES`] examples for it.
-    pub fn start_sculpt(&mut self, joint: u32) -> Result<(), String> {
+    /// A sculpt under way, no skinned mesh with that joint, a joint without a unique name (the
+    /// sidecar names joints), without a parent joint or whose bone has no single child, a
+    /// rotation that leaves the bone where it is at rest or where another example has it, a
+    /// joint sharing its parent with a joint that has examples, already
+    /// [`kloub_core::job::sjbbe::MAX_EXAMPLES`] examples for it.
+    pub fn start_sculpt(&mut self, joint: u32, previous: SkinningMethod) -> Result<(), String> {
         let name = self.node_name(joint);
+        if let Some(state) = &self.sculpt {
+            return Err(format!(
+                "{name}: finish or cancel the example pose of {} first",
+                self.node_name(state.sculpt.joint)
+            ));
+        }
+        let named = self.asset.nodes.get(joint as usize).and_then(|n| n.name.as_deref());
+        match named {
+            None => return Err(format!("{name}: the sidecar names joints, and this one has no name")),
+            Some(n) if self.asset.nodes.iter().filter(|x| x.name.as_deref() == Some(n)).count() > 1 => {
+                return Err(format!("{name}: the sidecar names joints, and another node has this name"));
+            }
+            Some(_) => {}
+        }
         let rotation = self
             .instance
             .pose()
@@ -110,26 +134,31 @@ impl Model {
                 "{name} has {count} example poses, the most a joint may have; delete one to add another"
             ));
         }
-        let node = (0..self.asset.nodes.len() as u32)
-            .find(|&n| {
+        let (node, skin) = (0..self.asset.nodes.len() as u32)
+            .find_map(|n| {
                 let node = &self.asset.nodes[n as usize];
-                node.mesh.is_some()
-                    && node
-                        .skin
-                        .and_then(|s| self.asset.skins.get(s as usize))
-                        .is_some_and(|s| s.joints.contains(&joint))
+                let skin = node.skin?;
+                let joints = &self.asset.skins.get(skin as usize)?.joints;
+                (node.mesh.is_some() && joints.contains(&joint)).then_some((n, skin as usize))
             })
             .ok_or_else(|| format!("{name}: no skinned mesh follows this joint"))?;
         // Shown where the model stands: the bind pose placed by the mesh node's world (a Z-up
         // file's root turn included).
         let placement = self.instance.worlds().get(node as usize).copied().unwrap_or(glam::Mat4::IDENTITY);
-        let locals =
-            kloub_core::sculpt::example_pose_locals(&self.asset, self.instance.pose(), joint, rotation, placement)
-                .map_err(|e| format!("{name}: {e}"))?;
-        // Shown under SJB by example (the examples already made shape the starting surface).
-        self.instance.set_skinning(&self.asset, kloub_core::job::dqs::SkinningMethod::SphericalJointBlendByExample);
-        self.set_pose_mode(true);
+        let locals = kloub_core::sculpt::example_pose_locals(
+            &self.asset,
+            self.instance.pose(),
+            skin,
+            joint,
+            rotation,
+            placement,
+        )
+        .map_err(|e| format!("{name}: {e}"))?;
+        // The surface to start from: SJB by example (the examples already made shape it), the
+        // file's own morph targets at rest (an example's offsets are added before them).
         let mut instance = self.instance.clone();
+        instance.set_skinning(&self.asset, SkinningMethod::SphericalJointBlendByExample);
+        instance.pose_mut().weights.fill(0.0);
         for &(n, t) in &locals {
             if let Some(local) = instance.pose_mut().locals.get_mut(n as usize) {
                 *local = t;
@@ -141,11 +170,13 @@ impl Model {
         }
         let sculpt = Sculpt::start(&self.asset, &mut instance, node, joint, rotation, placement)
             .map_err(|e| format!("{name}: {e}"))?;
-        // Refused now rather than at "Done": a bone the rotation leaves where it is at rest.
-        let probe = sculpt.finish(&self.base_asset);
-        if let Err(e) = probe {
-            return Err(format!("{name}: {e}"));
-        }
+        // Refused now rather than at "Done": the examples with this one must make a rig (a bone
+        // the rotation leaves where it is at rest or where another example has it, a joint
+        // sharing its parent with one that has examples).
+        let probe = self.examples_with(&sculpt)?;
+        Instance::new(&self.base_asset).set_examples(&self.base_asset, &probe).map_err(|e| format!("{name}: {e}"))?;
+        self.instance.set_skinning(&self.asset, SkinningMethod::SphericalJointBlendByExample);
+        self.set_pose_mode(true);
         self.selected_joint = Some(joint);
         self.sculpt = Some(SculptState {
             sculpt,
@@ -156,6 +187,7 @@ impl Model {
             version: 1,
             dabs: 0,
             id: NEXT_SCULPT.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
+            previous,
         });
         Ok(())
     }
@@ -172,23 +204,28 @@ impl Model {
         }
     }
 
-    /// Ends the sculpt: the examples with the sculpted one added (for
-    /// [`crate::stage::Stage::set_examples`]).
+    /// The examples with the sculpted one added (for [`crate::stage::Stage::set_examples`],
+    /// which shows the model again with them and so ends the sculpt; on error it stays).
     ///
     /// # Errors
     /// No sculpt, or the shape cannot be taken back to the reference pose.
-    pub fn finish_sculpt(&mut self) -> Result<Examples, String> {
-        let state = self.sculpt.take().ok_or("no example pose is being sculpted")?;
-        let s = &state.sculpt;
-        let shape = s.finish(&self.base_asset).map_err(|e| format!("{}: {e}", self.node_name(s.joint)))?;
+    pub fn finish_sculpt(&self) -> Result<Examples, String> {
+        let state = self.sculpt.as_ref().ok_or("no example pose is being sculpted")?;
+        self.examples_with(&state.sculpt)
+    }
+
+    /// The model's examples and `sculpt`'s shape as one more.
+    fn examples_with(&self, sculpt: &Sculpt) -> Result<Examples, String> {
+        let name = self.node_name(sculpt.joint);
+        let shape = sculpt.finish(&self.base_asset).map_err(|e| format!("{name}: {e}"))?;
         let mut next = self.examples.as_ref().map(|(e, _)| e.clone()).unwrap_or_default();
-        let index = next.poses.iter().filter(|p| p.node == s.joint).count();
+        let index = next.poses.iter().filter(|p| p.node == sculpt.joint).count();
         next.poses.push(JointExample {
-            node: s.joint,
-            mesh: s.mesh,
-            rotation: s.rotation,
+            node: sculpt.joint,
+            mesh: sculpt.mesh,
+            rotation: sculpt.rotation,
             shape,
-            pointer: format!("/examples/{}/{index}", kloub_core::rig::escape(&self.node_name(s.joint))),
+            pointer: format!("/examples/{}/{index}", kloub_core::rig::escape(&name)),
         });
         Ok(next)
     }

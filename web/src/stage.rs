@@ -750,8 +750,9 @@ impl Stage {
 
     /// Shows the model again with `examples` (the sculpt's "Done", an example deleted): its
     /// morph targets change, so it is installed again as if its sidecar had been dropped,
-    /// keeping the camera, the clip and its time, the held rotations, the selected joint and
-    /// pose mode.
+    /// keeping the camera, the clip and its time, the held rotations and morph weights, the IK
+    /// goals, the selected joint, pose mode and the candy wrapper's panel (a ragdoll, a layer
+    /// or blend being edited start again from the prefs). On error the model stays as it was.
     #[cfg(feature = "full")]
     pub(crate) fn set_examples(&mut self, examples: kloub_core::examples::Examples) -> Result<(), String> {
         let Some(model) = &self.model else { return Ok(()) };
@@ -767,8 +768,16 @@ impl Stage {
         let (clip, time, playing) = (main.clip, main.time, model.is_playing());
         let (overrides, selected) = (model.rotation_overrides.clone(), model.selected_joint);
         let (pose_mode, resume, within) = (model.pose_mode, model.resume_playing, model.pose_within_limits);
+        let (ik, ik_selected, morphs) = (model.ik.clone(), model.ik_selected, model.morph_overrides.clone());
         let shown_url = self.shown_url.clone();
-        self.install(loaded, None)?;
+        let candy = self.model.as_mut().and_then(|m| m.candy.take());
+        if let Err(e) = self.install(loaded, candy.clone()) {
+            // The model stays as it was, its candy panel too.
+            if let Some(model) = &mut self.model {
+                model.candy = candy;
+            }
+            return Err(e);
+        }
         self.camera = camera;
         self.shown_url = shown_url;
         let transition = Crossfade { duration: 0.0, ..self.transition };
@@ -783,6 +792,12 @@ impl Stage {
             model.pose_mode = pose_mode;
             model.resume_playing = resume;
             model.pose_within_limits = within;
+            model.ik = ik;
+            model.ik_selected = ik_selected;
+            // Held morph weights, where the example targets left the slots where they were.
+            if model.morph_overrides.len() == morphs.len() {
+                model.morph_overrides = morphs;
+            }
             model.evaluate()?;
         }
         Ok(())

@@ -290,11 +290,14 @@ struct Scratch {
     prepare: std::time::Duration,
     /// A sculpted shape drawn in place of the main character's deformation.
     sculpt: Option<SculptMesh>,
+    /// Its (node, primitive) pairs already written to their deform buffers.
+    sculpt_written: Vec<(u32, usize)>,
 }
 
 /// The vertices of a mesh node as a sculpt shows them ([`SceneRenderer::set_sculpt`]): per
-/// primitive, positions and normals in model space, drawn as they are for the main
-/// character (copies deform as usual).
+/// primitive, positions and normals in model space, drawn as they are for the main character
+/// and written to the GPU once per change (copies of the character deform on the CPU path
+/// meanwhile).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct SculptMesh {
     /// The node drawing the mesh.
@@ -647,6 +650,7 @@ impl SceneRenderer {
     /// primitives) until set to `None`.
     pub fn set_sculpt(&mut self, sculpt: Option<SculptMesh>) {
         self.scratch.sculpt = sculpt;
+        self.scratch.sculpt_written.clear();
     }
 
     /// Whether the deviation heatmap is on.
@@ -1234,32 +1238,43 @@ impl GpuScene {
                     let shown = (scratch.sculpt.as_ref())
                         .filter(|s| c == 0 && s.node == draw.node)
                         .and_then(|s| s.primitives.iter().find(|p| p.0 == draw.primitive));
-                    if let Some((_, positions, normals)) = shown {
-                        scratch.positions.clone_from(positions);
-                        scratch.normals.clone_from(normals);
+                    // A sculpt's shape is written once per change (its buffer keeps it meanwhile).
+                    let already = shown.is_some()
+                        && draw.deformed.first().is_some_and(Option::is_some)
+                        && scratch.sculpt_written.contains(&(draw.node, draw.primitive));
+                    let has_normals = if let Some((_, positions, normals)) = shown.filter(|_| already) {
+                        normals.len() == positions.len()
                     } else {
-                        instance
-                            .deform_primitive(
-                                asset,
-                                draw.node,
-                                draw.primitive,
-                                &mut scratch.positions,
-                                &mut scratch.normals,
-                            )
-                            .map_err(|e| format!("deforming node {} primitive {}: {e}", draw.node, draw.primitive))?;
-                    }
-                    scratch.cpu_skin += skin_started.elapsed();
-                    if scratch.positions.len() != gpu.vertex_count as usize {
-                        return Err(format!(
-                            "node {} primitive {}: deformed vertex count differs",
-                            draw.node, draw.primitive
-                        ));
-                    }
-                    interleave(&scratch.positions, &scratch.normals, &mut scratch.geometry);
-                    let storage = kit.is_some();
-                    let buffer = draw.deformed[c].get_or_insert_with(|| gpu.deform_buffer(device, storage));
-                    queue.write_buffer(buffer, 0, bytemuck::cast_slice(&scratch.geometry));
-                    let has_normals = scratch.normals.len() == scratch.positions.len();
+                        if let Some((_, positions, normals)) = shown {
+                            scratch.positions.clone_from(positions);
+                            scratch.normals.clone_from(normals);
+                            scratch.sculpt_written.push((draw.node, draw.primitive));
+                        } else {
+                            instance
+                                .deform_primitive(
+                                    asset,
+                                    draw.node,
+                                    draw.primitive,
+                                    &mut scratch.positions,
+                                    &mut scratch.normals,
+                                )
+                                .map_err(|e| {
+                                    format!("deforming node {} primitive {}: {e}", draw.node, draw.primitive)
+                                })?;
+                        }
+                        scratch.cpu_skin += skin_started.elapsed();
+                        if scratch.positions.len() != gpu.vertex_count as usize {
+                            return Err(format!(
+                                "node {} primitive {}: deformed vertex count differs",
+                                draw.node, draw.primitive
+                            ));
+                        }
+                        interleave(&scratch.positions, &scratch.normals, &mut scratch.geometry);
+                        let storage = kit.is_some();
+                        let buffer = draw.deformed[c].get_or_insert_with(|| gpu.deform_buffer(device, storage));
+                        queue.write_buffer(buffer, 0, bytemuck::cast_slice(&scratch.geometry));
+                        scratch.normals.len() == scratch.positions.len()
+                    };
                     (DrawUniform::new(place, 0, has_normals), VertexPath::Static)
                 } else if let (true, Some(skin), Some(kit)) = (draw.on_compute, draw.skin, kit) {
                     let base = c as u32 * self.joints + self.skin_base[skin];

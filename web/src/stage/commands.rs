@@ -104,16 +104,24 @@ impl Stage {
             #[cfg(feature = "full")]
             Command::DeleteExample(i) => {
                 let Some(model) = &mut self.model else { return Ok(()) };
+                if model.sculpt.is_some() {
+                    return Err("finish or cancel the example pose being sculpted first".into());
+                }
                 let next = model.without_example(i)?;
                 return self.set_examples(next);
             }
             #[cfg(feature = "full")]
             Command::AddExamplePose(joint) => {
+                let previous = self.skinning;
                 let Some(model) = &mut self.model else { return Ok(()) };
-                model.start_sculpt(joint)?;
-                // The sculpt is shown under SJB by example: the menus and data-skinning say so.
-                self.skinning = kloub_core::job::dqs::SkinningMethod::SphericalJointBlendByExample;
-                return Ok(());
+                model.start_sculpt(joint, previous)?;
+                // The sculpt is shown under SJB by example: the menus, copies and data-skinning say so.
+                return self.apply(Command::SetSkinning(SkinningMethod::SphericalJointBlendByExample));
+            }
+            #[cfg(feature = "full")]
+            Command::CancelSculpt => {
+                let Some(state) = self.model.as_mut().and_then(|m| m.sculpt.take()) else { return Ok(()) };
+                return self.apply(Command::SetSkinning(state.previous));
             }
             _ => {}
         }
@@ -151,7 +159,7 @@ impl Stage {
             | Command::SetBackground(_)
             | Command::ShowModel(_) => {}
             #[cfg(feature = "full")]
-            Command::FinishSculpt | Command::DeleteExample(_) | Command::AddExamplePose(_) => {}
+            Command::FinishSculpt | Command::DeleteExample(_) | Command::AddExamplePose(_) | Command::CancelSculpt => {}
             #[cfg(feature = "full")]
             Command::SetPoseMode(on) => model.set_pose_mode(on),
             #[cfg(feature = "full")]
@@ -164,8 +172,7 @@ impl Stage {
                     state.strength = if strength.is_finite() { strength.clamp(0.0, 1.0) } else { state.strength };
                 }
             }
-            #[cfg(feature = "full")]
-            Command::CancelSculpt => model.sculpt = None,
+
             Command::SelectJoint(node) => model.selected_joint = node,
             #[cfg(feature = "full")]
             Command::SetValidation(validation) => {

@@ -192,8 +192,9 @@ pub(super) fn examples_panel(
                     actions.commands.push(Command::SelectJoint(Some(node)));
                     actions.commands.push(Command::SetJointRotation { node, rotation: Some(e.rotation.to_array()) });
                 }
-                let delete =
-                    ui.small_button("Delete").on_hover_text(format!("Delete example #{} of {name}", example + 1));
+                let delete = ui
+                    .add_enabled(model.sculpt.is_none(), egui::Button::new("Delete").small())
+                    .on_hover_text(format!("Delete example #{} of {name}", example + 1));
                 delete.widget_info(|| {
                     egui::WidgetInfo::labeled(
                         egui::Role::Button,
