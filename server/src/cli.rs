@@ -74,6 +74,14 @@ pub struct RagdollArgs {
     /// Seconds to simulate (60 frames each).
     #[arg(long)]
     pub seconds: f32,
+    /// Obstacles to fall on: a JSON array of boxes, spheres, capsules, stairs and ramps in model
+    /// units (see the README).
+    #[arg(long, value_name = "FILE.json")]
+    pub obstacles: Option<PathBuf>,
+    /// Powered ragdoll: 0 (limp, the default) to 1 (the bodies follow the clip from `--time` on,
+    /// as the viewer's strength slider).
+    #[arg(long, default_value_t = 0.0)]
+    pub strength: f32,
     /// Print JSON (the only format; accepted for symmetry with the other commands).
     #[arg(long)]
     pub json: bool,
@@ -339,7 +347,12 @@ where
 fn run_ragdoll(args: &RagdollArgs) -> ExitCode {
     let posed = &args.posed;
     let file = posed.file.display().to_string();
-    print_json(&file, crate::ragdoll::ragdoll_file(&posed.file, posed.clip.as_deref(), posed.time, args.seconds))
+    let world = crate::ragdoll::RagdollWorld {
+        seconds: args.seconds,
+        obstacles: args.obstacles.clone(),
+        strength: args.strength,
+    };
+    print_json(&file, crate::ragdoll::ragdoll_file(&posed.file, posed.clip.as_deref(), posed.time, &world))
 }
 
 /// Prints a command's document as one line of JSON, or its error naming `file` (exit 1).

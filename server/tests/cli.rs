@@ -566,6 +566,66 @@ fn ragdoll_prints_every_frame_falls_and_repeats_itself() {
     assert!(String::from_utf8_lossy(&none.stderr).contains("no skin"), "{}", String::from_utf8_lossy(&none.stderr));
 }
 
+#[test]
+fn ragdoll_falls_onto_obstacles_and_refuses_bad_ones_by_pointer() {
+    let file = fox();
+    let path = file.to_str().expect("a UTF-8 path");
+    let base = ["ragdoll", path, "--clip", "Walk", "--time", "0.25", "--seconds", "4"];
+    let doc = |out: &[u8]| -> serde_json::Value { serde_json::from_slice(out).expect("JSON") };
+    let plain = doc(&kloub_ok(&base));
+    // The start pose's joints: a slab under the fox's belly, between its legs.
+    let joints = plain["joints"].as_array().expect("joints").len();
+    let start: Vec<f64> =
+        plain["frames"][0]["positions"].as_array().expect("positions").iter().filter_map(|v| v.as_f64()).collect();
+    let axis = |k: usize| start.iter().skip(k).step_by(3).copied().collect::<Vec<f64>>();
+    let (xs, ys, zs) = (axis(0), axis(1), axis(2));
+    let span = |v: &[f64]| {
+        (v.iter().copied().fold(f64::INFINITY, f64::min), v.iter().copied().fold(f64::NEG_INFINITY, f64::max))
+    };
+    let ((x0, x1), (y0, y1), (z0, z1)) = (span(&xs), span(&ys), span(&zs));
+    let ground = plain["ground"].as_f64().expect("ground");
+    let height = y1 - ground;
+    let slab = serde_json::json!([{
+        "shape": "box",
+        "center": [(x0 + x1) / 2.0, ground + 0.15 * height, (z0 + z1) / 2.0],
+        "size": [(x1 - x0) * 3.0, 0.3 * height, (z1 - z0) * 3.0],
+    }]);
+    let dir = std::env::temp_dir().join(format!("kloub-obstacles-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("a temp dir");
+    let slab_file = dir.join("slab.json");
+    std::fs::write(&slab_file, slab.to_string()).expect("write");
+    let mut args: Vec<&str> = base.to_vec();
+    args.extend(["--obstacles", slab_file.to_str().expect("path")]);
+    let out = kloub_ok(&args);
+    assert_eq!(out, kloub_ok(&args), "the same world gives the same output");
+    let on = doc(&out);
+    assert_eq!(on["obstacles"], 1);
+    // The joints' mean height at the end (joints that never move, the skeleton's root, left out).
+    let start_ys: Vec<f64> = start.iter().skip(1).step_by(3).copied().collect();
+    let mean = |d: &serde_json::Value| {
+        let last = &d["frames"][240]["positions"];
+        let ys: Vec<f64> =
+            last.as_array().expect("positions").iter().skip(1).step_by(3).filter_map(|v| v.as_f64()).collect();
+        let moving: Vec<f64> = ys.iter().zip(&start_ys).filter(|(a, b)| a != b).map(|(a, _)| *a).collect();
+        moving.iter().sum::<f64>() / moving.len().max(1) as f64
+    };
+    let _ = (joints, y0);
+    // Without the slab the fox lies on the floor; with it, on the slab's top.
+    let top = ground + 0.3 * height;
+    assert!(mean(&plain) < top, "without the slab the joints rest at {} on average", mean(&plain));
+    assert!(mean(&on) > top, "the fox went through the slab: joints at {} on average (top {top})", mean(&on));
+    // Bad obstacles: an error with the pointer in that file, exit 1.
+    let bad_file = dir.join("bad.json");
+    std::fs::write(&bad_file, r#"[{"shape": "sphere", "center": [0, 0, 0], "radius": -1}]"#).expect("write");
+    let mut args: Vec<&str> = base.to_vec();
+    args.extend(["--obstacles", bad_file.to_str().expect("path")]);
+    let bad = kloub().args(&args).output().expect("run");
+    assert_eq!(bad.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&bad.stderr);
+    assert!(stderr.contains("/0/radius") && stderr.contains("bad.json"), "{stderr}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// Zips `files` (archive path, file on disk) with deflate into `dir/name`.
 fn zip_files(dir: &std::path::Path, name: &str, files: &[(&str, PathBuf)]) -> PathBuf {
     use std::io::Write;

@@ -20,6 +20,10 @@
 //! [`Ragdoll::step`] advances by wall time in fixed steps; [`Ragdoll::write_pose`] writes the
 //! interpolated pose into a [`Pose`]'s locals. Same inputs, same steps: the same output.
 
+pub mod obstacles;
+
+pub use obstacles::{Obstacle, Piece};
+
 use rapier3d::prelude::{
     ColliderBuilder, GenericJointBuilder, Group, InteractionGroups, InteractionTestMode, JointAxesMask, JointAxis,
     PhysicsWorld, RigidBodyBuilder, RigidBodyHandle,
@@ -54,6 +58,41 @@ const SLEEP_SPEED: f32 = 0.2;
 /// Seconds below [`SLEEP_SPEED`] before sleeping.
 const SLEEP_AFTER: f32 = 1.0;
 
+/// Speed under which the ragdoll counts as calm (fraction of its size per second, its fastest
+/// body): calm, its damping rises towards [`SETTLE_DAMPING`] over [`SETTLE_AFTER`] seconds so
+/// that a body rocking against a joint limit or the ground comes to rest; a push or a hit ends
+/// the calm.
+const CALM_SPEED: f32 = 1.0;
+/// Damping (per second) added once the ragdoll has been calm for [`SETTLE_AFTER`] seconds.
+const SETTLE_DAMPING: f32 = 6.0;
+/// Seconds of calm over which the settling damping comes in.
+const SETTLE_AFTER: f32 = 0.5;
+/// Seconds after the start or the last push when the settling damping comes in even if the
+/// ragdoll is not calm (a fall is over by then; a body still swinging is the solver's).
+const IDLE_SETTLE: f32 = 2.5;
+/// Seconds of calm after the settling damping is in before the ragdoll is put to sleep.
+const SLEEP_AFTER_SETTLED: f32 = 0.4;
+
+/// How far (radians) the start pose may be outside a joint's limit before the ragdoll drops
+/// that limit.
+const START_LIMIT_SLACK: f32 = 0.1;
+
+/// Most thrown balls in the world at once.
+pub const MAX_BALLS: usize = 16;
+/// A thrown ball's density (the bodies' is 1): heavy enough to knock a character.
+const BALL_DENSITY: f32 = 4.0;
+/// Powered ragdoll: the time in which a body's velocity would close the gap to its target.
+const POWER_TIME: f32 = 0.04;
+/// Powered ragdoll: the fraction of the velocity error removed each step at strength 1.
+const POWER_GAIN: f32 = 1.0;
+
+/// Solver substeps per fixed step: contacts and joints solved at 180 Hz keep the skin within
+/// 1 % of the character's size of the ground when a limb lands (at 60 Hz, up to 3 %).
+const SUBSTEPS: u32 = 3;
+
+/// Most skinned vertices a body's hull is built from.
+const MAX_HULL_POINTS: usize = 512;
+
 /// Range of a joint without a limit of its own: swing and twist, radians.
 const FREE_SWING: f32 = 0.7;
 const FREE_TWIST: f32 = 0.5;
@@ -67,11 +106,17 @@ pub struct RagdollOptions {
     pub damping: f32,
     /// Ground friction.
     pub friction: f32,
+    /// Height of the ground plane; `None`: the lowest skinned vertex of the start pose.
+    pub ground: Option<f32>,
+    /// Powered ragdoll (seed 000's "animation + physics correction"): how strongly each body
+    /// is driven towards the pose [`Ragdoll::set_targets`] gives, 0 (limp) to 1 (follows the
+    /// clip, gravity compensated).
+    pub strength: f32,
 }
 
 impl Default for RagdollOptions {
     fn default() -> Self {
-        Self { gravity: 9.81, damping: 0.5, friction: 0.8 }
+        Self { gravity: 9.81, damping: 0.5, friction: 0.8, ground: None, strength: 0.0 }
     }
 }
 
@@ -123,6 +168,24 @@ pub struct Ragdoll {
     parents: Vec<Option<NodeIndex>>,
     accumulator: f32,
     steps: u64,
+    /// Seconds the ragdoll has been calm ([`CALM_SPEED`]).
+    calm_for: f32,
+    /// Seconds since it started or was last pushed, hit or given options.
+    undisturbed: f32,
+    /// The obstacles' fixed bodies.
+    obstacles: Vec<RigidBodyHandle>,
+    /// Thrown balls and their radii.
+    balls: Vec<(RigidBodyHandle, f32)>,
+    /// Ground friction (for the obstacles).
+    friction: f32,
+    /// Powered: the strength and each body's target (rotation, centre), from [`Ragdoll::set_targets`].
+    strength: f32,
+    targets: Vec<Option<(Quat, Vec3)>>,
+    /// Each target's velocity (linear, angular) from the targets before, and the step they came at.
+    target_velocities: Vec<(Vec3, Vec3)>,
+    targets_at: Option<u64>,
+    /// The damping asked for (the settling damping comes on top).
+    damping: f32,
     ground: f32,
     size: f32,
     /// World transforms written by [`Ragdoll::write_pose`], kept to reuse the allocation.
@@ -214,30 +277,39 @@ impl Ragdoll {
         if !floor.is_finite() {
             floor = lo.y;
         }
+        if let Some(ground) = options.ground.filter(|g| g.is_finite()) {
+            floor = ground;
+        }
 
         // Children joints and subtree sizes (for the main child of a branching joint).
         let parents: Vec<Option<NodeIndex>> = asset.nodes.iter().map(|node| node.parent).collect();
         let mut subtree = vec![0usize; n];
+        // Skinned vertices each joint's subtree carries: a joint that carries none (an IK
+        // control or a weapon slot) gets no body.
+        let mut carries = vec![0usize; n];
         for &node in asset.order.iter().rev() {
             let node = node as usize;
             if is_joint[node] {
                 subtree[node] += 1;
             }
+            carries[node] += vertices[node].len();
             if let Some(p) = parents[node] {
-                let s = subtree[node];
+                let (s, c) = (subtree[node], carries[node]);
                 subtree[p as usize] += s;
+                carries[p as usize] += c;
             }
         }
 
         let mut world = PhysicsWorld::new();
         let scale = size / PERSON_HEIGHT;
         world.gravity = Vec3::new(0.0, -options.gravity * scale, 0.0);
-        world.integration_parameters.dt = 1.0 / STEP_HZ;
+        world.integration_parameters.dt = 1.0 / (STEP_HZ * SUBSTEPS as f32);
         world.integration_parameters.length_unit = scale.max(1e-3);
         world.integration_parameters.num_solver_iterations = 8;
-        // Ragdoll bodies collide with the ground only.
-        let bones = InteractionGroups::new(Group::GROUP_1, Group::GROUP_2, InteractionTestMode::And);
-        let ground_groups = InteractionGroups::new(Group::GROUP_2, Group::GROUP_1, InteractionTestMode::And);
+        // Ragdoll bodies collide with the ground, the obstacles and thrown balls, not with each other.
+        let bones = InteractionGroups::new(Group::GROUP_1, Group::GROUP_2 | Group::GROUP_3, InteractionTestMode::And);
+        let ground_groups =
+            InteractionGroups::new(Group::GROUP_2, Group::GROUP_1 | Group::GROUP_3, InteractionTestMode::And);
         let thick = size;
         world.insert(
             RigidBodyBuilder::fixed().translation(Vec3::new(lo.x.midpoint(hi.x), floor - thick, lo.z.midpoint(hi.z))),
@@ -258,7 +330,7 @@ impl Ragdoll {
                 .children
                 .iter()
                 .copied()
-                .filter(|&c| is_joint[c as usize])
+                .filter(|&c| is_joint[c as usize] && carries[c as usize] > 0)
                 .max_by_key(|&c| (subtree[c as usize], std::cmp::Reverse(c)));
             let tip = match main_child {
                 Some(c) => at(c as usize),
@@ -272,7 +344,7 @@ impl Ragdoll {
             };
             let bone = tip - origin;
             let length = bone.length();
-            if length < MIN_BONE * size || !length.is_finite() {
+            if length < MIN_BONE * size || !length.is_finite() || carries[j] == 0 {
                 continue;
             }
             let dir = bone / length;
@@ -330,6 +402,15 @@ impl Ragdoll {
                 parent_body = parents[p as usize];
             }
             let limit = settings.limits.get(j).copied().unwrap_or_default();
+            // A limit the start pose is outside of (a hinge guessed from a name about the wrong
+            // axis) would snap the bone into it and keep fighting the ground: such a joint gets
+            // the moderate range of an unlimited one.
+            let local = instance.pose().locals.get(j).map_or(asset.nodes[j].rest.rotation, |l| l.rotation);
+            let limit = if limit.allows(asset.nodes[j].rest.rotation, local, START_LIMIT_SLACK) {
+                limit
+            } else {
+                JointLimit::Free
+            };
             let attached = parent_body.is_some();
             if let Some(p) = parent_body {
                 let parent = &bodies[body_of[p as usize]];
@@ -344,6 +425,10 @@ impl Ragdoll {
                 let frame1 = parent_pose.inverse() * pose(rest_frame * to_axis, origin);
                 let frame2 = pose(rotation, center).inverse() * pose(rot_j * to_axis, origin);
                 let joint = match limit {
+                    // Powered from the start, a joint takes the clip's range: the drive holds it.
+                    _ if options.strength > 0.0 => GenericJointBuilder::new(JointAxesMask::LOCKED_SPHERICAL_AXES)
+                        .local_frame1(frame1)
+                        .local_frame2(frame2),
                     JointLimit::Hinge { min, max, .. } => GenericJointBuilder::new(JointAxesMask::LOCKED_REVOLUTE_AXES)
                         .local_frame1(frame1)
                         .local_frame2(frame2)
@@ -382,6 +467,39 @@ impl Ragdoll {
         if bodies.is_empty() {
             return Err(RagdollError::NoBones);
         }
+        // Each body also collides as the hull of the skinned vertices it carries (its joint's,
+        // and those of the joints without a body that ride on it: fingers, toes), so that the
+        // skin, not only the capsules, stays above the ground and on the obstacles. Massless:
+        // the capsules keep the dynamics.
+        let mut carried: Vec<Vec<Vec3>> = vec![Vec::new(); bodies.len()];
+        for (j, list) in vertices.iter().enumerate() {
+            let mut at = Some(j as NodeIndex);
+            while let Some(node) = at {
+                if body_of[node as usize] != usize::MAX {
+                    break;
+                }
+                at = parents[node as usize];
+            }
+            let Some(b) = at.map(|node| body_of[node as usize]) else { continue };
+            let Some(body) = bodies.get(b) else { continue };
+            let p = world.bodies[body.handle].position();
+            let (rotation, center) = (p.rotation, p.translation);
+            carried[b].extend(list.iter().map(|v| rotation.conjugate() * (*v - center)));
+        }
+        for (body, points) in bodies.iter().zip(carried) {
+            if points.len() < 4 {
+                continue;
+            }
+            // Thinned to a bounded count (the hull's extremes survive thinning well on dense skins).
+            let stride = points.len().div_ceil(MAX_HULL_POINTS);
+            let points: Vec<Vec3> = points.into_iter().step_by(stride).collect();
+            if let Some(hull) = ColliderBuilder::convex_hull(&points) {
+                world.insert_collider(
+                    hull.density(0.0).friction(options.friction).collision_groups(bones),
+                    Some(body.handle),
+                );
+            }
+        }
         Ok(Self {
             world,
             bodies,
@@ -391,6 +509,16 @@ impl Ragdoll {
             parents,
             accumulator: 0.0,
             steps: 0,
+            calm_for: 0.0,
+            undisturbed: 0.0,
+            obstacles: Vec::new(),
+            balls: Vec::new(),
+            friction: options.friction,
+            strength: options.strength.clamp(0.0, 1.0),
+            targets: Vec::new(),
+            target_velocities: Vec::new(),
+            targets_at: None,
+            damping: options.damping,
             ground: floor,
             size,
             worlds: vec![Mat4::IDENTITY; n],
@@ -437,6 +565,10 @@ impl Ragdoll {
     pub fn set_options(&mut self, options: RagdollOptions) {
         let scale = self.size / PERSON_HEIGHT;
         self.world.gravity = Vec3::new(0.0, -options.gravity * scale, 0.0);
+        self.damping = options.damping;
+        self.calm_for = 0.0;
+        self.undisturbed = 0.0;
+        self.strength = if options.strength.is_finite() { options.strength.clamp(0.0, 1.0) } else { 0.0 };
         for b in &self.bodies {
             if let Some(rb) = self.world.bodies.get_mut(b.handle) {
                 rb.set_linear_damping(options.damping);
@@ -456,6 +588,8 @@ impl Ragdoll {
         if let Some(rb) = self.bodies.get(body).and_then(|b| self.world.bodies.get_mut(b.handle)) {
             let impulse = velocity * rb.mass();
             rb.apply_impulse_at_point(impulse, at, true);
+            self.calm_for = 0.0;
+            self.undisturbed = 0.0;
         }
     }
 
@@ -501,6 +635,132 @@ impl Ragdoll {
         }
     }
 
+    /// Replaces the obstacles of the world (fixed: they do not move; the bodies and thrown
+    /// balls collide with them). Sleeping bodies wake.
+    pub fn set_obstacles(&mut self, obstacles: &[Obstacle]) {
+        for handle in self.obstacles.drain(..) {
+            self.world.remove_body(handle);
+        }
+        let groups = InteractionGroups::new(Group::GROUP_2, Group::GROUP_1 | Group::GROUP_3, InteractionTestMode::And);
+        for obstacle in obstacles.iter().take(obstacles::MAX_OBSTACLES) {
+            for piece in obstacle.pieces() {
+                let (body, collider) = match piece {
+                    Piece::Cuboid(center, half, rotation) => {
+                        (pose(rotation, center), ColliderBuilder::cuboid(half.x, half.y, half.z))
+                    }
+                    Piece::Ball(center, radius) => (pose(Quat::IDENTITY, center), ColliderBuilder::ball(radius)),
+                    Piece::Capsule(center, half, radius, rotation) => {
+                        (pose(rotation, center), ColliderBuilder::capsule_y(half, radius))
+                    }
+                    Piece::Hull(points) => match ColliderBuilder::convex_hull(&points) {
+                        Some(hull) => (pose(Quat::IDENTITY, Vec3::ZERO), hull),
+                        None => continue,
+                    },
+                };
+                let (handle, _) = self.world.insert(
+                    RigidBodyBuilder::fixed().pose(body),
+                    collider.friction(self.friction).collision_groups(groups),
+                );
+                self.obstacles.push(handle);
+            }
+        }
+        self.wake();
+    }
+
+    /// Throws a ball of `radius` from `from` at `velocity` (model units): it collides with the
+    /// bodies, the ground, the obstacles and other balls (at most [`MAX_BALLS`]; the oldest goes).
+    pub fn throw_ball(&mut self, from: Vec3, velocity: Vec3, radius: f32) {
+        if !(from.is_finite() && velocity.is_finite() && radius.is_finite() && radius > 0.0) {
+            return;
+        }
+        if self.balls.len() >= MAX_BALLS {
+            let (old, _) = self.balls.remove(0);
+            self.world.remove_body(old);
+        }
+        let groups = InteractionGroups::new(Group::GROUP_3, Group::ALL, InteractionTestMode::And);
+        let (handle, _) = self.world.insert(
+            RigidBodyBuilder::dynamic().translation(from).linvel(velocity).ccd_enabled(true),
+            ColliderBuilder::ball(radius).density(BALL_DENSITY).friction(self.friction).collision_groups(groups),
+        );
+        self.balls.push((handle, radius));
+        self.wake();
+    }
+
+    /// The thrown balls now: centre and radius.
+    pub fn balls(&self) -> Vec<(Vec3, f32)> {
+        (self.balls.iter()).filter_map(|&(h, r)| Some((self.world.bodies.get(h)?.position().translation, r))).collect()
+    }
+
+    /// Powered ragdoll: the pose each body is driven towards from now on, as world transforms
+    /// of every node (an instance's worlds after evaluating the animation). Ignored with
+    /// strength 0 or worlds of another asset.
+    pub fn set_targets(&mut self, worlds: &[Mat4]) {
+        if self.strength <= 0.0 || worlds.len() != self.parents.len() {
+            return;
+        }
+        self.targets.resize(self.bodies.len(), None);
+        self.target_velocities.resize(self.bodies.len(), (Vec3::ZERO, Vec3::ZERO));
+        // Seconds since the targets before (they move with the clip: the bodies follow that too).
+        let since = self.targets_at.map(|at| self.steps.saturating_sub(at) as f32 / STEP_HZ).filter(|s| *s > 0.0);
+        self.targets_at = Some(self.steps);
+        for ((b, target), velocity) in self.bodies.iter().zip(&mut self.targets).zip(&mut self.target_velocities) {
+            let Some(world) = worlds.get(b.joint as usize) else { continue };
+            // The body sits where its joint puts it: joint = body · body_from_joint.
+            let (_, r, t) = rigid(world);
+            let (jr, jt) = b.body_from_joint;
+            let rotation = (r * jr.conjugate()).normalize();
+            let center = t - rotation * jt;
+            let next = (rotation.is_finite() && center.is_finite()).then_some((rotation, center));
+            *velocity = match (since, *target, next) {
+                (Some(dt), Some((r0, c0)), Some((r1, c1))) => {
+                    let (axis, angle) = (r1 * r0.conjugate()).normalize().to_axis_angle();
+                    let angle = if angle > std::f32::consts::PI { angle - std::f32::consts::TAU } else { angle };
+                    let spin = if axis.is_finite() && angle.is_finite() { axis * angle / dt } else { Vec3::ZERO };
+                    ((c1 - c0) / dt, spin)
+                }
+                _ => (Vec3::ZERO, Vec3::ZERO),
+            };
+            *target = next;
+        }
+    }
+
+    /// Wakes every body and starts the calm over (something changed around them).
+    fn wake(&mut self) {
+        self.calm_for = 0.0;
+        self.undisturbed = 0.0;
+        for b in &self.bodies {
+            if let Some(rb) = self.world.bodies.get_mut(b.handle) {
+                rb.wake_up(true);
+            }
+        }
+    }
+
+    /// Drives each body's velocity towards its target (powered ragdoll): the velocity that
+    /// closes the gap in [`POWER_TIME`] seconds, blended in by the strength each step, with
+    /// gravity compensated in proportion.
+    fn drive(&mut self) {
+        if self.strength <= 0.0 || self.targets.len() != self.bodies.len() {
+            return;
+        }
+        let dt = 1.0 / STEP_HZ;
+        let k = (self.strength * POWER_GAIN).clamp(0.0, 1.0);
+        let lift = -self.world.gravity * dt * self.strength;
+        for ((b, target), (follow_v, follow_w)) in self.bodies.iter().zip(&self.targets).zip(&self.target_velocities) {
+            let (Some((rotation, center)), Some(rb)) = (target, self.world.bodies.get_mut(b.handle)) else {
+                continue;
+            };
+            let p = rb.position();
+            let want_v = (*center - p.translation) / POWER_TIME + *follow_v;
+            let (axis, angle) = (*rotation * p.rotation.conjugate()).normalize().to_axis_angle();
+            let angle = if angle > std::f32::consts::PI { angle - std::f32::consts::TAU } else { angle };
+            let want_w =
+                if axis.is_finite() && angle.is_finite() { axis * angle / POWER_TIME } else { Vec3::ZERO } + *follow_w;
+            let (v, w) = (rb.linvel(), rb.angvel());
+            rb.set_linvel(v + (want_v - v) * k + lift, true);
+            rb.set_angvel(w + (want_w - w) * k, true);
+        }
+    }
+
     /// One fixed step.
     pub fn step_once(&mut self) {
         for b in &mut self.bodies {
@@ -509,8 +769,61 @@ impl Ragdoll {
                 b.previous = (p.rotation, p.translation);
             }
         }
-        self.world.step();
+        self.drive();
+        for _ in 0..SUBSTEPS {
+            self.world.step();
+        }
         self.steps += 1;
+        self.settle();
+    }
+
+    /// Raises the damping while the ragdoll is calm (see [`CALM_SPEED`]), back to what was
+    /// asked for as soon as it is not.
+    fn settle(&mut self) {
+        // A powered ragdoll follows its targets: no settling damping, no sleep.
+        if self.strength > 0.0 {
+            self.calm_for = 0.0;
+            for b in &self.bodies {
+                if let Some(rb) = self.world.bodies.get_mut(b.handle)
+                    && rb.linear_damping() != self.damping
+                {
+                    rb.set_linear_damping(self.damping);
+                    rb.set_angular_damping(self.damping);
+                }
+            }
+            return;
+        }
+        let calm = self.max_point_speed() < CALM_SPEED * self.size;
+        self.calm_for = if calm { self.calm_for + 1.0 / STEP_HZ } else { 0.0 };
+        self.undisturbed += 1.0 / STEP_HZ;
+        // Calm, or left alone long enough that a fall is over.
+        let settling = self.calm_for.max(self.undisturbed - IDLE_SETTLE);
+        let t = (settling / SETTLE_AFTER).clamp(0.0, 1.0);
+        let damping = self.damping + SETTLE_DAMPING * t * t * (3.0 - 2.0 * t);
+        // Settled and calm, what still moves is the solver rocking a body between a limit and
+        // the ground: the ragdoll is put to sleep (a push, a hit or new options wake it).
+        let sleep = calm && settling >= SETTLE_AFTER + SLEEP_AFTER_SETTLED;
+        for b in &self.bodies {
+            if let Some(rb) = self.world.bodies.get_mut(b.handle) {
+                if rb.linear_damping() != damping {
+                    rb.set_linear_damping(damping);
+                    rb.set_angular_damping(damping);
+                }
+                if sleep && !rb.is_sleeping() {
+                    rb.sleep();
+                }
+            }
+        }
+    }
+
+    /// The fastest point of any body (centre speed plus spin times its half length), model
+    /// units per second.
+    fn max_point_speed(&self) -> f32 {
+        self.bodies
+            .iter()
+            .filter_map(|b| Some((b, self.world.bodies.get(b.handle)?)))
+            .map(|(b, rb)| rb.linvel().length() + rb.angvel().length() * (b.half_height + b.radius))
+            .fold(0.0, f32::max)
     }
 
     /// Writes the skeleton as the bodies hold it into `pose`'s locals: joints with a body
@@ -686,6 +999,210 @@ mod tests {
                 worst * 100.0
             );
         }
+    }
+
+    /// Every skinned vertex of `instance` now (model space).
+    fn skinned(asset: &Asset, instance: &mut Instance) -> Vec<Vec3> {
+        let (mut positions, mut normals, mut out) = (Vec::new(), Vec::new(), Vec::new());
+        for (n, node) in asset.nodes.iter().enumerate() {
+            let (Some(mesh), Some(_)) = (node.mesh, node.skin) else { continue };
+            for p in 0..asset.meshes[mesh as usize].primitives.len() {
+                if instance.deform_primitive(asset, n as u32, p, &mut positions, &mut normals).is_ok() {
+                    out.extend(positions.iter().map(|v| Vec3::from(*v)));
+                }
+            }
+        }
+        out
+    }
+
+    /// Drops `asset` from its first clip at 0.3 s for `seconds` (on `obstacles`, with the
+    /// ground at `ground` when given, the start pose lifted by `lift`) and returns the deepest any
+    /// skinned vertex went below the ground, the fastest one moved after `settle` seconds (both
+    /// as fractions of the skeleton's size, per second for the speed), and the last vertices.
+    fn vertex_report(
+        asset: &Asset,
+        seconds: f32,
+        settle: f32,
+        obstacles: &[Obstacle],
+        lift: f32,
+    ) -> (f32, f32, Vec<Vec3>, f32, f32) {
+        let mut instance = Instance::new(asset);
+        let clip = (!asset.clips.is_empty()).then_some(0);
+        instance.evaluate(asset, clip, 0.3).expect("evaluate");
+        let floor = skinned(asset, &mut instance).iter().map(|v| v.y).fold(f32::INFINITY, f32::min);
+        if lift != 0.0 {
+            let roots: Vec<usize> = (0..asset.nodes.len()).filter(|&n| asset.nodes[n].parent.is_none()).collect();
+            for r in roots {
+                instance.pose_mut().locals[r].translation.y += lift;
+            }
+            instance.update(asset).expect("update");
+        }
+        let settings = JointSettings::humanoid(asset);
+        let options = RagdollOptions { ground: Some(floor), ..RagdollOptions::default() };
+        let mut ragdoll = Ragdoll::new(asset, &mut instance, &settings, None, options).expect("ragdoll");
+        ragdoll.set_obstacles(obstacles);
+        let (size, ground) = (ragdoll.size(), ragdoll.ground());
+        let (mut deepest, mut fastest) = (0.0f32, 0.0f32);
+        let mut last: Vec<Vec3> = Vec::new();
+        for step in 0..(seconds * STEP_HZ).round() as u32 {
+            ragdoll.step_once();
+            ragdoll.write_pose(instance.pose_mut(), 1.0);
+            instance.update(asset).expect("update");
+            let now = skinned(asset, &mut instance);
+            deepest = deepest.max(now.iter().map(|v| ground - v.y).fold(0.0, f32::max) / size);
+            if step as f32 >= settle * STEP_HZ && last.len() == now.len() {
+                let speed = now.iter().zip(&last).map(|(a, b)| a.distance(*b)).fold(0.0, f32::max) * STEP_HZ;
+                fastest = fastest.max(speed / size);
+            }
+            last = now;
+        }
+        (deepest, fastest, last, size, ground)
+    }
+
+    #[test]
+    fn skinned_vertices_stay_above_the_ground_and_come_to_rest() {
+        for path in MODELS {
+            let asset = load(path);
+            let (deepest, fastest, ..) = vertex_report(&asset, 6.0, 4.0, &[], 0.0);
+            eprintln!(
+                "{path}: deepest {:.3}% of the size, fastest after 4 s {:.3}%/s",
+                deepest * 100.0,
+                fastest * 100.0
+            );
+            assert!(
+                deepest < 0.01,
+                "{path}: a skinned vertex went {:.2}% of the size below the ground",
+                deepest * 100.0
+            );
+            assert!(
+                fastest < 0.01,
+                "{path}: a skinned vertex still moves {:.2}% of the size a second",
+                fastest * 100.0
+            );
+        }
+    }
+
+    #[test]
+    fn a_character_dropped_on_the_stairs_rests_on_a_step_the_same_every_time() {
+        let asset = load("khronos/CesiumMan/glTF-Binary/CesiumMan.glb");
+        let mut probe = Instance::new(&asset);
+        probe.evaluate(&asset, Some(0), 0.3).expect("evaluate");
+        let verts = skinned(&asset, &mut probe);
+        let (lo, hi) = verts
+            .iter()
+            .fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(a, b), v| (a.min(*v), b.max(*v)));
+        let height = hi.y - lo.y;
+        // Eight steps rising towards +Z, wide and deep, the character above the middle one
+        // (the fifth), lifted off it: whichever way it falls, it tumbles down steps.
+        let (rise, run, steps) = (0.8 * height, 4.0 * height, 8u32);
+        let feet = Vec3::new(0.5 * (lo.x + hi.x), lo.y, 0.5 * (lo.z + hi.z));
+        let tread_depth = run / steps as f32;
+        let middle = 4u32;
+        let stairs = Obstacle::Stairs {
+            // Step `middle`'s centre is `-run/2 + tread_depth (middle + 0.5)` from the centre.
+            center: feet - Vec3::new(0.0, 0.0, -run * 0.5 + tread_depth * (middle as f32 + 0.5)),
+            size: Vec3::new(3.0 * height, rise, run),
+            steps,
+            rotation: Quat::IDENTITY,
+        };
+        let lift = rise * (middle + 1) as f32 / steps as f32 + 0.02 * height;
+        let run_once = || vertex_report(&asset, 8.0, 6.0, &[stairs], lift);
+        let (deepest, fastest, a, size, ground) = run_once();
+        let (_, _, b, ..) = run_once();
+        assert!(a == b, "two runs on the stairs differ");
+        assert!(deepest < 0.01, "through the floor by {:.2}%", deepest * 100.0);
+        assert!(fastest < 0.01, "still moving on the stairs: {:.2}%/s", fastest * 100.0);
+        // Resting on a step: the lowest vertex at a tread's height (not on the floor, not
+        // inside a step), and no vertex inside the staircase's solid.
+        let lowest = a.iter().map(|v| v.y).fold(f32::INFINITY, f32::min) - ground;
+        let tread = rise / steps as f32;
+        let nearest = (lowest / tread).round() * tread;
+        assert!(lowest > 0.5 * tread, "the character fell off the stairs (lowest point {lowest:.3} above the floor)");
+        assert!(
+            (lowest - nearest).abs() < 0.02 * size,
+            "lowest point {lowest:.3} is not on a tread (every {tread:.3})"
+        );
+        let pieces = stairs.pieces();
+        let inside = a.iter().any(|v| {
+            pieces.iter().any(|p| match p {
+                Piece::Cuboid(c, h, _) => ((*v - *c).abs() - *h).max_element() < -0.01 * size,
+                _ => false,
+            })
+        });
+        assert!(!inside, "a skinned vertex is inside a step");
+    }
+
+    #[test]
+    fn a_powered_ragdoll_follows_the_clip_and_recovers_from_a_ball() {
+        let asset = load("khronos/CesiumMan/glTF-Binary/CesiumMan.glb");
+        let mut instance = Instance::new(&asset);
+        instance.evaluate(&asset, Some(0), 0.0).expect("evaluate");
+        let settings = JointSettings::humanoid(&asset);
+        // The ground under the whole clip (its lowest point), as the viewer's grid is.
+        let mut probe = Instance::new(&asset);
+        let floor = (0..30)
+            .map(|i| {
+                probe.evaluate(&asset, Some(0), i as f32 / 15.0).expect("evaluate");
+                skinned(&asset, &mut probe).iter().map(|v| v.y).fold(f32::INFINITY, f32::min)
+            })
+            .fold(f32::INFINITY, f32::min);
+        // CesiumMan walks in place: its planted foot slides back as on a treadmill, and the
+        // floor's friction would hold it. The floor sits a little under the clip's lowest point.
+        let height = {
+            probe.evaluate(&asset, Some(0), 0.0).expect("evaluate");
+            let v = skinned(&asset, &mut probe);
+            v.iter().map(|p| p.y).fold(f32::NEG_INFINITY, f32::max)
+                - v.iter().map(|p| p.y).fold(f32::INFINITY, f32::min)
+        };
+        const CLEARANCE: f32 = 0.01;
+        let options =
+            RagdollOptions { strength: 1.0, ground: Some(floor - CLEARANCE * height), ..RagdollOptions::default() };
+        let mut ragdoll = Ragdoll::new(&asset, &mut instance, &settings, None, options).expect("ragdoll");
+        let size = ragdoll.size();
+        let joints: Vec<usize> = ragdoll.bodies().iter().map(|b| b.joint as usize).collect();
+        let mut animated = Instance::new(&asset);
+        let mut off = |ragdoll: &mut Ragdoll, instance: &mut Instance, t: f32| -> f32 {
+            animated.evaluate(&asset, Some(0), t).expect("evaluate");
+            ragdoll.set_targets(animated.worlds());
+            ragdoll.step_once();
+            ragdoll.write_pose(instance.pose_mut(), 1.0);
+            instance.update(&asset).expect("update");
+            joints
+                .iter()
+                .map(|&j| instance.worlds()[j].w_axis.truncate().distance(animated.worlds()[j].w_axis.truncate()))
+                .fold(0.0f32, f32::max)
+                / size
+        };
+        let mut worst = 0.0f32;
+        let mut t = 0.0;
+        for _ in 0..180 {
+            t += 1.0 / STEP_HZ;
+            worst = worst.max(off(&mut ragdoll, &mut instance, t));
+        }
+        assert!(worst < 0.02, "strength 1 strays {:.2}% of the size from the clip", worst * 100.0);
+        // A ball at the chest knocks it; it is back within 2 % in 2 s.
+        let (_, chest) = ragdoll.body_pose(ragdoll.bodies().len() / 2).expect("a body");
+        let from = chest + Vec3::new(0.0, 0.0, size);
+        ragdoll.throw_ball(from, Vec3::new(0.0, 0.0, -6.0 * size), 0.08 * size);
+        // The largest displacement, when it came, and when it was back within 2 %.
+        let (mut hit, mut peak, mut back) = (0.0f32, 0u32, None);
+        for step in 0..180u32 {
+            t += 1.0 / STEP_HZ;
+            let d = off(&mut ragdoll, &mut instance, t);
+            if d > hit {
+                (hit, peak, back) = (d, step, None);
+            } else if d < 0.02 && back.is_none() && hit > 0.02 {
+                back = Some(step);
+            }
+        }
+        let back_after = back.map(|b| (b - peak) as f32 / STEP_HZ);
+        eprintln!(
+            "powered: within {:.2}% following, {:.2}% after the hit, back within 2 % {back_after:?} s after the peak",
+            worst * 100.0,
+            hit * 100.0
+        );
+        assert!(hit > 0.05, "the ball displaced it only {:.2}%", hit * 100.0);
+        assert!(back_after.is_some_and(|s| s <= 2.0), "not back within 2 s of the hit: {back_after:?}");
     }
 
     #[test]
