@@ -102,6 +102,8 @@ export interface KloubViewerState {
   morphs?: string;
   /** JSON object of the joint rotations `setJointRotation` holds: `{"JOINT": [x, y, z, w]}`; empty without. */
   pose?: string;
+  /** JSON array of the ragdoll's obstacles, as `setObstacles` takes them; empty without. */
+  obstacles?: string;
   /** `animate`, `pose` (pose mode) or `sculpt` (an example pose being sculpted). */
   mode?: 'animate' | 'pose' | 'sculpt';
   /** JSON array of the model file names of a drop or zip holding several; empty for one model. */
@@ -245,8 +247,10 @@ export declare class KloubViewer extends HTMLElement {
   setHeatmap(on: boolean): void;
   /** Overlays: the skeleton (names on hover), the framing bounds, the deformed wireframe, the normals. Needs the full app: on the light widget build the page loads it first and the call applies once the model is back (errors then come as `error` events). */
   setOverlays(overlays: { skeleton?: boolean; bounds?: boolean; wireframe?: boolean; normals?: boolean; bodies?: boolean }): void;
-  /** Drops the character as a ragdoll from the pose on screen (data-ragdoll: simulating, then resting). Needs the full app: on the light widget build the page loads it first and the call applies once the model is back (errors then come as `error` events). */
-  startRagdoll(): void;
+  /** Drops the character as a ragdoll from the pose on screen (data-ragdoll: simulating, then resting); `strength` 0 (limp, the default) to 1 powers it towards the clip as it plays on (a push or a ball staggers it, it recovers; a powered ragdoll never rests). Needs the full app: on the light widget build the page loads it first and the call applies once the model is back (errors then come as `error` events). */
+  startRagdoll(options?: { strength?: number }): void;
+  /** The ragdoll's obstacles in model units (`data-obstacles` mirrors them; a running ragdoll takes them at once): `box` (`center`, `size` [x, y, z], `rotation`?), `sphere` (`center`, `radius`), `capsule` (`center`, `radius`, `height`, `rotation`?), `stairs` (`center` of the footprint on the floor, `size` [width, rise, run], `steps`, `rotation`?, climbing towards +Z), `ramp` (like stairs, a wedge). Bad input throws a RangeError naming the pointer (`/2/radius`). Needs the full app. */
+  setObstacles(list: Array<{ shape: 'box' | 'sphere' | 'capsule' | 'stairs' | 'ramp'; center: [number, number, number]; size?: [number, number, number]; radius?: number; height?: number; steps?: number; rotation?: [number, number, number, number] }>): void;
   /** Ends the ragdoll: at once, or blending back to the animation over `seconds`. Needs the full app: on the light widget build the page loads it first and the call applies once the model is back (errors then come as `error` events). */
   stopRagdoll(seconds?: number): void;
   /** Gravity in m/s² for a person-sized body (scaled to the model) and velocity damping per second. Needs the full app: on the light widget build the page loads it first and the call applies once the model is back (errors then come as `error` events). */

@@ -1751,8 +1751,32 @@ class KloubViewer extends HTMLElement {
     const on = keys.map((k) => (overlays[k] === undefined ? false : bool(m, k, overlays[k])));
     this.#call(m, (v) => v.setOverlays(...on), true);
   }
-  /** Drops the character as a ragdoll from the pose on screen. */
-  startRagdoll() { this.#call('startRagdoll', (v) => v.startRagdoll(), true); }
+  /**
+   * Drops the character as a ragdoll from the pose on screen; `{strength}` (0 limp, the default, to 1) powers it
+   * towards the clip as it plays on (seed 000's animation + physics correction).
+   */
+  startRagdoll(options = {}) {
+    const m = 'startRagdoll';
+    obj(m, '{ strength }', options);
+    const { strength } = options;
+    if (strength !== undefined) num(m, 'strength', strength, { min: 0, max: 1 });
+    this.#call(m, (v) => v.startRagdoll(strength), true);
+  }
+  /**
+   * The ragdoll's obstacles: `[{shape: 'box' | 'sphere' | 'capsule' | 'stairs' | 'ramp', center: [x, y, z], size?,
+   * radius?, height?, steps?, rotation?}]` in model units (see the README); `data-obstacles` mirrors them.
+   */
+  setObstacles(list) {
+    const m = 'setObstacles';
+    if (!Array.isArray(list)) throw new TypeError(`${m}: expected an array of obstacles, got ${describe(list)}`);
+    let json;
+    try {
+      json = JSON.stringify(list);
+    } catch (e) {
+      throw new TypeError(`${m}: the list is not JSON: ${e.message}`);
+    }
+    this.#call(m, (v) => v.setObstacles(json), true);
+  }
   /** Ends the ragdoll: at once, or blending back to the animation over `seconds`. */
   stopRagdoll(seconds) {
     if (seconds !== undefined && seconds !== null) num('stopRagdoll', 'seconds', seconds, { min: 0, max: MAX_SECONDS });
@@ -1960,6 +1984,7 @@ class KloubViewer extends HTMLElement {
   static async _testGlCanvas() { return (await loadRuntime())._testGlCanvas() ?? null; }
 
   /** The ARIA role and name of every control of the panels as the viewer built them ([[role, name], …]). */
+  _testRagdoll() { const r = this.#viewer?._testRagdoll?.() ?? ''; return r === '' ? null : JSON.parse(r); }
   _testGizmo() { const g = this.#viewer?._testGizmo?.() ?? ''; return g === '' ? null : JSON.parse(g); }
   _testAccessibilityControls() { return JSON.parse(this.#viewer?._testAccessibilityControls?.() ?? '[]'); }
   /** The build the page runs: 'widget', 'widget-gl' or 'full' (null before the first element mounted). */

@@ -1089,6 +1089,7 @@ for (const backend of BACKENDS) {
         setGrid: [true], setOverlays: [{ skeleton: false }], stopRagdoll: [0], setRagdollOptions: [{ gravity: 9.81 }],
         selectJoint: ['b_Head_05'], setMorphWeight: ['fox', 0, 0.5], setLighting: ['studio'], setBackground: ['dark'],
         setCopies: [1], loadSample: ['Fox'], setCandyPose: [0, 0], load: [[]],
+        setObstacles: [[{ shape: 'sphere', center: [0, 0, 0], radius: 1 }]], setPoseMode: [false], startRagdoll: [{ strength: 0.5 }],
         toBlob: [{ mimeType: 'image/png', qualityArgument: 0.9 }], toDataURL: ['image/png', 0.9],
       };
       const setters = {
@@ -1200,6 +1201,61 @@ for (const backend of BACKENDS) {
     assert(changed > 0.01, `the fall changed only ${(changed * 100).toFixed(2)}% of the viewport`);
     await control(page, 'stopRagdoll', 0.3);
     await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.ragdoll === '', 'the hand-back to the animation', 30000);
+
+    // Obstacles: four slabs around the feet (clear of the standing body), a fifth of its height; dropped again,
+    // whichever way it falls it lies on one, higher than on the bare ground.
+    const ragdoll = () => page.evaluate(() => document.querySelector('kloub-viewer')._testRagdoll());
+    const meanHeight = (r) => r.bodies.reduce((a, b) => a + b[1], 0) / r.bodies.length;
+    await control(page, 'startRagdoll');
+    await page.waitForFunction(() => document.querySelector('kloub-viewer')._testRagdoll() !== null, null, { timeout: 10000 });
+    const start = await ragdoll();
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.ragdoll === 'resting', 'the body to settle again', 90000);
+    const bare = meanHeight(await ragdoll());
+    await control(page, 'stopRagdoll', 0);
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.ragdoll === '', 'the ragdoll stopped');
+    const height = Math.max(...start.bodies.map((b) => b[1])) - start.ground;
+    const low = start.bodies.filter((b) => b[1] < start.ground + 0.3 * height);
+    const [fx0, fx1] = [Math.min(...low.map((b) => b[0])), Math.max(...low.map((b) => b[0]))];
+    const [fz0, fz1] = [Math.min(...low.map((b) => b[2])), Math.max(...low.map((b) => b[2]))];
+    const g = 0.12 * height;
+    const t = 0.2 * height;
+    const far = 1.5 * height;
+    const y = start.ground + t / 2;
+    const box = (xa, xb, za, zb) => ({ shape: 'box', center: [(xa + xb) / 2, y, (za + zb) / 2], size: [xb - xa, t, zb - za] });
+    const slabs = [
+      box(fx0 - g - far, fx1 + g + far, fz1 + g, fz1 + g + far),
+      box(fx0 - g - far, fx1 + g + far, fz0 - g - far, fz0 - g),
+      box(fx0 - g - far, fx0 - g, fz0 - g, fz1 + g),
+      box(fx1 + g, fx1 + g + far, fz0 - g, fz1 + g),
+    ];
+    await control(page, 'setObstacles', slabs);
+    await waitForDataset(page, () => JSON.parse(document.querySelector('kloub-viewer').dataset.obstacles || '[]').length === 4, 'data-obstacles');
+    const bad = await page.evaluate(() => {
+      try { document.querySelector('kloub-viewer').setObstacles([{ shape: 'sphere', center: [0, 0, 0], radius: -1 }]); return null; } catch (e) { return `${e.name}: ${e.message}`; }
+    });
+    assert(bad?.startsWith('RangeError') && bad.includes('/0/radius'), `a bad obstacle: ${bad}`);
+    await control(page, 'startRagdoll');
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.ragdoll === 'resting', 'the body to rest on the slabs', 90000);
+    const landed = await ragdoll();
+    assert(meanHeight(landed) > bare + 0.25 * t, `on the slabs the bodies rest at ${meanHeight(landed).toFixed(3)} on average, on the bare ground ${bare.toFixed(3)} (slabs ${t.toFixed(3)} high)`);
+    // A click in the view throws a ball.
+    const ds = await dataset(page);
+    const [vx, vy, vw, vh] = ds.viewport.split(',').map(Number);
+    await page.mouse.click(vx + vw / 2, vy + vh / 2);
+    await page.waitForFunction(() => document.querySelector('kloub-viewer')._testRagdoll()?.balls === 1, null, { timeout: 10000 });
+    // Powered at strength 1 (no obstacles): it stands as the clip holds it instead of falling.
+    await control(page, 'stopRagdoll', 0);
+    await control(page, 'setObstacles', []);
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.ragdoll === '' && document.querySelector('kloub-viewer').dataset.obstacles === '', 'back, no obstacles');
+    await control(page, 'startRagdoll', { strength: 1 });
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.ragdoll === 'simulating', 'the powered ragdoll');
+    await page.waitForTimeout(1500);
+    const powered = await ragdoll();
+    const poweredTop = Math.max(...powered.bodies.map((b) => b[1]));
+    const standingTop = Math.max(...start.bodies.map((b) => b[1]));
+    assert(poweredTop > start.ground + 0.8 * (standingTop - start.ground), `the powered ragdoll fell: its highest body at ${poweredTop.toFixed(3)} (standing ${standingTop.toFixed(3)})`);
+    assert((await dataset(page)).ragdoll === 'simulating', 'a powered ragdoll does not rest');
+    await control(page, 'stopRagdoll', 0);
   });
 
   test(`${backend}: the URL hash reproduces the exact view`, async (ctx) => {

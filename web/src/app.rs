@@ -19,6 +19,7 @@ pub use crate::stage::{AppConfig, DEFAULT_CROSSFADE};
 
 mod posing;
 mod viewport;
+mod world;
 
 use viewport::IkHandle;
 
@@ -57,9 +58,6 @@ pub struct App {
     /// space) and its depth.
     sculpt_stroke: Option<(Pos2, Vec3, f32)>,
 }
-
-/// Speed a click gives a ragdoll body, in skeleton sizes per second.
-const RAGDOLL_PUSH: f32 = 2.0;
 
 /// What the help window lists.
 const SHORTCUTS: &[(&str, &str)] = &[

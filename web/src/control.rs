@@ -155,6 +155,19 @@ pub enum Command {
         /// Velocity damping per second.
         damping: f32,
     },
+    /// The ragdoll's obstacles (replacing the list; a running ragdoll takes them at once).
+    #[cfg(feature = "full")]
+    SetObstacles(Vec<kloub_core::ragdoll::Obstacle>),
+    /// Throws a ball from a point (model space) at a velocity (model units per second).
+    #[cfg(feature = "full")]
+    ThrowBall {
+        /// Where it starts.
+        from: [f32; 3],
+        /// Its velocity.
+        velocity: [f32; 3],
+    },
+    /// Powered ragdoll strength, 0 (limp) to 1 (follows the clip).
+    SetRagdollStrength(f32),
     /// Saves the view as a PNG (a download in the browser).
     Screenshot,
     /// Which overlays are drawn (kept across models).

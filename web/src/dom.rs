@@ -92,6 +92,8 @@ pub enum Key {
     /// `"animate"`, `"pose"` (pose mode: `setPoseMode`) or `"sculpt"` (an example pose being
     /// sculpted: `addExamplePose`).
     Mode,
+    /// The ragdoll's obstacles as `setObstacles` takes them (JSON); `""` without.
+    Obstacles,
     /// The models of a drop (or zip archive) holding several, a JSON array of file names, which
     /// the panel lists to switch between; `""` for one model.
     Models,
@@ -102,7 +104,7 @@ pub enum Key {
 
 impl Key {
     /// Every key, in a fixed order.
-    pub const ALL: [Key; 41] = [
+    pub const ALL: [Key; 42] = [
         Key::Backend,
         Key::Status,
         Key::Model,
@@ -142,6 +144,7 @@ impl Key {
         Key::Morphs,
         Key::Pose,
         Key::Mode,
+        Key::Obstacles,
         Key::Models,
         Key::Panel,
     ];
@@ -189,6 +192,7 @@ impl Key {
             Key::Morphs => "morphs",
             Key::Pose => "pose",
             Key::Mode => "mode",
+            Key::Obstacles => "obstacles",
             Key::Models => "models",
         }
     }

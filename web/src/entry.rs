@@ -572,8 +572,36 @@ impl Viewer {
     /// Turns the character into a ragdoll from the pose on screen (throws later, as an
     /// `error` event, for a model without a skin).
     #[wasm_bindgen(js_name = startRagdoll)]
-    pub fn start_ragdoll(&self) {
+    pub fn start_ragdoll(&self, strength: Option<f32>) -> Result<(), JsValue> {
+        if let Some(s) = strength {
+            if !(s.is_finite() && (0.0..=1.0).contains(&s)) {
+                return Err(range_error(format!("startRagdoll: strength {s}: expected 0 to 1")));
+            }
+            self.controls.send(Command::SetRagdollStrength(s));
+        }
         self.controls.send(Command::StartRagdoll);
+        Ok(())
+    }
+
+    #[cfg(feature = "full")]
+    /// The ragdoll's obstacles, a JSON array of boxes, spheres, capsules, stairs and ramps (see
+    /// the README); a running ragdoll takes them at once.
+    #[wasm_bindgen(js_name = setObstacles)]
+    pub fn set_obstacles(&self, json: &str) -> Result<(), JsValue> {
+        let list = kloub_core::ragdoll::Obstacle::list_from_json(json)
+            .map_err(|e| range_error(format!("setObstacles: {e}")))?;
+        self.controls.send(Command::SetObstacles(list));
+        Ok(())
+    }
+
+    #[cfg(feature = "full")]
+    /// Test hook: the ragdoll's ground and each body's centre, `{"ground": y, "bodies": [[x, y,
+    /// z], …]}`; `""` without a ragdoll.
+    #[wasm_bindgen(js_name = _testRagdoll)]
+    pub fn test_ragdoll(&self) -> String {
+        let mut out = String::new();
+        self.with_view(|v| out = v.app.ragdoll_json());
+        out
     }
 
     /// Ends the ragdoll: back to the animation at once, or blending over `seconds`.

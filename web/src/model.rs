@@ -108,6 +108,9 @@ pub struct Model {
     /// Gravity and damping for the ragdoll (the panel's sliders).
     #[cfg(feature = "full")]
     pub ragdoll_options: kloub_core::ragdoll::RagdollOptions,
+    /// The ragdoll's obstacles (kept across runs; the sidecar's `obstacles`).
+    #[cfg(feature = "full")]
+    pub obstacles: Vec<kloub_core::ragdoll::Obstacle>,
     /// Last frame's worlds of the main character (a ragdoll inherits their velocity).
     #[cfg(feature = "full")]
     previous: crate::ragdoll::PreviousWorlds,
@@ -117,6 +120,29 @@ pub struct Model {
     /// Whether the validator is running on this model.
     #[cfg(feature = "full")]
     pub validating: bool,
+}
+
+/// The `obstacles` of a sidecar (none when it has none).
+///
+/// # Errors
+/// Not JSON, or a bad list, naming its pointer (`/obstacles/2/radius: …`).
+#[cfg(feature = "full")]
+pub fn obstacles_in_sidecar(text: &str) -> Result<Vec<kloub_core::ragdoll::Obstacle>, String> {
+    let doc: serde_json::Value = serde_json::from_str(text).map_err(|e| format!("not JSON: {e}"))?;
+    match doc.get("obstacles") {
+        None => Ok(Vec::new()),
+        Some(list) => kloub_core::ragdoll::Obstacle::list_from_value(list, "/obstacles"),
+    }
+}
+
+/// `dataset.obstacles`: the ragdoll's obstacles as the JSON `setObstacles` takes; `""` without.
+#[cfg(feature = "full")]
+pub fn obstacles_json(model: &Model) -> String {
+    if model.obstacles.is_empty() {
+        String::new()
+    } else {
+        kloub_core::ragdoll::Obstacle::list_to_json(&model.obstacles)
+    }
 }
 
 /// `x` rounded to five decimals, for the JSON state mirrors (stable text for equal values).
@@ -160,6 +186,12 @@ impl Model {
                 examples = Some((read, targets));
             }
         }
+        // The ragdoll's obstacles, saved in the sidecar.
+        #[cfg(feature = "full")]
+        let obstacles = match &sidecar {
+            Some(text) => obstacles_in_sidecar(text).map_err(|e| format!("{name}: sidecar: {e}"))?,
+            None => Vec::new(),
+        };
         let mut instance = Instance::new(&asset);
         let mut animator = Animator::new(&asset);
         animator.play(&asset, clip).map_err(|e| format!("{name}: {e}"))?;
@@ -222,6 +254,8 @@ impl Model {
             ragdoll: None,
             #[cfg(feature = "full")]
             ragdoll_options: kloub_core::ragdoll::RagdollOptions::default(),
+            #[cfg(feature = "full")]
+            obstacles,
             #[cfg(feature = "full")]
             previous: crate::ragdoll::PreviousWorlds::default(),
             #[cfg(feature = "full")]
@@ -318,6 +352,8 @@ impl Model {
         #[cfg(feature = "full")]
         let ragdoll_owns = match &mut self.ragdoll {
             Some(ragdoll) => {
+                // Powered: the animation's pose (in the worlds now) is what the bodies follow.
+                ragdoll.ragdoll.set_targets(self.instance.worlds());
                 ragdoll.ragdoll.write_pose(self.instance.pose_mut(), ragdoll.weight());
                 self.instance.update(&self.asset).map_err(|e| e.to_string())?;
                 true
@@ -363,10 +399,23 @@ impl Model {
     /// [`Model::sidecar_json`] with `examples` in place of the model's.
     pub fn sidecar_json_with(&self, examples: Option<&Examples>) -> String {
         let text = self.joint_settings.to_json(&self.base_asset, &JointSettings::humanoid(&self.base_asset));
-        let Some(examples) = examples else { return text };
-        // The example poses too, so that dropping the file back restores them.
+        #[cfg(feature = "full")]
+        let obstacles = !self.obstacles.is_empty();
+        #[cfg(not(feature = "full"))]
+        let obstacles = false;
+        if examples.is_none() && !obstacles {
+            return text;
+        }
+        // The example poses and obstacles too, so that dropping the file back restores them.
         let mut doc: serde_json::Map<String, serde_json::Value> = serde_json::from_str(&text).unwrap_or_default();
-        doc.extend(examples.to_json(&self.base_asset));
+        if let Some(examples) = examples {
+            doc.extend(examples.to_json(&self.base_asset));
+        }
+        #[cfg(feature = "full")]
+        if obstacles {
+            let list = self.obstacles.iter().map(kloub_core::ragdoll::Obstacle::to_value).collect();
+            doc.insert("obstacles".into(), serde_json::Value::Array(list));
+        }
         serde_json::to_string_pretty(&doc).unwrap_or(text)
     }
 
@@ -723,6 +772,8 @@ impl Model {
             self.ragdoll_options,
         )
         .map_err(|e| format!("{}: {e}", self.name))?;
+        let mut ragdoll = ragdoll;
+        ragdoll.set_obstacles(&self.obstacles);
         self.ragdoll = Some(crate::ragdoll::RagdollState { ragdoll, blend_back: None });
         Ok(())
     }

@@ -740,7 +740,13 @@ impl Stage {
         }
         for file in files {
             let text = std::str::from_utf8(&file.bytes).map_err(|_| format!("{}: not UTF-8 text", file.name))?;
+            #[cfg(feature = "full")]
+            let obstacles = crate::model::obstacles_in_sidecar(text).map_err(|e| format!("{}: {e}", file.name))?;
             model.joint_settings.apply_json(&model.asset, text).map_err(|e| format!("{}: {e}", file.name))?;
+            #[cfg(feature = "full")]
+            if !obstacles.is_empty() {
+                model.obstacles = obstacles;
+            }
         }
         for ik in &mut model.ik {
             ik.use_settings(&model.joint_settings);

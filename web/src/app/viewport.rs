@@ -118,18 +118,12 @@ impl App {
             }
         }
         let mut pending = None;
-        // A click on a ragdoll body pushes it away from the camera.
+        // A click while the ragdoll runs throws a ball through it from the camera (not while posing).
         if response.clicked()
-            && let (Some(model), Some(pointer)) = (self.stage.model.as_mut(), response.interact_pointer_pos())
-            && let Some(state) = &mut model.ragdoll
-            && let (Some(near), Some(far)) = (projection.unproject(pointer, 0.0), projection.unproject(pointer, 0.9))
+            && !pose_mode
+            && let Some(pointer) = response.interact_pointer_pos()
         {
-            let dir = (far - near).normalize_or_zero();
-            let ragdoll = &mut state.ragdoll;
-            if let Some((body, at)) = ragdoll.pick(near - origin, dir, 1.5) {
-                let speed = ragdoll.size() * RAGDOLL_PUSH;
-                ragdoll.push(body, dir * speed, at);
-            }
+            self.throw_at(pointer, &projection, origin);
         }
         if posing {
             // Taken by pose mode.
@@ -325,6 +319,7 @@ impl App {
                 overlay::paint_axes(&painter, model, projection, origin, joint, size);
             }
         }
+        self.paint_world(&ui.painter_at(rect), projection, origin);
         self.paint_pose(&ui.painter_at(rect), response, projection, origin);
         self.ik_markers.clear();
         self.ik_pole_markers.clear();

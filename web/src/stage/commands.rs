@@ -2,6 +2,10 @@
 
 use super::*;
 
+/// A thrown ball's radius, as a fraction of the model's size.
+#[cfg(feature = "full")]
+const BALL_RADIUS: f32 = 0.05;
+
 impl Stage {
     /// Applies one command to the shown model (the side panel's actions go through here too).
     pub(crate) fn apply(&mut self, command: Command) -> Result<(), String> {
@@ -184,6 +188,29 @@ impl Stage {
             #[cfg(feature = "full")]
             Command::StartRagdoll => model.start_ragdoll()?,
             #[cfg(feature = "full")]
+            Command::SetObstacles(list) => {
+                model.obstacles = list;
+                if let Some(state) = &mut model.ragdoll {
+                    state.ragdoll.set_obstacles(&model.obstacles);
+                }
+            }
+            #[cfg(feature = "full")]
+            Command::ThrowBall { from, velocity } => {
+                let size = model.size();
+                if let Some(state) = &mut model.ragdoll {
+                    state.ragdoll.throw_ball(Vec3::from(from), Vec3::from(velocity), BALL_RADIUS * size);
+                }
+            }
+            #[cfg(feature = "full")]
+            Command::SetRagdollStrength(strength) => {
+                let strength = if strength.is_finite() { strength.clamp(0.0, 1.0) } else { 0.0 };
+                model.ragdoll_options.strength = strength;
+                let options = model.ragdoll_options;
+                if let Some(state) = &mut model.ragdoll {
+                    state.ragdoll.set_options(options);
+                }
+            }
+            #[cfg(feature = "full")]
             Command::StopRagdoll => model.ragdoll = None,
             #[cfg(feature = "full")]
             Command::RagdollToAnimation(seconds) => {
@@ -205,7 +232,8 @@ impl Stage {
             Command::StartRagdoll
             | Command::StopRagdoll
             | Command::RagdollToAnimation(_)
-            | Command::SetRagdollOptions { .. } => return Err("the ragdoll needs the full app".into()),
+            | Command::SetRagdollOptions { .. }
+            | Command::SetRagdollStrength(_) => return Err("the ragdoll needs the full app".into()),
             Command::SetJointRotation { node, rotation } => {
                 let slot = model
                     .rotation_overrides

@@ -55,6 +55,10 @@ impl Stage {
         d.set(Key::Pose, &model.map_or(String::new(), Model::pose_json));
         #[cfg(feature = "full")]
         d.set(Key::Mode, model.map_or("animate", Model::mode_name));
+        #[cfg(feature = "full")]
+        d.set(Key::Obstacles, &model.map_or(String::new(), crate::model::obstacles_json));
+        #[cfg(not(feature = "full"))]
+        d.set(Key::Obstacles, "");
         #[cfg(not(feature = "full"))]
         d.set(Key::Mode, "animate");
         let t = &self.transition;

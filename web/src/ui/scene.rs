@@ -2,6 +2,7 @@
 //! targets, the node outline and the selected joint with its channel plots.
 
 use egui::{Color32, Sense, Stroke, pos2, vec2};
+use glam::Vec3;
 use kloub_core::asset::NodeIndex;
 use kloub_core::clip::ChannelTarget;
 use kloub_core::job::sample::{RotationLerp, sample_channel};
@@ -55,10 +56,18 @@ pub(super) fn ragdoll_panel(
         if g.changed() || d.changed() {
             actions.commands.push(Command::SetRagdollOptions { gravity, damping });
         }
+        let mut strength = model.ragdoll_options.strength;
+        let power = ui
+            .add(egui::Slider::new(&mut strength, 0.0..=1.0).max_decimals(2).text("strength"))
+            .on_hover_text("Powered ragdoll: 0 falls limp, 1 follows the clip (a ball staggers it, it recovers)");
+        if power.changed() {
+            actions.commands.push(Command::SetRagdollStrength(strength));
+        }
+        obstacles(ui, model, actions);
         match running {
             Some(r) => {
                 ui.label(format!("{} bodies, {}", r.ragdoll.bodies().len(), r.state_name()));
-                ui.weak("Click a body to push it.");
+                ui.weak("Click in the view to throw a ball.");
             }
             None => {
                 ui.weak("Gravity is scaled to the character's size: any model falls like a person.");
@@ -66,6 +75,42 @@ pub(super) fn ragdoll_panel(
         }
     });
     ui.separator();
+}
+
+/// The ragdoll's obstacles: add a preset at the character's feet, list them, delete.
+fn obstacles(ui: &mut egui::Ui, model: &Model, actions: &mut PanelActions) {
+    use kloub_core::ragdoll::Obstacle;
+    ui.horizontal_wrapped(|ui| {
+        ui.label("Add obstacle");
+        for (name, label) in
+            [("box", "Box"), ("sphere", "Sphere"), ("capsule", "Capsule"), ("stairs", "Stairs"), ("ramp", "Ramp")]
+        {
+            if ui.small_button(label).on_hover_text(format!("Place a {name} at the character's feet")).clicked() {
+                let (lo, hi) = model.bounds.unwrap_or((Vec3::ZERO, Vec3::ONE));
+                let feet = Vec3::new(0.5 * (lo.x + hi.x), lo.y, 0.5 * (lo.z + hi.z));
+                if let Some(o) = Obstacle::preset(name, feet, model.size()) {
+                    let mut list = model.obstacles.clone();
+                    list.push(o);
+                    actions.commands.push(Command::SetObstacles(list));
+                }
+            }
+        }
+    });
+    for (i, o) in model.obstacles.iter().enumerate() {
+        ui.horizontal(|ui| {
+            let c = o.center();
+            ui.label(format!("{} {} at {:.2}, {:.2}, {:.2}", i + 1, o.name(), c.x, c.y, c.z));
+            let delete = ui.small_button("Delete");
+            delete.widget_info(|| {
+                egui::WidgetInfo::labeled(egui::Role::Button, true, format!("Delete obstacle {}", i + 1))
+            });
+            if delete.clicked() {
+                let mut list = model.obstacles.clone();
+                list.remove(i);
+                actions.commands.push(Command::SetObstacles(list));
+            }
+        });
+    }
 }
 
 /// Camera framing, overlays, grid, screenshot and help.

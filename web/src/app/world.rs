@@ -1,0 +1,145 @@
+//! The ragdoll's world in the 3D view: the obstacles and thrown balls drawn over the scene,
+//! a click throwing a ball from the camera at the character, and the test hook's readout.
+
+use kloub_core::ragdoll::Piece;
+
+use super::*;
+
+/// A thrown ball's speed, in the model's sizes per second.
+const BALL_SPEED: f32 = 4.0;
+
+/// Obstacle fill and outline.
+const OBSTACLE_FILL: Color32 = Color32::from_rgba_premultiplied(70, 90, 120, 150);
+const OBSTACLE_EDGE: Color32 = Color32::from_rgb(150, 180, 220);
+const BALL_FILL: Color32 = Color32::from_rgb(235, 150, 60);
+
+impl App {
+    /// A click while the ragdoll runs throws a ball from the camera through the clicked point.
+    pub(super) fn throw_at(&mut self, pointer: Pos2, projection: &Projection, origin: Vec3) {
+        let Some(model) = self.stage.model.as_ref() else { return };
+        if model.ragdoll.is_none() {
+            return;
+        }
+        let (Some(near), Some(far)) = (projection.unproject(pointer, 0.0), projection.unproject(pointer, 0.9)) else {
+            return;
+        };
+        let Some(direction) = (far - near).try_normalize() else { return };
+        let size = model.size();
+        let from = self.stage.camera.eye() - origin + direction * 0.05 * size;
+        let velocity = direction * BALL_SPEED * size;
+        if let Err(message) =
+            self.stage.apply(Command::ThrowBall { from: from.to_array(), velocity: velocity.to_array() })
+        {
+            self.stage.fail(message);
+        }
+    }
+
+    /// Draws the obstacles (their faces towards the camera, shaded by facing) and the balls.
+    pub(super) fn paint_world(&self, painter: &egui::Painter, projection: &Projection, origin: Vec3) {
+        let Some(model) = self.stage.model.as_ref() else { return };
+        let eye = self.stage.camera.eye();
+        for obstacle in &model.obstacles {
+            for piece in obstacle.pieces() {
+                paint_piece(painter, projection, origin, eye, piece);
+            }
+        }
+        if let Some(state) = &model.ragdoll {
+            for (center, radius) in state.ragdoll.balls() {
+                paint_ball(painter, projection, center + origin, radius, BALL_FILL);
+            }
+        }
+    }
+
+    /// `{"ground": y, "bodies": [[x, y, z], …], "balls": n}` of the running ragdoll; `""` without one.
+    #[cfg_attr(not(target_arch = "wasm32"), allow(dead_code, reason = "read by the wasm entry's test hook"))]
+    pub(crate) fn ragdoll_json(&self) -> String {
+        let Some(state) = self.stage.model.as_ref().and_then(|m| m.ragdoll.as_ref()) else { return String::new() };
+        let r = &state.ragdoll;
+        let bodies: Vec<[f32; 3]> =
+            (0..r.bodies().len()).filter_map(|i| r.body_pose(i)).map(|(_, c)| c.to_array()).collect();
+        serde_json::json!({ "ground": r.ground(), "bodies": bodies, "balls": r.balls().len() }).to_string()
+    }
+}
+
+/// One convex piece: a box's or a ramp's faces, a sphere's disc, a capsule's outline.
+fn paint_piece(painter: &egui::Painter, projection: &Projection, origin: Vec3, eye: Vec3, piece: Piece) {
+    match piece {
+        Piece::Cuboid(center, half, rotation) => {
+            let corner = |i: usize| {
+                let s = Vec3::new(
+                    if i & 1 == 0 { -1.0 } else { 1.0 },
+                    if i & 2 == 0 { -1.0 } else { 1.0 },
+                    if i & 4 == 0 { -1.0 } else { 1.0 },
+                );
+                center + rotation * (s * half) + origin
+            };
+            let corners: Vec<Vec3> = (0..8).map(corner).collect();
+            // Faces wound outwards: -x, +x, -y, +y, -z, +z.
+            let faces: [[usize; 4]; 6] =
+                [[0, 4, 6, 2], [1, 3, 7, 5], [0, 1, 5, 4], [2, 6, 7, 3], [0, 2, 3, 1], [4, 5, 7, 6]];
+            paint_faces(painter, projection, eye, &corners, &faces);
+        }
+        Piece::Hull(points) => {
+            let corners: Vec<Vec3> = points.iter().map(|p| *p + origin).collect();
+            // The ramp's wedge: bottom, back, slope, two sides.
+            let faces: [&[usize]; 5] = [&[0, 1, 3, 2], &[2, 3, 5, 4], &[0, 4, 5, 1], &[0, 2, 4], &[1, 5, 3]];
+            for face in faces {
+                paint_polygon(painter, projection, eye, &corners, face);
+            }
+        }
+        Piece::Ball(center, radius) => paint_ball(painter, projection, center + origin, radius, OBSTACLE_FILL),
+        Piece::Capsule(center, half, radius, rotation) => {
+            let axis = rotation * Vec3::Y * half;
+            let (a, b) = (center - axis + origin, center + axis + origin);
+            paint_ball(painter, projection, a, radius, OBSTACLE_FILL);
+            paint_ball(painter, projection, b, radius, OBSTACLE_FILL);
+            if let (Some((pa, _)), Some((pb, _))) = (projection.to_screen(a), projection.to_screen(b)) {
+                let r = screen_radius(projection, a, radius).unwrap_or(2.0);
+                painter.line_segment([pa, pb], egui::Stroke::new(2.0 * r, OBSTACLE_FILL));
+            }
+        }
+    }
+}
+
+fn paint_faces(painter: &egui::Painter, projection: &Projection, eye: Vec3, corners: &[Vec3], faces: &[[usize; 4]]) {
+    for face in faces {
+        paint_polygon(painter, projection, eye, corners, face);
+    }
+}
+
+/// A planar face (outward winding, counter-clockwise seen from outside), drawn when it faces
+/// the camera, lighter the more it faces up.
+fn paint_polygon(painter: &egui::Painter, projection: &Projection, eye: Vec3, corners: &[Vec3], face: &[usize]) {
+    let Some(points) = face.iter().map(|&i| corners.get(i).copied()).collect::<Option<Vec<Vec3>>>() else { return };
+    let [a, b, c, ..] = points[..] else { return };
+    let normal = (b - a).cross(c - a).normalize_or_zero();
+    if normal.dot(eye - a) <= 0.0 {
+        return;
+    }
+    let Some(screen) = points.iter().map(|p| projection.to_screen(*p).map(|s| s.0)).collect::<Option<Vec<Pos2>>>()
+    else {
+        return;
+    };
+    let light = 0.65 + 0.35 * normal.y.max(0.0);
+    let fill = Color32::from_rgba_premultiplied(
+        (f32::from(OBSTACLE_FILL.r()) * light) as u8,
+        (f32::from(OBSTACLE_FILL.g()) * light) as u8,
+        (f32::from(OBSTACLE_FILL.b()) * light) as u8,
+        OBSTACLE_FILL.a(),
+    );
+    painter.add(egui::Shape::convex_polygon(screen, fill, egui::Stroke::new(1.0, OBSTACLE_EDGE)));
+}
+
+fn paint_ball(painter: &egui::Painter, projection: &Projection, center: Vec3, radius: f32, fill: Color32) {
+    let (Some((at, _)), Some(r)) = (projection.to_screen(center), screen_radius(projection, center, radius)) else {
+        return;
+    };
+    painter.circle(at, r, fill, egui::Stroke::new(1.0, OBSTACLE_EDGE));
+}
+
+/// How many points a sphere of `radius` at `center` spans on screen.
+fn screen_radius(projection: &Projection, center: Vec3, radius: f32) -> Option<f32> {
+    let (at, _) = projection.to_screen(center)?;
+    let up = projection.to_screen(center + Vec3::Y * radius)?.0;
+    Some(at.distance(up).max(1.0))
+}
