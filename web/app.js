@@ -77,4 +77,4 @@ new MutationObserver(() => {
   }
 }).observe(viewer, { attributes: true, attributeFilter: ['data-clip', 'data-time', 'data-playing', 'data-speed', 'data-layer', 'data-skinning', 'data-camera', 'data-model', 'data-src', 'data-status', 'data-loop', 'data-overlays', 'data-background',
   'data-lighting', 'data-grid', 'data-heatmap', 'data-copies', 'data-skinning-path', 'data-transition', 'data-blend',
-  'data-ik-goals', 'data-morphs', 'data-pose'] });
+  'data-ik-goals', 'data-morphs', 'data-pose', 'data-obstacles'] });

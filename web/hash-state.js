@@ -2,7 +2,7 @@
 //   "#v=1&src=URL&clip=NAME&t=SECONDS&paused=1&speed=X&layer=CLIP@ROOT:WEIGHT&skinning=M&path=P&camera=6 numbers
 //    &loop=once|pingpong&overlays=skeleton,bounds,…&bg=grey|light|transparent&light=outdoor|flat|rim&grid=0&heatmap=1&copies=N
 //    &fade=SECONDS,EASING,OUTGOING&blend=[[clip,weight],…]&ik=[{effector,depth,target,solver,…},…]
-//    &morphs=[[node,target,weight],…]&pose={"JOINT":[x,y,z,w],…}"
+//    &morphs=[[node,target,weight],…]&pose={"JOINT":[x,y,z,w],…}&obstacles=[{shape,center,…},…]"
 // Only values that differ from the viewer's defaults are written, so a default view has no hash. Reading ignores
 // unknown keys and drops malformed values (each with a console warning), so a link made by a newer page still
 // opens what this one understands. Pure functions over a <kloub-viewer>'s data-* state, shared by the app page
@@ -20,7 +20,8 @@ const PATHS = ['gpu', 'compute', 'cpu'];
 const SOLVERS = ['ccd', 'twobone', 'fabrik', 'dls'];
 const DEFAULT_TRANSITION = '0.300,smoothstep,freeze';
 const KEYS = new Set(['v', 'src', 'clip', 't', 'paused', 'speed', 'layer', 'skinning', 'path', 'camera', 'loop',
-  'overlays', 'bg', 'light', 'grid', 'heatmap', 'copies', 'fade', 'blend', 'ik', 'morphs', 'pose']);
+  'overlays', 'bg', 'light', 'grid', 'heatmap', 'copies', 'fade', 'blend', 'ik', 'morphs', 'pose', 'obstacles']);
+const SHAPES = ['box', 'sphere', 'capsule', 'stairs', 'ramp'];
 
 const finite = (v) => typeof v === 'number' && Number.isFinite(v);
 const point = (v) => Array.isArray(v) && v.length === 3 && v.every(finite);
@@ -66,6 +67,7 @@ export function viewToHash(state, src) {
   if (state.ikGoals) p.set('ik', state.ikGoals);
   if (state.morphs) p.set('morphs', state.morphs);
   if (state.pose) p.set('pose', state.pose);
+  if (state.obstacles) p.set('obstacles', state.obstacles);
   const text = p.toString();
   return text ? `#v=${HASH_VERSION}&${text}` : '';
 }
@@ -169,6 +171,13 @@ export function hashToView(hash, warn = (message) => console.warn(`kloub: URL ha
     if (held.length > 0 && held.length <= 1024 && held.every(([, q]) => unit(q))) view.pose = held;
     else bad('pose');
   }
+  if (p.has('obstacles')) {
+    // Checked in shape here; the viewer checks every field (and says which one is off).
+    const list = json(p.get('obstacles'));
+    const ok = Array.isArray(list) && list.length <= 64 && list.every((o) => o && typeof o === 'object' && SHAPES.includes(o.shape) && point(o.center));
+    if (ok) view.obstacles = list;
+    else bad('obstacles');
+  }
   return view;
 }
 
@@ -201,6 +210,7 @@ export function applyView(viewer, v, warn = () => {}) {
     }],
     ['morphs', () => { for (const m of v.morphs) viewer.setMorphWeight(m.node, m.target, m.weight); }],
     ['pose', () => { for (const [joint, q] of v.pose) viewer.setJointRotation(joint, q); }],
+    ['obstacles', () => viewer.setObstacles(v.obstacles)],
     ['time', () => { viewer.currentTime = v.time; }],
   ];
   for (const [key, set] of apply) {

@@ -1984,6 +1984,7 @@ class KloubViewer extends HTMLElement {
   static async _testGlCanvas() { return (await loadRuntime())._testGlCanvas() ?? null; }
 
   /** The ARIA role and name of every control of the panels as the viewer built them ([[role, name], …]). */
+  _testObstacles() { return JSON.parse(this.#viewer?._testObstacles?.() ?? '[]'); }
   _testRagdoll() { const r = this.#viewer?._testRagdoll?.() ?? ''; return r === '' ? null : JSON.parse(r); }
   _testGizmo() { const g = this.#viewer?._testGizmo?.() ?? ''; return g === '' ? null : JSON.parse(g); }
   _testAccessibilityControls() { return JSON.parse(this.#viewer?._testAccessibilityControls?.() ?? '[]'); }

@@ -1238,6 +1238,24 @@ for (const backend of BACKENDS) {
     await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.ragdoll === 'resting', 'the body to rest on the slabs', 90000);
     const landed = await ragdoll();
     assert(meanHeight(landed) > bare + 0.25 * t, `on the slabs the bodies rest at ${meanHeight(landed).toFixed(3)} on average, on the bare ground ${bare.toFixed(3)} (slabs ${t.toFixed(3)} high)`);
+    // A drag moves an obstacle over the floor: the first slab follows the pointer.
+    await control(page, 'stopRagdoll', 0);
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.ragdoll === '', 'the ragdoll stopped for the drag');
+    await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
+    const marks = await page.evaluate(() => document.querySelector('kloub-viewer')._testObstacles());
+    const corner = await page.evaluate(() => { const r = document.querySelector('kloub-viewer').getBoundingClientRect(); return [r.left, r.top]; });
+    const before = JSON.parse((await dataset(page)).obstacles)[0].center;
+    const [mx, my] = marks[0];
+    await page.mouse.move(corner[0] + mx, corner[1] + my);
+    await page.mouse.down();
+    for (let i = 1; i <= 6; i++) await page.mouse.move(corner[0] + mx + 8 * i, corner[1] + my + 4 * i);
+    await page.mouse.up();
+    await page.waitForFunction((b) => {
+      const c = JSON.parse(document.querySelector('kloub-viewer').dataset.obstacles || '[]')[0]?.center;
+      return c && (c[0] !== b[0] || c[2] !== b[2]) && Math.abs(c[1] - b[1]) < 1e-4;
+    }, before, { timeout: 10000 });
+    await control(page, 'startRagdoll');
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.ragdoll === 'simulating', 'the ragdoll again');
     // A click in the view throws a ball.
     const ds = await dataset(page);
     const [vx, vy, vw, vh] = ds.viewport.split(',').map(Number);
@@ -1943,6 +1961,12 @@ test('hash-state.js: a view round-trips through the hash; malformed keys are dro
   assert(JSON.stringify(back) === JSON.stringify(wantFull), `every setting round-trips: ${JSON.stringify(back)}`);
   const zero = hashToView('#camera=0,0,0,0,0,0');
   assert(zero.camera === undefined, 'a zero camera distance is refused');
+  // The ragdoll's obstacles, as data-obstacles writes them.
+  const obstacles = '[{"shape":"sphere","center":[0,1,0],"radius":0.5},{"shape":"stairs","center":[0,0,2],"size":[1,1,2],"steps":4,"rotation":[0,0,0,1]}]';
+  const withObstacles = hashToView(viewToHash({ obstacles, playing: 'true' }, null), () => { throw new Error('no warning expected'); });
+  assert(JSON.stringify(withObstacles.obstacles) === obstacles, `obstacles round-trip: ${JSON.stringify(withObstacles)}`);
+  const dropped = [];
+  assert(hashToView('#obstacles=[{"shape":"cone","center":[0,0,0]}]', (w) => dropped.push(w)).obstacles === undefined && dropped.length === 1, 'an unknown shape is dropped');
 });
 
 registerAccessibilityTests(test, BACKENDS);

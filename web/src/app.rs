@@ -49,6 +49,10 @@ pub struct App {
     ik_markers: Vec<Pos2>,
     /// Where each goal's pole marker was painted (`None`: no pole).
     ik_pole_markers: Vec<Option<Pos2>>,
+    /// The obstacle being dragged over the floor.
+    obstacle_drag: Option<usize>,
+    /// Where each obstacle's centre was drawn last frame.
+    obstacle_marks: Vec<Option<Pos2>>,
     /// The gizmo ring being dragged in pose mode.
     gizmo_drag: Option<posing::GizmoDrag>,
     /// Where the gizmo's rings could be grabbed last frame (X, Y, Z; none while sculpting),
@@ -155,6 +159,8 @@ impl App {
             viewport: None,
             ik_drag: None,
             gizmo_drag: None,
+            obstacle_drag: None,
+            obstacle_marks: Vec::new(),
             gizmo_handles: None,
             sculpt_stroke: None,
             sheet_open: false,

@@ -595,6 +595,16 @@ impl Viewer {
     }
 
     #[cfg(feature = "full")]
+    /// Test hook: where each obstacle's centre was drawn, `[[x, y] | null, …]` in CSS pixels of
+    /// the canvas.
+    #[wasm_bindgen(js_name = _testObstacles)]
+    pub fn test_obstacles(&self) -> String {
+        let mut out = "[]".to_owned();
+        self.with_view(|v| out = v.app.obstacles_json());
+        out
+    }
+
+    #[cfg(feature = "full")]
     /// Test hook: the ragdoll's ground and each body's centre, `{"ground": y, "bodies": [[x, y,
     /// z], …]}`; `""` without a ragdoll.
     #[wasm_bindgen(js_name = _testRagdoll)]

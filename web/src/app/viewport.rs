@@ -107,7 +107,8 @@ impl App {
             .unwrap_or_default();
         let handle_at = |p: Pos2| nearest_within(p, markers.iter().map(|&(handle, at, _)| (at, handle)));
         // Pose mode first: its gizmo, joint picking and sculpt strokes.
-        let posing = self.pose_input(ui, &response, &projection, origin, shift);
+        let posing = self.pose_input(ui, &response, &projection, origin, shift)
+            || self.obstacle_input(ui, &response, &projection, origin, shift);
         let pose_mode = self.stage.model.as_ref().is_some_and(|m| m.pose_mode);
         if response.drag_started_by(egui::PointerButton::Primary) && !shift && !pose_mode {
             // Where the press was: a quick drag may have moved off the handle before egui calls it a drag.

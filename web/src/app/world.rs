@@ -34,11 +34,65 @@ impl App {
         }
     }
 
+    /// Dragging an obstacle moves it over the floor (in the horizontal plane through its
+    /// centre) under the pointer; returns whether it took the pointer.
+    pub(super) fn obstacle_input(
+        &mut self,
+        ui: &egui::Ui,
+        response: &egui::Response,
+        projection: &Projection,
+        origin: Vec3,
+        shift: bool,
+    ) -> bool {
+        let Some(model) = self.stage.model.as_ref() else { return false };
+        if response.drag_started_by(egui::PointerButton::Primary) && !shift && !model.pose_mode {
+            let press = ui.input(|i| i.pointer.press_origin()).or_else(|| response.interact_pointer_pos());
+            self.obstacle_drag = press.and_then(|p| {
+                (model.obstacles.iter().enumerate())
+                    .filter_map(|(i, o)| {
+                        let center = o.center() + origin;
+                        let (at, _) = projection.to_screen(center)?;
+                        let reach = screen_radius(projection, center, obstacle_reach(o)).unwrap_or(0.0);
+                        let d = at.distance(p);
+                        (d <= reach.max(overlay::GRAB_RADIUS)).then_some((d, i))
+                    })
+                    .min_by(|a, b| a.0.total_cmp(&b.0))
+                    .map(|(_, i)| i)
+            });
+        }
+        let Some(index) = self.obstacle_drag else { return false };
+        if let Some(pointer) = response.interact_pointer_pos()
+            && let Some(obstacle) = model.obstacles.get(index)
+            && let (Some(near), Some(far)) = (projection.unproject(pointer, 0.0), projection.unproject(pointer, 0.9))
+        {
+            // Where the pointer's ray meets the horizontal plane through the obstacle's centre.
+            let center = obstacle.center();
+            let (from, direction) = (near - origin, (far - near).normalize_or_zero());
+            if direction.y.abs() > 1e-4 {
+                let t = (center.y - from.y) / direction.y;
+                let hit = from + direction * t;
+                if t > 0.0 && hit.is_finite() && hit.distance(center) > 0.0 {
+                    let mut list = model.obstacles.clone();
+                    list[index] = obstacle.moved_to(Vec3::new(hit.x, center.y, hit.z));
+                    if let Err(message) = self.stage.apply(Command::SetObstacles(list)) {
+                        self.stage.fail(message);
+                    }
+                }
+            }
+        }
+        if !response.dragged() || response.drag_stopped() {
+            self.obstacle_drag = None;
+        }
+        true
+    }
+
     /// Draws the obstacles (their faces towards the camera, shaded by facing) and the balls.
-    pub(super) fn paint_world(&self, painter: &egui::Painter, projection: &Projection, origin: Vec3) {
+    pub(super) fn paint_world(&mut self, painter: &egui::Painter, projection: &Projection, origin: Vec3) {
+        self.obstacle_marks.clear();
         let Some(model) = self.stage.model.as_ref() else { return };
         let eye = self.stage.camera.eye();
         for obstacle in &model.obstacles {
+            self.obstacle_marks.push(projection.to_screen(obstacle.center() + origin).map(|s| s.0));
             for piece in obstacle.pieces() {
                 paint_piece(painter, projection, origin, eye, piece);
             }
@@ -48,6 +102,18 @@ impl App {
                 paint_ball(painter, projection, center + origin, radius, BALL_FILL);
             }
         }
+    }
+
+    /// Where each obstacle's centre was drawn last frame, `[[x, y] | null, …]` in CSS pixels of
+    /// the canvas (a test hook).
+    #[cfg_attr(not(target_arch = "wasm32"), allow(dead_code, reason = "read by the wasm entry's test hook"))]
+    pub(crate) fn obstacles_json(&self) -> String {
+        let marks: Vec<serde_json::Value> = self
+            .obstacle_marks
+            .iter()
+            .map(|m| m.map_or(serde_json::Value::Null, |p| serde_json::json!([p.x, p.y])))
+            .collect();
+        serde_json::Value::Array(marks).to_string()
     }
 
     /// `{"ground": y, "bodies": [[x, y, z], …], "balls": n}` of the running ragdoll; `""` without one.
@@ -135,6 +201,18 @@ fn paint_ball(painter: &egui::Painter, projection: &Projection, center: Vec3, ra
         return;
     };
     painter.circle(at, r, fill, egui::Stroke::new(1.0, OBSTACLE_EDGE));
+}
+
+/// How far an obstacle reaches from its centre (model units), for grabbing it.
+fn obstacle_reach(o: &kloub_core::ragdoll::Obstacle) -> f32 {
+    use kloub_core::ragdoll::Obstacle;
+    match *o {
+        Obstacle::Box { size, .. } | Obstacle::Stairs { size, .. } | Obstacle::Ramp { size, .. } => {
+            0.5 * size.max_element()
+        }
+        Obstacle::Sphere { radius, .. } => radius,
+        Obstacle::Capsule { radius, height, .. } => radius + 0.5 * height,
+    }
 }
 
 /// How many points a sphere of `radius` at `center` spans on screen.
