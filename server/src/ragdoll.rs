@@ -145,7 +145,7 @@ pub fn ragdoll_asset(
         if let Some(animated) = &mut animated {
             let t = time + step as f32 / STEP_HZ;
             animated.evaluate(asset, clip_index, t).map_err(|e| err(e.to_string()))?;
-            ragdoll.set_targets(animated.worlds());
+            ragdoll.set_targets(animated.worlds(), 1.0 / STEP_HZ);
         }
         ragdoll.step_once();
         ragdoll.write_pose(instance.pose_mut(), 1.0);

@@ -573,23 +573,30 @@ fn ragdoll_falls_onto_obstacles_and_refuses_bad_ones_by_pointer() {
     let base = ["ragdoll", path, "--clip", "Walk", "--time", "0.25", "--seconds", "4"];
     let doc = |out: &[u8]| -> serde_json::Value { serde_json::from_slice(out).expect("JSON") };
     let plain = doc(&kloub_ok(&base));
-    // The start pose's joints: a slab under the fox's belly, between its legs.
-    let joints = plain["joints"].as_array().expect("joints").len();
+    // Four slabs a fifth of the fox's height around its feet, clear of the standing fox: whichever
+    // way it falls, it lies on one.
     let start: Vec<f64> =
         plain["frames"][0]["positions"].as_array().expect("positions").iter().filter_map(|v| v.as_f64()).collect();
-    let axis = |k: usize| start.iter().skip(k).step_by(3).copied().collect::<Vec<f64>>();
-    let (xs, ys, zs) = (axis(0), axis(1), axis(2));
-    let span = |v: &[f64]| {
-        (v.iter().copied().fold(f64::INFINITY, f64::min), v.iter().copied().fold(f64::NEG_INFINITY, f64::max))
-    };
-    let ((x0, x1), (y0, y1), (z0, z1)) = (span(&xs), span(&ys), span(&zs));
+    let points: Vec<[f64; 3]> = start.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect();
     let ground = plain["ground"].as_f64().expect("ground");
-    let height = y1 - ground;
-    let slab = serde_json::json!([{
-        "shape": "box",
-        "center": [(x0 + x1) / 2.0, ground + 0.15 * height, (z0 + z1) / 2.0],
-        "size": [(x1 - x0) * 3.0, 0.3 * height, (z1 - z0) * 3.0],
-    }]);
+    let height = points.iter().map(|p| p[1]).fold(f64::NEG_INFINITY, f64::max) - ground;
+    let low: Vec<&[f64; 3]> = points.iter().filter(|p| p[1] < ground + 0.3 * height).collect();
+    let span = |k: usize| {
+        let v = low.iter().map(|p| p[k]);
+        (v.clone().fold(f64::INFINITY, f64::min), v.fold(f64::NEG_INFINITY, f64::max))
+    };
+    let ((fx0, fx1), (fz0, fz1)) = (span(0), span(2));
+    let (g, t, far) = (0.12 * height, 0.2 * height, 1.5 * height);
+    let slab = |xa: f64, xb: f64, za: f64, zb: f64| {
+        serde_json::json!({"shape": "box", "center": [(xa + xb) / 2.0, ground + t / 2.0, (za + zb) / 2.0],
+                           "size": [xb - xa, t, zb - za]})
+    };
+    let slab = serde_json::json!([
+        slab(fx0 - g - far, fx1 + g + far, fz1 + g, fz1 + g + far),
+        slab(fx0 - g - far, fx1 + g + far, fz0 - g - far, fz0 - g),
+        slab(fx0 - g - far, fx0 - g, fz0 - g, fz1 + g),
+        slab(fx1 + g, fx1 + g + far, fz0 - g, fz1 + g),
+    ]);
     let dir = std::env::temp_dir().join(format!("kloub-obstacles-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("a temp dir");
     let slab_file = dir.join("slab.json");
@@ -599,9 +606,9 @@ fn ragdoll_falls_onto_obstacles_and_refuses_bad_ones_by_pointer() {
     let out = kloub_ok(&args);
     assert_eq!(out, kloub_ok(&args), "the same world gives the same output");
     let on = doc(&out);
-    assert_eq!(on["obstacles"], 1);
+    assert_eq!(on["obstacles"], 4);
     // The joints' mean height at the end (joints that never move, the skeleton's root, left out).
-    let start_ys: Vec<f64> = start.iter().skip(1).step_by(3).copied().collect();
+    let start_ys: Vec<f64> = points.iter().map(|p| p[1]).collect();
     let mean = |d: &serde_json::Value| {
         let last = &d["frames"][240]["positions"];
         let ys: Vec<f64> =
@@ -609,11 +616,35 @@ fn ragdoll_falls_onto_obstacles_and_refuses_bad_ones_by_pointer() {
         let moving: Vec<f64> = ys.iter().zip(&start_ys).filter(|(a, b)| a != b).map(|(a, _)| *a).collect();
         moving.iter().sum::<f64>() / moving.len().max(1) as f64
     };
-    let _ = (joints, y0);
-    // Without the slab the fox lies on the floor; with it, on the slab's top.
-    let top = ground + 0.3 * height;
-    assert!(mean(&plain) < top, "without the slab the joints rest at {} on average", mean(&plain));
-    assert!(mean(&on) > top, "the fox went through the slab: joints at {} on average (top {top})", mean(&on));
+    // On the slabs the fox lies higher than on the floor, by most of their height.
+    assert!(
+        mean(&on) > mean(&plain) + 0.5 * t,
+        "on the slabs the joints rest at {} on average, on the floor at {} (slabs {t} high)",
+        mean(&on),
+        mean(&plain)
+    );
+    // Powered at strength 1 it keeps walking on its feet: its highest joint stays up.
+    let mut powered: Vec<&str> = base.to_vec();
+    powered.extend(["--strength", "1"]);
+    let up = doc(&kloub_ok(&powered));
+    assert_eq!(up["strength"], 1.0);
+    let top = |d: &serde_json::Value| {
+        d["frames"][240]["positions"]
+            .as_array()
+            .expect("positions")
+            .iter()
+            .skip(1)
+            .step_by(3)
+            .filter_map(|v| v.as_f64())
+            .fold(f64::NEG_INFINITY, f64::max)
+    };
+    assert!(
+        top(&up) > ground + 0.8 * height,
+        "the powered fox fell: its highest joint at {} (standing {})",
+        top(&up),
+        ground + height
+    );
+    assert!(top(&plain) < ground + 0.8 * height, "the limp fox did not fall: {}", top(&plain));
     // Bad obstacles: an error with the pointer in that file, exit 1.
     let bad_file = dir.join("bad.json");
     std::fs::write(&bad_file, r#"[{"shape": "sphere", "center": [0, 0, 0], "radius": -1}]"#).expect("write");

@@ -573,12 +573,12 @@ impl Viewer {
     /// `error` event, for a model without a skin).
     #[wasm_bindgen(js_name = startRagdoll)]
     pub fn start_ragdoll(&self, strength: Option<f32>) -> Result<(), JsValue> {
-        if let Some(s) = strength {
-            if !(s.is_finite() && (0.0..=1.0).contains(&s)) {
-                return Err(range_error(format!("startRagdoll: strength {s}: expected 0 to 1")));
-            }
-            self.controls.send(Command::SetRagdollStrength(s));
+        // Omitted, the strength is 0: a limp ragdoll, whatever an earlier call asked for.
+        let s = strength.unwrap_or(0.0);
+        if !(s.is_finite() && (0.0..=1.0).contains(&s)) {
+            return Err(range_error(format!("startRagdoll: strength {s}: expected 0 to 1")));
         }
+        self.controls.send(Command::SetRagdollStrength(s));
         self.controls.send(Command::StartRagdoll);
         Ok(())
     }

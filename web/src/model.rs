@@ -353,7 +353,15 @@ impl Model {
         let ragdoll_owns = match &mut self.ragdoll {
             Some(ragdoll) => {
                 // Powered: the animation's pose (in the worlds now) is what the bodies follow.
-                ragdoll.ragdoll.set_targets(self.instance.worlds());
+                // Seconds of the clip since the targets before (0 when evaluated again in a frame;
+                // a frame's time when the clip wrapped round).
+                let now = self.animator.main().time;
+                let dt = match ragdoll.target_time {
+                    Some(t) if now >= t => now - t,
+                    _ => self.previous.dt,
+                };
+                ragdoll.target_time = Some(now);
+                ragdoll.ragdoll.set_targets(self.instance.worlds(), dt);
                 ragdoll.ragdoll.write_pose(self.instance.pose_mut(), ragdoll.weight());
                 self.instance.update(&self.asset).map_err(|e| e.to_string())?;
                 true
@@ -774,7 +782,7 @@ impl Model {
         .map_err(|e| format!("{}: {e}", self.name))?;
         let mut ragdoll = ragdoll;
         ragdoll.set_obstacles(&self.obstacles);
-        self.ragdoll = Some(crate::ragdoll::RagdollState { ragdoll, blend_back: None });
+        self.ragdoll = Some(crate::ragdoll::RagdollState { ragdoll, blend_back: None, target_time: None });
         Ok(())
     }
 

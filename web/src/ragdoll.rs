@@ -12,6 +12,8 @@ pub struct RagdollState {
     pub ragdoll: Ragdoll,
     /// Blending back to the animation: seconds elapsed and the duration.
     pub blend_back: Option<(f32, f32)>,
+    /// The clip's time when the powered ragdoll's targets were last set.
+    pub target_time: Option<f32>,
 }
 
 impl RagdollState {

@@ -738,15 +738,26 @@ impl Stage {
                 return self.install(loaded, None);
             }
         }
+        #[cfg(feature = "full")]
+        let mut obstacles = None;
         for file in files {
             let text = std::str::from_utf8(&file.bytes).map_err(|_| format!("{}: not UTF-8 text", file.name))?;
             #[cfg(feature = "full")]
-            let obstacles = crate::model::obstacles_in_sidecar(text).map_err(|e| format!("{}: {e}", file.name))?;
-            model.joint_settings.apply_json(&model.asset, text).map_err(|e| format!("{}: {e}", file.name))?;
-            #[cfg(feature = "full")]
-            if !obstacles.is_empty() {
-                model.obstacles = obstacles;
+            {
+                let list = crate::model::obstacles_in_sidecar(text).map_err(|e| format!("{}: {e}", file.name))?;
+                if !list.is_empty() {
+                    obstacles = Some(list);
+                }
             }
+            model.joint_settings.apply_json(&model.asset, text).map_err(|e| format!("{}: {e}", file.name))?;
+        }
+        // The obstacles once every file read well; a running ragdoll takes them at once.
+        #[cfg(feature = "full")]
+        if let Some(list) = obstacles {
+            if let Some(state) = &mut model.ragdoll {
+                state.ragdoll.set_obstacles(&list);
+            }
+            model.obstacles = list;
         }
         for ik in &mut model.ik {
             ik.use_settings(&model.joint_settings);

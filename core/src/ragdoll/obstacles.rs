@@ -144,7 +144,7 @@ impl Obstacle {
             }
             Obstacle::Stairs { center, size, steps, rotation } => {
                 let turn = yaw(rotation);
-                let n = steps.max(1);
+                let n = steps.clamp(1, MAX_STEPS);
                 let (rise, run) = (size.y / n as f32, size.z / n as f32);
                 (0..n)
                     .map(|i| {
@@ -270,30 +270,31 @@ impl Obstacle {
     }
 
     /// The preset the viewer's "Add obstacle" places for a character of size `size` standing
-    /// at `feet` (its ground point), `ahead` along +Z (where it faces the camera by default).
+    /// at `feet` (its ground point): beside it (+X) or, for a capsule, a staircase and a ramp,
+    /// in front of it (+Z), clear of a standing character's footprint.
     pub fn preset(shape: &str, feet: Vec3, size: f32) -> Option<Obstacle> {
         let s = size.max(1e-3);
         Some(match shape {
             "box" => Obstacle::Box {
-                center: feet + Vec3::new(0.0, 0.15 * s, 0.0),
+                center: feet + Vec3::new(0.5 * s, 0.15 * s, 0.0),
                 size: Vec3::new(0.6 * s, 0.3 * s, 0.6 * s),
                 rotation: Quat::IDENTITY,
             },
-            "sphere" => Obstacle::Sphere { center: feet + Vec3::new(0.0, 0.2 * s, 0.0), radius: 0.2 * s },
+            "sphere" => Obstacle::Sphere { center: feet + Vec3::new(0.45 * s, 0.2 * s, 0.0), radius: 0.2 * s },
             "capsule" => Obstacle::Capsule {
-                center: feet + Vec3::new(0.0, 0.08 * s, 0.0),
+                center: feet + Vec3::new(0.0, 0.08 * s, 0.4 * s),
                 radius: 0.08 * s,
                 height: 0.8 * s,
                 rotation: Quat::from_rotation_z(std::f32::consts::FRAC_PI_2),
             },
             "stairs" => Obstacle::Stairs {
-                center: feet + Vec3::new(0.0, 0.0, 0.35 * s),
+                center: feet + Vec3::new(0.0, 0.0, 0.8 * s),
                 size: Vec3::new(0.8 * s, 0.5 * s, 1.0 * s),
                 steps: 5,
                 rotation: Quat::from_rotation_y(std::f32::consts::PI),
             },
             "ramp" => Obstacle::Ramp {
-                center: feet + Vec3::new(0.0, 0.0, 0.2 * s),
+                center: feet + Vec3::new(0.0, 0.0, 0.75 * s),
                 size: Vec3::new(0.8 * s, 0.35 * s, 1.0 * s),
                 rotation: Quat::from_rotation_y(std::f32::consts::PI),
             },

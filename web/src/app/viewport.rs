@@ -107,8 +107,10 @@ impl App {
             .unwrap_or_default();
         let handle_at = |p: Pos2| nearest_within(p, markers.iter().map(|&(handle, at, _)| (at, handle)));
         // Pose mode first: its gizmo, joint picking and sculpt strokes.
+        // IK handles win over obstacles: a press on one drags the handle.
+        let on_ik = ui.input(|i| i.pointer.press_origin()).and_then(handle_at).is_some();
         let posing = self.pose_input(ui, &response, &projection, origin, shift)
-            || self.obstacle_input(ui, &response, &projection, origin, shift);
+            || (!on_ik && self.obstacle_input(ui, &response, &projection, origin, shift));
         let pose_mode = self.stage.model.as_ref().is_some_and(|m| m.pose_mode);
         if response.drag_started_by(egui::PointerButton::Primary) && !shift && !pose_mode {
             // Where the press was: a quick drag may have moved off the handle before egui calls it a drag.

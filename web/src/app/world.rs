@@ -5,6 +5,9 @@ use kloub_core::ragdoll::Piece;
 
 use super::*;
 
+/// How far from the character an obstacle may be dragged, in its sizes (the ground reaches 50).
+const DRAG_REACH: f32 = 20.0;
+
 /// A thrown ball's speed, in the model's sizes per second.
 const BALL_SPEED: f32 = 4.0;
 
@@ -52,9 +55,11 @@ impl App {
                     .filter_map(|(i, o)| {
                         let center = o.center() + origin;
                         let (at, _) = projection.to_screen(center)?;
-                        let reach = screen_radius(projection, center, obstacle_reach(o)).unwrap_or(0.0);
+                        // Grabbed near its centre (a wide obstacle around the feet must not take
+                        // every drag meant for the camera).
+                        let reach = screen_radius(projection, center, 0.25 * obstacle_reach(o)).unwrap_or(0.0);
                         let d = at.distance(p);
-                        (d <= reach.max(overlay::GRAB_RADIUS)).then_some((d, i))
+                        (d <= reach.clamp(overlay::GRAB_RADIUS, 4.0 * overlay::GRAB_RADIUS)).then_some((d, i))
                     })
                     .min_by(|a, b| a.0.total_cmp(&b.0))
                     .map(|(_, i)| i)
@@ -71,9 +76,18 @@ impl App {
             if direction.y.abs() > 1e-4 {
                 let t = (center.y - from.y) / direction.y;
                 let hit = from + direction * t;
+                // Kept within the ground's reach around the character.
+                let (lo, hi) = model.bounds.unwrap_or((Vec3::ZERO, Vec3::ZERO));
+                let middle = 0.5 * (lo + hi);
+                let reach = DRAG_REACH * model.size();
+                let hit = Vec3::new(
+                    hit.x.clamp(middle.x - reach, middle.x + reach),
+                    center.y,
+                    hit.z.clamp(middle.z - reach, middle.z + reach),
+                );
                 if t > 0.0 && hit.is_finite() && hit.distance(center) > 0.0 {
                     let mut list = model.obstacles.clone();
-                    list[index] = obstacle.moved_to(Vec3::new(hit.x, center.y, hit.z));
+                    list[index] = obstacle.moved_to(hit);
                     if let Err(message) = self.stage.apply(Command::SetObstacles(list)) {
                         self.stage.fail(message);
                     }

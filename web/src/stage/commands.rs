@@ -189,6 +189,13 @@ impl Stage {
             Command::StartRagdoll => model.start_ragdoll()?,
             #[cfg(feature = "full")]
             Command::SetObstacles(list) => {
+                if list.len() > kloub_core::ragdoll::obstacles::MAX_OBSTACLES {
+                    return Err(format!(
+                        "{} obstacles: at most {}",
+                        list.len(),
+                        kloub_core::ragdoll::obstacles::MAX_OBSTACLES
+                    ));
+                }
                 model.obstacles = list;
                 if let Some(state) = &mut model.ragdoll {
                     state.ragdoll.set_obstacles(&model.obstacles);

@@ -80,12 +80,17 @@ pub(super) fn ragdoll_panel(
 /// The ragdoll's obstacles: add a preset at the character's feet, list them, delete.
 fn obstacles(ui: &mut egui::Ui, model: &Model, actions: &mut PanelActions) {
     use kloub_core::ragdoll::Obstacle;
+    let room = model.obstacles.len() < kloub_core::ragdoll::obstacles::MAX_OBSTACLES;
     ui.horizontal_wrapped(|ui| {
         ui.label("Add obstacle");
         for (name, label) in
             [("box", "Box"), ("sphere", "Sphere"), ("capsule", "Capsule"), ("stairs", "Stairs"), ("ramp", "Ramp")]
         {
-            if ui.small_button(label).on_hover_text(format!("Place a {name} at the character's feet")).clicked() {
+            let add = ui.add_enabled(room, egui::Button::new(label).small());
+            if add
+                .on_hover_text(format!("Place a {name} beside the character (drag it in the view to move it)"))
+                .clicked()
+            {
                 let (lo, hi) = model.bounds.unwrap_or((Vec3::ZERO, Vec3::ONE));
                 let feet = Vec3::new(0.5 * (lo.x + hi.x), lo.y, 0.5 * (lo.z + hi.z));
                 if let Some(o) = Obstacle::preset(name, feet, model.size()) {
