@@ -67,8 +67,9 @@ const CALM_SPEED: f32 = 1.0;
 const SETTLE_DAMPING: f32 = 6.0;
 /// Seconds of calm over which the settling damping comes in.
 const SETTLE_AFTER: f32 = 0.5;
-/// Seconds after the start or the last push when the settling damping comes in even if the
-/// ragdoll is not calm (a fall is over by then; a body still swinging is the solver's).
+/// Seconds after the start or the last push when the settling damping comes in for a ragdoll
+/// lying on something even if it is not calm (a fall is over by then; a body still swinging is
+/// the solver's). One in the air keeps falling.
 const IDLE_SETTLE: f32 = 2.5;
 /// Seconds of calm after the settling damping is in before the ragdoll is put to sleep.
 const SLEEP_AFTER_SETTLED: f32 = 0.4;
