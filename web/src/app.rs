@@ -61,6 +61,8 @@ pub struct App {
     /// A sculpt stroke under way: the pointer at the last dab, that dab's centre (model
     /// space) and its depth.
     sculpt_stroke: Option<(Pos2, Vec3, f32)>,
+    /// The sculpt brush's last hover: the pointer, view and shape it was cast for, and the hit.
+    sculpt_hover: posing::SculptHover,
 }
 
 /// What the help window lists.
@@ -163,6 +165,7 @@ impl App {
             obstacle_marks: Vec::new(),
             gizmo_handles: None,
             sculpt_stroke: None,
+            sculpt_hover: posing::SculptHover::default(),
             sheet_open: false,
             overlay_scratch: OverlayScratch::default(),
             help: false,

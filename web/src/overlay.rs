@@ -40,6 +40,18 @@ impl Projection {
         Self { view_proj, inverse: view_proj.inverse(), rect }
     }
 
+    /// The ray under `at`: a point on it (the near plane) and its unit direction.
+    pub fn ray(&self, at: Pos2) -> Option<(Vec3, Vec3)> {
+        let near = self.unproject(at, 0.0)?;
+        let direction = (self.unproject(at, 0.9)? - near).try_normalize()?;
+        Some((near, direction))
+    }
+
+    /// The view-projection's bits (tells one frame's view from another).
+    pub fn key(&self) -> [u32; 16] {
+        self.view_proj.to_cols_array().map(f32::to_bits)
+    }
+
     /// Where `p` appears, and its depth (NDC z); `None` behind the camera.
     pub fn to_screen(&self, p: Vec3) -> Option<(Pos2, f32)> {
         let c = self.view_proj * p.extend(1.0);

@@ -30,6 +30,16 @@ pub(super) struct Gizmo {
     /// Each ring's points in the world, then on screen.
     rings: [Vec<(Vec3, Option<Pos2>)>; 3],
     center: Pos2,
+    /// The parent's frame is mirrored (negative determinant).
+    mirrored: bool,
+}
+
+/// Where the sculpt brush met the surface under the pointer, and for which pointer, view
+/// (the projection's bits) and shape (sculpt id, version) it was cast.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct SculptHover {
+    key: Option<(Pos2, [u32; 16], u64, u64)>,
+    hit: Option<Vec3>,
 }
 
 /// A ring being dragged.
@@ -57,6 +67,8 @@ impl Gizmo {
         let at = worlds.get(joint as usize)?.w_axis.truncate() + origin;
         let parent = model.asset.nodes.get(joint as usize)?.parent;
         let frame = parent.and_then(|p| worlds.get(p as usize)).copied().unwrap_or(glam::Mat4::IDENTITY);
+        // Under a mirrored parent a turn about a local axis turns the other way about its world axis.
+        let mirrored = frame.determinant() < 0.0;
         let axes = [Vec3::X, Vec3::Y, Vec3::Z].map(|a| frame.transform_vector3(a).normalize_or(a));
         let radius = RING_RADIUS * model.size();
         let rings = axes.map(|axis| {
@@ -71,7 +83,7 @@ impl Gizmo {
                 .collect()
         });
         let center = projection.to_screen(at)?.0;
-        Some(Gizmo { joint, axes, rings, center })
+        Some(Gizmo { joint, axes, rings, center, mirrored })
     }
 
     /// The ring nearest `pointer` within [`RING_GRAB`], and the world point grabbed.
@@ -123,7 +135,7 @@ impl App {
             return false;
         }
         let pressed_at = ui.input(|i| i.pointer.press_origin());
-        // A sculpt: a primary drag paints.
+        // A sculpt: a primary drag paints, a click dabs once; no other click handler sees them.
         if model.sculpt.is_some() {
             if response.dragged_by(egui::PointerButton::Primary) && !shift {
                 let Some(pointer) = response.interact_pointer_pos() else { return true };
@@ -131,6 +143,13 @@ impl App {
                 return true;
             }
             self.sculpt_stroke = None;
+            if response.clicked() {
+                if let Some(pointer) = response.interact_pointer_pos() {
+                    self.sculpt_at(pointer, projection, origin);
+                }
+                self.sculpt_stroke = None;
+                return true;
+            }
             return false;
         }
         let gizmo = Gizmo::of(model, projection, origin);
@@ -155,7 +174,7 @@ impl App {
                         start,
                         press,
                         tangent: screen / screen.length(),
-                        per_radian,
+                        per_radian: if g.mirrored { -per_radian } else { per_radian },
                     });
                 }
             }
@@ -201,10 +220,7 @@ impl App {
     fn sculpt_at(&mut self, pointer: Pos2, projection: &Projection, origin: Vec3) {
         let Some(model) = self.stage.model.as_mut() else { return };
         let Some(state) = &model.sculpt else { return };
-        let (Some(near), Some(far)) = (projection.unproject(pointer, 0.0), projection.unproject(pointer, 0.9)) else {
-            return;
-        };
-        let direction = (far - near).normalize_or_zero();
+        let Some((near, direction)) = projection.ray(pointer) else { return };
         let radius = state.radius * model.size();
         let grab = state.brush == kloub_core::sculpt::Brush::Grab;
         match self.sculpt_stroke {
@@ -268,11 +284,17 @@ impl App {
                     }
                 }
             }
-            // The brush where the pointer meets the surface.
-            if let Some(pointer) = response.hover_pos()
-                && let (Some(near), Some(far)) =
-                    (projection.unproject(pointer, 0.0), projection.unproject(pointer, 0.9))
-                && let Some(hit) = state.sculpt.pick(near - origin, (far - near).normalize_or_zero())
+            // The brush where the pointer meets the surface (cast again only when the pointer,
+            // the view or the shape changed: the cast tries every triangle).
+            let key = response.hover_pos().map(|p| (p, projection.key(), state.id, state.version));
+            if key != self.sculpt_hover.key {
+                let hit = response.hover_pos().and_then(|pointer| {
+                    let (near, direction) = projection.ray(pointer)?;
+                    state.sculpt.pick(near - origin, direction)
+                });
+                self.sculpt_hover = SculptHover { key, hit };
+            }
+            if let Some(hit) = self.sculpt_hover.hit
                 && let Some((at, _)) = projection.to_screen(hit + origin)
             {
                 let radius = state.radius * model.size();
