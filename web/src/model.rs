@@ -108,9 +108,14 @@ pub struct Model {
     /// Gravity and damping for the ragdoll (the panel's sliders).
     #[cfg(feature = "full")]
     pub ragdoll_options: kloub_core::ragdoll::RagdollOptions,
-    /// The ragdoll's obstacles (kept across runs; the sidecar's `obstacles`).
+    /// The ragdoll's obstacles (kept across runs; the sidecar's `obstacles`). Changed through
+    /// [`Model::set_obstacles`], which keeps `obstacles_json` and a running ragdoll in step.
     #[cfg(feature = "full")]
     pub obstacles: Vec<kloub_core::ragdoll::Obstacle>,
+    /// `dataset.obstacles`: the obstacles as the JSON `setObstacles` takes; `""` without
+    /// (written when they change, mirrored every frame).
+    #[cfg(feature = "full")]
+    pub obstacles_json: String,
     /// Last frame's worlds of the main character (a ragdoll inherits their velocity).
     #[cfg(feature = "full")]
     previous: crate::ragdoll::PreviousWorlds,
@@ -132,16 +137,6 @@ pub fn obstacles_in_sidecar(text: &str) -> Result<Vec<kloub_core::ragdoll::Obsta
     match doc.get("obstacles") {
         None => Ok(Vec::new()),
         Some(list) => kloub_core::ragdoll::Obstacle::list_from_value(list, "/obstacles"),
-    }
-}
-
-/// `dataset.obstacles`: the ragdoll's obstacles as the JSON `setObstacles` takes; `""` without.
-#[cfg(feature = "full")]
-pub fn obstacles_json(model: &Model) -> String {
-    if model.obstacles.is_empty() {
-        String::new()
-    } else {
-        kloub_core::ragdoll::Obstacle::list_to_json(&model.obstacles)
     }
 }
 
@@ -254,6 +249,12 @@ impl Model {
             ragdoll: None,
             #[cfg(feature = "full")]
             ragdoll_options: kloub_core::ragdoll::RagdollOptions::default(),
+            #[cfg(feature = "full")]
+            obstacles_json: if obstacles.is_empty() {
+                String::new()
+            } else {
+                kloub_core::ragdoll::Obstacle::list_to_json(&obstacles)
+            },
             #[cfg(feature = "full")]
             obstacles,
             #[cfg(feature = "full")]
@@ -402,6 +403,19 @@ impl Model {
     /// humanoid defaults).
     pub fn sidecar_json(&self) -> String {
         self.sidecar_json_with(self.examples.as_ref().map(|(e, _)| e))
+    }
+
+    /// The file this model was shown from, with `sidecar` in place of its own, to install again
+    /// (example poses change the morph targets): the images the browser decoded stay shared and
+    /// their warnings are not counted twice.
+    pub fn reloaded(&self, sidecar: String) -> crate::load::LoadedModel {
+        let decoded = crate::decode::warnings(&self.base_asset);
+        crate::load::LoadedModel {
+            name: self.name.clone(),
+            asset: self.base_asset.clone(),
+            warnings: self.warnings.iter().filter(|w| !decoded.contains(w)).cloned().collect(),
+            sidecar: Some(sidecar),
+        }
     }
 
     /// [`Model::sidecar_json`] with `examples` in place of the model's.

@@ -3,7 +3,7 @@
 //! and handed back to the animation over a chosen duration.
 
 use glam::Mat4;
-use kloub_core::ragdoll::Ragdoll;
+use kloub_core::ragdoll::{Obstacle, Ragdoll, obstacles};
 
 /// A running ragdoll of the shown model.
 #[derive(Debug)]
@@ -46,6 +46,24 @@ impl RagdollState {
             return *elapsed < *duration;
         }
         true
+    }
+}
+
+impl crate::model::Model {
+    /// Replaces the ragdoll's obstacles (a running ragdoll takes them at once).
+    ///
+    /// # Errors
+    /// More than [`obstacles::MAX_OBSTACLES`]; nothing changes then.
+    pub fn set_obstacles(&mut self, list: Vec<Obstacle>) -> Result<(), String> {
+        if list.len() > obstacles::MAX_OBSTACLES {
+            return Err(format!("{} obstacles: at most {}", list.len(), obstacles::MAX_OBSTACLES));
+        }
+        if let Some(state) = &mut self.ragdoll {
+            state.ragdoll.set_obstacles(&list);
+        }
+        self.obstacles_json = if list.is_empty() { String::new() } else { Obstacle::list_to_json(&list) };
+        self.obstacles = list;
+        Ok(())
     }
 }
 

@@ -397,6 +397,11 @@ impl Stage {
         }
         self.scene = scene;
         self.gpu = gpu;
+        // A sculpt under way goes to the new renderer with the next frame.
+        #[cfg(feature = "full")]
+        {
+            self.sculpt_shown = None;
+        }
         // The page wrote `lost` into the status meanwhile: written again with the next frame.
         self.dataset.forget(Key::Status);
         self.scene_rect = None;
@@ -728,13 +733,7 @@ impl Stage {
             let examples = kloub_core::examples::Examples::from_json(&model.base_asset, text)
                 .map_err(|e| format!("{}: {e}", file.name))?;
             if !examples.poses.is_empty() || model.examples.is_some() {
-                let decoded = crate::decode::warnings(&model.base_asset);
-                let loaded = load::LoadedModel {
-                    name: model.name.clone(),
-                    asset: model.base_asset.clone(),
-                    warnings: model.warnings.iter().filter(|w| !decoded.contains(w)).cloned().collect(),
-                    sidecar: Some(text.to_owned()),
-                };
+                let loaded = model.reloaded(text.to_owned());
                 return self.install(loaded, None);
             }
         }
@@ -754,10 +753,7 @@ impl Stage {
         // The obstacles once every file read well; a running ragdoll takes them at once.
         #[cfg(feature = "full")]
         if let Some(list) = obstacles {
-            if let Some(state) = &mut model.ragdoll {
-                state.ragdoll.set_obstacles(&list);
-            }
-            model.obstacles = list;
+            model.set_obstacles(list)?;
         }
         for ik in &mut model.ik {
             ik.use_settings(&model.joint_settings);
@@ -773,13 +769,7 @@ impl Stage {
     #[cfg(feature = "full")]
     pub(crate) fn set_examples(&mut self, examples: kloub_core::examples::Examples) -> Result<(), String> {
         let Some(model) = &self.model else { return Ok(()) };
-        let decoded = crate::decode::warnings(&model.base_asset);
-        let loaded = load::LoadedModel {
-            name: model.name.clone(),
-            asset: model.base_asset.clone(),
-            warnings: model.warnings.iter().filter(|w| !decoded.contains(w)).cloned().collect(),
-            sidecar: Some(model.sidecar_json_with(Some(&examples))),
-        };
+        let loaded = model.reloaded(model.sidecar_json_with(Some(&examples)));
         let camera = self.camera;
         let main = model.animator.main();
         let (clip, time, playing) = (main.clip, main.time, model.is_playing());

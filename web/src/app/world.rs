@@ -23,10 +23,7 @@ impl App {
         if model.ragdoll.is_none() {
             return;
         }
-        let (Some(near), Some(far)) = (projection.unproject(pointer, 0.0), projection.unproject(pointer, 0.9)) else {
-            return;
-        };
-        let Some(direction) = (far - near).try_normalize() else { return };
+        let Some((_, direction)) = projection.ray(pointer) else { return };
         let size = model.size();
         let from = self.stage.camera.eye() - origin + direction * 0.05 * size;
         let velocity = direction * BALL_SPEED * size;
@@ -68,11 +65,11 @@ impl App {
         let Some(index) = self.obstacle_drag else { return false };
         if let Some(pointer) = response.interact_pointer_pos()
             && let Some(obstacle) = model.obstacles.get(index)
-            && let (Some(near), Some(far)) = (projection.unproject(pointer, 0.0), projection.unproject(pointer, 0.9))
+            && let Some((near, direction)) = projection.ray(pointer)
         {
             // Where the pointer's ray meets the horizontal plane through the obstacle's centre.
             let center = obstacle.center();
-            let (from, direction) = (near - origin, (far - near).normalize_or_zero());
+            let from = near - origin;
             if direction.y.abs() > 1e-4 {
                 let t = (center.y - from.y) / direction.y;
                 let hit = from + direction * t;

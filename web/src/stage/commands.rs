@@ -188,19 +188,7 @@ impl Stage {
             #[cfg(feature = "full")]
             Command::StartRagdoll => model.start_ragdoll()?,
             #[cfg(feature = "full")]
-            Command::SetObstacles(list) => {
-                if list.len() > kloub_core::ragdoll::obstacles::MAX_OBSTACLES {
-                    return Err(format!(
-                        "{} obstacles: at most {}",
-                        list.len(),
-                        kloub_core::ragdoll::obstacles::MAX_OBSTACLES
-                    ));
-                }
-                model.obstacles = list;
-                if let Some(state) = &mut model.ragdoll {
-                    state.ragdoll.set_obstacles(&model.obstacles);
-                }
-            }
+            Command::SetObstacles(list) => model.set_obstacles(list)?,
             #[cfg(feature = "full")]
             Command::ThrowBall { from, velocity } => {
                 let size = model.size();

@@ -56,7 +56,7 @@ impl Stage {
         #[cfg(feature = "full")]
         d.set(Key::Mode, model.map_or("animate", Model::mode_name));
         #[cfg(feature = "full")]
-        d.set(Key::Obstacles, &model.map_or(String::new(), crate::model::obstacles_json));
+        d.set(Key::Obstacles, model.map_or("", |m| m.obstacles_json.as_str()));
         #[cfg(not(feature = "full"))]
         d.set(Key::Obstacles, "");
         #[cfg(not(feature = "full"))]
