@@ -1214,7 +1214,9 @@ for (const backend of BACKENDS) {
     await control(page, 'stopRagdoll', 0);
     await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.ragdoll === '', 'the ragdoll stopped');
     const height = Math.max(...start.bodies.map((b) => b[1])) - start.ground;
-    const low = start.bodies.filter((b) => b[1] < start.ground + 0.3 * height);
+    // The lowest bodies (within a third of the height of the lowest one): never none.
+    const lowestY = Math.min(...start.bodies.map((b) => b[1]));
+    const low = start.bodies.filter((b) => b[1] <= lowestY + 0.3 * height);
     const [fx0, fx1] = [Math.min(...low.map((b) => b[0])), Math.max(...low.map((b) => b[0]))];
     const [fz0, fz1] = [Math.min(...low.map((b) => b[2])), Math.max(...low.map((b) => b[2]))];
     const g = 0.12 * height;
