@@ -19,6 +19,8 @@ struct Frame {
     grid_center: vec4<f32>,
     background_top: vec4<f32>,
     background_bottom: vec4<f32>,
+    // x: exposure (a factor), y: tone mapping (TONE_* in output.wgsl).
+    tone: vec4<f32>,
 }
 
 @group(0) @binding(0) var<uniform> frame: Frame;

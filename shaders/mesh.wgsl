@@ -1,12 +1,16 @@
 // Kloub mesh shader: static, GPU-morphed and GPU-skinned vertices (skinning.wgsl, prepended
-// by the Rust side), base colour texture, vertex colours, hemisphere + directional lighting,
-// unlit, alpha mask/blend.
+// by the Rust side), shaded with glTF 2.0's metallic-roughness BRDF (Appendix B of the
+// specification: GGX distribution, height-correlated Smith visibility, Schlick Fresnel, Lambert
+// diffuse) under a key light and a hemisphere, with every core texture (base colour,
+// metallic-roughness, normal, occlusion, emissive; each with its own texCoord set and
+// KHR_texture_transform), vertex colours, unlit, alpha mask/blend, then exposure and tone
+// mapping (output.wgsl).
 //
 // Valid on WebGPU, native and WebGL2 (wgpu downlevel): no storage buffers, no compute.
 //
 // Bind groups:
 //   0: Frame uniform (camera, lights) + joint palette + morph deltas (per frame)
-//   1: Material uniform + base colour texture + sampler             (per material)
+//   1: Material uniform + five textures, each with its sampler        (per material)
 //   2: Draw uniform with a dynamic offset                           (per draw)
 // The Frame struct is shared with environment.wgsl and must stay identical
 // (tests/shaders.rs checks that same-named structs have the same layout in every file).
@@ -26,31 +30,58 @@ struct Frame {
     grid_center: vec4<f32>,
     background_top: vec4<f32>,
     background_bottom: vec4<f32>,
+    // x: exposure (a factor), y: tone mapping (TONE_* in output.wgsl).
+    tone: vec4<f32>,
 }
 
 struct Material {
     // Linear RGBA base colour factor.
     base_color: vec4<f32>,
-    // KHR_texture_transform as a 2D affine matrix: uv' = (a.xy * u + a.zw * v + b.xy).
-    uv_a: vec4<f32>,
-    uv_b: vec4<f32>,
-    // rgb: emissive factor, w: alpha cutoff (mask mode).
+    // rgb: emissive factor times KHR_materials_emissive_strength, w: alpha cutoff (mask mode).
     emissive: vec4<f32>,
-    // x: flags (MATERIAL_* below).
+    // x: metallic factor, y: roughness factor, z: normal scale, w: occlusion strength.
+    pbr: vec4<f32>,
+    // x: flags (MATERIAL_* below), y: bit TEX_* set when that texture reads TEXCOORD_1.
     flags: vec4<u32>,
+    // KHR_texture_transform of texture TEX_* as a 2D affine matrix:
+    // uv' = uv[2t].xy * u + uv[2t].zw * v + uv[2t + 1].xy.
+    uv: array<vec4<f32>, 10>,
 }
 
 const MATERIAL_UNLIT: u32 = 1u;
 const MATERIAL_ALPHA_MASK: u32 = 2u;
 const MATERIAL_ALPHA_BLEND: u32 = 4u;
+// Which optional textures the material has (the base colour texture is always bound: white
+// where the material has none).
+const MATERIAL_METALLIC_ROUGHNESS_TEXTURE: u32 = 8u;
+const MATERIAL_NORMAL_TEXTURE: u32 = 16u;
+const MATERIAL_OCCLUSION_TEXTURE: u32 = 32u;
+const MATERIAL_EMISSIVE_TEXTURE: u32 = 64u;
+// Texture slots (the index of each one's transform, the bit of its texCoord set).
+const TEX_BASE: u32 = 0u;
+const TEX_METALLIC_ROUGHNESS: u32 = 1u;
+const TEX_NORMAL: u32 = 2u;
+const TEX_OCCLUSION: u32 = 3u;
+const TEX_EMISSIVE: u32 = 4u;
 const DRAW_HAS_NORMALS: u32 = 1u;
 // Colour skinned vertices by their distance from another method's result.
 const DRAW_HEATMAP: u32 = 2u;
+const PI: f32 = 3.14159265358979;
+const MIN_ROUGHNESS: f32 = 0.05;
 
 @group(0) @binding(0) var<uniform> frame: Frame;
 @group(1) @binding(0) var<uniform> material: Material;
+// sRGB: base colour and emissive. Linear: metallic-roughness, normal, occlusion.
 @group(1) @binding(1) var base_texture: texture_2d<f32>;
 @group(1) @binding(2) var base_sampler: sampler;
+@group(1) @binding(3) var metallic_roughness_texture: texture_2d<f32>;
+@group(1) @binding(4) var metallic_roughness_sampler: sampler;
+@group(1) @binding(5) var normal_texture: texture_2d<f32>;
+@group(1) @binding(6) var normal_sampler: sampler;
+@group(1) @binding(7) var occlusion_texture: texture_2d<f32>;
+@group(1) @binding(8) var occlusion_sampler: sampler;
+@group(1) @binding(9) var emissive_texture: texture_2d<f32>;
+@group(1) @binding(10) var emissive_sampler: sampler;
 
 struct VsOut {
     @builtin(position) clip: vec4<f32>,
@@ -58,6 +89,7 @@ struct VsOut {
     @location(1) normal: vec3<f32>,
     @location(2) uv: vec2<f32>,
     @location(3) color: vec4<f32>,
+    @location(4) uv1: vec2<f32>,
 }
 
 fn finish(world_pos: vec3<f32>, normal: vec3<f32>, g: GeometryIn) -> VsOut {
@@ -66,6 +98,7 @@ fn finish(world_pos: vec3<f32>, normal: vec3<f32>, g: GeometryIn) -> VsOut {
     out.world_pos = world_pos;
     out.normal = normal;
     out.uv = g.uv;
+    out.uv1 = g.uv1;
     out.color = g.color;
     return out;
 }
@@ -139,23 +172,112 @@ fn fs_capture(in: CaptureOut) -> CaptureTargets {
     return CaptureTargets(bitcast<vec4<u32>>(in.position), bitcast<vec4<u32>>(in.normal));
 }
 
-fn shade(base: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
-    let hemi = mix(frame.ground_color.rgb, frame.sky_color.rgb, n.y * 0.5 + 0.5);
-    let lambert = max(dot(n, frame.light_dir.xyz), 0.0) * frame.light_dir.w;
-    return base * (hemi + lambert * frame.light_color.rgb);
+/// Texture `slot`'s coordinates: its texCoord set through its KHR_texture_transform.
+fn texture_uv(slot: u32, in: VsOut) -> vec2<f32> {
+    let uv = select(in.uv, in.uv1, ((material.flags.y >> slot) & 1u) != 0u);
+    let a = material.uv[2u * slot];
+    return a.xy * uv.x + a.zw * uv.y + material.uv[2u * slot + 1u].xy;
+}
+
+/// The normal texture's tangent-space normal `t` (scaled) in world space, around the surface
+/// normal `n`, by the cotangent frame of the screen-space derivatives of the position `dp` and
+/// texture coordinates `duv` (no tangent attribute needed; mirrored and skinned UVs included).
+/// `dpy` and `duvy` are taken along screen-up (`fs_main` turns them: the sign of `dpdy` differs
+/// between backends). glTF's texture space has +Y up in the image, towards decreasing v.
+fn perturb_normal(n: vec3<f32>, dpx: vec3<f32>, dpy: vec3<f32>, duvx: vec2<f32>, duvy: vec2<f32>, t: vec3<f32>) -> vec3<f32> {
+    let dpy_perp = cross(dpy, n);
+    let dpx_perp = cross(n, dpx);
+    let tangent = dpy_perp * duvx.x + dpx_perp * duvy.x;
+    let bitangent = -(dpy_perp * duvx.y + dpx_perp * duvy.y);
+    let len2 = max(dot(tangent, tangent), dot(bitangent, bitangent));
+    if len2 < 1e-30 {
+        return n;
+    }
+    let scale = inverseSqrt(len2);
+    let perturbed = tangent * (t.x * scale) + bitangent * (t.y * scale) + n * t.z;
+    let p2 = dot(perturbed, perturbed);
+    return select(n, perturbed * inverseSqrt(p2), p2 > 1e-30);
+}
+
+/// Light reflected towards `v` from a key light from `l` of radiance `radiance` (irradiance
+/// `radiance` × N·L), glTF's BRDF: Lambert diffuse weighted by 1 − F plus GGX specular.
+fn direct_light(n: vec3<f32>, v: vec3<f32>, l: vec3<f32>, c_diff: vec3<f32>, f0: vec3<f32>, alpha: f32, radiance: vec3<f32>) -> vec3<f32> {
+    let nl = dot(n, l);
+    if nl <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let h = normalize(l + v);
+    let nv = clamp(dot(n, v), 1e-4, 1.0);
+    let nh = clamp(dot(n, h), 0.0, 1.0);
+    let vh = clamp(dot(v, h), 0.0, 1.0);
+    let a2 = alpha * alpha;
+    let f = f0 + (vec3<f32>(1.0) - f0) * pow(1.0 - vh, 5.0);
+    let d_den = nh * nh * (a2 - 1.0) + 1.0;
+    let d = a2 / (PI * d_den * d_den);
+    let vis_den = nl * sqrt(nv * nv * (1.0 - a2) + a2) + nv * sqrt(nl * nl * (1.0 - a2) + a2);
+    let vis = select(0.0, 0.5 / vis_den, vis_den > 0.0);
+    // The lights' intensities are irradiances over π: a white Lambert surface facing a light
+    // of intensity 1 reflects 1.
+    let diffuse = (vec3<f32>(1.0) - f) * c_diff;
+    let specular = PI * f * d * vis;
+    return (diffuse + specular) * radiance * nl;
+}
+
+/// The split-sum environment BRDF's scale and bias on F0, by Karis's analytic fit (the
+/// hemisphere has no prefiltered map to look up).
+fn environment_brdf(f0: vec3<f32>, roughness: f32, nv: f32) -> vec3<f32> {
+    let r = roughness * vec4<f32>(-1.0, -0.0275, -0.572, 0.022) + vec4<f32>(1.0, 0.0425, 1.04, -0.04);
+    let a004 = min(r.x * r.x, exp2(-9.28 * nv)) * r.x + r.y;
+    let ab = vec2<f32>(-1.04, 1.04) * a004 + r.zw;
+    return f0 * ab.x + ab.y;
+}
+
+/// The hemisphere's radiance from direction `d` (sky above, ground below).
+fn hemisphere(d: vec3<f32>) -> vec3<f32> {
+    return mix(frame.ground_color.rgb, frame.sky_color.rgb, d.y * 0.5 + 0.5);
 }
 
 @fragment
 fn fs_main(in: VsOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f32> {
-    // Derivatives and texture sampling first: they need uniform control flow.
-    let face = cross(dpdy(in.world_pos), dpdx(in.world_pos));
-    let uv = material.uv_a.xy * in.uv.x + material.uv_a.zw * in.uv.y + material.uv_b.xy;
-    let texel = textureSample(base_texture, base_sampler, uv);
-
+    // Derivatives and texture sampling first: they need uniform control flow (the material's
+    // flags are uniform, so its optional textures are sampled only where it has them).
+    let dpx = dpdx(in.world_pos);
+    let dpy = dpdy(in.world_pos);
+    let face = cross(dpy, dpx);
     let flags = material.flags.x;
+    let texel = textureSample(base_texture, base_sampler, texture_uv(TEX_BASE, in));
+    var metallic_roughness = vec4<f32>(1.0);
+    if (flags & MATERIAL_METALLIC_ROUGHNESS_TEXTURE) != 0u {
+        metallic_roughness = textureSample(metallic_roughness_texture, metallic_roughness_sampler, texture_uv(TEX_METALLIC_ROUGHNESS, in));
+    }
+    let normal_uv = texture_uv(TEX_NORMAL, in);
+    let duvx = dpdx(normal_uv);
+    let duvy = dpdy(normal_uv);
+    var normal_texel = vec4<f32>(0.5, 0.5, 1.0, 1.0);
+    if (flags & MATERIAL_NORMAL_TEXTURE) != 0u {
+        normal_texel = textureSample(normal_texture, normal_sampler, normal_uv);
+    }
+    var occlusion = 1.0;
+    if (flags & MATERIAL_OCCLUSION_TEXTURE) != 0u {
+        let ao = textureSample(occlusion_texture, occlusion_sampler, texture_uv(TEX_OCCLUSION, in)).r;
+        occlusion = 1.0 + material.pbr.w * (ao - 1.0);
+    }
+    var emissive = material.emissive.rgb;
+    if (flags & MATERIAL_EMISSIVE_TEXTURE) != 0u {
+        emissive *= textureSample(emissive_texture, emissive_sampler, texture_uv(TEX_EMISSIVE, in)).rgb;
+    }
+
     var color = material.base_color * texel * in.color;
-    if (draw.params.y & DRAW_HEATMAP) != 0u {
+    var metallic = clamp(material.pbr.x * metallic_roughness.b, 0.0, 1.0);
+    // A perfectly smooth surface's highlight would be a point no pixel hits (and GGX divides by
+    // zero there): roughness stays at or above MIN_ROUGHNESS, as three.js and Filament keep it.
+    var roughness = clamp(material.pbr.y * metallic_roughness.g, MIN_ROUGHNESS, 1.0);
+    let heatmap = (draw.params.y & DRAW_HEATMAP) != 0u;
+    if heatmap {
         color = vec4<f32>(in.color.rgb, 1.0);
+        metallic = 0.0;
+        roughness = 0.8;
+        emissive = vec3<f32>(0.0);
     }
     if (flags & MATERIAL_ALPHA_MASK) != 0u {
         if color.a < material.emissive.w {
@@ -191,9 +313,30 @@ fn fs_main(in: VsOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f
         }
     }
 
-    var rgb = color.rgb;
-    if (flags & MATERIAL_UNLIT) == 0u {
-        rgb = shade(color.rgb, n) + material.emissive.rgb;
+    if (flags & MATERIAL_UNLIT) != 0u {
+        return scene_output(vec4<f32>(tone_map(color.rgb), color.a));
     }
-    return scene_output(vec4<f32>(rgb, color.a));
+    if (flags & MATERIAL_NORMAL_TEXTURE) != 0u && !heatmap {
+        let t = normal_texel.xyz * 2.0 - 1.0;
+        // Screen-right × screen-up on the surface faces the eye: where dpdy runs down the screen
+        // the cross product faces away, and the y derivatives are turned round.
+        let up = select(-1.0, 1.0, dot(cross(dpx, dpy), to_eye) >= 0.0);
+        n = perturb_normal(n, dpx, dpy * up, duvx, duvy * up, vec3<f32>(t.xy * material.pbr.z, t.z));
+    }
+    let v = normalize(to_eye + vec3<f32>(0.0, 1e-9, 0.0));
+    let c_diff = color.rgb * (1.0 - metallic);
+    let f0 = mix(vec3<f32>(0.04), color.rgb, metallic);
+    let alpha = roughness * roughness;
+    let radiance = frame.light_color.rgb * frame.light_dir.w;
+    var rgb = direct_light(n, v, frame.light_dir.xyz, c_diff, f0, alpha, radiance);
+    // The hemisphere: diffuse from around the normal, specular from around the reflection (the
+    // normal's side for rough surfaces), weighted by the environment BRDF; occlusion dims both.
+    let nv = clamp(dot(n, v), 1e-4, 1.0);
+    let reflected = mix(hemisphere(reflect(-v, n)), hemisphere(n), roughness);
+    rgb += (c_diff * hemisphere(n) + reflected * environment_brdf(f0, roughness, nv)) * occlusion;
+    rgb += emissive;
+    if heatmap {
+        return scene_output(vec4<f32>(rgb, color.a));
+    }
+    return scene_output(vec4<f32>(tone_map(rgb), color.a));
 }

@@ -38,6 +38,7 @@ fn cs_skin(@builtin(global_invocation_id) id: vec3<u32>) {
     g.position = vec3<f32>(geometry_in[gi], geometry_in[gi + 1u], geometry_in[gi + 2u]);
     g.normal = vec3<f32>(geometry_in[gi + 3u], geometry_in[gi + 4u], geometry_in[gi + 5u]);
     g.uv = vec2<f32>(0.0);
+    g.uv1 = vec2<f32>(0.0);
     g.color = vec4<f32>(1.0);
     let si = v * 12u;
     var s: SkinIn;

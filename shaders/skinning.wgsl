@@ -66,6 +66,7 @@ struct GeometryIn {
     @location(1) normal: vec3<f32>,
     @location(2) uv: vec2<f32>,
     @location(3) color: vec4<f32>,
+    @location(10) uv1: vec2<f32>,
 }
 
 struct SkinIn {

@@ -46,6 +46,10 @@ const REQUIRED_CASES: [&str; 10] = [
 
 /// `"model"` of the procedural candy-wrapper rig ([`CandyWrapper`]).
 const CANDY_WRAPPER: &str = "procedural:candy-wrapper";
+/// `"model"` of the metallic-roughness sphere grid ([`kloub_tests::materials::sphere_grid`]).
+const SPHERE_GRID: &str = "procedural:sphere-grid";
+/// `"model"` of the normal-mapped plane ([`kloub_tests::materials::normal_mapped_plane`]).
+const NORMAL_PLANE: &str = "procedural:normal-plane";
 
 /// Imports a model; a `.gltf` gets the files of its folder (buffers, images) by relative path.
 fn load(model: &str) -> Asset {
@@ -152,9 +156,11 @@ fn run_case(offscreen: &Offscreen, dir: &Path, bless: bool) -> Option<String> {
     });
 
     let candy = (model == CANDY_WRAPPER).then(CandyWrapper::new);
-    let asset = match &candy {
-        Some(rig) => rig.asset.clone(),
-        None => load(model),
+    let asset = match (&candy, model) {
+        (Some(rig), _) => rig.asset.clone(),
+        (None, SPHERE_GRID) => kloub_tests::materials::sphere_grid(),
+        (None, NORMAL_PLANE) => kloub_tests::materials::normal_mapped_plane(),
+        (None, _) => load(model),
     };
     // Example poses: compiled into morph targets as the viewer does.
     let mut targets = None;
@@ -355,11 +361,19 @@ fn plain_target_encodes_srgb_like_the_srgb_target_and_transparent_leaves_alpha()
 
 /// The GPU mip chain (images the browser decodes: `MipMaker`, `shaders/mip.wgsl`) gives the
 /// CPU mip chain's levels (images the importer decodes) within a step per channel and level:
-/// box filter in linear light for colour, plain average for alpha, down to 1×1.
+/// box filter in linear light for colour, plain average for alpha and for data textures
+/// (normal, metallic-roughness, occlusion), down to 1×1.
 #[test]
 fn gpu_mips_match_the_cpu_mip_chain() {
-    use kloub_web::render::texture::{COLOR_FORMAT, MipMaker, gpu_mipped_texture, mip_chain, mip_count, write_level};
     let offscreen = Offscreen::new().expect("a wgpu adapter");
+    for srgb in [true, false] {
+        gpu_mips_match(&offscreen, srgb);
+    }
+}
+
+fn gpu_mips_match(offscreen: &Offscreen, srgb: bool) {
+    use kloub_web::render::texture::{MipMaker, gpu_mipped_texture, image_format, mip_chain, mip_count, write_level};
+    let format = image_format(srgb);
     let (device, queue) = (offscreen.device(), offscreen.queue());
     let (width, height) = (64u32, 32u32);
     // Gradients, a hard edge and varying alpha: what averaging in linear light changes most.
@@ -371,11 +385,11 @@ fn gpu_mips_match_the_cpu_mip_chain() {
         }
     }
     let image = kloub_core::asset::Image { name: None, width, height, rgba8, encoded: None };
-    let expected = mip_chain(&image, u32::MAX).expect("a valid image");
+    let expected = mip_chain(&image, u32::MAX, srgb).expect("a valid image");
     assert_eq!(expected.len() as u32, mip_count(width, height));
-    let texture = gpu_mipped_texture(device, "mips under test", width, height);
+    let texture = gpu_mipped_texture(device, "mips under test", width, height, format);
     write_level(queue, &texture, 0, &expected[0]);
-    MipMaker::new(device).generate(device, queue, &texture);
+    MipMaker::new(device, format).generate(device, queue, &texture);
     for (mip, level) in expected.iter().enumerate().skip(1) {
         // Each level copied into a texture of its own to be read back.
         let size = wgpu::Extent3d { width: level.width, height: level.height, depth_or_array_layers: 1 };
@@ -385,7 +399,7 @@ fn gpu_mips_match_the_cpu_mip_chain() {
             mip_level_count: 1,
             sample_count: 1,
             dimension: wgpu::TextureDimension::D2,
-            format: COLOR_FORMAT,
+            format,
             usage: wgpu::TextureUsages::COPY_SRC | wgpu::TextureUsages::COPY_DST,
             view_formats: &[],
         });
@@ -403,7 +417,7 @@ fn gpu_mips_match_the_cpu_mip_chain() {
         queue.submit([encoder.finish()]);
         let actual = offscreen.read_texture(&copy).expect("readback");
         let largest = actual.as_raw().iter().zip(&level.rgba8).map(|(a, e)| a.abs_diff(*e)).max().unwrap_or(0);
-        eprintln!("GPU mips: level {mip}: largest channel difference {largest}");
+        eprintln!("GPU mips ({format:?}): level {mip}: largest channel difference {largest}");
         // Each level is rounded to bytes before the next is made from it, on both paths: the
         // difference may grow by a step per level (lavapipe: 1, 1, 2, 2, 2, 3).
         assert!(
@@ -413,4 +427,87 @@ fn gpu_mips_match_the_cpu_mip_chain() {
             level.height
         );
     }
+}
+
+/// Pixel of world point `p` in a `size`² frame of `camera`.
+fn pixel_of(camera: &Camera, p: glam::Vec3, size: u32) -> (u32, u32) {
+    let clip = camera.view_proj(1.0) * p.extend(1.0);
+    let ndc = clip.truncate() / clip.w;
+    let x = ((ndc.x * 0.5 + 0.5) * size as f32) as u32;
+    let y = ((0.5 - ndc.y * 0.5) * size as f32) as u32;
+    (x.min(size - 1), y.min(size - 1))
+}
+
+fn luminance(image: &RgbaImage, (x, y): (u32, u32)) -> f32 {
+    let p = image.get_pixel(x, y).0;
+    0.2126 * f32::from(p[0]) + 0.7152 * f32::from(p[1]) + 0.0722 * f32::from(p[2])
+}
+
+/// The normal map turns the right way on every axis: with the key light above and over the
+/// viewer's left shoulder, each bump of the normal-mapped plane is brighter on its upper left
+/// than its lower right, and brighter at its top than its bottom and at its left than its right
+/// (an axis flipped by the texture's V convention or a backend's `dpdy` sign would swap one pair).
+#[test]
+fn normal_map_bumps_face_the_light() {
+    let offscreen = Offscreen::new().expect("a wgpu adapter");
+    let asset = kloub_tests::materials::normal_mapped_plane();
+    let (mut instance, camera) = pose(&asset, None, 0.0, Some((0.0, 0.0)));
+    let mut renderer = offscreen.scene_renderer(&asset).expect("uploading");
+    let size = 256;
+    let image = offscreen.render(&mut renderer, &asset, &mut instance, &camera, size, size).expect("rendering");
+    let cell = 1.0 / kloub_tests::materials::BUMPS as f32;
+    let mut checked = 0;
+    for row in 0..kloub_tests::materials::BUMPS {
+        for col in 0..kloub_tests::materials::BUMPS {
+            // The bump's centre in world space (uv (0, 0) is the quad's top left), and points
+            // half its radius (0.4 of a cell) away from it.
+            let centre = glam::Vec3::new(-0.5 + (col as f32 + 0.5) * cell, 0.5 - (row as f32 + 0.5) * cell, 0.0);
+            let at = |dx: f32, dy: f32| {
+                luminance(&image, pixel_of(&camera, centre + glam::Vec3::new(dx, dy, 0.0) * cell * 0.2, size))
+            };
+            let (up, down, left, right) = (at(0.0, 1.0), at(0.0, -1.0), at(-1.0, 0.0), at(1.0, 0.0));
+            assert!(up > down + 8.0, "bump {row},{col}: top {up} not brighter than bottom {down}");
+            assert!(left > right + 8.0, "bump {row},{col}: left {left} not brighter than right {right}");
+            assert!(at(-0.7, 0.7) > at(0.7, -0.7) + 16.0, "bump {row},{col}: upper left not brighter than lower right");
+            checked += 1;
+        }
+    }
+    assert_eq!(checked, 16);
+}
+
+/// The sphere grid orders as the BRDF says: along the top row (smooth), the dielectric's
+/// diffuse body is brighter than the metal's (metals have none; they only reflect); down the
+/// dielectric column, roughness spreads the key light's highlight so its peak falls.
+#[test]
+fn metallic_and_roughness_change_the_spheres_as_the_brdf_says() {
+    use kloub_tests::materials::GRID;
+    let offscreen = Offscreen::new().expect("a wgpu adapter");
+    let asset = kloub_tests::materials::sphere_grid();
+    let (mut instance, camera) = pose(&asset, None, 0.0, Some((0.0, 0.0)));
+    let mut renderer = offscreen.scene_renderer(&asset).expect("uploading");
+    let size = 320;
+    let image = offscreen.render(&mut renderer, &asset, &mut instance, &camera, size, size).expect("rendering");
+    let centre = |row: usize, col: usize| glam::Vec3::new(col as f32 * 1.1 - 2.2, 2.2 - row as f32 * 1.1, 0.5);
+    // The brightest pixel over a sphere's front (its highlight) and the mean over it.
+    let stats = |row: usize, col: usize| {
+        let (cx, cy) = pixel_of(&camera, centre(row, col), size);
+        let (ex, _) = pixel_of(&camera, centre(row, col) + glam::Vec3::new(0.35, 0.0, 0.0), size);
+        let r = (ex - cx) as i32;
+        let (mut peak, mut sum, mut n) = (0.0f32, 0.0, 0.0);
+        for dy in -r..=r {
+            for dx in -r..=r {
+                let l = luminance(&image, ((cx as i32 + dx) as u32, (cy as i32 + dy) as u32));
+                peak = peak.max(l);
+                sum += l;
+                n += 1.0;
+            }
+        }
+        (peak, sum / n)
+    };
+    let (_, dielectric) = stats(GRID - 1, 0);
+    let (_, metal) = stats(GRID - 1, GRID - 1);
+    assert!(dielectric > metal + 10.0, "rough dielectric {dielectric} not brighter than rough metal {metal}");
+    let (smooth_peak, _) = stats(1, 0);
+    let (rough_peak, _) = stats(GRID - 1, 0);
+    assert!(smooth_peak > rough_peak + 10.0, "smooth highlight {smooth_peak} not above rough {rough_peak}");
 }

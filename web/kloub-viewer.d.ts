@@ -55,6 +55,8 @@ export interface ValidationReport {
   info?: Record<string, unknown>;
 }
 
+/** Tone mapping of `tone-mapping` and `setToneMapping`. */
+export type ToneMapping = 'neutral' | 'aces' | 'none';
 export type SkinningMethod = 'rigid' | 'lbs' | 'dqs' | 'sjb' | 'sjbbe';
 export type SkinningPath = 'gpu' | 'compute' | 'cpu';
 export type LoopMode = 'once' | 'repeat' | 'pingpong';
@@ -131,6 +133,9 @@ export interface KloubViewerState {
   joint?: string;
   lighting?: 'studio' | 'outdoor' | 'flat' | 'rim';
   background?: Background;
+  /** The exposure as a decimal number (1: as lit). */
+  exposure?: string;
+  toneMapping?: ToneMapping;
   /** While a model downloads: `RECEIVED/TOTAL` bytes. */
   progress?: string;
   ragdoll?: '' | 'simulating' | 'resting' | 'blending';
@@ -188,6 +193,10 @@ export declare class KloubViewer extends HTMLElement {
      `animation-crossfade-duration` (ms). */
   /** The ground grid (attribute `grid`; `grid="false"` turns it off): by default on with `controls` only. */
   grid: boolean;
+  /** Attribute `exposure` (model-viewer's): 0 to 64, 1 when absent or invalid. */
+  exposure: number;
+  /** Attribute `tone-mapping` (model-viewer's); the setter also takes `auto` (neutral) and `linear` (none). */
+  toneMapping: ToneMapping | 'auto' | 'linear';
   /* Attribute `min-pixel-ratio`: the lowest resolution (canvas pixels per CSS pixel, default 0.5) a viewer without
      `controls` may drop to while frames are slow. */
   /** The renderer in use; choose it with the `backend` attribute (auto | webgpu | webgl2). */
@@ -271,6 +280,10 @@ export declare class KloubViewer extends HTMLElement {
   addExamplePose(name: string): void;
   setLighting(name: 'studio' | 'outdoor' | 'flat' | 'rim'): void;
   setBackground(name: Background): void;
+  /** Exposure, 0 to 64 (1: as lit): a factor on the shaded colour before tone mapping. */
+  setExposure(exposure: number): void;
+  /** Tone mapping: Khronos PBR Neutral (the default), ACES filmic, or none (clamped). */
+  setToneMapping(name: ToneMapping): void;
   /** Downloads the view as `<model>.png`. */
   screenshot(): void;
   /** The current frame at the canvas's size in device pixels, transparent where the background is; no download

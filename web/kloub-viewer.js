@@ -391,6 +391,11 @@ const SKINNING_PATHS = ['gpu', 'compute', 'cpu'];
 const IK_SOLVERS = ['ccd', 'twobone', 'fabrik', 'dls'];
 const LIGHTING = ['studio', 'outdoor', 'flat', 'rim'];
 const BACKGROUNDS = ['dark', 'grey', 'light', 'transparent'];
+/** Tone mappings; model-viewer's `auto` is `neutral` and its `linear` is `none`. */
+const TONE_MAPPINGS = ['neutral', 'aces', 'none'];
+const TONE_ALIASES = { auto: 'neutral', linear: 'none' };
+/** The largest exposure (everything is white long before). */
+const MAX_EXPOSURE = 64;
 const EASINGS = ['smoothstep', 'linear'];
 const OUTGOING = ['freeze', 'keep', 'sync'];
 /** Argument bounds of the page API (README, "Embedding"). */
@@ -566,7 +571,7 @@ class KloubViewer extends HTMLElement {
     'skinning', 'backend', 'controls', 'min-pixel-ratio', 'background', 'grid', 'alt', 'loading', 'poster', 'reveal',
     'camera-controls', 'camera-orbit', 'camera-target', 'auto-rotate', 'auto-rotate-delay', 'rotation-per-second',
     'min-camera-orbit', 'max-camera-orbit', 'field-of-view', 'disable-zoom', 'disable-pan', 'animation-crossfade-duration',
-    'interaction-prompt', 'interaction-prompt-threshold',
+    'interaction-prompt', 'interaction-prompt-threshold', 'exposure', 'tone-mapping',
   ];
 
   #viewer = null;
@@ -977,6 +982,8 @@ class KloubViewer extends HTMLElement {
           break;
         case 'background': viewer.setBackground(this.#background()); break;
         case 'grid': viewer.setGrid(this.grid); break;
+        case 'exposure': viewer.setExposure(this.exposure); break;
+        case 'tone-mapping': viewer.setToneMapping(this.toneMapping); break;
         case 'backend': this.#remount(); break;
         default: break;
       }
@@ -1012,6 +1019,8 @@ class KloubViewer extends HTMLElement {
       viewer.setPanels(this.hasAttribute('controls'));
       viewer.setBackground(this.#background());
       viewer.setGrid(this.grid);
+      if (this.hasAttribute('exposure')) viewer.setExposure(this.exposure);
+      if (this.hasAttribute('tone-mapping')) viewer.setToneMapping(this.toneMapping);
       this.#applyLimits();
       const src = revive ? (revive.src || (this.#files ? null : this.getAttribute('src'))) : this.getAttribute('src');
       if (revive && src) this.#reviveOnLoad(revive);
@@ -1101,6 +1110,10 @@ class KloubViewer extends HTMLElement {
       // background), so these two are restored as they were.
       if (snapshot.grid === 'true' || snapshot.grid === 'false') this.setGrid(snapshot.grid === 'true');
       if (BACKGROUNDS.includes(snapshot.background)) this.setBackground(snapshot.background);
+      // Set by method (an attribute is applied again at the mount).
+      const exposure = Number(snapshot.exposure);
+      if (!this.hasAttribute('exposure') && Number.isFinite(exposure) && exposure >= 0 && exposure <= MAX_EXPOSURE) this.setExposure(exposure);
+      if (!this.hasAttribute('tone-mapping') && TONE_MAPPINGS.includes(snapshot.toneMapping)) this.setToneMapping(snapshot.toneMapping);
       if (snapshot.playing === 'true') this.play();
       else if (snapshot.playing === 'false') this.pause();
       if (snapshot.skinning && snapshot.skinning !== this.getAttribute('skinning')) this.setSkinning(snapshot.skinning);
@@ -1499,6 +1512,25 @@ class KloubViewer extends HTMLElement {
     }
     this.setAttribute('background', value);
   }
+  /** Exposure (attribute `exposure`, model-viewer's): a factor on the shaded colour before tone mapping, 0 to 64;
+   *  1 (as lit) when absent or not such a number. */
+  get exposure() {
+    const value = this.getAttribute('exposure');
+    const e = value === null || value.trim() === '' ? NaN : Number(value);
+    return Number.isFinite(e) && e >= 0 && e <= MAX_EXPOSURE ? e : 1;
+  }
+  set exposure(value) { this.setAttribute('exposure', String(num('exposure', 'value', value, { min: 0, max: MAX_EXPOSURE }))); }
+  /** Tone mapping (attribute `tone-mapping`, model-viewer's): `neutral` (Khronos PBR Neutral, the default), `aces` or
+   *  `none`; model-viewer's `auto` reads as `neutral`, `linear` as `none`, anything else as `neutral`. */
+  get toneMapping() {
+    const value = this.getAttribute('tone-mapping') ?? 'neutral';
+    const name = TONE_ALIASES[value] ?? value;
+    return TONE_MAPPINGS.includes(name) ? name : 'neutral';
+  }
+  set toneMapping(value) {
+    const accepted = [...TONE_MAPPINGS, ...Object.keys(TONE_ALIASES)];
+    this.setAttribute('tone-mapping', oneOf('toneMapping', 'value', value, accepted));
+  }
   /** When the model is fetched (attribute `loading`): `auto` and `eager` at once, `lazy` when the element nears
    *  the viewport. */
   get loading() { const v = this.getAttribute('loading'); return v === 'lazy' || v === 'eager' ? v : 'auto'; }
@@ -1742,6 +1774,16 @@ class KloubViewer extends HTMLElement {
   setGrid(on) {
     bool('setGrid', 'on', on);
     this.#call('setGrid', (v) => v.setGrid(on));
+  }
+  /** Exposure, 0 to 64 (1: as lit): a factor on the shaded colour before tone mapping. */
+  setExposure(exposure) {
+    num('setExposure', 'exposure', exposure, { min: 0, max: MAX_EXPOSURE });
+    this.#call('setExposure', (v) => v.setExposure(exposure));
+  }
+  /** Tone mapping: `neutral` (Khronos PBR Neutral), `aces` or `none`. */
+  setToneMapping(name) {
+    oneOf('setToneMapping', 'name', name, TONE_MAPPINGS);
+    this.#call('setToneMapping', (v) => v.setToneMapping(name));
   }
   /** Overlays: `{ skeleton, bounds, wireframe, normals, bodies }` (missing keys: off). */
   setOverlays(overlays = {}) {

@@ -186,6 +186,8 @@ pub struct Primitive {
     pub tangents: Vec<[f32; 4]>,
     /// TEXCOORD_0; empty when absent.
     pub uv0: Vec<[f32; 2]>,
+    /// TEXCOORD_1; empty when absent (textures whose `texCoord` is 1 read it).
+    pub uv1: Vec<[f32; 2]>,
     /// COLOR_0 as linear RGBA; empty when absent.
     pub colors: Vec<[f32; 4]>,
     /// Up to 8 influences per vertex (JOINTS_0 then JOINTS_1); unused slots have weight 0.
@@ -270,7 +272,8 @@ impl TextureTransform {
 pub struct TextureRef {
     /// Index into [`Asset::images`].
     pub image: u32,
-    /// `texCoord` set (only 0 is drawn today).
+    /// `texCoord` set: 0 or 1 (the importer reads TEXCOORD_0 and TEXCOORD_1; a larger set
+    /// is reported and read as 0).
     pub tex_coord: u32,
     /// `KHR_texture_transform`.
     pub transform: TextureTransform,
@@ -280,7 +283,8 @@ pub struct TextureRef {
     pub nearest: bool,
 }
 
-/// A metallic-roughness material, reduced to what the viewer draws.
+/// A metallic-roughness material (glTF 2.0 core, `KHR_materials_emissive_strength`,
+/// `KHR_materials_unlit`, `KHR_texture_transform` on every texture).
 #[derive(Clone, Debug)]
 pub struct Material {
     /// `name` from the file.
@@ -293,8 +297,22 @@ pub struct Material {
     pub metallic: f32,
     /// Roughness factor.
     pub roughness: f32,
+    /// Metallic-roughness texture (linear): roughness in G, metallic in B.
+    pub metallic_roughness_texture: Option<TextureRef>,
+    /// Tangent-space normal texture (linear).
+    pub normal_texture: Option<TextureRef>,
+    /// `normalTexture.scale`: scales the texture's X and Y.
+    pub normal_scale: f32,
+    /// Occlusion texture (linear, R).
+    pub occlusion_texture: Option<TextureRef>,
+    /// `occlusionTexture.strength` (0: no occlusion, 1: full).
+    pub occlusion_strength: f32,
     /// Emissive factor (linear RGB).
     pub emissive: [f32; 3],
+    /// Emissive texture (sRGB).
+    pub emissive_texture: Option<TextureRef>,
+    /// `KHR_materials_emissive_strength` (1 without it): multiplies the emissive factor.
+    pub emissive_strength: f32,
     /// Alpha mode.
     pub alpha: AlphaMode,
     /// Draw both faces.
@@ -311,12 +329,39 @@ impl Default for Material {
             base_color_texture: None,
             metallic: 1.0,
             roughness: 1.0,
+            metallic_roughness_texture: None,
+            normal_texture: None,
+            normal_scale: 1.0,
+            occlusion_texture: None,
+            occlusion_strength: 1.0,
             emissive: [0.0; 3],
+            emissive_texture: None,
+            emissive_strength: 1.0,
             alpha: AlphaMode::Opaque,
             double_sided: false,
             unlit: false,
         }
     }
+}
+
+impl Material {
+    /// The texture references in slot order: base colour, metallic-roughness, normal,
+    /// occlusion, emissive.
+    pub fn textures(&self) -> [Option<TextureRef>; 5] {
+        [
+            self.base_color_texture,
+            self.metallic_roughness_texture,
+            self.normal_texture,
+            self.occlusion_texture,
+            self.emissive_texture,
+        ]
+    }
+}
+
+/// Whether texture slot `slot` of [`Material::textures`] holds colour (sRGB-encoded: base
+/// colour, emissive) rather than data (linear: metallic-roughness, normal, occlusion).
+pub fn texture_slot_is_srgb(slot: usize) -> bool {
+    matches!(slot, 0 | 4)
 }
 
 /// An image: decoded to RGBA8 (sRGB-encoded as stored in the file), or still encoded.

@@ -887,6 +887,71 @@ for (const backend of BACKENDS) {
     assert(!(await images()).includes('A fox standing'), 'with controls the element is still an image');
   });
 
+  test(`${backend}: exposure and tone-mapping (model-viewer's attributes and properties) brighten, darken and re-map the model; setExposure and setToneMapping; data-exposure and data-tone-mapping`, async (ctx) => {
+    const { page } = ctx;
+    await viewersPage(page, ctx.url, [{ attrs: { backend, src: '/assets/Fox.glb', 'min-pixel-ratio': '1' }, style: 'width:320px;height:240px' }]);
+    const viewer = () => document.querySelector('kloub-viewer');
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.status === 'ready' && Number(document.querySelector('kloub-viewer').dataset.frames) > 0, 'the viewer');
+    let ds = await dataset(page);
+    assert(ds.exposure === '1' && ds.toneMapping === 'neutral', `defaults: exposure ${ds.exposure}, tone mapping ${ds.toneMapping}`);
+    // The frame as toDataURL gives it (drawn after the change): the model's pixels only (the rest is transparent).
+    const shot = async () => {
+      const url = await page.evaluate(() => document.querySelector('kloub-viewer').toDataURL());
+      return PNG.sync.read(Buffer.from(url.replace(/^data:image\/png;base64,/, ''), 'base64'));
+    };
+    const stats = (img) => {
+      let sum = 0; let n = 0;
+      for (let i = 0; i < img.data.length; i += 4) {
+        if (img.data[i + 3] !== 255) continue;
+        sum += 0.2126 * img.data[i] + 0.7152 * img.data[i + 1] + 0.0722 * img.data[i + 2];
+        n++;
+      }
+      return { mean: sum / Math.max(n, 1), n };
+    };
+    const base = stats(await shot());
+    assert(base.n > 1000 && base.mean > 20, `the fox: ${JSON.stringify(base)}`);
+    const expect = async (predicate, what) => waitForDataset(page, predicate, what);
+    await page.evaluate(() => document.querySelector('kloub-viewer').setAttribute('exposure', '2'));
+    await expect(() => document.querySelector('kloub-viewer').dataset.exposure === '2', 'exposure="2"');
+    const bright = stats(await shot());
+    assert(bright.mean > base.mean * 1.3, `exposure 2: mean ${bright.mean.toFixed(1)} vs ${base.mean.toFixed(1)} at 1`);
+    await page.evaluate(() => { document.querySelector('kloub-viewer').exposure = 0.5; });
+    await expect(() => document.querySelector('kloub-viewer').dataset.exposure === '0.5', 'the exposure property');
+    const dim = stats(await shot());
+    assert(dim.mean < base.mean * 0.8, `exposure 0.5: mean ${dim.mean.toFixed(1)} vs ${base.mean.toFixed(1)} at 1`);
+    // Not a number from 0 to 64: read as 1, as model-viewer falls back to its default.
+    await page.evaluate(() => document.querySelector('kloub-viewer').setAttribute('exposure', 'bright'));
+    await expect(() => document.querySelector('kloub-viewer').dataset.exposure === '1', 'an invalid exposure');
+    assert((await page.evaluate(() => document.querySelector('kloub-viewer').exposure)) === 1, 'the exposure property reads 1');
+    // The method, without an attribute; 0 leaves every lit and emissive pixel black.
+    await page.evaluate(() => { document.querySelector('kloub-viewer').removeAttribute('exposure'); document.querySelector('kloub-viewer').setExposure(0); });
+    await expect(() => document.querySelector('kloub-viewer').dataset.exposure === '0', 'setExposure(0)');
+    const black = stats(await shot());
+    assert(black.mean < 1, `exposure 0: mean ${black.mean.toFixed(2)}`);
+    await page.evaluate(() => document.querySelector('kloub-viewer').setExposure(1));
+    // Tone mapping: ACES and none each map the fox's colours otherwise than Neutral.
+    await page.evaluate(() => document.querySelector('kloub-viewer').setAttribute('tone-mapping', 'aces'));
+    await expect(() => document.querySelector('kloub-viewer').dataset.toneMapping === 'aces' && document.querySelector('kloub-viewer').dataset.exposure === '1', 'tone-mapping="aces"');
+    const aces = stats(await shot());
+    assert(Math.abs(aces.mean - base.mean) > 3, `aces: mean ${aces.mean.toFixed(1)} vs neutral ${base.mean.toFixed(1)}`);
+    await page.evaluate(() => { document.querySelector('kloub-viewer').toneMapping = 'linear'; });
+    await expect(() => document.querySelector('kloub-viewer').dataset.toneMapping === 'none', "model-viewer's linear");
+    const none = stats(await shot());
+    assert(Math.abs(none.mean - aces.mean) > 3, `none: mean ${none.mean.toFixed(1)} vs aces ${aces.mean.toFixed(1)}`);
+    await page.evaluate(() => document.querySelector('kloub-viewer').setToneMapping('neutral'));
+    await expect(() => document.querySelector('kloub-viewer').dataset.toneMapping === 'neutral', 'setToneMapping');
+    const again = stats(await shot());
+    assert(Math.abs(again.mean - base.mean) < 1.5, `neutral again: mean ${again.mean.toFixed(1)} vs ${base.mean.toFixed(1)}`);
+    const thrown = await page.evaluate(() => {
+      const v = document.querySelector('kloub-viewer');
+      const name = (f) => { try { f(); return null; } catch (e) { return e.name; } };
+      return [name(() => v.setExposure(-1)), name(() => v.setExposure(Number.NaN)), name(() => v.setToneMapping('agx')), name(() => { v.toneMapping = 'filmic'; }), name(() => { v.exposure = 100; })];
+    });
+    assert(thrown.every((t) => t === 'RangeError'), `bad values threw ${JSON.stringify(thrown)}`);
+    ds = await dataset(page);
+    assert(ds.status === 'ready' && !ds.error, `still ready: ${JSON.stringify(ds)}`);
+  });
+
   test(`${backend}: 50 viewers on one page all animate through one shared device, none errs`, async (ctx) => {
     const { page } = ctx;
     await page.goto(`${ctx.url}/embed.html?backend=${backend}`);

@@ -139,6 +139,10 @@ pub enum Command {
     SetLighting(crate::render::uniforms::Lighting),
     /// Background (kept across models).
     SetBackground(crate::render::uniforms::Background),
+    /// Exposure, a factor on the shaded colour before tone mapping (kept across models).
+    SetExposure(f32),
+    /// Tone mapping (kept across models).
+    SetToneMapping(crate::render::uniforms::ToneMapping),
     /// The glTF-Validator's report on the shown model (the element ran it).
     #[cfg(feature = "full")]
     SetValidation(crate::validation::Validation),

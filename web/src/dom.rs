@@ -72,6 +72,10 @@ pub enum Key {
     Lighting,
     /// The background: `"dark"` | `"grey"` | `"light"` | `"transparent"`.
     Background,
+    /// The exposure, a number (1: as lit).
+    Exposure,
+    /// The tone mapping: `"neutral"` | `"aces"` | `"none"`.
+    ToneMapping,
     /// The ragdoll: `"simulating"` | `"resting"` | `"blending"` (back to the animation); `""` off.
     Ragdoll,
     /// The URL the shown model was fetched from (`""` for dropped files and built-in samples).
@@ -104,7 +108,7 @@ pub enum Key {
 
 impl Key {
     /// Every key, in a fixed order.
-    pub const ALL: [Key; 42] = [
+    pub const ALL: [Key; 44] = [
         Key::Backend,
         Key::Status,
         Key::Model,
@@ -136,6 +140,8 @@ impl Key {
         Key::Progress,
         Key::Lighting,
         Key::Background,
+        Key::Exposure,
+        Key::ToneMapping,
         Key::Ragdoll,
         Key::Src,
         Key::Blend,
@@ -184,6 +190,8 @@ impl Key {
             Key::Progress => "progress",
             Key::Lighting => "lighting",
             Key::Background => "background",
+            Key::Exposure => "exposure",
+            Key::ToneMapping => "toneMapping",
             Key::Ragdoll => "ragdoll",
             Key::Src => "src",
             Key::Blend => "blend",

@@ -569,6 +569,27 @@ impl Viewer {
         Ok(())
     }
 
+    /// Exposure: a factor on the shaded colour before tone mapping (model-viewer's `exposure`;
+    /// 1: as lit), 0 to 64.
+    #[wasm_bindgen(js_name = setExposure)]
+    pub fn set_exposure(&self, exposure: f32) -> Result<(), JsValue> {
+        let max = crate::render::uniforms::MAX_EXPOSURE;
+        if !(exposure.is_finite() && (0.0..=max).contains(&exposure)) {
+            return Err(range_error(format!("setExposure: {exposure}: expected a number from 0 to {max}")));
+        }
+        self.controls.send_global(Command::SetExposure(exposure));
+        Ok(())
+    }
+
+    /// Tone mapping: `"neutral"` (Khronos PBR Neutral, the default), `"aces"` or `"none"`
+    /// (model-viewer's `auto` and `linear` are taken as `neutral` and `none`).
+    #[wasm_bindgen(js_name = setToneMapping)]
+    pub fn set_tone_mapping(&self, name: &str) -> Result<(), JsValue> {
+        let tone = crate::render::uniforms::ToneMapping::from_name(name).map_err(range_error)?;
+        self.controls.send_global(Command::SetToneMapping(tone));
+        Ok(())
+    }
+
     /// Turns the character into a ragdoll from the pose on screen (throws later, as an
     /// `error` event, for a model without a skin).
     #[wasm_bindgen(js_name = startRagdoll)]

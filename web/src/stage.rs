@@ -280,6 +280,13 @@ pub struct Stage {
     pub(crate) reported_playing: bool,
     /// The last `progress` event's value (0–1) for the model being loaded; negative: none yet.
     pub(crate) reported_progress: f64,
+    /// `data-exposure`, written when the exposure changes (not formatted every frame).
+    pub(crate) exposure_text: String,
+}
+
+/// `data-exposure`'s text for `exposure`: the shortest decimal that reads back the same.
+pub(crate) fn exposure_name(exposure: f32) -> String {
+    format!("{exposure}")
 }
 
 /// Deliveries at least this large get a "Parsing…" frame before their import.
@@ -365,6 +372,7 @@ impl Stage {
             announce_load: false,
             reported_playing: false,
             reported_progress: -1.0,
+            exposure_text: exposure_name(1.0),
         };
         stage.controls.set_repaint(wake.clone());
         stage.controls.set_supports_compute(stage.scene.supports_compute());

@@ -169,29 +169,74 @@ pub(crate) fn materials(cx: &mut Cx<'_>, usable_images: &[bool]) -> Result<Vec<M
     let mut out = Vec::new();
     for (m, ptr) in objects(cx.root, "materials", "")? {
         let mut material = Material { name: super::json::name(m), ..Material::default() };
-        let mut base_color_info = None;
+        // Each texture reference: which slot it fills, its info and pointer.
+        let mut infos = Vec::with_capacity(5);
         if let Some(pbr) = opt_object(m, "pbrMetallicRoughness", &ptr)? {
             let pptr = child(&ptr, "pbrMetallicRoughness");
             material.base_color = opt_f32_array::<4>(pbr, "baseColorFactor", &pptr)?.unwrap_or([1.0; 4]);
             material.metallic = opt_f32(pbr, "metallicFactor", &pptr)?.unwrap_or(1.0);
             material.roughness = opt_f32(pbr, "roughnessFactor", &pptr)?.unwrap_or(1.0);
-            base_color_info = texture_info(cx, pbr, "baseColorTexture", &pptr, textures.len())?;
-            texture_info(cx, pbr, "metallicRoughnessTexture", &pptr, textures.len())?;
-        }
-        for key in ["normalTexture", "occlusionTexture", "emissiveTexture"] {
-            texture_info(cx, m, key, &ptr, textures.len())?;
-        }
-        if let Some((t, info, iptr)) = base_color_info {
-            match &resolved[t] {
-                Some(texture) => material.base_color_texture = Some(texture_ref(cx, texture, info, &iptr)?),
-                None if sourceless[t] => {
-                    sourceless[t] = false;
-                    cx.warn(textures[t].1.as_str(), "texture has no source image in a supported format; not drawn");
+            for (slot, key) in
+                [(Slot::BaseColor, "baseColorTexture"), (Slot::MetallicRoughness, "metallicRoughnessTexture")]
+            {
+                if let Some(info) = texture_info(cx, pbr, key, &pptr, textures.len())? {
+                    infos.push((slot, info));
                 }
-                None => {}
+            }
+        }
+        for (slot, key) in [
+            (Slot::Normal, "normalTexture"),
+            (Slot::Occlusion, "occlusionTexture"),
+            (Slot::Emissive, "emissiveTexture"),
+        ] {
+            if let Some(info) = texture_info(cx, m, key, &ptr, textures.len())? {
+                infos.push((slot, info));
+            }
+        }
+        for (slot, (t, info, iptr)) in infos {
+            let reference = match &resolved[t] {
+                Some(texture) => texture_ref(cx, texture, info, &iptr)?,
+                None => {
+                    if sourceless[t] {
+                        sourceless[t] = false;
+                        cx.warn(textures[t].1.as_str(), "texture has no source image in a supported format; not drawn");
+                    }
+                    continue;
+                }
+            };
+            match slot {
+                Slot::BaseColor => material.base_color_texture = Some(reference),
+                Slot::MetallicRoughness => material.metallic_roughness_texture = Some(reference),
+                Slot::Normal => {
+                    material.normal_scale = opt_f32(info, "scale", &iptr)?.unwrap_or(1.0);
+                    material.normal_texture = Some(reference);
+                }
+                Slot::Occlusion => {
+                    let strength = opt_f32(info, "strength", &iptr)?.unwrap_or(1.0);
+                    if !(0.0..=1.0).contains(&strength) {
+                        cx.warn(
+                            child(&iptr, "strength"),
+                            format!("occlusion strength {strength} is outside 0..1; clamped"),
+                        );
+                    }
+                    material.occlusion_strength = strength.clamp(0.0, 1.0);
+                    material.occlusion_texture = Some(reference);
+                }
+                Slot::Emissive => material.emissive_texture = Some(reference),
             }
         }
         material.emissive = opt_f32_array::<3>(m, "emissiveFactor", &ptr)?.unwrap_or([0.0; 3]);
+        if let Some(x) = extension(m, "KHR_materials_emissive_strength", &ptr)? {
+            let xptr = format!("{ptr}/extensions/KHR_materials_emissive_strength");
+            let strength = opt_f32(x, "emissiveStrength", &xptr)?.unwrap_or(1.0);
+            if strength < 0.0 {
+                cx.warn(
+                    child(&xptr, "emissiveStrength"),
+                    format!("emissive strength {strength} is negative; 0 is used"),
+                );
+            }
+            material.emissive_strength = strength.max(0.0);
+        }
         let cutoff = opt_f32(m, "alphaCutoff", &ptr)?.unwrap_or(0.5);
         material.alpha = match opt_str(m, "alphaMode", &ptr)?.unwrap_or("OPAQUE") {
             "OPAQUE" => AlphaMode::Opaque,
@@ -252,6 +297,16 @@ fn lenient_index(
     }
 }
 
+/// The texture slots of a material.
+#[derive(Clone, Copy)]
+enum Slot {
+    BaseColor,
+    MetallicRoughness,
+    Normal,
+    Occlusion,
+    Emissive,
+}
+
 /// A texture's image and sampler settings.
 struct Resolved {
     image: u32,
@@ -302,7 +357,7 @@ fn resolve_texture(
 }
 
 /// A texture reference from a `textureInfo` (at `ptr`) to a resolved texture. A `texCoord`
-/// other than 0 is reported: the viewer draws with TEXCOORD_0 only.
+/// above 1 is reported: the viewer draws with TEXCOORD_0 and TEXCOORD_1.
 fn texture_ref(cx: &mut Cx<'_>, texture: &Resolved, info: &Obj, ptr: &str) -> Result<TextureRef, ImportError> {
     let mut tex_coord = opt_u64(info, "texCoord", ptr)?.unwrap_or(0);
     let mut transform = TextureTransform::default();
@@ -314,12 +369,15 @@ fn texture_ref(cx: &mut Cx<'_>, texture: &Resolved, info: &Obj, ptr: &str) -> Re
         tex_coord = opt_u64(x, "texCoord", &xptr)?.unwrap_or(tex_coord);
     }
     let tex_coord = u32::try_from(tex_coord).map_err(|_| member_error(ptr, "texCoord", "texCoord is too large"))?;
-    if tex_coord != 0 {
+    let tex_coord = if tex_coord > 1 {
         cx.warn(
             child(ptr, "texCoord"),
-            format!("texture coordinate set {tex_coord} is not drawn yet; TEXCOORD_0 is used"),
+            format!("texture coordinate set {tex_coord} is not drawn (sets 0 and 1 are); TEXCOORD_0 is used"),
         );
-    }
+        0
+    } else {
+        tex_coord
+    };
     let Resolved { image, repeat, nearest } = *texture;
     Ok(TextureRef { image, tex_coord, transform, repeat, nearest })
 }

@@ -121,6 +121,7 @@ fn parse_primitive(
     let normals = attribute::<3>(cx, attributes, &aptr, "NORMAL", &["VEC3"], vertex_count)?;
     let tangents = attribute::<4>(cx, attributes, &aptr, "TANGENT", &["VEC4"], vertex_count)?;
     let uv0 = attribute::<2>(cx, attributes, &aptr, "TEXCOORD_0", &["VEC2"], vertex_count)?;
+    let uv1 = attribute::<2>(cx, attributes, &aptr, "TEXCOORD_1", &["VEC2"], vertex_count)?;
     let color_type = match opt_index(attributes, "COLOR_0", &aptr, cx.accessors.len(), "accessor")? {
         Some(a) => Some(cx.accessors.get(a)?.type_name),
         None => None,
@@ -194,6 +195,7 @@ fn parse_primitive(
         normals,
         tangents,
         uv0,
+        uv1,
         colors,
         joints,
         weights,

@@ -1241,19 +1241,80 @@ fn undecodable_images_are_skipped_with_a_warning() {
     assert!(imported.asset.materials[0].base_color_texture.is_none());
     let t = imported.asset.materials[1].base_color_texture.expect("drawn with the default sampler");
     assert_eq!((t.image, t.repeat, t.nearest), (1, [true, true], false));
-    // A second texture coordinate set: drawn with the first, and said so.
+    // A second texture coordinate set is drawn; a third is not: drawn with the first, and said so.
     doc["materials"][0]["emissiveTexture"] = json!({"index": 1});
-    doc["materials"][1]["pbrMetallicRoughness"]["baseColorTexture"]["extensions"]["KHR_texture_transform"]["texCoord"] =
-        json!(1);
+    let transform = "/materials/1/pbrMetallicRoughness/baseColorTexture/extensions/KHR_texture_transform/texCoord";
+    *doc.pointer_mut(transform).expect("the transform") = json!(1);
+    let imported = run(&doc, &bin).expect("drawn with TEXCOORD_1");
+    assert!(!imported.warnings.iter().any(|w| w.pointer.ends_with("texCoord")), "{:?}", imported.warnings);
+    assert_eq!(imported.asset.materials[1].base_color_texture.map(|t| t.tex_coord), Some(1));
+    *doc.pointer_mut(transform).expect("the transform") = json!(2);
     let imported = run(&doc, &bin).expect("drawn with TEXCOORD_0");
     assert!(
         imported.warnings.iter().any(|w| w.pointer == "/materials/1/pbrMetallicRoughness/baseColorTexture/texCoord"),
         "{:?}",
         imported.warnings
     );
+    assert_eq!(imported.asset.materials[1].base_color_texture.map(|t| t.tex_coord), Some(0));
     // A textureInfo without its index is refused.
     doc["materials"][0]["emissiveTexture"] = json!({"texCoord": 0});
     assert_eq!(refused(&doc, &bin).pointer, "/materials/0/emissiveTexture/index");
+}
+
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+fn every_core_texture_of_a_material_is_read_with_its_factors() {
+    let (mut doc, mut bin) = base();
+    let mut png = Vec::new();
+    image::RgbaImage::from_pixel(1, 1, image::Rgba([128, 128, 255, 255]))
+        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .expect("encode");
+    let view = add_view(&mut doc, &mut bin, &png, None);
+    let uv1 = add_view(&mut doc, &mut bin, &f32s(&[0.0, 0.0, 1.0, 0.0, 0.0, 1.0]), None);
+    let uv1 = add_accessor(&mut doc, json!({"bufferView": uv1, "componentType": 5126, "count": 3, "type": "VEC2"}));
+    doc["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_1"] = json!(uv1);
+    doc["meshes"][0]["primitives"][0]["material"] = json!(0);
+    doc["images"] = json!([{"bufferView": view, "mimeType": "image/png"}]);
+    doc["textures"] = json!([{"source": 0}]);
+    doc["materials"] = json!([{
+        "pbrMetallicRoughness": {"metallicFactor": 0.25, "roughnessFactor": 0.75,
+            "baseColorTexture": {"index": 0}, "metallicRoughnessTexture": {"index": 0, "texCoord": 1}},
+        "normalTexture": {"index": 0, "scale": 0.5, "extensions": {"KHR_texture_transform": {"rotation": 1.5}}},
+        "occlusionTexture": {"index": 0, "strength": 0.25, "texCoord": 1},
+        "emissiveTexture": {"index": 0},
+        "emissiveFactor": [1, 0.5, 0],
+        "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4}}
+    }]);
+    let imported = run(&doc, &bin).expect("a full material");
+    assert!(imported.warnings.is_empty(), "{:?}", imported.warnings);
+    let m = &imported.asset.materials[0];
+    assert_eq!((m.metallic, m.roughness), (0.25, 0.75));
+    assert_eq!(m.metallic_roughness_texture.map(|t| (t.image, t.tex_coord)), Some((0, 1)));
+    assert_eq!(m.normal_texture.map(|t| t.transform.rotation), Some(1.5));
+    assert_eq!((m.normal_scale, m.occlusion_strength), (0.5, 0.25));
+    assert_eq!(m.occlusion_texture.map(|t| t.tex_coord), Some(1));
+    assert!(m.base_color_texture.is_some() && m.emissive_texture.is_some());
+    assert_eq!((m.emissive, m.emissive_strength), ([1.0, 0.5, 0.0], 4.0));
+    assert_eq!(imported.asset.meshes[0].primitives[0].uv1, [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]);
+    // Out of range: an occlusion strength above 1, a negative emissive strength, each clamped
+    // and reported where it is.
+    doc["materials"][0]["occlusionTexture"]["strength"] = json!(3);
+    doc["materials"][0]["extensions"]["KHR_materials_emissive_strength"]["emissiveStrength"] = json!(-1);
+    let imported = run(&doc, &bin).expect("clamped");
+    let pointers: Vec<&str> = imported.warnings.iter().map(|w| w.pointer.as_str()).collect();
+    assert_eq!(
+        pointers,
+        [
+            "/materials/0/occlusionTexture/strength",
+            "/materials/0/extensions/KHR_materials_emissive_strength/emissiveStrength"
+        ]
+    );
+    let m = &imported.asset.materials[0];
+    assert_eq!((m.occlusion_strength, m.emissive_strength), (1.0, 0.0));
+    // The defaults: no textures, unit scale and strengths.
+    let plain = crate::asset::Material::default();
+    assert_eq!((plain.normal_scale, plain.occlusion_strength, plain.emissive_strength), (1.0, 1.0, 1.0));
+    assert!(plain.normal_texture.is_none() && plain.occlusion_texture.is_none() && plain.emissive_texture.is_none());
 }
 
 #[cfg_attr(not(target_arch = "wasm32"), test)]

@@ -19,6 +19,7 @@ pub struct GeometryVertex {
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 struct AttributeVertex {
     uv: [f32; 2],
+    uv1: [f32; 2],
     color: [f32; 4],
 }
 
@@ -60,7 +61,7 @@ pub fn pivot_buffer(device: &wgpu::Device, plan: &SjbPlan, vertices: usize, stor
 /// Byte stride of the geometry stream: position, normal (`f32x3` each). Skinned on the CPU,
 /// this is the stream rewritten every frame.
 pub const GEOMETRY_STRIDE: u64 = size_of::<GeometryVertex>() as u64;
-/// Byte stride of the attribute stream: uv (`f32x2`), colour (`f32x4`).
+/// Byte stride of the attribute stream: uv sets 0 and 1 (`f32x2` each), colour (`f32x4`).
 pub const ATTRIBUTE_STRIDE: u64 = size_of::<AttributeVertex>() as u64;
 /// Byte stride of the skin stream: 8 joints (`u16`), 8 weights (`f32`).
 pub const SKIN_STRIDE: u64 = size_of::<SkinVertex>() as u64;
@@ -81,7 +82,7 @@ pub fn interleave(positions: &[[f32; 3]], normals: &[[f32; 3]], out: &mut Vec<Ge
 pub struct GpuPrimitive {
     /// Rest positions and normals.
     pub geometry: wgpu::Buffer,
-    /// UVs and colours.
+    /// UV sets 0 and 1 and colours.
     pub attributes: wgpu::Buffer,
     /// Joints and weights, for skinned primitives.
     pub skin: Option<wgpu::Buffer>,
@@ -108,6 +109,7 @@ impl GpuPrimitive {
         let attributes: Vec<AttributeVertex> = (0..n)
             .map(|i| AttributeVertex {
                 uv: primitive.uv0.get(i).copied().unwrap_or_default(),
+                uv1: primitive.uv1.get(i).copied().unwrap_or_default(),
                 color: primitive.colors.get(i).copied().unwrap_or([1.0; 4]),
             })
             .collect();

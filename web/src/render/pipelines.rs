@@ -45,7 +45,8 @@ pub const SHADER_MODULES: [(&str, &str, bool); 4] = [
 ];
 
 const GEOMETRY_ATTRIBUTES: [wgpu::VertexAttribute; 2] = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3];
-const ATTRIBUTE_ATTRIBUTES: [wgpu::VertexAttribute; 2] = wgpu::vertex_attr_array![2 => Float32x2, 3 => Float32x4];
+const ATTRIBUTE_ATTRIBUTES: [wgpu::VertexAttribute; 3] =
+    wgpu::vertex_attr_array![2 => Float32x2, 10 => Float32x2, 3 => Float32x4];
 const SKIN_ATTRIBUTES: [wgpu::VertexAttribute; 4] =
     wgpu::vertex_attr_array![4 => Uint16x4, 5 => Uint16x4, 6 => Float32x4, 7 => Float32x4];
 const PIVOT_ATTRIBUTES: [wgpu::VertexAttribute; 2] = wgpu::vertex_attr_array![8 => Float32x3, 9 => Uint32];
@@ -101,12 +102,16 @@ fn texture_entry(
     }
 }
 
+/// Textures of a material (`TEX_*` in mesh.wgsl): base colour, metallic-roughness, normal,
+/// occlusion, emissive; texture `k` is bound at `1 + 2k`, its sampler at `2 + 2k`.
+pub const MATERIAL_TEXTURES: usize = 5;
+
 /// The bind group layouts shared by all pipelines.
 #[derive(Clone)]
 pub struct Layouts {
     /// Group 0: frame uniform + joint palette texture + morph texture.
     pub frame: wgpu::BindGroupLayout,
-    /// Group 1: material uniform + base colour texture + sampler.
+    /// Group 1: material uniform + [`MATERIAL_TEXTURES`] textures, each followed by its sampler.
     pub material: wgpu::BindGroupLayout,
     /// Group 2: draw uniform (dynamic offset).
     pub draw: wgpu::BindGroupLayout,
@@ -124,18 +129,20 @@ impl Layouts {
                 texture_entry(2, wgpu::ShaderStages::VERTEX, wgpu::TextureSampleType::Float { filterable: false }),
             ],
         });
+        let mut entries = vec![uniform_entry(0, wgpu::ShaderStages::FRAGMENT, size_of::<MaterialUniform>(), false)];
+        for slot in 0..MATERIAL_TEXTURES as u32 {
+            let filterable = wgpu::TextureSampleType::Float { filterable: true };
+            entries.push(texture_entry(1 + 2 * slot, wgpu::ShaderStages::FRAGMENT, filterable));
+            entries.push(wgpu::BindGroupLayoutEntry {
+                binding: 2 + 2 * slot,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                count: None,
+            });
+        }
         let material = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("kloub material"),
-            entries: &[
-                uniform_entry(0, wgpu::ShaderStages::FRAGMENT, size_of::<MaterialUniform>(), false),
-                texture_entry(1, wgpu::ShaderStages::FRAGMENT, wgpu::TextureSampleType::Float { filterable: true }),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 2,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                    count: None,
-                },
-            ],
+            entries: &entries,
         });
         let draw = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("kloub draw"),
@@ -203,8 +210,8 @@ struct FirstUse {
     background: std::sync::OnceLock<wgpu::RenderPipeline>,
     /// Ground grid (blended quad).
     grid: std::sync::OnceLock<wgpu::RenderPipeline>,
-    /// Mip levels on the GPU (`shaders/mip.wgsl`).
-    mips: std::sync::OnceLock<super::texture::MipMaker>,
+    /// Mip levels on the GPU (`shaders/mip.wgsl`), of colour and of data textures.
+    mips: [std::sync::OnceLock<super::texture::MipMaker>; 2],
 }
 
 fn depth_state(compare: wgpu::CompareFunction, write: bool) -> Option<wgpu::DepthStencilState> {
@@ -266,7 +273,7 @@ impl Pipelines {
             layout: env_layout,
             background: std::sync::OnceLock::new(),
             grid: std::sync::OnceLock::new(),
-            mips: std::sync::OnceLock::new(),
+            mips: [std::sync::OnceLock::new(), std::sync::OnceLock::new()],
         });
         Self { share: None, sample_count, format, mesh_module, mesh_layout, first_use, mesh: HashMap::new() }
     }
@@ -299,10 +306,11 @@ impl Pipelines {
         })
     }
 
-    /// The mip maker for the images the browser decoded, built on first use (one per kit: the
-    /// page's viewers share it).
-    pub fn mip_maker(&self, device: &wgpu::Device) -> &super::texture::MipMaker {
-        self.first_use.mips.get_or_init(|| super::texture::MipMaker::new(device))
+    /// The mip maker for the colour (`srgb`) or data images the browser decoded, built on first
+    /// use (one of each per kit: the page's viewers share them).
+    pub fn mip_maker(&self, device: &wgpu::Device, srgb: bool) -> &super::texture::MipMaker {
+        self.first_use.mips[usize::from(!srgb)]
+            .get_or_init(|| super::texture::MipMaker::new(device, super::texture::image_format(srgb)))
     }
 
     fn environment_pipeline(

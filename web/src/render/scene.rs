@@ -12,6 +12,7 @@ use kloub_core::job::sjb::SjbPlan;
 use super::mesh::{GeometryVertex, GpuPrimitive, interleave, pivot_buffer};
 use super::morph::{MorphSlot, MorphTexture};
 use super::palette::PaletteTexture;
+use super::pipelines::MATERIAL_TEXTURES;
 use super::pipelines::{
     ComputeKit, DEPTH_FORMAT, Layouts, PipelineKey, Pipelines, SKIN_FROM_DRAW, SKIN_WORKGROUP, VertexPath, topology,
 };
@@ -957,17 +958,27 @@ impl SceneRenderer {
         queue: &wgpu::Queue,
         asset: &Asset,
     ) -> Result<Vec<wgpu::BindGroup>, String> {
-        let mut images: Vec<Option<wgpu::TextureView>> = vec![None; asset.images.len()];
+        // Each image as colour and as data, uploaded once for each use it has.
+        let mut images: Vec<[Option<wgpu::TextureView>; 2]> = vec![[None, None]; asset.images.len()];
         for material in &asset.materials {
-            if let Some(t) = &material.base_color_texture {
-                let slot = images.get_mut(t.image as usize).ok_or("material references a missing image")?;
+            for (slot, t) in material.textures().iter().enumerate() {
+                let Some(t) = t else { continue };
+                let srgb = kloub_core::asset::texture_slot_is_srgb(slot);
+                let slot = images
+                    .get_mut(t.image as usize)
+                    .ok_or("material references a missing image")?
+                    .get_mut(usize::from(!srgb))
+                    .ok_or("two kinds of texture")?;
                 if slot.is_none() {
                     let image = &asset.images[t.image as usize];
                     let label = image.name.as_deref().unwrap_or("kloub image");
                     let texture = if image.encoded.is_some() {
-                        upload_decoded(device, queue, &self.pipelines, asset, t.image as usize, label)
+                        upload_decoded(device, queue, &self.pipelines, asset, t.image as usize, label, srgb)
                     } else {
-                        Some(upload_image(device, queue, image, label).map_err(|e| format!("image {}: {e}", t.image))?)
+                        Some(
+                            upload_image(device, queue, image, label, srgb)
+                                .map_err(|e| format!("image {}: {e}", t.image))?,
+                        )
                     };
                     if let Some(texture) = texture {
                         *slot = Some(texture.create_view(&wgpu::TextureViewDescriptor::default()));
@@ -994,26 +1005,44 @@ impl SceneRenderer {
         queue.write_buffer(&buffer, 0, &bytes);
         let mut groups = Vec::with_capacity(all.len());
         for (i, material) in all.iter().enumerate() {
-            let texture = material.base_color_texture.as_ref();
-            let view =
-                texture.and_then(|t| images.get(t.image as usize)).and_then(Option::as_ref).unwrap_or(&self.white);
-            let key = SamplerKey::of(texture);
-            let sampler = self.samplers.entry(key).or_insert_with(|| key.create(device));
+            let textures = material.textures();
+            let mut views = Vec::with_capacity(MATERIAL_TEXTURES);
+            let mut samplers = Vec::with_capacity(MATERIAL_TEXTURES);
+            for (slot, texture) in textures.iter().enumerate() {
+                let kind = usize::from(!kloub_core::asset::texture_slot_is_srgb(slot));
+                // A texture that could not be uploaded draws white; the shader reads only the
+                // optional slots the material's flags name.
+                let view = texture
+                    .and_then(|t| images.get(t.image as usize))
+                    .and_then(|pair| pair[kind].as_ref())
+                    .unwrap_or(&self.white);
+                views.push(view);
+                let key = SamplerKey::of(texture.as_ref());
+                samplers.push(self.samplers.entry(key).or_insert_with(|| key.create(device)).clone());
+            }
+            let mut entries = vec![wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: &buffer,
+                    offset: i as u64 * stride,
+                    size: wgpu::BufferSize::new(size_of::<MaterialUniform>() as u64),
+                }),
+            }];
+            for (slot, (view, sampler)) in views.iter().zip(&samplers).enumerate() {
+                let slot = slot as u32;
+                entries.push(wgpu::BindGroupEntry {
+                    binding: 1 + 2 * slot,
+                    resource: wgpu::BindingResource::TextureView(view),
+                });
+                entries.push(wgpu::BindGroupEntry {
+                    binding: 2 + 2 * slot,
+                    resource: wgpu::BindingResource::Sampler(sampler),
+                });
+            }
             groups.push(device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: material.name.as_deref(),
                 layout: &self.layouts.material,
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                            buffer: &buffer,
-                            offset: i as u64 * stride,
-                            size: wgpu::BufferSize::new(size_of::<MaterialUniform>() as u64),
-                        }),
-                    },
-                    wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(view) },
-                    wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::Sampler(sampler) },
-                ],
+                entries: &entries,
             }));
         }
         self.material_buffer = Some(buffer);

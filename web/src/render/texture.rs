@@ -1,4 +1,5 @@
-//! Base-colour textures: sRGB-correct mip chains, built on the CPU for images the importer
+//! Material textures: mip chains, sRGB-correct for colour (base colour, emissive) and plain
+//! for data (metallic-roughness, normal, occlusion), built on the CPU for images the importer
 //! decoded and on the GPU ([`MipMaker`]) for those the browser decoded (copied in as they are,
 //! never through the wasm heap), and sampler creation from glTF sampler settings.
 
@@ -6,6 +7,13 @@ use kloub_core::asset::{Image, TextureRef};
 
 /// The sRGB texture format every colour image is uploaded as.
 pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
+/// The format of data images (metallic-roughness, normal, occlusion): bytes read as they are.
+pub const DATA_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+
+/// The texture format of an image holding colour (`srgb`) or data.
+pub fn image_format(srgb: bool) -> wgpu::TextureFormat {
+    if srgb { COLOR_FORMAT } else { DATA_FORMAT }
+}
 
 /// One level of a mip chain: RGBA8 sRGB bytes, row-major.
 #[derive(Clone, Debug, PartialEq)]
@@ -60,9 +68,10 @@ fn encode(c: f32, thresholds: &[f32; 255]) -> u8 {
     thresholds.partition_point(|&t| t <= c) as u8
 }
 
-/// Halves a level (box filter in linear light for RGB, plain average for alpha). Odd sizes
-/// fold the last row/column in by clamping.
-fn downsample(level: &MipLevel, to_linear: &[f32; 256], thresholds: &[f32; 255]) -> MipLevel {
+/// Halves a level (box filter in linear light for RGB, plain average for alpha; with
+/// `to_linear` `None`, a plain average of every channel's bytes, for data). Odd sizes fold the
+/// last row/column in by clamping.
+fn downsample(level: &MipLevel, to_linear: Option<&[f32; 256]>, thresholds: &[f32; 255]) -> MipLevel {
     let (w, h) = (level.width as usize, level.height as usize);
     let (nw, nh) = ((w / 2).max(1), (h / 2).max(1));
     let mut rgba8 = vec![0u8; nw * nh * 4];
@@ -71,14 +80,18 @@ fn downsample(level: &MipLevel, to_linear: &[f32; 256], thresholds: &[f32; 255])
             let mut sum = [0.0f32; 4];
             for (sx, sy) in [(2 * x, 2 * y), (2 * x + 1, 2 * y), (2 * x, 2 * y + 1), (2 * x + 1, 2 * y + 1)] {
                 let i = (sy.min(h - 1) * w + sx.min(w - 1)) * 4;
-                for c in 0..3 {
-                    sum[c] += to_linear[usize::from(level.rgba8[i + c])];
+                for (total, &byte) in sum.iter_mut().zip(&level.rgba8[i..i + 3]) {
+                    *total += to_linear.map_or(f32::from(byte), |t| t[usize::from(byte)]);
                 }
                 sum[3] += f32::from(level.rgba8[i + 3]);
             }
             let o = (y * nw + x) * 4;
             for c in 0..3 {
-                rgba8[o + c] = encode(sum[c] * 0.25, thresholds);
+                rgba8[o + c] = match to_linear {
+                    Some(_) => encode(sum[c] * 0.25, thresholds),
+                    // Average of four bytes: at most 255.
+                    None => (sum[c] * 0.25 + 0.5) as u8,
+                };
             }
             // Average of four bytes: at most 255.
             rgba8[o + 3] = (sum[3] * 0.25 + 0.5) as u8;
@@ -88,9 +101,10 @@ fn downsample(level: &MipLevel, to_linear: &[f32; 256], thresholds: &[f32; 255])
 }
 
 /// The full mip chain of `image` down to 1×1, skipping the levels larger than `max_size`
-/// on either side (so oversized images still load on WebGL2's 2048 limit).
+/// on either side (so oversized images still load on WebGL2's 2048 limit); filtered in
+/// linear light for a colour image (`srgb`), on the bytes for data.
 /// Returns an error when the image's byte count does not match its size.
-pub fn mip_chain(image: &Image, max_size: u32) -> Result<Vec<MipLevel>, String> {
+pub fn mip_chain(image: &Image, max_size: u32, srgb: bool) -> Result<Vec<MipLevel>, String> {
     let expected = u64::from(image.width) * u64::from(image.height) * 4;
     if image.width == 0 || image.height == 0 || image.rgba8.len() as u64 != expected {
         return Err(format!(
@@ -108,7 +122,8 @@ pub fn mip_chain(image: &Image, max_size: u32) -> Result<Vec<MipLevel>, String> 
     let mut levels = Vec::new();
     let mut level = MipLevel { width: image.width, height: image.height, rgba8: image.rgba8.clone() };
     loop {
-        let next = (level.width > 1 || level.height > 1).then(|| downsample(&level, &to_linear, &thresholds));
+        let next =
+            (level.width > 1 || level.height > 1).then(|| downsample(&level, srgb.then_some(&to_linear), &thresholds));
         if level.width <= max_size && level.height <= max_size {
             levels.push(level);
         }
@@ -120,15 +135,17 @@ pub fn mip_chain(image: &Image, max_size: u32) -> Result<Vec<MipLevel>, String> 
     Ok(levels)
 }
 
-/// Creates the texture of `image` with all its mips and uploads them.
+/// Creates the texture of `image` with all its mips and uploads them: sRGB for colour
+/// (`srgb`), plain for data.
 pub fn upload_image(
     device: &wgpu::Device,
     queue: &wgpu::Queue,
     image: &Image,
     label: &str,
+    srgb: bool,
 ) -> Result<wgpu::Texture, String> {
     let max = device.limits().max_texture_dimension_2d;
-    let levels = mip_chain(image, max)?;
+    let levels = mip_chain(image, max, srgb)?;
     let first = levels.first().ok_or("image has no level that fits the device")?;
     let texture = device.create_texture(&wgpu::TextureDescriptor {
         label: Some(label),
@@ -136,7 +153,7 @@ pub fn upload_image(
         mip_level_count: levels.len() as u32,
         sample_count: 1,
         dimension: wgpu::TextureDimension::D2,
-        format: COLOR_FORMAT,
+        format: image_format(srgb),
         usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
         view_formats: &[],
     });
@@ -152,12 +169,15 @@ pub fn mip_count(width: u32, height: u32) -> u32 {
 }
 
 /// Makes a texture's mip levels 1.. from its level 0 on the GPU, one render pass per level:
-/// each pixel the box filter of its 2×2 block above, in linear light (`shaders/mip.wgsl`).
-/// The texture needs [`GPU_MIPPED`] usage. Made once per pipeline kit, on first use.
+/// each pixel the box filter of its 2×2 block above (`shaders/mip.wgsl`), in linear light for
+/// an sRGB texture (the sampler decodes, the target encodes), on the values for data. The
+/// texture needs [`GPU_MIPPED`] usage and the maker's format. Made once per pipeline kit and
+/// format, on first use.
 pub struct MipMaker {
     pipeline: wgpu::RenderPipeline,
     layout: wgpu::BindGroupLayout,
     sampler: wgpu::Sampler,
+    format: wgpu::TextureFormat,
 }
 
 /// The usages of a texture whose mips [`MipMaker`] makes (and that the browser's decoded image
@@ -167,23 +187,29 @@ pub const GPU_MIPPED: wgpu::TextureUsages = wgpu::TextureUsages::TEXTURE_BINDING
     .union(wgpu::TextureUsages::COPY_SRC)
     .union(wgpu::TextureUsages::RENDER_ATTACHMENT);
 
-/// A [`COLOR_FORMAT`] texture of `width` × `height` with its whole mip chain, for [`MipMaker`].
-pub fn gpu_mipped_texture(device: &wgpu::Device, label: &str, width: u32, height: u32) -> wgpu::Texture {
+/// A texture of `format` and `width` × `height` with its whole mip chain, for [`MipMaker`].
+pub fn gpu_mipped_texture(
+    device: &wgpu::Device,
+    label: &str,
+    width: u32,
+    height: u32,
+    format: wgpu::TextureFormat,
+) -> wgpu::Texture {
     device.create_texture(&wgpu::TextureDescriptor {
         label: Some(label),
         size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
         mip_level_count: mip_count(width, height),
         sample_count: 1,
         dimension: wgpu::TextureDimension::D2,
-        format: COLOR_FORMAT,
+        format,
         usage: GPU_MIPPED,
         view_formats: &[],
     })
 }
 
 impl MipMaker {
-    /// The pipeline for [`COLOR_FORMAT`] textures.
-    pub fn new(device: &wgpu::Device) -> Self {
+    /// The pipeline for textures of `format` ([`COLOR_FORMAT`] or [`DATA_FORMAT`]).
+    pub fn new(device: &wgpu::Device, format: wgpu::TextureFormat) -> Self {
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("kloub mip"),
             source: wgpu::ShaderSource::Wgsl(super::pipelines::MIP_WGSL.into()),
@@ -230,11 +256,7 @@ impl MipMaker {
                 module: &module,
                 entry_point: Some("fs_mip"),
                 compilation_options: Default::default(),
-                targets: &[Some(wgpu::ColorTargetState {
-                    format: COLOR_FORMAT,
-                    blend: None,
-                    write_mask: wgpu::ColorWrites::ALL,
-                })],
+                targets: &[Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL })],
             }),
             multiview_mask: None,
             cache: None,
@@ -245,7 +267,12 @@ impl MipMaker {
             min_filter: wgpu::FilterMode::Linear,
             ..Default::default()
         });
-        Self { pipeline, layout, sampler }
+        Self { pipeline, layout, sampler, format }
+    }
+
+    /// The format of the textures it fills.
+    pub fn format(&self) -> wgpu::TextureFormat {
+        self.format
     }
 
     /// Fills levels 1.. of `texture` from level 0 and submits the work.
@@ -313,7 +340,7 @@ pub fn upload_bitmap(
         return Err(format!("{width}×{height} pixels; this device takes at most {max}×{max}"));
     }
     let size = wgpu::Extent3d { width, height, depth_or_array_layers: 1 };
-    let texture = gpu_mipped_texture(device, label, width, height);
+    let texture = gpu_mipped_texture(device, label, width, height, mips.format());
     queue.copy_external_image_to_texture(
         &wgpu::CopyExternalImageSourceInfo {
             source: wgpu::ExternalImageSource::ImageBitmap(bitmap.clone()),
@@ -335,9 +362,10 @@ pub fn upload_bitmap(
 }
 
 /// The texture of image `index` of `asset`, which the browser decoded ([`crate::decode`]), its
-/// mips made by the kit's mip maker ([`super::pipelines::Pipelines::mip_maker`]). `None` (the
-/// material draws white) when the browser could not decode it or the device cannot hold it —
-/// and natively, where the importer decodes every image.
+/// mips made by the kit's mip maker for colour (`srgb`) or data
+/// ([`super::pipelines::Pipelines::mip_maker`]). `None` (the material draws white) when the
+/// browser could not decode it or the device cannot hold it — and natively, where the importer
+/// decodes every image.
 pub fn upload_decoded(
     device: &wgpu::Device,
     queue: &wgpu::Queue,
@@ -345,17 +373,18 @@ pub fn upload_decoded(
     asset: &kloub_core::Asset,
     index: usize,
     label: &str,
+    srgb: bool,
 ) -> Option<wgpu::Texture> {
     #[cfg(target_arch = "wasm32")]
     {
         let bitmap = crate::decode::bitmap(asset, index)?;
-        upload_bitmap(device, queue, pipelines.mip_maker(device), &bitmap, label)
+        upload_bitmap(device, queue, pipelines.mip_maker(device, srgb), &bitmap, label)
             .map_err(|e| log::warn!("kloub: image {index}: {e}; drawn white"))
             .ok()
     }
     #[cfg(not(target_arch = "wasm32"))]
     {
-        let _ = (device, queue, pipelines, asset, label);
+        let _ = (device, queue, pipelines, asset, label, srgb);
         log::warn!("kloub: image {index} was not decoded; drawn white");
         None
     }
@@ -417,7 +446,7 @@ impl SamplerKey {
             if repeat { wgpu::AddressMode::Repeat } else { wgpu::AddressMode::ClampToEdge }
         };
         device.create_sampler(&wgpu::SamplerDescriptor {
-            label: Some("kloub base colour"),
+            label: Some("kloub material texture"),
             address_mode_u: mode(self.repeat[0]),
             address_mode_v: mode(self.repeat[1]),
             mag_filter: if self.nearest { wgpu::FilterMode::Nearest } else { wgpu::FilterMode::Linear },
@@ -454,22 +483,25 @@ mod tests {
             }
         }
         let image = Image { name: None, width: 3, height: 2, rgba8, encoded: None };
-        let chain = mip_chain(&image, 4096).expect("valid image");
+        let chain = mip_chain(&image, 4096, true).expect("valid image");
         let sizes: Vec<(u32, u32)> = chain.iter().map(|l| (l.width, l.height)).collect();
         assert_eq!(sizes, vec![(3, 2), (1, 1)]);
         // Half black, half white in linear light is sRGB ~188, not 128.
         let v = chain[1].rgba8[0];
         assert!((186..=190).contains(&v), "got {v}");
         assert_eq!(chain[1].rgba8[3], 255);
+        // Data (a normal or metallic-roughness map) averages its bytes.
+        let data = mip_chain(&image, 4096, false).expect("valid image");
+        assert_eq!(data[1].rgba8, [128, 128, 128, 255]);
     }
 
     #[test]
     fn oversized_levels_are_skipped_and_bad_sizes_refused() {
         let image = Image { name: None, width: 8, height: 2, rgba8: vec![128; 8 * 2 * 4], encoded: None };
-        let chain = mip_chain(&image, 4).expect("valid image");
+        let chain = mip_chain(&image, 4, true).expect("valid image");
         assert_eq!((chain[0].width, chain[0].height), (4, 1));
         let bad = Image { name: None, width: 8, height: 2, rgba8: vec![0; 3], encoded: None };
-        assert!(mip_chain(&bad, 4096).is_err());
+        assert!(mip_chain(&bad, 4096, true).is_err());
     }
 
     #[test]

@@ -7,6 +7,7 @@ use kloub_core::asset::{AlphaMode, Material};
 use kloub_core::job::dqs::SkinningMethod;
 
 use super::morph::MorphSlot;
+use super::pipelines::MATERIAL_TEXTURES;
 
 /// `Frame` in mesh.wgsl and environment.wgsl.
 #[repr(C)]
@@ -32,6 +33,8 @@ pub struct FrameUniform {
     pub background_top: [f32; 4],
     /// Background colour at the bottom of the view.
     pub background_bottom: [f32; 4],
+    /// Exposure (x), tone mapping (y: [`ToneMapping::code`]).
+    pub tone: [f32; 4],
 }
 
 /// Where the ground grid lies and how dense it is.
@@ -169,13 +172,83 @@ impl Background {
     }
 }
 
-/// Lighting and background together: the look of the view.
+/// How the shaded colour is mapped to the screen's range (model-viewer's `tone-mapping`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ToneMapping {
+    /// Khronos PBR Neutral: base colours shown as authored, highlights rolled off.
+    #[default]
+    Neutral,
+    /// ACES filmic (Hill's fit, as three.js and the Khronos sample viewer).
+    Aces,
+    /// None: the exposed colour clamped to 1.
+    None,
+}
+
+impl ToneMapping {
+    /// Every choice, in menu order.
+    pub const ALL: [ToneMapping; 3] = [ToneMapping::Neutral, ToneMapping::Aces, ToneMapping::None];
+
+    /// The page name: `neutral`, `aces`, `none`.
+    pub fn name(self) -> &'static str {
+        match self {
+            ToneMapping::Neutral => "neutral",
+            ToneMapping::Aces => "aces",
+            ToneMapping::None => "none",
+        }
+    }
+
+    /// The choice named `name` (see [`ToneMapping::name`]; model-viewer's `auto` is `neutral`,
+    /// its `linear` is `none`).
+    ///
+    /// # Errors
+    /// A message naming the accepted values.
+    pub fn from_name(name: &str) -> Result<Self, String> {
+        match name {
+            "auto" => Ok(ToneMapping::Neutral),
+            "linear" => Ok(ToneMapping::None),
+            _ => Self::ALL
+                .into_iter()
+                .find(|t| t.name() == name)
+                .ok_or_else(|| format!("tone mapping {name:?}: expected \"neutral\", \"aces\" or \"none\"")),
+        }
+    }
+
+    /// `TONE_*` in shaders/output.wgsl.
+    pub fn code(self) -> f32 {
+        match self {
+            ToneMapping::None => 0.0,
+            ToneMapping::Neutral => 1.0,
+            ToneMapping::Aces => 2.0,
+        }
+    }
+}
+
+/// The exposures the page may set (model-viewer's `exposure` is any non-negative number; above
+/// this everything is white).
+pub const MAX_EXPOSURE: f32 = 64.0;
+
+/// Lighting, background, exposure and tone mapping together: the look of the view.
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Look {
     /// The lights.
     pub lighting: Lighting,
     /// The background.
     pub background: Background,
+    /// Multiplies the shaded colour before tone mapping (1: as lit; 0..=[`MAX_EXPOSURE`]).
+    pub exposure: f32,
+    /// The tone mapping.
+    pub tone_mapping: ToneMapping,
+}
+
+impl Default for Look {
+    fn default() -> Self {
+        Self {
+            lighting: Lighting::default(),
+            background: Background::default(),
+            exposure: 1.0,
+            tone_mapping: ToneMapping::default(),
+        }
+    }
 }
 
 impl FrameUniform {
@@ -204,6 +277,7 @@ impl FrameUniform {
             grid_center: [ground.center.x, ground.height, ground.center.z, 0.0],
             background_top: top,
             background_bottom: bottom,
+            tone: [look.exposure, look.tone_mapping.code(), 0.0, 0.0],
         }
     }
 
@@ -232,14 +306,14 @@ impl FrameUniform {
 pub struct MaterialUniform {
     /// Base colour factor.
     pub base_color: [f32; 4],
-    /// UV matrix columns 0 and 1 (xy each).
-    pub uv_a: [f32; 4],
-    /// UV matrix column 2 (xy).
-    pub uv_b: [f32; 4],
-    /// Emissive (rgb) and alpha cutoff (w).
+    /// Emissive factor times its strength (rgb) and alpha cutoff (w).
     pub emissive: [f32; 4],
-    /// Flags in x.
+    /// Metallic, roughness, normal scale, occlusion strength.
+    pub pbr: [f32; 4],
+    /// Flags (x), texCoord-1 bits per texture slot (y).
     pub flags: [u32; 4],
+    /// Per texture slot, its UV matrix: columns 0 and 1 (xy each), then column 2 (xy).
+    pub uv: [[f32; 4]; 2 * MATERIAL_TEXTURES],
 }
 
 /// `MATERIAL_UNLIT` in mesh.wgsl.
@@ -248,11 +322,13 @@ const MATERIAL_UNLIT: u32 = 1;
 const MATERIAL_ALPHA_MASK: u32 = 2;
 /// `MATERIAL_ALPHA_BLEND` in mesh.wgsl.
 const MATERIAL_ALPHA_BLEND: u32 = 4;
+/// `MATERIAL_METALLIC_ROUGHNESS_TEXTURE` in mesh.wgsl; the normal, occlusion and emissive
+/// textures' flags follow it (one bit per texture slot after the base colour's).
+const MATERIAL_METALLIC_ROUGHNESS_TEXTURE: u32 = 8;
 
 impl MaterialUniform {
     /// The uniform of a glTF material.
     pub fn new(material: &Material) -> Self {
-        let uv = material.base_color_texture.map(|t| t.transform.matrix()).unwrap_or(glam::Mat3::IDENTITY);
         let (mut flags, cutoff) = match material.alpha {
             AlphaMode::Opaque => (0, 0.0),
             AlphaMode::Mask(cutoff) => (MATERIAL_ALPHA_MASK, cutoff),
@@ -261,13 +337,28 @@ impl MaterialUniform {
         if material.unlit {
             flags |= MATERIAL_UNLIT;
         }
-        let e = material.emissive;
+        let mut uv = [[0.0; 4]; 2 * MATERIAL_TEXTURES];
+        let mut sets = 0;
+        for (slot, texture) in material.textures().iter().enumerate() {
+            let m = texture.map(|t| t.transform.matrix()).unwrap_or(glam::Mat3::IDENTITY);
+            uv[2 * slot] = [m.x_axis.x, m.x_axis.y, m.y_axis.x, m.y_axis.y];
+            uv[2 * slot + 1] = [m.z_axis.x, m.z_axis.y, 0.0, 0.0];
+            if let Some(t) = texture {
+                if slot > 0 {
+                    flags |= MATERIAL_METALLIC_ROUGHNESS_TEXTURE << (slot - 1);
+                }
+                if t.tex_coord == 1 {
+                    sets |= 1 << slot;
+                }
+            }
+        }
+        let e = material.emissive.map(|c| c * material.emissive_strength);
         Self {
             base_color: material.base_color,
-            uv_a: [uv.x_axis.x, uv.x_axis.y, uv.y_axis.x, uv.y_axis.y],
-            uv_b: [uv.z_axis.x, uv.z_axis.y, 0.0, 0.0],
             emissive: [e[0], e[1], e[2], cutoff],
-            flags: [flags, 0, 0, 0],
+            pbr: [material.metallic, material.roughness, material.normal_scale, material.occlusion_strength],
+            flags: [flags, sets, 0, 0],
+            uv,
         }
     }
 }

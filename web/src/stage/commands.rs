@@ -68,6 +68,17 @@ impl Stage {
                 self.scene.set_look(crate::render::uniforms::Look { background, ..self.scene.look() });
                 return Ok(());
             }
+            Command::SetExposure(exposure) => {
+                let exposure =
+                    if exposure.is_finite() { exposure.clamp(0.0, crate::render::uniforms::MAX_EXPOSURE) } else { 1.0 };
+                self.scene.set_look(crate::render::uniforms::Look { exposure, ..self.scene.look() });
+                self.exposure_text = exposure_name(exposure);
+                return Ok(());
+            }
+            Command::SetToneMapping(tone_mapping) => {
+                self.scene.set_look(crate::render::uniforms::Look { tone_mapping, ..self.scene.look() });
+                return Ok(());
+            }
             Command::SetSamples(samples) => {
                 self.samples = samples;
                 return Ok(());
@@ -161,6 +172,8 @@ impl Stage {
             | Command::Screenshot
             | Command::SetLighting(_)
             | Command::SetBackground(_)
+            | Command::SetExposure(_)
+            | Command::SetToneMapping(_)
             | Command::ShowModel(_) => {}
             #[cfg(feature = "full")]
             Command::FinishSculpt | Command::DeleteExample(_) | Command::AddExamplePose(_) | Command::CancelSculpt => {}

@@ -33,6 +33,8 @@ impl Stage {
             model.and_then(|m| m.ragdoll.as_ref()).map_or("", crate::ragdoll::RagdollState::state_name),
         );
         d.set(Key::Background, self.scene.look().background.name());
+        d.set(Key::Exposure, &self.exposure_text);
+        d.set(Key::ToneMapping, self.scene.look().tone_mapping.name());
         let progress = self.inbox.progress().filter(|_| self.status == Status::Loading);
         d.set(
             Key::Progress,

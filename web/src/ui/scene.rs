@@ -177,6 +177,31 @@ pub(super) fn view_panel(ui: &mut egui::Ui, state: &PanelState<'_>, actions: &mu
                 actions.commands.push(Command::SetBackground(background));
             }
         });
+        ui.horizontal(|ui| {
+            use crate::render::uniforms::ToneMapping;
+            let mut exposure = state.look.exposure;
+            // A page may set more than the slider shows (up to MAX_EXPOSURE): kept as it is.
+            let slider = egui::Slider::new(&mut exposure, 0.0..=4.0)
+                .logarithmic(true)
+                .smallest_positive(0.05)
+                .clamping(egui::SliderClamping::Edits)
+                .text("exposure");
+            ui.add(slider);
+            let mut tone = state.look.tone_mapping;
+            let shown = egui::ComboBox::from_id_salt("tone mapping").selected_text(tone.name()).show_ui(ui, |ui| {
+                for t in ToneMapping::ALL {
+                    ui.selectable_value(&mut tone, t, t.name());
+                }
+            });
+            super::named_combo(&shown, "Tone mapping");
+            ui.label("tone");
+            if exposure != state.look.exposure {
+                actions.commands.push(Command::SetExposure(exposure));
+            }
+            if tone != state.look.tone_mapping {
+                actions.commands.push(Command::SetToneMapping(tone));
+            }
+        });
     });
 }
 
