@@ -21,6 +21,9 @@ struct Frame {
     background_bottom: vec4<f32>,
     // x: exposure (a factor), y: tone mapping (TONE_* in output.wgsl).
     tone: vec4<f32>,
+    // Image-based light: x, y: cosine and sine of the environment's turn about +Y, z: its
+    // intensity (0: none, the hemisphere lights), w: levels of its specular chain.
+    environment: vec4<f32>,
 }
 
 @group(0) @binding(0) var<uniform> frame: Frame;

@@ -12,6 +12,7 @@
 //   0: Frame uniform (camera, lights) + joint palette + morph deltas (per frame)
 //   1: Material uniform + five textures, each with its sampler        (per material)
 //   2: Draw uniform with a dynamic offset                           (per draw)
+//   3: the environment: specular chain, irradiance, BRDF table, sampler (ibl.wgsl made them)
 // The Frame struct is shared with environment.wgsl and must stay identical
 // (tests/shaders.rs checks that same-named structs have the same layout in every file).
 
@@ -32,6 +33,9 @@ struct Frame {
     background_bottom: vec4<f32>,
     // x: exposure (a factor), y: tone mapping (TONE_* in output.wgsl).
     tone: vec4<f32>,
+    // Image-based light: x, y: cosine and sine of the environment's turn about +Y, z: its
+    // intensity (0: none, the hemisphere lights), w: levels of its specular chain.
+    environment: vec4<f32>,
 }
 
 struct Material {
@@ -82,6 +86,11 @@ const MIN_ROUGHNESS: f32 = 0.05;
 @group(1) @binding(8) var occlusion_sampler: sampler;
 @group(1) @binding(9) var emissive_texture: texture_2d<f32>;
 @group(1) @binding(10) var emissive_sampler: sampler;
+
+@group(3) @binding(0) var environment_specular: texture_2d<f32>;
+@group(3) @binding(1) var environment_irradiance: texture_2d<f32>;
+@group(3) @binding(2) var environment_brdf: texture_2d<f32>;
+@group(3) @binding(3) var environment_sampler: sampler;
 
 struct VsOut {
     @builtin(position) clip: vec4<f32>,
@@ -225,11 +234,41 @@ fn direct_light(n: vec3<f32>, v: vec3<f32>, l: vec3<f32>, c_diff: vec3<f32>, f0:
 
 /// The split-sum environment BRDF's scale and bias on F0, by Karis's analytic fit (the
 /// hemisphere has no prefiltered map to look up).
-fn environment_brdf(f0: vec3<f32>, roughness: f32, nv: f32) -> vec3<f32> {
+fn analytic_environment_brdf(f0: vec3<f32>, roughness: f32, nv: f32) -> vec3<f32> {
     let r = roughness * vec4<f32>(-1.0, -0.0275, -0.572, 0.022) + vec4<f32>(1.0, 0.0425, 1.04, -0.04);
     let a004 = min(r.x * r.x, exp2(-9.28 * nv)) * r.x + r.y;
     let ab = vec2<f32>(-1.04, 1.04) * a004 + r.zw;
     return f0 * ab.x + ab.y;
+}
+
+/// World direction `d` in the environment's frame (it is turned about +Y by the frame's angle).
+fn environment_direction(d: vec3<f32>) -> vec3<f32> {
+    let c = frame.environment.x;
+    let s = frame.environment.y;
+    return vec3<f32>(c * d.x - s * d.z, d.y, s * d.x + c * d.z);
+}
+
+/// The environment's light reflected towards `v` by a surface facing `n` (split sum with the
+/// BRDF table, and the energy GGX's single scattering loses given back as multiple scattering,
+/// after Fdez-Agüera 2019, as three.js and Filament do), before occlusion.
+fn environment_light(n: vec3<f32>, v: vec3<f32>, c_diff: vec3<f32>, f0: vec3<f32>, roughness: f32) -> vec3<f32> {
+    let intensity = frame.environment.z;
+    let nv = clamp(dot(n, v), 1e-4, 1.0);
+    let r = reflect(-v, n);
+    let lod = roughness * (frame.environment.w - 1.0);
+    let radiance = textureSampleLevel(environment_specular, environment_sampler, equirect_uv(environment_direction(r)), lod).rgb;
+    let irradiance = textureSampleLevel(environment_irradiance, environment_sampler, equirect_uv(environment_direction(n)), 0.0).rgb;
+    // Texel centres of the table (the sampler wraps in u).
+    let size = vec2<f32>(textureDimensions(environment_brdf));
+    let table = (vec2<f32>(nv, roughness) * (size - 1.0) + 0.5) / size;
+    let ab = textureSampleLevel(environment_brdf, environment_sampler, table, 0.0).rg;
+    let single = f0 * ab.x + ab.y;
+    let ess = ab.x + ab.y;
+    let ems = 1.0 - ess;
+    let f_avg = f0 + (vec3<f32>(1.0) - f0) / 21.0;
+    let multiple = ems * single * f_avg / (vec3<f32>(1.0) - ems * f_avg);
+    let diffuse = c_diff * (vec3<f32>(1.0) - single - multiple);
+    return (single * radiance + (multiple + diffuse) * irradiance) * intensity;
 }
 
 /// The hemisphere's radiance from direction `d` (sky above, ground below).
@@ -329,11 +368,16 @@ fn fs_main(in: VsOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f
     let alpha = roughness * roughness;
     let radiance = frame.light_color.rgb * frame.light_dir.w;
     var rgb = direct_light(n, v, frame.light_dir.xyz, c_diff, f0, alpha, radiance);
-    // The hemisphere: diffuse from around the normal, specular from around the reflection (the
-    // normal's side for rough surfaces), weighted by the environment BRDF; occlusion dims both.
-    let nv = clamp(dot(n, v), 1e-4, 1.0);
-    let reflected = mix(hemisphere(reflect(-v, n)), hemisphere(n), roughness);
-    rgb += (c_diff * hemisphere(n) + reflected * environment_brdf(f0, roughness, nv)) * occlusion;
+    if frame.environment.z > 0.0 {
+        rgb += environment_light(n, v, c_diff, f0, roughness) * occlusion;
+    } else {
+        // Without an environment (a device that cannot prefilter one), the hemisphere: diffuse
+        // from around the normal, specular from around the reflection (the normal's side for
+        // rough surfaces), weighted by the analytic environment BRDF; occlusion dims both.
+        let nv = clamp(dot(n, v), 1e-4, 1.0);
+        let reflected = mix(hemisphere(reflect(-v, n)), hemisphere(n), roughness);
+        rgb += (c_diff * hemisphere(n) + reflected * analytic_environment_brdf(f0, roughness, nv)) * occlusion;
+    }
     rgb += emissive;
     if heatmap {
         return scene_output(vec4<f32>(rgb, color.a));

@@ -136,6 +136,8 @@ export interface KloubViewerState {
   /** The exposure as a decimal number (1: as lit). */
   exposure?: string;
   toneMapping?: ToneMapping;
+  /** `''` (the lighting preset's environment), `neutral`, `studio`, `outdoor` or `image` (an .hdr file). */
+  environment?: '' | 'neutral' | 'studio' | 'outdoor' | 'image';
   /** While a model downloads: `RECEIVED/TOTAL` bytes. */
   progress?: string;
   ragdoll?: '' | 'simulating' | 'resting' | 'blending';
@@ -195,6 +197,10 @@ export declare class KloubViewer extends HTMLElement {
   grid: boolean;
   /** Attribute `exposure` (model-viewer's): 0 to 64, 1 when absent or invalid. */
   exposure: number;
+  /** Attribute `environment-image` (model-viewer's): `neutral`, `studio`, `outdoor` or the URL of a Radiance .hdr
+   *  image (up to 2048×1024 pixels); `''` for the lighting preset's own. A file that cannot be read is an `error`
+   *  event and the light before it stays. */
+  environmentImage: string;
   /** Attribute `tone-mapping` (model-viewer's); the setter also takes `auto` (neutral) and `linear` (none). */
   toneMapping: ToneMapping | 'auto' | 'linear';
   /* Attribute `min-pixel-ratio`: the lowest resolution (canvas pixels per CSS pixel, default 0.5) a viewer without
@@ -284,6 +290,8 @@ export declare class KloubViewer extends HTMLElement {
   setExposure(exposure: number): void;
   /** Tone mapping: Khronos PBR Neutral (the default), ACES filmic, or none (clamped). */
   setToneMapping(name: ToneMapping): void;
+  /** Turns the environment about the vertical axis by `degrees` (counter-clockwise seen from above). */
+  setEnvironmentRotation(degrees: number): void;
   /** Downloads the view as `<model>.png`. */
   screenshot(): void;
   /** The current frame at the canvas's size in device pixels, transparent where the background is; no download

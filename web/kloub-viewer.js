@@ -396,6 +396,10 @@ const TONE_MAPPINGS = ['neutral', 'aces', 'none'];
 const TONE_ALIASES = { auto: 'neutral', linear: 'none' };
 /** The largest exposure (everything is white long before). */
 const MAX_EXPOSURE = 64;
+/** The environments made in code (`environment-image` names); anything else is the URL of an .hdr image. */
+const ENVIRONMENTS = ['neutral', 'studio', 'outdoor'];
+/** The largest .hdr file fetched for `environment-image` (2048×1024 pixels uncompressed is 8 MiB). */
+const MAX_HDR_BYTES = 16 << 20;
 const EASINGS = ['smoothstep', 'linear'];
 const OUTGOING = ['freeze', 'keep', 'sync'];
 /** Argument bounds of the page API (README, "Embedding"). */
@@ -571,7 +575,7 @@ class KloubViewer extends HTMLElement {
     'skinning', 'backend', 'controls', 'min-pixel-ratio', 'background', 'grid', 'alt', 'loading', 'poster', 'reveal',
     'camera-controls', 'camera-orbit', 'camera-target', 'auto-rotate', 'auto-rotate-delay', 'rotation-per-second',
     'min-camera-orbit', 'max-camera-orbit', 'field-of-view', 'disable-zoom', 'disable-pan', 'animation-crossfade-duration',
-    'interaction-prompt', 'interaction-prompt-threshold', 'exposure', 'tone-mapping',
+    'interaction-prompt', 'interaction-prompt-threshold', 'exposure', 'tone-mapping', 'environment-image',
   ];
 
   #viewer = null;
@@ -984,6 +988,7 @@ class KloubViewer extends HTMLElement {
         case 'grid': viewer.setGrid(this.grid); break;
         case 'exposure': viewer.setExposure(this.exposure); break;
         case 'tone-mapping': viewer.setToneMapping(this.toneMapping); break;
+        case 'environment-image': this.#applyEnvironment(viewer); break;
         case 'backend': this.#remount(); break;
         default: break;
       }
@@ -1021,6 +1026,7 @@ class KloubViewer extends HTMLElement {
       viewer.setGrid(this.grid);
       if (this.hasAttribute('exposure')) viewer.setExposure(this.exposure);
       if (this.hasAttribute('tone-mapping')) viewer.setToneMapping(this.toneMapping);
+      if (this.hasAttribute('environment-image')) this.#applyEnvironment(viewer);
       this.#applyLimits();
       const src = revive ? (revive.src || (this.#files ? null : this.getAttribute('src'))) : this.getAttribute('src');
       if (revive && src) this.#reviveOnLoad(revive);
@@ -1453,6 +1459,35 @@ class KloubViewer extends HTMLElement {
     this.dispatchEvent(new CustomEvent(type, { detail: data }));
   }
 
+  /**
+   * `environment-image`: a name, or the URL of a Radiance .hdr image fetched here and handed to the viewer. A file
+   * that cannot be fetched or read is an `error` event; the model and the light before it stay.
+   */
+  #applyEnvironment(viewer) {
+    const value = this.getAttribute('environment-image') ?? '';
+    if (value === '' || ENVIRONMENTS.includes(value)) {
+      viewer.setEnvironment(value);
+      return;
+    }
+    const report = (message) => {
+      const text = `environment-image: ${value}: ${message}`;
+      console.warn(`kloub: ${text}`);
+      this.#dispatch('error', text);
+    };
+    (async () => {
+      const response = await fetch(new URL(value, document.baseURI));
+      if (!response.ok) throw new Error(`HTTP ${response.status}`);
+      const length = Number(response.headers.get('content-length'));
+      if (length > MAX_HDR_BYTES) throw new Error(`${length} bytes: at most ${MAX_HDR_BYTES} are read`);
+      const bytes = new Uint8Array(await response.arrayBuffer());
+      if (bytes.length > MAX_HDR_BYTES) throw new Error(`${bytes.length} bytes: at most ${MAX_HDR_BYTES} are read`);
+      // Changed or unmounted meanwhile: this image is no longer wanted.
+      if (this.#viewer !== viewer || this.getAttribute('environment-image') !== value) return;
+      viewer.setEnvironmentImage(bytes);
+      this.#wake(0);
+    })().catch((e) => report(e instanceof Error ? e.message : String(e)));
+  }
+
   #fail(message) {
     this.dataset.status = 'error';
     this.dataset.error = message;
@@ -1530,6 +1565,13 @@ class KloubViewer extends HTMLElement {
   set toneMapping(value) {
     const accepted = [...TONE_MAPPINGS, ...Object.keys(TONE_ALIASES)];
     this.setAttribute('tone-mapping', oneOf('toneMapping', 'value', value, accepted));
+  }
+  /** The environment lighting the model (attribute `environment-image`, model-viewer's): `neutral`, `studio`,
+   *  `outdoor`, or the URL of a Radiance .hdr image; `''` (absent) for the lighting preset's own. */
+  get environmentImage() { return this.getAttribute('environment-image') ?? ''; }
+  set environmentImage(value) {
+    if (value === '' || value === null) this.removeAttribute('environment-image');
+    else this.setAttribute('environment-image', url('environmentImage', 'value', value));
   }
   /** When the model is fetched (attribute `loading`): `auto` and `eager` at once, `lazy` when the element nears
    *  the viewport. */
@@ -1779,6 +1821,11 @@ class KloubViewer extends HTMLElement {
   setExposure(exposure) {
     num('setExposure', 'exposure', exposure, { min: 0, max: MAX_EXPOSURE });
     this.#call('setExposure', (v) => v.setExposure(exposure));
+  }
+  /** Turns the environment about the vertical axis by `degrees` (counter-clockwise seen from above). */
+  setEnvironmentRotation(degrees) {
+    num('setEnvironmentRotation', 'degrees', degrees);
+    this.#call('setEnvironmentRotation', (v) => v.setEnvironmentRotation(degrees));
   }
   /** Tone mapping: `neutral` (Khronos PBR Neutral), `aces` or `none`. */
   setToneMapping(name) {

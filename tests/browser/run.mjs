@@ -908,7 +908,8 @@ for (const backend of BACKENDS) {
       }
       return { mean: sum / Math.max(n, 1), n };
     };
-    const base = stats(await shot());
+    const baseShot = await shot();
+    const base = stats(baseShot);
     assert(base.n > 1000 && base.mean > 20, `the fox: ${JSON.stringify(base)}`);
     const expect = async (predicate, what) => waitForDataset(page, predicate, what);
     await page.evaluate(() => document.querySelector('kloub-viewer').setAttribute('exposure', '2'));
@@ -932,12 +933,23 @@ for (const backend of BACKENDS) {
     // Tone mapping: ACES and none each map the fox's colours otherwise than Neutral.
     await page.evaluate(() => document.querySelector('kloub-viewer').setAttribute('tone-mapping', 'aces'));
     await expect(() => document.querySelector('kloub-viewer').dataset.toneMapping === 'aces' && document.querySelector('kloub-viewer').dataset.exposure === '1', 'tone-mapping="aces"');
-    const aces = stats(await shot());
-    assert(Math.abs(aces.mean - base.mean) > 3, `aces: mean ${aces.mean.toFixed(1)} vs neutral ${base.mean.toFixed(1)}`);
+    // Per pixel: the mean absolute difference of the model's pixels between two frames.
+    const difference = (a, b) => {
+      let sum = 0; let n = 0;
+      for (let i = 0; i < a.data.length; i += 4) {
+        if (a.data[i + 3] !== 255 || b.data[i + 3] !== 255) continue;
+        for (let k = 0; k < 3; k++) sum += Math.abs(a.data[i + k] - b.data[i + k]);
+        n += 3;
+      }
+      return sum / Math.max(n, 1);
+    };
+    const acesShot = await shot();
+    const aces = stats(acesShot);
+    assert(difference(acesShot, baseShot) > 3, `aces vs neutral: ${difference(acesShot, baseShot).toFixed(2)} per channel`);
     await page.evaluate(() => { document.querySelector('kloub-viewer').toneMapping = 'linear'; });
     await expect(() => document.querySelector('kloub-viewer').dataset.toneMapping === 'none', "model-viewer's linear");
-    const none = stats(await shot());
-    assert(Math.abs(none.mean - aces.mean) > 3, `none: mean ${none.mean.toFixed(1)} vs aces ${aces.mean.toFixed(1)}`);
+    const noneShot = await shot();
+    assert(difference(noneShot, acesShot) > 3, `none vs aces: ${difference(noneShot, acesShot).toFixed(2)} per channel (means ${stats(noneShot).mean.toFixed(1)}, ${aces.mean.toFixed(1)})`);
     await page.evaluate(() => document.querySelector('kloub-viewer').setToneMapping('neutral'));
     await expect(() => document.querySelector('kloub-viewer').dataset.toneMapping === 'neutral', 'setToneMapping');
     const again = stats(await shot());
@@ -948,6 +960,68 @@ for (const backend of BACKENDS) {
       return [name(() => v.setExposure(-1)), name(() => v.setExposure(Number.NaN)), name(() => v.setToneMapping('agx')), name(() => { v.toneMapping = 'filmic'; }), name(() => { v.exposure = 100; })];
     });
     assert(thrown.every((t) => t === 'RangeError'), `bad values threw ${JSON.stringify(thrown)}`);
+    ds = await dataset(page);
+    assert(ds.status === 'ready' && !ds.error, `still ready: ${JSON.stringify(ds)}`);
+  });
+
+  test(`${backend}: environment-image (model-viewer's attribute): a named environment, an .hdr image that colours the light, a broken file as an error event; setEnvironmentRotation`, async (ctx) => {
+    const { page } = ctx;
+    await viewersPage(page, ctx.url, [{ attrs: { backend, src: '/assets/Fox.glb', 'min-pixel-ratio': '1' }, style: 'width:320px;height:240px' }]);
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.status === 'ready' && Number(document.querySelector('kloub-viewer').dataset.frames) > 0, 'the viewer');
+    assert((await dataset(page)).environment === '', 'the lighting preset\'s environment by default');
+    const shot = async () => {
+      const url = await page.evaluate(() => document.querySelector('kloub-viewer').toDataURL());
+      return PNG.sync.read(Buffer.from(url.replace(/^data:image\/png;base64,/, ''), 'base64'));
+    };
+    // Mean red, green and blue over the model's pixels.
+    const mean = (img) => {
+      const sum = [0, 0, 0]; let n = 0;
+      for (let i = 0; i < img.data.length; i += 4) {
+        if (img.data[i + 3] !== 255) continue;
+        for (let k = 0; k < 3; k++) sum[k] += img.data[i + k];
+        n++;
+      }
+      return sum.map((v) => v / Math.max(n, 1));
+    };
+    const studio = mean(await shot());
+    await page.evaluate(() => document.querySelector('kloub-viewer').setAttribute('environment-image', 'outdoor'));
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.environment === 'outdoor', 'environment-image="outdoor"');
+    const outdoor = mean(await shot());
+    // The outdoor sky is bluer than the studio: the fox's blue rises against its red.
+    assert(outdoor[2] / outdoor[0] > studio[2] / studio[0] + 0.02, `outdoor ${outdoor.map((v) => v.toFixed(1))} vs studio ${studio.map((v) => v.toFixed(1))}`);
+    // A Radiance .hdr file (flat scanlines, 64×32): red light from everywhere.
+    const hdr = await page.evaluate(() => {
+      const head = new TextEncoder().encode('#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 32 +X 64\n');
+      const bytes = new Uint8Array(head.length + 64 * 32 * 4);
+      bytes.set(head);
+      // RGBE (128, 8, 8, 130): (2, 0.125, 0.125).
+      for (let i = head.length; i < bytes.length; i += 4) bytes.set([128, 8, 8, 130], i);
+      const url = URL.createObjectURL(new Blob([bytes]));
+      document.querySelector('kloub-viewer').setAttribute('environment-image', url);
+      return url;
+    });
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.environment === 'image', 'an .hdr environment');
+    const red = mean(await shot());
+    const ratio = (c) => c[0] / Math.max(c[1], 1);
+    assert(ratio(red) > 1.5 * ratio(studio), `under a red environment the fox is ${red.map((v) => v.toFixed(1))}, in the studio ${studio.map((v) => v.toFixed(1))}`);
+    assert((await page.evaluate(() => document.querySelector('kloub-viewer').environmentImage)) === hdr, 'the environmentImage property');
+    // Not an .hdr file: an error event naming the attribute; the model and the red light stay.
+    const error = await page.evaluate(() => new Promise((resolve) => {
+      const v = document.querySelector('kloub-viewer');
+      v.addEventListener('error', (e) => resolve(String(e.detail?.message ?? e.detail)), { once: true });
+      v.setAttribute('environment-image', URL.createObjectURL(new Blob([new TextEncoder().encode('not an image')])));
+    }));
+    assert(error.includes('environment-image') && error.includes('Radiance'), `the error: ${error}`);
+    let ds = await dataset(page);
+    assert(ds.status === 'ready' && ds.environment === 'image', `after a broken image: ${JSON.stringify({ status: ds.status, environment: ds.environment })}`);
+    // A name again, turned; then back to the preset's.
+    await page.evaluate(() => document.querySelector('kloub-viewer').setAttribute('environment-image', 'studio'));
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.environment === 'studio', 'environment-image="studio"');
+    const thrown = await page.evaluate(() => { try { document.querySelector('kloub-viewer').setEnvironmentRotation(Number.NaN); return null; } catch (e) { return e.name; } });
+    assert(thrown === 'RangeError', `setEnvironmentRotation(NaN) threw ${thrown}`);
+    await page.evaluate(() => document.querySelector('kloub-viewer').setEnvironmentRotation(90));
+    await page.evaluate(() => document.querySelector('kloub-viewer').removeAttribute('environment-image'));
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.environment === '', 'no environment-image');
     ds = await dataset(page);
     assert(ds.status === 'ready' && !ds.error, `still ready: ${JSON.stringify(ds)}`);
   });

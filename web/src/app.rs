@@ -438,6 +438,7 @@ impl App {
             grid: self.stage.scene.grid(),
             overlays: self.stage.overlays,
             look: self.stage.scene.look(),
+            has_environment_image: self.stage.scene.has_environment_image(),
             library_shown: self.stage.library.as_ref().and_then(|l| l.shown),
             samples: &self.stage.samples,
             shown_sample: self

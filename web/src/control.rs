@@ -143,6 +143,13 @@ pub enum Command {
     SetExposure(f32),
     /// Tone mapping (kept across models).
     SetToneMapping(crate::render::uniforms::ToneMapping),
+    /// The environment lighting the meshes, with the image when it is one (kept across models).
+    SetEnvironment(
+        crate::render::uniforms::EnvironmentChoice,
+        Option<std::sync::Arc<crate::render::environment::HdrImage>>,
+    ),
+    /// The environment's turn about +Y, radians (kept across models).
+    SetEnvironmentRotation(f32),
     /// The glTF-Validator's report on the shown model (the element ran it).
     #[cfg(feature = "full")]
     SetValidation(crate::validation::Validation),

@@ -76,6 +76,9 @@ pub enum Key {
     Exposure,
     /// The tone mapping: `"neutral"` | `"aces"` | `"none"`.
     ToneMapping,
+    /// The environment: `""` (the lighting preset's), `"neutral"` | `"studio"` | `"outdoor"`, or
+    /// `"image"` (an .hdr file).
+    Environment,
     /// The ragdoll: `"simulating"` | `"resting"` | `"blending"` (back to the animation); `""` off.
     Ragdoll,
     /// The URL the shown model was fetched from (`""` for dropped files and built-in samples).
@@ -108,7 +111,7 @@ pub enum Key {
 
 impl Key {
     /// Every key, in a fixed order.
-    pub const ALL: [Key; 44] = [
+    pub const ALL: [Key; 45] = [
         Key::Backend,
         Key::Status,
         Key::Model,
@@ -142,6 +145,7 @@ impl Key {
         Key::Background,
         Key::Exposure,
         Key::ToneMapping,
+        Key::Environment,
         Key::Ragdoll,
         Key::Src,
         Key::Blend,
@@ -192,6 +196,7 @@ impl Key {
             Key::Background => "background",
             Key::Exposure => "exposure",
             Key::ToneMapping => "toneMapping",
+            Key::Environment => "environment",
             Key::Ragdoll => "ragdoll",
             Key::Src => "src",
             Key::Blend => "blend",

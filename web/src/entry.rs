@@ -590,6 +590,44 @@ impl Viewer {
         Ok(())
     }
 
+    /// The environment lighting the meshes: `"neutral"`, `"studio"` or `"outdoor"`, or `""`
+    /// for the lighting preset's own (model-viewer's `environment-image` names; an image comes
+    /// through [`Viewer::set_environment_image`]).
+    #[wasm_bindgen(js_name = setEnvironment)]
+    pub fn set_environment(&self, name: &str) -> Result<(), JsValue> {
+        use crate::render::uniforms::EnvironmentChoice;
+        let choice = if name.is_empty() {
+            EnvironmentChoice::Preset
+        } else {
+            EnvironmentChoice::Named(crate::render::environment::EnvironmentName::from_name(name).map_err(range_error)?)
+        };
+        self.controls.send_global(Command::SetEnvironment(choice, None));
+        Ok(())
+    }
+
+    /// Lights the meshes with a Radiance `.hdr` file's equirectangular image (up to 2048 × 1024
+    /// pixels; larger ones are refused).
+    #[wasm_bindgen(js_name = setEnvironmentImage)]
+    pub fn set_environment_image(&self, bytes: &[u8]) -> Result<(), JsValue> {
+        let image = crate::render::environment::parse_hdr(bytes, crate::render::environment::MAX_HDR_PIXELS)
+            .map_err(|e| range_error(format!("environment image: {e}")))?
+            .fitted();
+        let choice = crate::render::uniforms::EnvironmentChoice::Image;
+        self.controls.send_global(Command::SetEnvironment(choice, Some(std::sync::Arc::new(image))));
+        Ok(())
+    }
+
+    /// Turns the environment about the vertical axis by `degrees` (counter-clockwise seen from
+    /// above).
+    #[wasm_bindgen(js_name = setEnvironmentRotation)]
+    pub fn set_environment_rotation(&self, degrees: f32) -> Result<(), JsValue> {
+        if !degrees.is_finite() {
+            return Err(range_error(format!("setEnvironmentRotation: {degrees}: expected a finite number of degrees")));
+        }
+        self.controls.send_global(Command::SetEnvironmentRotation(degrees.to_radians()));
+        Ok(())
+    }
+
     /// Turns the character into a ragdoll from the pose on screen (throws later, as an
     /// `error` event, for a model without a skin).
     #[wasm_bindgen(js_name = startRagdoll)]

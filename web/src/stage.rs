@@ -334,7 +334,8 @@ impl Stage {
     pub fn new(gpu: Graphics, config: AppConfig, wake: Wake) -> Self {
         let backend = backend_name(gpu.adapter.get_info().backend);
         log::info!("kloub: rendering with {backend} ({:?})", gpu.adapter.get_info().name);
-        let scene = new_scene(&gpu, config.share);
+        let mut scene = new_scene(&gpu, config.share);
+        scene.set_ibl_supported(crate::render::environment::supports_ibl(&gpu.adapter));
         let mut stage = Self {
             gpu,
             backend,
@@ -398,6 +399,8 @@ impl Stage {
         scene.set_grid(self.scene.grid());
         scene.set_heatmap(self.scene.heatmap());
         scene.set_look(self.scene.look());
+        scene.set_environment_image(self.scene.environment_image());
+        scene.set_ibl_supported(crate::render::environment::supports_ibl(&gpu.adapter));
         scene.set_ground(self.scene.ground());
         // Compute skinning is only there on WebGPU; another backend falls back to the vertex shader.
         if scene.set_skinning_path(self.scene.skinning_path()).is_err() {

@@ -46,6 +46,7 @@
 //! and reads the pixels back; [`offscreen::Offscreen`] keeps the device for several frames.
 
 pub mod camera;
+pub mod environment;
 pub mod mesh;
 pub mod morph;
 #[cfg(not(target_arch = "wasm32"))]

@@ -19,13 +19,17 @@ use super::uniforms::{DrawUniform, FrameUniform, MaterialUniform};
 /// Depth buffer format.
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
-/// `shaders/skinning.wgsl` + `shaders/output.wgsl` + `shaders/mesh.wgsl`: the mesh pipelines
-/// (vertex-shader skinning).
+/// `shaders/skinning.wgsl` + `shaders/output.wgsl` + `shaders/equirect.wgsl` +
+/// `shaders/mesh.wgsl`: the mesh pipelines (vertex-shader skinning).
 pub const MESH_WGSL: &str = concat!(
     include_str!("../../../shaders/skinning.wgsl"),
     include_str!("../../../shaders/output.wgsl"),
+    include_str!("../../../shaders/equirect.wgsl"),
     include_str!("../../../shaders/mesh.wgsl")
 );
+/// `shaders/equirect.wgsl` + `shaders/ibl.wgsl`: prefiltering environments.
+pub const IBL_WGSL: &str =
+    concat!(include_str!("../../../shaders/equirect.wgsl"), include_str!("../../../shaders/ibl.wgsl"));
 /// `shaders/skinning.wgsl` + `shaders/skin_compute.wgsl`: compute skinning (not on WebGL2).
 pub const SKIN_COMPUTE_WGSL: &str =
     concat!(include_str!("../../../shaders/skinning.wgsl"), include_str!("../../../shaders/skin_compute.wgsl"));
@@ -37,8 +41,9 @@ pub const ENVIRONMENT_WGSL: &str =
 pub const MIP_WGSL: &str = include_str!("../../../shaders/mip.wgsl");
 
 /// Every shader module the renderer compiles: name, WGSL source, whether it runs on WebGL2.
-pub const SHADER_MODULES: [(&str, &str, bool); 4] = [
+pub const SHADER_MODULES: [(&str, &str, bool); 5] = [
     ("mesh", MESH_WGSL, true),
+    ("ibl", IBL_WGSL, true),
     ("skin_compute", SKIN_COMPUTE_WGSL, false),
     ("environment", ENVIRONMENT_WGSL, true),
     ("mip", MIP_WGSL, true),
@@ -115,6 +120,8 @@ pub struct Layouts {
     pub material: wgpu::BindGroupLayout,
     /// Group 2: draw uniform (dynamic offset).
     pub draw: wgpu::BindGroupLayout,
+    /// Group 3: the environment's specular chain, irradiance and BRDF table, and its sampler.
+    pub environment: wgpu::BindGroupLayout,
 }
 
 impl Layouts {
@@ -148,7 +155,23 @@ impl Layouts {
             label: Some("kloub draw"),
             entries: &[uniform_entry(0, vf, size_of::<DrawUniform>(), true)],
         });
-        Self { frame, material, draw }
+        let f = wgpu::ShaderStages::FRAGMENT;
+        let filterable = wgpu::TextureSampleType::Float { filterable: true };
+        let environment = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("kloub environment"),
+            entries: &[
+                texture_entry(0, f, filterable),
+                texture_entry(1, f, filterable),
+                texture_entry(2, f, filterable),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 3,
+                    visibility: f,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                    count: None,
+                },
+            ],
+        });
+        Self { frame, material, draw, environment }
     }
 }
 
@@ -212,6 +235,10 @@ struct FirstUse {
     grid: std::sync::OnceLock<wgpu::RenderPipeline>,
     /// Mip levels on the GPU (`shaders/mip.wgsl`), of colour and of data textures.
     mips: [std::sync::OnceLock<super::texture::MipMaker>; 2],
+    /// Prefiltering environments (`None` inside: the device cannot).
+    ibl: std::sync::OnceLock<Option<super::environment::IblKit>>,
+    /// The environments made in code, prefiltered (each once per device).
+    environments: std::sync::Mutex<HashMap<super::environment::EnvironmentName, super::environment::GpuEnvironment>>,
 }
 
 fn depth_state(compare: wgpu::CompareFunction, write: bool) -> Option<wgpu::DepthStencilState> {
@@ -260,7 +287,12 @@ impl Pipelines {
         });
         let mesh_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("kloub mesh"),
-            bind_group_layouts: &[Some(&layouts.frame), Some(&layouts.material), Some(&layouts.draw)],
+            bind_group_layouts: &[
+                Some(&layouts.frame),
+                Some(&layouts.material),
+                Some(&layouts.draw),
+                Some(&layouts.environment),
+            ],
             immediate_size: 0,
         });
         let env_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -274,6 +306,8 @@ impl Pipelines {
             background: std::sync::OnceLock::new(),
             grid: std::sync::OnceLock::new(),
             mips: [std::sync::OnceLock::new(), std::sync::OnceLock::new()],
+            ibl: std::sync::OnceLock::new(),
+            environments: std::sync::Mutex::new(HashMap::new()),
         });
         Self { share: None, sample_count, format, mesh_module, mesh_layout, first_use, mesh: HashMap::new() }
     }
@@ -304,6 +338,40 @@ impl Pipelines {
                 true,
             )
         })
+    }
+
+    /// The prefiltering kit, built on first use (`supported`: whether the adapter renders
+    /// [`super::environment::HDR_FORMAT`]; `None` where it does not).
+    pub fn ibl(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        supported: bool,
+    ) -> Option<&super::environment::IblKit> {
+        self.first_use.ibl.get_or_init(|| super::environment::IblKit::new(device, queue, supported)).as_ref()
+    }
+
+    /// The environment `name` prefiltered for this device (made on first use, then shared by
+    /// every viewer of the device); `None` without an [`super::environment::IblKit`].
+    pub fn named_environment(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        layout: &wgpu::BindGroupLayout,
+        supported: bool,
+        name: super::environment::EnvironmentName,
+    ) -> Option<super::environment::GpuEnvironment> {
+        let kit = self.ibl(device, queue, supported)?;
+        let mut cache = self.first_use.environments.lock().ok()?;
+        if let Some(env) = cache.get(&name) {
+            return Some(env.clone());
+        }
+        let env = kit
+            .environment(device, queue, layout, &name.image())
+            .map_err(|e| log::warn!("kloub: environment {}: {e}", name.name()))
+            .ok()?;
+        cache.insert(name, env.clone());
+        Some(env)
     }
 
     /// The mip maker for the colour (`srgb`) or data images the browser decoded, built on first

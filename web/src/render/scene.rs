@@ -9,6 +9,7 @@ use kloub_core::asset::{AlphaMode, Asset, Material};
 use super::camera::Camera;
 use kloub_core::job::sjb::SjbPlan;
 
+use super::environment::{EnvironmentName, GpuEnvironment, HdrImage, fallback_environment};
 use super::mesh::{GeometryVertex, GpuPrimitive, interleave, pivot_buffer};
 use super::morph::{MorphSlot, MorphTexture};
 use super::palette::PaletteTexture;
@@ -17,6 +18,7 @@ use super::pipelines::{
     ComputeKit, DEPTH_FORMAT, Layouts, PipelineKey, Pipelines, SKIN_FROM_DRAW, SKIN_WORKGROUP, VertexPath, topology,
 };
 use super::texture::{COLOR_FORMAT, SamplerKey, upload_decoded, upload_image};
+use super::uniforms::EnvironmentChoice;
 use super::uniforms::{DrawUniform, FrameUniform, Ground, MaterialUniform, skin_code};
 
 #[cfg(not(target_arch = "wasm32"))]
@@ -359,7 +361,23 @@ pub struct SceneRenderer {
     grid: bool,
     /// Lighting and background.
     look: super::uniforms::Look,
+    /// Whether the adapter can prefilter environments ([`super::environment::supports_ibl`]).
+    ibl_supported: bool,
+    /// The environment image ([`EnvironmentChoice::Image`]) and its number (a new one per image).
+    environment_image: Option<(u64, std::sync::Arc<HdrImage>)>,
+    /// The environment bound now, what it is (`None`: none could be made) and its intensity.
+    environment: (Option<EnvironmentKey>, GpuEnvironment, f32),
 }
+
+/// What an environment on the GPU was made from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum EnvironmentKey {
+    Named(EnvironmentName),
+    Image(u64),
+}
+
+/// Numbers the environment images given to renderers.
+static ENVIRONMENT_IMAGES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
 
 impl SceneRenderer {
     /// Creates the pipelines and shared resources. `sample_count` is 1 or 4
@@ -405,6 +423,7 @@ impl SceneRenderer {
         let align = u64::from(device.limits().min_uniform_buffer_offset_alignment).max(1);
         let draw_stride = (size_of::<DrawUniform>() as u64).div_ceil(align) * align;
         let empty = GpuScene::empty(device, queue, &layouts, &frame_buffer, draw_stride);
+        let no_environment = fallback_environment(device, &layouts.environment, &white);
         Self {
             share,
             sample_count,
@@ -430,7 +449,78 @@ impl SceneRenderer {
             heatmap: None,
             grid: true,
             look: super::uniforms::Look::default(),
+            ibl_supported: true,
+            environment_image: None,
+            environment: (None, no_environment, 0.0),
         }
+    }
+
+    /// Whether the adapter can prefilter environments ([`super::environment::supports_ibl`];
+    /// assumed until said otherwise). Without, the meshes' ambient light is the hemisphere.
+    pub fn set_ibl_supported(&mut self, supported: bool) {
+        self.ibl_supported = supported;
+    }
+
+    /// The image [`EnvironmentChoice::Image`] lights with (prefiltered when first drawn).
+    pub fn set_environment_image(&mut self, image: Option<std::sync::Arc<HdrImage>>) {
+        self.environment_image =
+            image.map(|i| (ENVIRONMENT_IMAGES.fetch_add(1, std::sync::atomic::Ordering::Relaxed), i));
+    }
+
+    /// Whether an environment image was given.
+    pub fn has_environment_image(&self) -> bool {
+        self.environment_image.is_some()
+    }
+
+    /// The image [`SceneRenderer::set_environment_image`] gave.
+    pub fn environment_image(&self) -> Option<std::sync::Arc<HdrImage>> {
+        self.environment_image.as_ref().map(|(_, i)| i.clone())
+    }
+
+    /// Binds the environment the look asks for (prefiltering it if this device has not yet);
+    /// returns its intensity and specular levels for the frame uniform (0: none).
+    fn ensure_environment(&mut self, device: &wgpu::Device, queue: &wgpu::Queue) -> (f32, u32) {
+        let (key, intensity) = match self.look.environment {
+            EnvironmentChoice::Preset => {
+                let (name, intensity) = self.look.lighting.environment();
+                (Some(EnvironmentKey::Named(name)), intensity)
+            }
+            EnvironmentChoice::Named(name) => (Some(EnvironmentKey::Named(name)), 1.0),
+            EnvironmentChoice::Image => {
+                (self.environment_image.as_ref().map(|(id, _)| EnvironmentKey::Image(*id)), 1.0)
+            }
+        };
+        if key != self.environment.0 {
+            let made = match key {
+                Some(EnvironmentKey::Named(name)) => {
+                    self.pipelines.named_environment(device, queue, &self.layouts.environment, self.ibl_supported, name)
+                }
+                Some(EnvironmentKey::Image(_)) => {
+                    let image = self.environment_image.as_ref().map(|(_, i)| i.clone());
+                    let kit = self.pipelines.ibl(device, queue, self.ibl_supported);
+                    match (kit, image) {
+                        (Some(kit), Some(image)) => kit
+                            .environment(device, queue, &self.layouts.environment, &image)
+                            .map_err(|e| log::warn!("kloub: environment image: {e}"))
+                            .ok(),
+                        _ => None,
+                    }
+                }
+                None => None,
+            };
+            match made {
+                Some(env) => self.environment = (key, env, 1.0),
+                // Nothing to light with: the hemisphere, asked again only when the look changes.
+                None => {
+                    self.environment.0 = key;
+                    self.environment.2 = 0.0;
+                }
+            }
+        }
+        if self.environment.2 == 0.0 {
+            return (0.0, 0);
+        }
+        (intensity, super::environment::SPECULAR_LEVELS)
     }
 
     /// Uploads `asset` (meshes of the default scene, materials, textures with mips, a palette
@@ -793,7 +883,15 @@ impl SceneRenderer {
         aspect: f32,
     ) -> Result<(), String> {
         let aspect = if aspect.is_finite() && aspect > 0.0 { aspect } else { 1.0 };
-        let frame = FrameUniform::new(camera.view_proj(aspect), camera.eye(), camera.target, &self.ground, self.look);
+        let environment = self.ensure_environment(device, queue);
+        let frame = FrameUniform::new(
+            camera.view_proj(aspect),
+            camera.eye(),
+            camera.target,
+            &self.ground,
+            self.look,
+            environment,
+        );
         queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&frame));
 
         let copies = instances.len();
@@ -928,6 +1026,7 @@ impl SceneRenderer {
                 pass.set_scissor_rect(x, y, w, h);
             }
             pass.set_bind_group(0, &scene.frame_bind_group, &[]);
+            pass.set_bind_group(3, &self.environment.1.bind_group, &[]);
             if let Some(background) = background {
                 pass.set_pipeline(background);
                 pass.draw(0..3, 0..1);

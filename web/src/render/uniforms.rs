@@ -35,6 +35,8 @@ pub struct FrameUniform {
     pub background_bottom: [f32; 4],
     /// Exposure (x), tone mapping (y: [`ToneMapping::code`]).
     pub tone: [f32; 4],
+    /// The environment's turn (cosine, sine), its intensity (0: none) and specular levels.
+    pub environment: [f32; 4],
 }
 
 /// Where the ground grid lies and how dense it is.
@@ -103,6 +105,18 @@ impl Lighting {
             .into_iter()
             .find(|l| l.name() == name)
             .ok_or_else(|| format!("lighting {name:?}: expected \"studio\", \"outdoor\", \"flat\" or \"rim\""))
+    }
+
+    /// The environment this preset lights with, and its intensity.
+    pub fn environment(self) -> (super::environment::EnvironmentName, f32) {
+        use super::environment::EnvironmentName;
+        match self {
+            Lighting::Studio => (EnvironmentName::Studio, 1.0),
+            Lighting::Outdoor => (EnvironmentName::Outdoor, 1.0),
+            Lighting::Flat => (EnvironmentName::Flat, 1.0),
+            // The studio, dimmed to the rim preset's dark hemisphere.
+            Lighting::Rim => (EnvironmentName::Studio, 0.38),
+        }
     }
 
     /// Key light colour and intensity, sky and ground colours (linear RGB).
@@ -227,7 +241,31 @@ impl ToneMapping {
 /// this everything is white).
 pub const MAX_EXPOSURE: f32 = 64.0;
 
-/// Lighting, background, exposure and tone mapping together: the look of the view.
+/// Which environment lights the meshes (image-based light).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum EnvironmentChoice {
+    /// The lighting preset's own ([`Lighting::environment`]).
+    #[default]
+    Preset,
+    /// One made in code, at intensity 1.
+    Named(super::environment::EnvironmentName),
+    /// The image given to the renderer ([`super::scene::SceneRenderer::set_environment_image`]),
+    /// at intensity 1.
+    Image,
+}
+
+impl EnvironmentChoice {
+    /// `data-environment`: `""` for the preset's own, a name, or `"image"`.
+    pub fn name(self) -> &'static str {
+        match self {
+            EnvironmentChoice::Preset => "",
+            EnvironmentChoice::Named(name) => name.name(),
+            EnvironmentChoice::Image => "image",
+        }
+    }
+}
+
+/// Lighting, background, environment, exposure and tone mapping together: the look of the view.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Look {
     /// The lights.
@@ -238,6 +276,10 @@ pub struct Look {
     pub exposure: f32,
     /// The tone mapping.
     pub tone_mapping: ToneMapping,
+    /// The environment.
+    pub environment: EnvironmentChoice,
+    /// The environment's turn about +Y, radians (counter-clockwise seen from above).
+    pub environment_rotation: f32,
 }
 
 impl Default for Look {
@@ -247,6 +289,8 @@ impl Default for Look {
             background: Background::default(),
             exposure: 1.0,
             tone_mapping: ToneMapping::default(),
+            environment: EnvironmentChoice::default(),
+            environment_rotation: 0.0,
         }
     }
 }
@@ -254,8 +298,10 @@ impl Default for Look {
 impl FrameUniform {
     /// Frame constants for a camera (`view_proj`, `eye`) over `ground`. The key light comes
     /// from above, over the viewer's left shoulder, so the lit side always faces the camera.
-    /// Lit and cleared as `look` says (the key light follows the camera, except the sun).
-    pub fn new(view_proj: Mat4, eye: Vec3, target: Vec3, ground: &Ground, look: Look) -> Self {
+    /// Lit and cleared as `look` says (the key light follows the camera, except the sun), the
+    /// meshes' ambient light from an environment of `environment` intensity and specular levels
+    /// (intensity 0: none, the hemisphere instead).
+    pub fn new(view_proj: Mat4, eye: Vec3, target: Vec3, ground: &Ground, look: Look, environment: (f32, u32)) -> Self {
         let forward = (target - eye).normalize_or(Vec3::NEG_Z);
         let right = forward.cross(Vec3::Y).normalize_or(Vec3::X);
         let light = match look.lighting {
@@ -278,6 +324,10 @@ impl FrameUniform {
             background_top: top,
             background_bottom: bottom,
             tone: [look.exposure, look.tone_mapping.code(), 0.0, 0.0],
+            environment: {
+                let (s, c) = look.environment_rotation.sin_cos();
+                [c, s, environment.0, environment.1 as f32]
+            },
         }
     }
 

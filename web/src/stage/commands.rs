@@ -79,6 +79,19 @@ impl Stage {
                 self.scene.set_look(crate::render::uniforms::Look { tone_mapping, ..self.scene.look() });
                 return Ok(());
             }
+            Command::SetEnvironment(environment, image) => {
+                if image.is_some() {
+                    self.scene.set_environment_image(image);
+                }
+                self.scene.set_look(crate::render::uniforms::Look { environment, ..self.scene.look() });
+                return Ok(());
+            }
+            Command::SetEnvironmentRotation(angle) => {
+                let environment_rotation =
+                    if angle.is_finite() { angle.rem_euclid(std::f32::consts::TAU) } else { 0.0 };
+                self.scene.set_look(crate::render::uniforms::Look { environment_rotation, ..self.scene.look() });
+                return Ok(());
+            }
             Command::SetSamples(samples) => {
                 self.samples = samples;
                 return Ok(());
@@ -174,6 +187,8 @@ impl Stage {
             | Command::SetBackground(_)
             | Command::SetExposure(_)
             | Command::SetToneMapping(_)
+            | Command::SetEnvironment(..)
+            | Command::SetEnvironmentRotation(_)
             | Command::ShowModel(_) => {}
             #[cfg(feature = "full")]
             Command::FinishSculpt | Command::DeleteExample(_) | Command::AddExamplePose(_) | Command::CancelSculpt => {}

@@ -35,6 +35,7 @@ impl Stage {
         d.set(Key::Background, self.scene.look().background.name());
         d.set(Key::Exposure, &self.exposure_text);
         d.set(Key::ToneMapping, self.scene.look().tone_mapping.name());
+        d.set(Key::Environment, self.scene.look().environment.name());
         let progress = self.inbox.progress().filter(|_| self.status == Status::Loading);
         d.set(
             Key::Progress,

@@ -54,8 +54,10 @@ pub struct PanelState<'a> {
     pub grid: bool,
     /// Which overlays are on.
     pub overlays: crate::overlay::Overlays,
-    /// Lighting and background.
+    /// Lighting, background, environment, exposure and tone mapping.
     pub look: crate::render::uniforms::Look,
+    /// Whether an environment image was given (the environment menu offers it).
+    pub has_environment_image: bool,
     /// The sample library of the Samples menu.
     pub samples: &'a [crate::samples::SampleEntry],
     /// Which of [`PanelState::samples`] is shown (its credit is drawn under the model's name).

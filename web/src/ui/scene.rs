@@ -202,6 +202,35 @@ pub(super) fn view_panel(ui: &mut egui::Ui, state: &PanelState<'_>, actions: &mu
                 actions.commands.push(Command::SetToneMapping(tone));
             }
         });
+        ui.horizontal(|ui| {
+            use crate::render::environment::EnvironmentName;
+            use crate::render::uniforms::EnvironmentChoice;
+            let label = |c: EnvironmentChoice| match c {
+                EnvironmentChoice::Preset => "the light's",
+                EnvironmentChoice::Named(n) => n.name(),
+                EnvironmentChoice::Image => "image (.hdr)",
+            };
+            let mut environment = state.look.environment;
+            let shown =
+                egui::ComboBox::from_id_salt("environment").selected_text(label(environment)).show_ui(ui, |ui| {
+                    let choices = std::iter::once(EnvironmentChoice::Preset)
+                        .chain(EnvironmentName::ALL.map(EnvironmentChoice::Named))
+                        .chain(state.has_environment_image.then_some(EnvironmentChoice::Image));
+                    for c in choices {
+                        ui.selectable_value(&mut environment, c, label(c));
+                    }
+                });
+            super::named_combo(&shown, "Environment");
+            ui.label("environment");
+            let mut degrees = state.look.environment_rotation.to_degrees();
+            ui.add(egui::Slider::new(&mut degrees, 0.0..=360.0).suffix("°").fixed_decimals(0).text("turn"));
+            if environment != state.look.environment {
+                actions.commands.push(Command::SetEnvironment(environment, None));
+            }
+            if degrees != state.look.environment_rotation.to_degrees() {
+                actions.commands.push(Command::SetEnvironmentRotation(degrees.to_radians()));
+            }
+        });
     });
 }
 

@@ -1,0 +1,790 @@
+//! Image-based lighting: environments as equirectangular HDR images (made in code for the
+//! presets, or read from a Radiance `.hdr` file), prefiltered once per device on the GPU
+//! (`shaders/ibl.wgsl`) into what `shaders/mesh.wgsl` samples for its ambient light:
+//!
+//! - a specular chain: [`SPECULAR_LEVELS`] mips of an equirectangular `rgba16float` texture,
+//!   level `k` the environment seen through glTF's GGX lobe at roughness `k / (levels − 1)`
+//!   (importance sampled, with the source's own mips taken by each sample's solid angle);
+//! - diffuse irradiance: a small equirectangular texture, each texel the cosine-weighted
+//!   integral over the whole environment, divided by π (what a white Lambert surface reflects);
+//! - the split-sum BRDF table (one per device): the scale and bias on F0 of GGX's directional
+//!   albedo by N·V and roughness.
+//!
+//! Directions map to the equirectangular square as `shaders/equirect.wgsl` says: u = 0.5 looks
+//! down −Z, u grows towards +X; v = 0 is straight up.
+//!
+//! Everything stays within WebGL2's limits: 2D textures only, fragment shaders, `rgba16float`
+//! render targets (EXT_color_buffer_float, which WebGL2 browsers have). Where a device cannot
+//! render to `rgba16float` ([`supports_ibl`]) the meshes keep the hemisphere's ambient.
+
+use std::f32::consts::PI;
+
+/// Mips of the specular chain: roughness 0, 0.2, …, 1.
+pub const SPECULAR_LEVELS: u32 = 6;
+/// Width of the specular chain's first level (its height is half).
+pub const SPECULAR_WIDTH: u32 = 256;
+/// Width of the irradiance texture (its height is half).
+pub const IRRADIANCE_WIDTH: u32 = 32;
+/// Size of the BRDF table (square).
+pub const BRDF_SIZE: u32 = 64;
+/// The texture format of every prefiltered texture.
+pub const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+/// The most pixels an `.hdr` file given to the viewer may have (2048 × 1024).
+pub const MAX_HDR_PIXELS: u64 = 2048 * 1024;
+/// The largest environment image taken as it is: larger ones are averaged down to this width
+/// first (the specular chain's finest level is [`SPECULAR_WIDTH`] wide anyway).
+pub const MAX_SOURCE_WIDTH: u32 = 1024;
+
+/// An equirectangular HDR image: linear RGB radiance, row-major, top row first (straight up).
+#[derive(Clone, Debug, PartialEq)]
+pub struct HdrImage {
+    /// Width in pixels (twice the height for a full sphere).
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// `width * height` pixels.
+    pub rgb: Vec<[f32; 3]>,
+}
+
+/// The environments made in code (`environment-image`'s names).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum EnvironmentName {
+    /// A light grey room with soft ceiling panels: even light from everywhere, mild
+    /// reflections (model-viewer's default look).
+    #[default]
+    Neutral,
+    /// A dark studio with three softboxes (key, fill and rim) over a dark floor.
+    Studio,
+    /// A blue sky, brighter towards the sun, over brown ground.
+    Outdoor,
+    /// Light grey everywhere, a little brighter above: textures as authored (the `flat`
+    /// lighting preset's).
+    Flat,
+}
+
+impl EnvironmentName {
+    /// The names a page may use, in menu order.
+    pub const ALL: [EnvironmentName; 3] = [EnvironmentName::Neutral, EnvironmentName::Studio, EnvironmentName::Outdoor];
+
+    /// The page name: `neutral`, `studio`, `outdoor` (`flat` is the lighting preset's own).
+    pub fn name(self) -> &'static str {
+        match self {
+            EnvironmentName::Neutral => "neutral",
+            EnvironmentName::Studio => "studio",
+            EnvironmentName::Outdoor => "outdoor",
+            EnvironmentName::Flat => "flat",
+        }
+    }
+
+    /// The environment named `name`.
+    ///
+    /// # Errors
+    /// A message naming the accepted names.
+    pub fn from_name(name: &str) -> Result<Self, String> {
+        Self::ALL.into_iter().chain([EnvironmentName::Flat]).find(|e| e.name() == name).ok_or_else(|| {
+            format!("environment {name:?}: expected \"neutral\", \"studio\", \"outdoor\" or the URL of an .hdr image")
+        })
+    }
+
+    /// The environment as an image ([`PROCEDURAL_WIDTH`] × half).
+    pub fn image(self) -> HdrImage {
+        let (w, h) = (PROCEDURAL_WIDTH, PROCEDURAL_WIDTH / 2);
+        let mut rgb = Vec::with_capacity((w * h) as usize);
+        for y in 0..h {
+            for x in 0..w {
+                let d = direction((x as f32 + 0.5) / w as f32, (y as f32 + 0.5) / h as f32);
+                rgb.push(self.radiance(d));
+            }
+        }
+        HdrImage { width: w, height: h, rgb }
+    }
+
+    /// Radiance arriving from direction `d` (unit).
+    fn radiance(self, d: [f32; 3]) -> [f32; 3] {
+        let up = d[1] * 0.5 + 0.5;
+        let mix = |a: [f32; 3], b: [f32; 3], t: f32| [0, 1, 2].map(|k| a[k] + (b[k] - a[k]) * t);
+        let add = |a: [f32; 3], b: [f32; 3], s: f32| [0, 1, 2].map(|k| a[k] + b[k] * s);
+        match self {
+            EnvironmentName::Studio => {
+                let mut c = mix([0.15, 0.14, 0.13], [0.3, 0.32, 0.35], smooth(0.35, 0.75, up));
+                // Softboxes: key (upper left of the default view), fill (right), rim (behind, above).
+                c = add(c, [1.0, 0.97, 0.92], 4.0 * soft_box(d, [-0.45, 0.75, 0.5], 0.22));
+                c = add(c, [0.9, 0.95, 1.0], 1.6 * soft_box(d, [0.85, 0.3, 0.45], 0.25));
+                add(c, [1.0, 1.0, 1.0], 3.0 * soft_box(d, [0.25, 0.55, -0.8], 0.18))
+            }
+            EnvironmentName::Outdoor => {
+                let sky = mix([0.62, 0.68, 0.75], [0.22, 0.36, 0.66], smooth(0.5, 1.0, up));
+                let ground = [0.2, 0.16, 0.11];
+                let mut c = mix(ground, sky, smooth(0.48, 0.52, up));
+                // The glow around the sun (the sun itself is the preset's key light).
+                let sun = normalize([0.35, 1.0, 0.25]);
+                let toward = dot(d, sun).max(0.0);
+                c = add(c, [1.0, 0.9, 0.75], 0.8 * toward.powi(24));
+                c
+            }
+            EnvironmentName::Neutral => {
+                let mut c = mix([0.3, 0.3, 0.3], [0.55, 0.55, 0.55], smooth(0.3, 0.8, up));
+                for panel in [[-0.5, 0.85, 0.2], [0.5, 0.85, -0.2], [0.0, 0.5, 0.86]] {
+                    c = add(c, [1.0, 1.0, 1.0], 1.5 * soft_box(d, panel, 0.2));
+                }
+                c
+            }
+            EnvironmentName::Flat => mix([0.8; 3], [0.95; 3], up),
+        }
+    }
+}
+
+/// Width of the environments made in code.
+pub const PROCEDURAL_WIDTH: u32 = 256;
+
+fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn normalize(a: [f32; 3]) -> [f32; 3] {
+    let l = dot(a, a).sqrt();
+    a.map(|c| c / l)
+}
+
+fn smooth(e0: f32, e1: f32, x: f32) -> f32 {
+    let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+/// 1 inside a round light of angular radius `radius` (radians, about) around `toward`, fading
+/// over its edge.
+fn soft_box(d: [f32; 3], toward: [f32; 3], radius: f32) -> f32 {
+    let angle = dot(d, normalize(toward)).clamp(-1.0, 1.0).acos();
+    1.0 - smooth(radius * 0.7, radius, angle)
+}
+
+/// The unit direction of equirectangular coordinates `(u, v)` (`shaders/equirect.wgsl`).
+pub fn direction(u: f32, v: f32) -> [f32; 3] {
+    let phi = (u - 0.5) * 2.0 * PI;
+    let theta = v * PI;
+    [theta.sin() * phi.sin(), theta.cos(), -theta.sin() * phi.cos()]
+}
+
+impl HdrImage {
+    /// The cosine-weighted irradiance over π arriving at a surface facing `n` (what
+    /// `fs_irradiance` computes on the GPU; tests and calibration).
+    pub fn irradiance(&self, n: [f32; 3]) -> [f32; 3] {
+        let mut sum = [0.0f32; 3];
+        let (w, h) = (self.width as usize, self.height as usize);
+        for y in 0..h {
+            let v = (y as f32 + 0.5) / h as f32;
+            let solid = (2.0 * PI / w as f32) * (PI / h as f32) * (v * PI).sin();
+            for x in 0..w {
+                let d = direction((x as f32 + 0.5) / w as f32, v);
+                let c = dot(n, d).max(0.0) * solid;
+                let p = self.rgb[y * w + x];
+                for k in 0..3 {
+                    sum[k] += p[k] * c;
+                }
+            }
+        }
+        sum.map(|s| s / PI)
+    }
+
+    /// This image averaged down (2×2 boxes) until it is at most [`MAX_SOURCE_WIDTH`] wide.
+    pub fn fitted(mut self) -> Self {
+        while self.width > MAX_SOURCE_WIDTH && self.height >= 2 {
+            let (w, h) = (self.width as usize / 2, self.height as usize / 2);
+            let src = self.width as usize;
+            let mut rgb = Vec::with_capacity(w * h);
+            for y in 0..h {
+                for x in 0..w {
+                    let at = |dx: usize, dy: usize| self.rgb[(2 * y + dy) * src + 2 * x + dx];
+                    let (a, b, c, d) = (at(0, 0), at(1, 0), at(0, 1), at(1, 1));
+                    rgb.push([0, 1, 2].map(|k| 0.25 * (a[k] + b[k] + c[k] + d[k])));
+                }
+            }
+            self = HdrImage { width: w as u32, height: h as u32, rgb };
+        }
+        self
+    }
+
+    /// RGBA half floats for an [`HDR_FORMAT`] texture (alpha 1; values beyond half's range
+    /// clamped to its largest).
+    pub fn rgba16f(&self) -> Vec<u16> {
+        let one = f32_to_f16(1.0);
+        self.rgb.iter().flat_map(|p| [f32_to_f16(p[0]), f32_to_f16(p[1]), f32_to_f16(p[2]), one]).collect()
+    }
+}
+
+/// `x` as an IEEE half float, rounded to nearest even; negative and NaN become 0 (radiance),
+/// too large the largest half.
+pub fn f32_to_f16(x: f32) -> u16 {
+    if x.is_nan() || x <= 0.0 {
+        return 0;
+    }
+    if x >= 65504.0 {
+        return 0x7bff;
+    }
+    let bits = x.to_bits();
+    let exp = ((bits >> 23) & 0xff) as i32 - 127 + 15;
+    let mantissa = bits & 0x7f_ffff;
+    if exp <= 0 {
+        // Subnormal half (or zero): shift the implicit 1 in.
+        if exp < -10 {
+            return 0;
+        }
+        let m = mantissa | 0x80_0000;
+        let shift = (14 - exp) as u32;
+        let half = m >> shift;
+        let rest = m & ((1 << shift) - 1);
+        let midpoint = 1 << (shift - 1);
+        let round = u32::from(rest > midpoint || (rest == midpoint && half & 1 == 1));
+        return (half + round) as u16;
+    }
+    let half = ((exp as u32) << 10) | (mantissa >> 13);
+    let rest = mantissa & 0x1fff;
+    let round = u32::from(rest > 0x1000 || (rest == 0x1000 && half & 1 == 1));
+    // A carry out of the mantissa steps the exponent, as it should (up to 0x7c00 is excluded
+    // by the range check above: 65504 is the largest value that rounds below infinity).
+    (half + round).min(0x7bff) as u16
+}
+
+/// Reads a Radiance RGBE (`.hdr`) file: the `#?RADIANCE`/`#?RGBE` header, `FORMAT=32-bit_rle_rgbe`,
+/// the `-Y h +X w` resolution line, then flat or run-length-encoded scanlines. The size is
+/// checked against `max_pixels` before anything is allocated.
+///
+/// # Errors
+/// A message naming what is wrong (not an HDR file, an unsupported orientation or format, a
+/// scanline cut short).
+pub fn parse_hdr(bytes: &[u8], max_pixels: u64) -> Result<HdrImage, String> {
+    if !(bytes.starts_with(b"#?RADIANCE") || bytes.starts_with(b"#?RGBE")) {
+        return Err("not a Radiance .hdr file (no #?RADIANCE line)".into());
+    }
+    let mut at = 0;
+    let mut line = || -> Result<&[u8], String> {
+        let rest = bytes.get(at..).ok_or("the header is cut short")?;
+        let end = rest.iter().position(|&b| b == b'\n').ok_or("the header is cut short")?;
+        at += end + 1;
+        Ok(&rest[..end])
+    };
+    line()?;
+    loop {
+        let l = line()?;
+        if l.is_empty() {
+            break;
+        }
+        if let Some(format) = l.strip_prefix(b"FORMAT=")
+            && format.trim_ascii() != b"32-bit_rle_rgbe"
+        {
+            return Err(format!("format {:?} is not supported (32-bit_rle_rgbe is)", String::from_utf8_lossy(format)));
+        }
+    }
+    let size = String::from_utf8_lossy(line()?).into_owned();
+    let parts: Vec<&str> = size.split_whitespace().collect();
+    let (height, width) = match parts.as_slice() {
+        ["-Y", h, "+X", w] => (h.parse::<u32>().ok(), w.parse::<u32>().ok()),
+        _ => return Err(format!("resolution {size:?} is not supported (-Y height +X width is)")),
+    };
+    let (Some(height), Some(width)) = (height, width) else {
+        return Err(format!("resolution {size:?} is not two numbers"));
+    };
+    if width == 0 || height == 0 || u64::from(width) * u64::from(height) > max_pixels {
+        return Err(format!("{width}×{height} pixels: at most {max_pixels} are read"));
+    }
+    let (w, h) = (width as usize, height as usize);
+    let mut rgb = Vec::with_capacity(w * h);
+    let mut scan = vec![[0u8; 4]; w];
+    let cut = "a scanline is cut short";
+    for _ in 0..h {
+        let head = bytes.get(at..at + 4).ok_or(cut)?;
+        let rle = (8..32768).contains(&w) && head[0] == 2 && head[1] == 2 && head[2] & 0x80 == 0;
+        if rle {
+            if (usize::from(head[2]) << 8 | usize::from(head[3])) != w {
+                return Err("a run-length scanline's width differs from the image's".into());
+            }
+            at += 4;
+            for channel in 0..4 {
+                let mut x = 0;
+                while x < w {
+                    let count = *bytes.get(at).ok_or(cut)?;
+                    at += 1;
+                    if count > 128 {
+                        let run = usize::from(count - 128);
+                        let value = *bytes.get(at).ok_or(cut)?;
+                        at += 1;
+                        let span = scan.get_mut(x..x + run).ok_or("a run goes past the scanline")?;
+                        span.iter_mut().for_each(|p| p[channel] = value);
+                        x += run;
+                    } else {
+                        let run = usize::from(count);
+                        if run == 0 {
+                            return Err("a run of length 0".into());
+                        }
+                        let values = bytes.get(at..at + run).ok_or(cut)?;
+                        at += run;
+                        let span = scan.get_mut(x..x + run).ok_or("a run goes past the scanline")?;
+                        span.iter_mut().zip(values).for_each(|(p, &v)| p[channel] = v);
+                        x += run;
+                    }
+                }
+            }
+        } else {
+            // Flat scanline (old-style run-length files are not supported).
+            for p in scan.iter_mut() {
+                let b = bytes.get(at..at + 4).ok_or(cut)?;
+                *p = [b[0], b[1], b[2], b[3]];
+                at += 4;
+            }
+        }
+        rgb.extend(scan.iter().map(|&[r, g, b, e]| {
+            if e == 0 {
+                [0.0; 3]
+            } else {
+                let scale = 2f32.powi(i32::from(e) - 136);
+                [f32::from(r) * scale, f32::from(g) * scale, f32::from(b) * scale]
+            }
+        }));
+    }
+    Ok(HdrImage { width, height, rgb })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn directions_match_the_shader_convention() {
+        let close = |a: [f32; 3], b: [f32; 3]| (0..3).all(|k| (a[k] - b[k]).abs() < 1e-6);
+        assert!(close(direction(0.5, 0.5), [0.0, 0.0, -1.0]));
+        assert!(close(direction(0.75, 0.5), [1.0, 0.0, 0.0]));
+        assert!(close(direction(0.0, 0.5), [0.0, 0.0, 1.0]));
+        assert!(close(direction(0.3, 0.0), [0.0, 1.0, 0.0]));
+    }
+
+    #[test]
+    fn half_floats_round_like_ieee() {
+        assert_eq!(f32_to_f16(1.0), 0x3c00);
+        assert_eq!(f32_to_f16(0.5), 0x3800);
+        assert_eq!(f32_to_f16(65504.0), 0x7bff);
+        assert_eq!(f32_to_f16(1e9), 0x7bff);
+        assert_eq!(f32_to_f16(-3.0), 0);
+        assert_eq!(f32_to_f16(f32::NAN), 0);
+        // The smallest subnormal half, and half of it (rounds to even: 0).
+        assert_eq!(f32_to_f16(5.960_464_5e-8), 1);
+        assert_eq!(f32_to_f16(2.980_232_2e-8), 0);
+        // 1 + 2^-11 is halfway between 1 and the next half: ties to even (1).
+        assert_eq!(f32_to_f16(1.0 + 2f32.powi(-11)), 0x3c00);
+        assert_eq!(f32_to_f16(1.0 + 3.0 * 2f32.powi(-11)), 0x3c02);
+        assert_eq!(f32_to_f16(0.1), 0x2e66);
+    }
+
+    /// The environments light about as the hemispheres they replace did: what a white surface
+    /// facing up and facing down reflects, per preset.
+    #[test]
+    fn procedural_environments_light_like_the_hemispheres() {
+        let luma = |c: [f32; 3]| 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
+        let mut failures = Vec::new();
+        for (name, up, down) in [
+            (EnvironmentName::Studio, 0.45, 0.14),
+            (EnvironmentName::Outdoor, 0.45, 0.2),
+            (EnvironmentName::Neutral, 0.62, 0.32),
+            (EnvironmentName::Flat, 0.92, 0.83),
+        ] {
+            let image = name.image();
+            let (u, d) = (luma(image.irradiance([0.0, 1.0, 0.0])), luma(image.irradiance([0.0, -1.0, 0.0])));
+            eprintln!("{}: up {u:.3}, down {d:.3}", name.name());
+            failures.extend(
+                (((u / up - 1.0).abs() > 0.2) || ((d / down - 1.0).abs() > 0.25))
+                    .then(|| format!("{}: up {u}, down {d}, expected about {up} and {down}", name.name())),
+            );
+        }
+        assert!(failures.is_empty(), "{failures:?}");
+    }
+
+    fn rgbe(value: [f32; 3]) -> [u8; 4] {
+        let m = value.iter().copied().fold(0.0f32, f32::max);
+        if m < 1e-32 {
+            return [0; 4];
+        }
+        let e = m.log2().floor() as i32 + 1;
+        let scale = 256.0 / 2f32.powi(e);
+        [(value[0] * scale) as u8, (value[1] * scale) as u8, (value[2] * scale) as u8, (e + 128) as u8]
+    }
+
+    #[test]
+    fn hdr_files_read_flat_and_run_length_encoded() {
+        let header =
+            |w: u32, h: u32| format!("#?RADIANCE\nFORMAT=32-bit_rle_rgbe\nEXPOSURE=1\n\n-Y {h} +X {w}\n").into_bytes();
+        // Flat: 2×1.
+        let mut flat = header(2, 1);
+        flat.extend(rgbe([1.0, 0.5, 0.25]));
+        flat.extend(rgbe([4.0, 0.0, 2.0]));
+        let image = parse_hdr(&flat, 1 << 20).expect("flat");
+        assert_eq!((image.width, image.height), (2, 1));
+        assert_eq!(image.rgb, [[1.0, 0.5, 0.25], [4.0, 0.0, 2.0]]);
+        // Run-length: 8×1, channel by channel: a run of 8 (R), literals (G), runs (B, E).
+        let mut rle = header(8, 1);
+        rle.extend([2, 2, 0, 8]);
+        rle.extend([128 + 8, 128]);
+        rle.extend([8, 0, 32, 64, 96, 128, 160, 192, 224]);
+        rle.extend([128 + 4, 0, 128 + 4, 255]);
+        rle.extend([128 + 8, 129]);
+        let image = parse_hdr(&rle, 1 << 20).expect("run-length");
+        assert_eq!(image.rgb[0], [1.0, 0.0, 0.0]);
+        assert_eq!(image.rgb[7], [1.0, 1.75, 255.0 / 128.0]);
+        // Refused: not HDR, a bad size, too large, cut short, a run past the end.
+        assert!(parse_hdr(b"P6\n1 1\n255\n", 100).expect_err("refused").contains("not a Radiance"));
+        assert!(parse_hdr(b"not an image", 100).expect_err("refused").contains("not a Radiance"));
+        let mut wrong = header(2, 1);
+        wrong.truncate(wrong.len() - "-Y 1 +X 2\n".len());
+        wrong.extend(b"+Y 1 +X 2\n");
+        assert!(parse_hdr(&wrong, 100).expect_err("refused").contains("not supported"));
+        assert!(parse_hdr(&header(4096, 4096), 1 << 20).expect_err("refused").contains("at most"));
+        assert!(parse_hdr(&flat[..flat.len() - 2], 100).expect_err("refused").contains("cut short"));
+        let mut past = header(8, 1);
+        past.extend([2, 2, 0, 8, 128 + 9, 1]);
+        assert!(parse_hdr(&past, 100).expect_err("refused").contains("past"));
+        // Never a panic on any prefix of a valid file.
+        for n in 0..rle.len() {
+            let _ = parse_hdr(&rle[..n], 100);
+        }
+    }
+
+    #[test]
+    fn large_images_are_averaged_down() {
+        let image = HdrImage { width: 2048, height: 1024, rgb: vec![[2.0, 1.0, 0.5]; 2048 * 1024] }.fitted();
+        assert_eq!((image.width, image.height), (MAX_SOURCE_WIDTH, MAX_SOURCE_WIDTH / 2));
+        assert!(image.rgb.iter().all(|&p| p == [2.0, 1.0, 0.5]));
+    }
+}
+
+/// Whether `adapter` can prefilter environments: it renders to and filters [`HDR_FORMAT`].
+pub fn supports_ibl(adapter: &wgpu::Adapter) -> bool {
+    let features = adapter.get_texture_format_features(HDR_FORMAT);
+    features.allowed_usages.contains(wgpu::TextureUsages::RENDER_ATTACHMENT)
+        && features.flags.contains(wgpu::TextureFormatFeatureFlags::FILTERABLE)
+}
+
+/// `Prefilter` in ibl.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct PrefilterUniform {
+    params: [f32; 4],
+}
+
+/// GGX samples per texel of the specular chain and per texel of the BRDF table.
+const SAMPLES: f32 = 128.0;
+
+/// The prefiltering pipelines and the BRDF table of one device (built on first use, shared by
+/// every viewer of the device with the kit).
+pub struct IblKit {
+    layout: wgpu::BindGroupLayout,
+    specular: wgpu::RenderPipeline,
+    irradiance: wgpu::RenderPipeline,
+    /// The sampler of the prefiltered textures: linear with mips, wrapping around in u.
+    sampler: wgpu::Sampler,
+    brdf: wgpu::TextureView,
+    mips: super::texture::MipMaker,
+}
+
+/// An environment ready to light meshes: its bind group ([`super::pipelines::Layouts::environment`]).
+#[derive(Clone)]
+pub struct GpuEnvironment {
+    /// Group 3 of the mesh pipelines.
+    pub bind_group: wgpu::BindGroup,
+}
+
+fn hdr_texture(
+    device: &wgpu::Device,
+    label: &str,
+    width: u32,
+    height: u32,
+    mips: u32,
+    usage: wgpu::TextureUsages,
+) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+        mip_level_count: mips,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: HDR_FORMAT,
+        usage,
+        view_formats: &[],
+    })
+}
+
+fn mip_view(texture: &wgpu::Texture, mip: u32) -> wgpu::TextureView {
+    texture.create_view(&wgpu::TextureViewDescriptor {
+        label: Some("kloub ibl level"),
+        base_mip_level: mip,
+        mip_level_count: Some(1),
+        ..Default::default()
+    })
+}
+
+impl IblKit {
+    /// Compiles ibl.wgsl and makes the BRDF table; `None` where the device cannot render
+    /// [`HDR_FORMAT`] ([`supports_ibl`]).
+    pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, adapter_supports: bool) -> Option<Self> {
+        if !adapter_supports {
+            return None;
+        }
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("kloub ibl.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(super::pipelines::IBL_WGSL.into()),
+        });
+        let f = wgpu::ShaderStages::FRAGMENT;
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("kloub ibl"),
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: f,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: wgpu::BufferSize::new(size_of::<PrefilterUniform>() as u64),
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 1,
+                    visibility: f,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 2,
+                    visibility: f,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                    count: None,
+                },
+            ],
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("kloub ibl"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = |entry: &str| {
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(entry),
+                layout: Some(&pipeline_layout),
+                vertex: wgpu::VertexState {
+                    module: &module,
+                    entry_point: Some("vs_full"),
+                    compilation_options: Default::default(),
+                    buffers: &[],
+                },
+                primitive: wgpu::PrimitiveState::default(),
+                depth_stencil: None,
+                multisample: wgpu::MultisampleState::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &module,
+                    entry_point: Some(entry),
+                    compilation_options: Default::default(),
+                    targets: &[Some(wgpu::ColorTargetState {
+                        format: HDR_FORMAT,
+                        blend: None,
+                        write_mask: wgpu::ColorWrites::ALL,
+                    })],
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        let specular = pipeline("fs_specular");
+        let irradiance = pipeline("fs_irradiance");
+        let brdf_pipeline = pipeline("fs_brdf");
+        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("kloub environment"),
+            address_mode_u: wgpu::AddressMode::Repeat,
+            address_mode_v: wgpu::AddressMode::ClampToEdge,
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            mipmap_filter: wgpu::MipmapFilterMode::Linear,
+            ..Default::default()
+        });
+        let brdf = hdr_texture(
+            device,
+            "kloub brdf table",
+            BRDF_SIZE,
+            BRDF_SIZE,
+            1,
+            wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::RENDER_ATTACHMENT,
+        );
+        let mips = super::texture::MipMaker::new(device, HDR_FORMAT);
+        let kit = Self {
+            layout,
+            specular,
+            irradiance,
+            sampler,
+            brdf: brdf.create_view(&wgpu::TextureViewDescriptor::default()),
+            mips,
+        };
+        // The table reads no source: any texture fills the binding.
+        let dummy = hdr_texture(device, "kloub ibl dummy", 1, 1, 1, wgpu::TextureUsages::TEXTURE_BINDING);
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("kloub brdf") });
+        kit.pass(
+            device,
+            &mut encoder,
+            &brdf_pipeline,
+            &dummy.create_view(&Default::default()),
+            &mip_view(&brdf, 0),
+            [0.0, SAMPLES, 1.0, 1.0],
+        );
+        queue.submit([encoder.finish()]);
+        Some(kit)
+    }
+
+    /// One full-screen pass of `pipeline` from `source` into `target` with `params`.
+    fn pass(
+        &self,
+        device: &wgpu::Device,
+        encoder: &mut wgpu::CommandEncoder,
+        pipeline: &wgpu::RenderPipeline,
+        source: &wgpu::TextureView,
+        target: &wgpu::TextureView,
+        params: [f32; 4],
+    ) {
+        use wgpu::util::DeviceExt;
+        let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("kloub prefilter"),
+            contents: bytemuck::bytes_of(&PrefilterUniform { params }),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("kloub prefilter"),
+            layout: &self.layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: uniform.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(source) },
+                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::Sampler(&self.sampler) },
+            ],
+        });
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("kloub prefilter"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: target,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store },
+            })],
+            depth_stencil_attachment: None,
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, &bind_group, &[]);
+        pass.draw(0..3, 0..1);
+    }
+
+    /// Prefilters `image` (fitted to [`MAX_SOURCE_WIDTH`] first) into an environment whose
+    /// bind group has the layout `layout`.
+    pub fn environment(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        layout: &wgpu::BindGroupLayout,
+        image: &HdrImage,
+    ) -> Result<GpuEnvironment, String> {
+        let max = device.limits().max_texture_dimension_2d;
+        let fitted;
+        let image = if image.width > MAX_SOURCE_WIDTH.min(max) {
+            fitted = image.clone().fitted();
+            &fitted
+        } else {
+            image
+        };
+        let (width, height) = (image.width, image.height);
+        if width < 2 || height < 1 || image.rgb.len() != (width * height) as usize {
+            return Err(format!("environment image of {width}×{height} pixels has {} values", image.rgb.len()));
+        }
+        let levels = super::texture::mip_count(width, height);
+        let source = hdr_texture(device, "kloub environment source", width, height, levels, super::texture::GPU_MIPPED);
+        queue.write_texture(
+            source.as_image_copy(),
+            bytemuck::cast_slice(&image.rgba16f()),
+            wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(width * 8), rows_per_image: Some(height) },
+            wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+        );
+        self.mips.generate(device, queue, &source);
+        let source_view = source.create_view(&wgpu::TextureViewDescriptor::default());
+        let usage = wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::RENDER_ATTACHMENT;
+        let specular = hdr_texture(
+            device,
+            "kloub environment specular",
+            SPECULAR_WIDTH,
+            SPECULAR_WIDTH / 2,
+            SPECULAR_LEVELS,
+            usage,
+        );
+        let irradiance =
+            hdr_texture(device, "kloub environment irradiance", IRRADIANCE_WIDTH, IRRADIANCE_WIDTH / 2, 1, usage);
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("kloub ibl") });
+        let source_levels = levels as f32;
+        for level in 0..SPECULAR_LEVELS {
+            let roughness = level as f32 / (SPECULAR_LEVELS - 1) as f32;
+            // Level 0 copies the source at its own resolution: the source mip as wide as it.
+            let lod = ((width as f32) / (SPECULAR_WIDTH as f32)).log2().max(0.0);
+            let params = if level == 0 {
+                [0.0, lod, source_levels, width as f32]
+            } else {
+                [roughness, SAMPLES, source_levels, width as f32]
+            };
+            self.pass(device, &mut encoder, &self.specular, &source_view, &mip_view(&specular, level), params);
+        }
+        // Irradiance sums the source mip about as wide as the irradiance texture.
+        let sum_level = ((width as f32 / IRRADIANCE_WIDTH as f32).log2().floor().max(0.0)).min(source_levels - 1.0);
+        self.pass(
+            device,
+            &mut encoder,
+            &self.irradiance,
+            &source_view,
+            &mip_view(&irradiance, 0),
+            [sum_level, 0.0, source_levels, width as f32],
+        );
+        queue.submit([encoder.finish()]);
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("kloub environment"),
+            layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::TextureView(&specular.create_view(&Default::default())),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(&irradiance.create_view(&Default::default())),
+                },
+                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&self.brdf) },
+                wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::Sampler(&self.sampler) },
+            ],
+        });
+        Ok(GpuEnvironment { bind_group })
+    }
+}
+
+/// The bind group of meshes on a device without [`IblKit`]: `white` in every texture (the
+/// shader reads none of them: `Frame.environment.z` is 0, the hemisphere lights instead).
+pub fn fallback_environment(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    white: &wgpu::TextureView,
+) -> GpuEnvironment {
+    let sampler =
+        device.create_sampler(&wgpu::SamplerDescriptor { label: Some("kloub no environment"), ..Default::default() });
+    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("kloub no environment"),
+        layout,
+        entries: &[
+            wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(white) },
+            wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(white) },
+            wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(white) },
+            wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::Sampler(&sampler) },
+        ],
+    });
+    GpuEnvironment { bind_group }
+}
