@@ -1,4 +1,4 @@
-// Kloub environment: background gradient and the ground grid.
+// Kloub environment: background gradient, the ground grid and the character's ground shadow.
 //
 // Valid on WebGPU, native and WebGL2 (wgpu downlevel). No vertex buffers: both passes
 // generate their vertices from the vertex index.
@@ -111,4 +111,80 @@ fn fs_grid(in: GridOut) -> @location(0) vec4<f32> {
         discard;
     }
     return scene_output(vec4<f32>(color, alpha));
+}
+
+// The ground shadow (group 1, its own pipeline layout): a quad on the ground under the
+// character, darkened where the key light's shadow map (drawn by the meshes' depth-only
+// caster pipelines) says the light is blocked, softened by percentage-closer filtering.
+struct Shadow {
+    // World to the shadow map's clip space (orthographic, along the light).
+    light_view_proj: mat4x4<f32>,
+    // x: intensity (0..1), y: filter radius in texels, z: 1 / map size, w: quad half extent.
+    params: vec4<f32>,
+    // xyz: the quad's centre (on the ground).
+    center: vec4<f32>,
+}
+
+@group(1) @binding(0) var<uniform> shadow: Shadow;
+@group(1) @binding(1) var shadow_map: texture_depth_2d;
+@group(1) @binding(2) var shadow_sampler: sampler_comparison;
+
+/// A square on the ground centred under the character (two triangles).
+@vertex
+fn vs_shadow(@builtin(vertex_index) index: u32) -> GridOut {
+    var corners = array<vec2<f32>, 6>(
+        vec2<f32>(-1.0, -1.0),
+        vec2<f32>(-1.0, 1.0),
+        vec2<f32>(1.0, -1.0),
+        vec2<f32>(1.0, -1.0),
+        vec2<f32>(-1.0, 1.0),
+        vec2<f32>(1.0, 1.0),
+    );
+    let c = corners[index % 6u] * shadow.params.w;
+    let world = vec3<f32>(shadow.center.x + c.x, frame.grid.x, shadow.center.z + c.y);
+    var out: GridOut;
+    out.clip = frame.view_proj * vec4<f32>(world, 1.0);
+    out.world_pos = world;
+    return out;
+}
+
+@fragment
+fn fs_shadow(in: GridOut) -> @location(0) vec4<f32> {
+    let light = shadow.light_view_proj * vec4<f32>(in.world_pos, 1.0);
+    let uv = vec2<f32>(light.x * 0.5 + 0.5, 0.5 - light.y * 0.5);
+    // The ground itself casts nothing: what is above it in the map is a little nearer the light.
+    let depth = light.z - 0.002;
+    // A Poisson disc of 16 taps, each a hardware 2×2 comparison.
+    var taps = array<vec2<f32>, 16>(
+        vec2<f32>(-0.94201624, -0.39906216),
+        vec2<f32>(0.94558609, -0.76890725),
+        vec2<f32>(-0.09418410, -0.92938870),
+        vec2<f32>(0.34495938, 0.29387760),
+        vec2<f32>(-0.91588581, 0.45771432),
+        vec2<f32>(-0.81544232, -0.87912464),
+        vec2<f32>(-0.38277543, 0.27676845),
+        vec2<f32>(0.97484398, 0.75648379),
+        vec2<f32>(0.44323325, -0.97511554),
+        vec2<f32>(0.53742981, -0.47373420),
+        vec2<f32>(-0.26496911, -0.41893023),
+        vec2<f32>(0.79197514, 0.19090188),
+        vec2<f32>(-0.24188840, 0.99706507),
+        vec2<f32>(-0.81409955, 0.91437590),
+        vec2<f32>(0.19984126, 0.78641367),
+        vec2<f32>(0.14383161, -0.14100790),
+    );
+    let radius = shadow.params.y * shadow.params.z;
+    var lit = 0.0;
+    for (var i = 0u; i < 16u; i += 1u) {
+        lit += textureSampleCompareLevel(shadow_map, shadow_sampler, uv + taps[i] * radius, depth);
+    }
+    lit /= 16.0;
+    // Faded out towards the quad's edge (the map covers it, nothing beyond).
+    let distance = length(in.world_pos.xz - shadow.center.xz) / shadow.params.w;
+    let fade = 1.0 - smoothstep(0.6, 1.0, distance);
+    let alpha = (1.0 - lit) * shadow.params.x * fade;
+    if alpha < 1.0 / 512.0 {
+        discard;
+    }
+    return scene_output(vec4<f32>(0.0, 0.0, 0.0, alpha));
 }

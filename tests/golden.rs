@@ -336,9 +336,13 @@ fn plain_target_encodes_srgb_like_the_srgb_target_and_transparent_leaves_alpha()
     let mut plain = SceneRenderer::with_format(device, queue, 1, wgpu::TextureFormat::Rgba8Unorm);
     plain.set_asset(device, queue, &asset).expect("uploading");
     assert_eq!(plain.format(), wgpu::TextureFormat::Rgba8Unorm);
-    // The grid blends in gamma space on the plain target (as the browser does): compared without it.
+    // The grid and the ground shadow blend in gamma space on the plain target (as the browser
+    // does): compared without them.
     srgb.set_grid(false);
     plain.set_grid(false);
+    let unshadowed = Look { shadow_intensity: 0.0, ..Look::default() };
+    srgb.set_look(unshadowed);
+    plain.set_look(unshadowed);
     let a = offscreen.render(&mut srgb, &asset, &mut instance, &camera, 192, 192).expect("rendering");
     let b = offscreen.render(&mut plain, &asset, &mut instance, &camera, 192, 192).expect("rendering");
     let comparison = compare(&a, &b, 2);
@@ -351,7 +355,7 @@ fn plain_target_encodes_srgb_like_the_srgb_target_and_transparent_leaves_alpha()
     assert!(comparison.differing_fraction < 0.001, "{:.3}% differ", comparison.differing_fraction * 100.0);
 
     for renderer in [&mut srgb, &mut plain] {
-        renderer.set_look(Look { background: Background::Transparent, ..Look::default() });
+        renderer.set_look(Look { background: Background::Transparent, ..unshadowed });
         let image = offscreen.render(renderer, &asset, &mut instance, &camera, 192, 192).expect("rendering");
         let opaque = image.pixels().filter(|p| p.0[3] == 255).count() as f64 / (192.0 * 192.0);
         assert_eq!(image.get_pixel(0, 0).0, [0, 0, 0, 0], "a corner is not transparent");
@@ -510,4 +514,57 @@ fn metallic_and_roughness_change_the_spheres_as_the_brdf_says() {
     let (smooth_peak, _) = stats(1, 0);
     let (rough_peak, _) = stats(GRID - 1, 0);
     assert!(smooth_peak > rough_peak + 10.0, "smooth highlight {smooth_peak} not above rough {rough_peak}");
+}
+
+/// The ground shadow (on by default) darkens the floor under the character and nothing far
+/// from it; at intensity 0 it is gone, and a softer one spreads wider than a sharp one.
+#[test]
+fn ground_shadow_darkens_the_floor_under_the_character() {
+    use kloub_web::render::SceneRenderer;
+    use kloub_web::render::uniforms::{Background, Look};
+    let offscreen = Offscreen::new().expect("a wgpu adapter");
+    let asset = load("khronos/CesiumMan/glTF-Binary/CesiumMan.glb");
+    let (mut instance, camera) = pose(&asset, Some(0), 0.5, Some((0.3, -0.5)));
+    let (device, queue) = (offscreen.device(), offscreen.queue());
+    let mut renderer = SceneRenderer::new(device, queue, 1);
+    renderer.set_asset(device, queue, &asset).expect("uploading");
+    renderer.set_grid(false);
+    let size = 192;
+    let mut shot = |intensity: f32, softness: f32| {
+        let look = Look {
+            background: Background::Grey,
+            shadow_intensity: intensity,
+            shadow_softness: softness,
+            ..Look::default()
+        };
+        renderer.set_look(look);
+        offscreen.render(&mut renderer, &asset, &mut instance, &camera, size, size).expect("rendering")
+    };
+    let (with, sharp, without) = (shot(1.0, 1.0), shot(1.0, 0.0), shot(0.0, 1.0));
+    // Pixels where the shadow changed the floor, and how much darker it made them in all.
+    let darkened = |a: &RgbaImage| {
+        let (mut count, mut total) = (0usize, 0.0f32);
+        for (p, q) in a.pixels().zip(without.pixels()) {
+            let d = luminance_of(q) - luminance_of(p);
+            if d > 2.0 {
+                count += 1;
+                total += d;
+            }
+            assert!(d > -2.0, "a shadow never brightens a pixel");
+        }
+        (count, total)
+    };
+    let (soft_count, soft_total) = darkened(&with);
+    let (sharp_count, _) = darkened(&sharp);
+    eprintln!("ground shadow: soft {soft_count} pixels ({soft_total:.0} levels), sharp {sharp_count}");
+    assert!(soft_count > 200, "the shadow darkened only {soft_count} pixels");
+    assert!(soft_count > sharp_count, "soft ({soft_count}) not wider than sharp ({sharp_count})");
+    // Far from the character (the top corners: the background) nothing changes.
+    for (x, y) in [(2, 2), (size - 3, 2)] {
+        assert_eq!(with.get_pixel(x, y), without.get_pixel(x, y), "({x}, {y}) changed");
+    }
+}
+
+fn luminance_of(p: &Rgba<u8>) -> f32 {
+    0.2126 * f32::from(p.0[0]) + 0.7152 * f32::from(p.0[1]) + 0.0722 * f32::from(p.0[2])
 }

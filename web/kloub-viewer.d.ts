@@ -138,6 +138,8 @@ export interface KloubViewerState {
   toneMapping?: ToneMapping;
   /** `''` (the lighting preset's environment), `neutral`, `studio`, `outdoor` or `image` (an .hdr file). */
   environment?: '' | 'neutral' | 'studio' | 'outdoor' | 'image';
+  /** The ground shadow: `intensity,softness`. */
+  shadow?: string;
   /** While a model downloads: `RECEIVED/TOTAL` bytes. */
   progress?: string;
   ragdoll?: '' | 'simulating' | 'resting' | 'blending';
@@ -201,6 +203,10 @@ export declare class KloubViewer extends HTMLElement {
    *  image (up to 2048×1024 pixels); `''` for the lighting preset's own. A file that cannot be read is an `error`
    *  event and the light before it stays. */
   environmentImage: string;
+  /** Attribute `shadow-intensity` (model-viewer's): the ground shadow's darkness, 0 (none) to 1; 0.6 when absent. */
+  shadowIntensity: number;
+  /** Attribute `shadow-softness` (model-viewer's): 0 (sharp) to 1 (the default). */
+  shadowSoftness: number;
   /** Attribute `tone-mapping` (model-viewer's); the setter also takes `auto` (neutral) and `linear` (none). */
   toneMapping: ToneMapping | 'auto' | 'linear';
   /* Attribute `min-pixel-ratio`: the lowest resolution (canvas pixels per CSS pixel, default 0.5) a viewer without

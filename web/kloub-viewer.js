@@ -396,6 +396,13 @@ const TONE_MAPPINGS = ['neutral', 'aces', 'none'];
 const TONE_ALIASES = { auto: 'neutral', linear: 'none' };
 /** The largest exposure (everything is white long before). */
 const MAX_EXPOSURE = 64;
+/** The ground shadow's darkness without `shadow-intensity`. */
+const DEFAULT_SHADOW_INTENSITY = 0.6;
+/** An attribute holding a number from 0 to 1, or `fallback` when absent or anything else. */
+function unitAttribute(value, fallback) {
+  const x = value === null || value.trim() === '' ? NaN : Number(value);
+  return Number.isFinite(x) && x >= 0 && x <= 1 ? x : fallback;
+}
 /** The environments made in code (`environment-image` names); anything else is the URL of an .hdr image. */
 const ENVIRONMENTS = ['neutral', 'studio', 'outdoor'];
 /** The largest .hdr file fetched for `environment-image` (2048×1024 pixels uncompressed is 8 MiB). */
@@ -576,6 +583,7 @@ class KloubViewer extends HTMLElement {
     'camera-controls', 'camera-orbit', 'camera-target', 'auto-rotate', 'auto-rotate-delay', 'rotation-per-second',
     'min-camera-orbit', 'max-camera-orbit', 'field-of-view', 'disable-zoom', 'disable-pan', 'animation-crossfade-duration',
     'interaction-prompt', 'interaction-prompt-threshold', 'exposure', 'tone-mapping', 'environment-image',
+    'shadow-intensity', 'shadow-softness',
   ];
 
   #viewer = null;
@@ -989,6 +997,7 @@ class KloubViewer extends HTMLElement {
         case 'exposure': viewer.setExposure(this.exposure); break;
         case 'tone-mapping': viewer.setToneMapping(this.toneMapping); break;
         case 'environment-image': this.#applyEnvironment(viewer); break;
+        case 'shadow-intensity': case 'shadow-softness': viewer.setShadow(this.shadowIntensity, this.shadowSoftness); break;
         case 'backend': this.#remount(); break;
         default: break;
       }
@@ -1027,6 +1036,7 @@ class KloubViewer extends HTMLElement {
       if (this.hasAttribute('exposure')) viewer.setExposure(this.exposure);
       if (this.hasAttribute('tone-mapping')) viewer.setToneMapping(this.toneMapping);
       if (this.hasAttribute('environment-image')) this.#applyEnvironment(viewer);
+      if (this.hasAttribute('shadow-intensity') || this.hasAttribute('shadow-softness')) viewer.setShadow(this.shadowIntensity, this.shadowSoftness);
       this.#applyLimits();
       const src = revive ? (revive.src || (this.#files ? null : this.getAttribute('src'))) : this.getAttribute('src');
       if (revive && src) this.#reviveOnLoad(revive);
@@ -1566,6 +1576,13 @@ class KloubViewer extends HTMLElement {
     const accepted = [...TONE_MAPPINGS, ...Object.keys(TONE_ALIASES)];
     this.setAttribute('tone-mapping', oneOf('toneMapping', 'value', value, accepted));
   }
+  /** The ground shadow's darkness (attribute `shadow-intensity`, model-viewer's): 0 (none) to 1; Kloub's default,
+   *  when absent or not such a number, is 0.6 (model-viewer's is 0: off). */
+  get shadowIntensity() { return unitAttribute(this.getAttribute('shadow-intensity'), DEFAULT_SHADOW_INTENSITY); }
+  set shadowIntensity(value) { this.setAttribute('shadow-intensity', String(num('shadowIntensity', 'value', value, { min: 0, max: 1 }))); }
+  /** The ground shadow's blur (attribute `shadow-softness`, model-viewer's): 0 (sharp) to 1 (the default). */
+  get shadowSoftness() { return unitAttribute(this.getAttribute('shadow-softness'), 1); }
+  set shadowSoftness(value) { this.setAttribute('shadow-softness', String(num('shadowSoftness', 'value', value, { min: 0, max: 1 }))); }
   /** The environment lighting the model (attribute `environment-image`, model-viewer's): `neutral`, `studio`,
    *  `outdoor`, or the URL of a Radiance .hdr image; `''` (absent) for the lighting preset's own. */
   get environmentImage() { return this.getAttribute('environment-image') ?? ''; }

@@ -1026,6 +1026,40 @@ for (const backend of BACKENDS) {
     assert(ds.status === 'ready' && !ds.error, `still ready: ${JSON.stringify(ds)}`);
   });
 
+  test(`${backend}: shadow-intensity and shadow-softness (model-viewer's attributes): a soft ground shadow under the model by default, over the page; none at 0; data-shadow`, async (ctx) => {
+    const { page } = ctx;
+    await viewersPage(page, ctx.url, [{ attrs: { backend, src: '/assets/Fox.glb', 'min-pixel-ratio': '1' }, style: 'width:320px;height:240px' }]);
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.status === 'ready' && Number(document.querySelector('kloub-viewer').dataset.frames) > 0, 'the viewer');
+    assert((await dataset(page)).shadow === '0.6,1', `the default shadow: ${(await dataset(page)).shadow}`);
+    const shot = async () => {
+      const url = await page.evaluate(() => document.querySelector('kloub-viewer').toDataURL());
+      return PNG.sync.read(Buffer.from(url.replace(/^data:image\/png;base64,/, ''), 'base64'));
+    };
+    // The shadow over a transparent background: dark pixels that are not transparent (the model has some of its
+    // own, so the counts are compared with the shadow off).
+    const shaded = (img) => {
+      let n = 0;
+      for (let i = 0; i < img.data.length; i += 4) {
+        if (img.data[i + 3] > 8 && img.data[i] < 40 && img.data[i + 1] < 40 && img.data[i + 2] < 40) n++;
+      }
+      return n;
+    };
+    const soft = shaded(await shot());
+    await page.evaluate(() => document.querySelector('kloub-viewer').setAttribute('shadow-intensity', '0'));
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.shadow === '0,1', 'shadow-intensity="0"');
+    const none = shaded(await shot());
+    assert(soft > none + 300, `shadow pixels: ${soft} by default, ${none} at intensity 0`);
+    await page.evaluate(() => { const v = document.querySelector('kloub-viewer'); v.shadowIntensity = 1; v.shadowSoftness = 0; });
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.shadow === '1,0', 'the shadow properties');
+    const sharp = shaded(await shot());
+    assert(sharp > none + 300, `a sharp full shadow: ${sharp} pixels (none: ${none})`);
+    // Not a number from 0 to 1: the defaults (model-viewer ignores such values too).
+    await page.evaluate(() => document.querySelector('kloub-viewer').setAttribute('shadow-intensity', '2'));
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.shadow === '0.6,0', 'an out-of-range shadow-intensity');
+    const thrown = await page.evaluate(() => { try { document.querySelector('kloub-viewer').shadowSoftness = -1; return null; } catch (e) { return e.name; } });
+    assert(thrown === 'RangeError', `shadowSoftness = -1 threw ${thrown}`);
+  });
+
   test(`${backend}: 50 viewers on one page all animate through one shared device, none errs`, async (ctx) => {
     const { page } = ctx;
     await page.goto(`${ctx.url}/embed.html?backend=${backend}`);

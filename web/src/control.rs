@@ -150,6 +150,8 @@ pub enum Command {
     ),
     /// The environment's turn about +Y, radians (kept across models).
     SetEnvironmentRotation(f32),
+    /// The ground shadow's intensity and softness, 0 to 1 each (kept across models).
+    SetShadow(f32, f32),
     /// The glTF-Validator's report on the shown model (the element ran it).
     #[cfg(feature = "full")]
     SetValidation(crate::validation::Validation),

@@ -79,6 +79,8 @@ pub enum Key {
     /// The environment: `""` (the lighting preset's), `"neutral"` | `"studio"` | `"outdoor"`, or
     /// `"image"` (an .hdr file).
     Environment,
+    /// The ground shadow: `intensity,softness` (0 to 1 each; intensity 0: none).
+    Shadow,
     /// The ragdoll: `"simulating"` | `"resting"` | `"blending"` (back to the animation); `""` off.
     Ragdoll,
     /// The URL the shown model was fetched from (`""` for dropped files and built-in samples).
@@ -111,7 +113,7 @@ pub enum Key {
 
 impl Key {
     /// Every key, in a fixed order.
-    pub const ALL: [Key; 45] = [
+    pub const ALL: [Key; 46] = [
         Key::Backend,
         Key::Status,
         Key::Model,
@@ -146,6 +148,7 @@ impl Key {
         Key::Exposure,
         Key::ToneMapping,
         Key::Environment,
+        Key::Shadow,
         Key::Ragdoll,
         Key::Src,
         Key::Blend,
@@ -197,6 +200,7 @@ impl Key {
             Key::Exposure => "exposure",
             Key::ToneMapping => "toneMapping",
             Key::Environment => "environment",
+            Key::Shadow => "shadow",
             Key::Ragdoll => "ragdoll",
             Key::Src => "src",
             Key::Blend => "blend",

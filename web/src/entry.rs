@@ -617,6 +617,19 @@ impl Viewer {
         Ok(())
     }
 
+    /// The ground shadow: `intensity` 0 (none) to 1 and `softness` 0 (sharp) to 1
+    /// (model-viewer's `shadow-intensity` and `shadow-softness`).
+    #[wasm_bindgen(js_name = setShadow)]
+    pub fn set_shadow(&self, intensity: f32, softness: f32) -> Result<(), JsValue> {
+        for (name, value) in [("intensity", intensity), ("softness", softness)] {
+            if !(value.is_finite() && (0.0..=1.0).contains(&value)) {
+                return Err(range_error(format!("setShadow: {name} {value}: expected 0 to 1")));
+            }
+        }
+        self.controls.send_global(Command::SetShadow(intensity, softness));
+        Ok(())
+    }
+
     /// Turns the environment about the vertical axis by `degrees` (counter-clockwise seen from
     /// above).
     #[wasm_bindgen(js_name = setEnvironmentRotation)]

@@ -282,6 +282,13 @@ pub struct Stage {
     pub(crate) reported_progress: f64,
     /// `data-exposure`, written when the exposure changes (not formatted every frame).
     pub(crate) exposure_text: String,
+    /// `data-shadow`, written when the shadow changes.
+    pub(crate) shadow_text: String,
+}
+
+/// `data-shadow`'s text: `intensity,softness`.
+pub(crate) fn shadow_name(intensity: f32, softness: f32) -> String {
+    format!("{intensity},{softness}")
 }
 
 /// `data-exposure`'s text for `exposure`: the shortest decimal that reads back the same.
@@ -374,6 +381,7 @@ impl Stage {
             reported_playing: false,
             reported_progress: -1.0,
             exposure_text: exposure_name(1.0),
+            shadow_text: shadow_name(crate::render::uniforms::DEFAULT_SHADOW_INTENSITY, 1.0),
         };
         stage.controls.set_repaint(wake.clone());
         stage.controls.set_supports_compute(stage.scene.supports_compute());

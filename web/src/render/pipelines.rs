@@ -122,6 +122,8 @@ pub struct Layouts {
     pub draw: wgpu::BindGroupLayout,
     /// Group 3: the environment's specular chain, irradiance and BRDF table, and its sampler.
     pub environment: wgpu::BindGroupLayout,
+    /// Group 1 of the ground shadow: its uniform, the shadow map and a comparison sampler.
+    pub shadow: wgpu::BindGroupLayout,
 }
 
 impl Layouts {
@@ -171,7 +173,29 @@ impl Layouts {
                 },
             ],
         });
-        Self { frame, material, draw, environment }
+        let shadow = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("kloub shadow"),
+            entries: &[
+                uniform_entry(0, vf, size_of::<super::uniforms::ShadowUniform>(), false),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 1,
+                    visibility: f,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Depth,
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 2,
+                    visibility: f,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Comparison),
+                    count: None,
+                },
+            ],
+        });
+        Self { frame, material, draw, environment, shadow }
     }
 }
 
@@ -202,7 +226,27 @@ pub struct PipelineKey {
     pub skinning: u32,
     /// Skinned draws: the deviation heatmap compiled in.
     pub heatmap: bool,
+    /// A shadow caster: depth only, into the single-sampled [`SHADOW_FORMAT`] map, both faces,
+    /// with a slope-scaled depth bias.
+    pub caster: bool,
 }
+
+impl PipelineKey {
+    /// The caster variant of this draw's pipeline; `None` for what casts no shadow (blended
+    /// draws, points and lines).
+    pub fn caster(self) -> Option<Self> {
+        (!self.blend && self.topology == wgpu::PrimitiveTopology::TriangleList).then_some(Self {
+            double_sided: true,
+            mirrored: false,
+            heatmap: false,
+            caster: true,
+            ..self
+        })
+    }
+}
+
+/// The shadow map's format.
+pub const SHADOW_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
 /// [`PipelineKey::skinning`] for a pipeline that reads the method from each draw.
 pub const SKIN_FROM_DRAW: u32 = 4;
@@ -233,6 +277,9 @@ struct FirstUse {
     background: std::sync::OnceLock<wgpu::RenderPipeline>,
     /// Ground grid (blended quad).
     grid: std::sync::OnceLock<wgpu::RenderPipeline>,
+    /// The ground shadow (blended quad) and its layout (frame, shadow).
+    shadow: std::sync::OnceLock<wgpu::RenderPipeline>,
+    shadow_layout: wgpu::PipelineLayout,
     /// Mip levels on the GPU (`shaders/mip.wgsl`), of colour and of data textures.
     mips: [std::sync::OnceLock<super::texture::MipMaker>; 2],
     /// Prefiltering environments (`None` inside: the device cannot).
@@ -300,9 +347,16 @@ impl Pipelines {
             bind_group_layouts: &[Some(&layouts.frame)],
             immediate_size: 0,
         });
+        let shadow_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("kloub ground shadow"),
+            bind_group_layouts: &[Some(&layouts.frame), Some(&layouts.shadow)],
+            immediate_size: 0,
+        });
         let first_use = std::sync::Arc::new(FirstUse {
             module: env_module,
             layout: env_layout,
+            shadow: std::sync::OnceLock::new(),
+            shadow_layout,
             background: std::sync::OnceLock::new(),
             grid: std::sync::OnceLock::new(),
             mips: [std::sync::OnceLock::new(), std::sync::OnceLock::new()],
@@ -374,6 +428,20 @@ impl Pipelines {
         Some(env)
     }
 
+    /// The ground shadow's pipeline (blended quad, no depth writes), built on first use.
+    pub fn ground_shadow(&self, device: &wgpu::Device) -> &wgpu::RenderPipeline {
+        self.first_use.shadow.get_or_init(|| {
+            self.environment_pipeline(
+                device,
+                "kloub ground shadow",
+                "vs_shadow",
+                "fs_shadow",
+                depth_state(wgpu::CompareFunction::LessEqual, false),
+                true,
+            )
+        })
+    }
+
     /// The mip maker for the colour (`srgb`) or data images the browser decoded, built on first
     /// use (one of each per kit: the page's viewers share them).
     pub fn mip_maker(&self, device: &wgpu::Device, srgb: bool) -> &super::texture::MipMaker {
@@ -392,9 +460,10 @@ impl Pipelines {
     ) -> wgpu::RenderPipeline {
         let output = output_constants(self.format);
         let module = &self.first_use.module;
+        let layout = if vs == "vs_shadow" { &self.first_use.shadow_layout } else { &self.first_use.layout };
         device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some(label),
-            layout: Some(&self.first_use.layout),
+            layout: Some(layout),
             vertex: wgpu::VertexState {
                 module,
                 entry_point: Some(vs),
@@ -443,12 +512,55 @@ impl Pipelines {
             ("SKIN_METHOD", f64::from(key.skinning.min(SKIN_FROM_DRAW))),
             ("HEATMAP", f64::from(u8::from(key.heatmap))),
         ];
-        let output = output_constants(self.format);
         let compilation_options = match key.vertex {
             VertexPath::Static => wgpu::PipelineCompilationOptions::default(),
             VertexPath::Skinned => wgpu::PipelineCompilationOptions { constants: &constants, ..Default::default() },
         };
-        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        let pipeline = if key.caster {
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some("kloub shadow caster"),
+                layout: Some(&self.mesh_layout),
+                vertex: wgpu::VertexState {
+                    module: &self.mesh_module,
+                    entry_point: Some(entry),
+                    compilation_options,
+                    buffers,
+                },
+                primitive: wgpu::PrimitiveState { topology: key.topology, cull_mode: None, ..Default::default() },
+                depth_stencil: Some(wgpu::DepthStencilState {
+                    format: SHADOW_FORMAT,
+                    depth_write_enabled: Some(true),
+                    depth_compare: Some(wgpu::CompareFunction::Less),
+                    stencil: wgpu::StencilState::default(),
+                    bias: wgpu::DepthBiasState { constant: 2, slope_scale: 2.0, clamp: 0.0 },
+                }),
+                multisample: wgpu::MultisampleState::default(),
+                fragment: None,
+                multiview_mask: None,
+                cache: None,
+            })
+        } else {
+            self.mesh_pipeline(device, key, entry, buffers, compilation_options)
+        };
+        KITS.with(|kits| {
+            if let Some(kit) = kits.borrow_mut().iter_mut().find(|k| k.matches(share, format, samples)) {
+                kit.pipelines.mesh.insert(key, pipeline.clone());
+            }
+        });
+        self.mesh.insert(key, pipeline);
+    }
+
+    /// The colour pipeline of a mesh draw.
+    fn mesh_pipeline(
+        &self,
+        device: &wgpu::Device,
+        key: PipelineKey,
+        entry: &str,
+        buffers: &[Option<wgpu::VertexBufferLayout<'_>>],
+        compilation_options: wgpu::PipelineCompilationOptions<'_>,
+    ) -> wgpu::RenderPipeline {
+        let output = output_constants(self.format);
+        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("kloub mesh"),
             layout: Some(&self.mesh_layout),
             vertex: wgpu::VertexState {
@@ -473,13 +585,7 @@ impl Pipelines {
             }),
             multiview_mask: None,
             cache: None,
-        });
-        KITS.with(|kits| {
-            if let Some(kit) = kits.borrow_mut().iter_mut().find(|k| k.matches(share, format, samples)) {
-                kit.pipelines.mesh.insert(key, pipeline.clone());
-            }
-        });
-        self.mesh.insert(key, pipeline);
+        })
     }
 
     /// The capture pipeline: `vs_capture_skinned` over a point list into two

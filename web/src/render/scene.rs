@@ -19,7 +19,7 @@ use super::pipelines::{
 };
 use super::texture::{COLOR_FORMAT, SamplerKey, upload_decoded, upload_image};
 use super::uniforms::EnvironmentChoice;
-use super::uniforms::{DrawUniform, FrameUniform, Ground, MaterialUniform, skin_code};
+use super::uniforms::{DrawUniform, FrameUniform, Ground, MaterialUniform, ShadowUniform, skin_code};
 
 #[cfg(not(target_arch = "wasm32"))]
 mod capture;
@@ -221,7 +221,9 @@ struct GpuScene {
     palette: PaletteTexture,
     /// The morph texture's view (bound with the palette).
     morph_view: wgpu::TextureView,
-    frame_bind_group: wgpu::BindGroup,
+    /// Group 0 for the view (with [`SceneRenderer`]'s first frame buffer) and for the shadow
+    /// map (the second: the light's view).
+    frame_bind_groups: [wgpu::BindGroup; 2],
     node_count: usize,
     /// Palette joints of one copy of the character (all skins).
     joints: u32,
@@ -337,7 +339,10 @@ pub struct SceneRenderer {
     draw_stride: u64,
     layouts: Layouts,
     pipelines: Pipelines,
-    frame_buffer: wgpu::Buffer,
+    /// The frame uniforms of the view and of the shadow map (the light's view).
+    frame_buffers: [wgpu::Buffer; 2],
+    /// The ground shadow, made when first drawn.
+    shadow: Option<ShadowMap>,
     white: wgpu::TextureView,
     samplers: HashMap<SamplerKey, wgpu::Sampler>,
     material_buffer: Option<wgpu::Buffer>,
@@ -367,6 +372,57 @@ pub struct SceneRenderer {
     environment_image: Option<(u64, std::sync::Arc<HdrImage>)>,
     /// The environment bound now, what it is (`None`: none could be made) and its intensity.
     environment: (Option<EnvironmentKey>, GpuEnvironment, f32),
+}
+
+/// The shadow map's size in texels (square).
+pub const SHADOW_MAP_SIZE: u32 = 512;
+
+/// The ground shadow's GPU side: the map the casters draw into, the ground pass's uniform and
+/// bind group, and whether this frame draws it.
+struct ShadowMap {
+    view: wgpu::TextureView,
+    uniform: wgpu::Buffer,
+    bind_group: wgpu::BindGroup,
+    drawn: bool,
+}
+
+impl ShadowMap {
+    fn new(device: &wgpu::Device, layouts: &Layouts) -> Self {
+        let texture = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("kloub shadow map"),
+            size: wgpu::Extent3d { width: SHADOW_MAP_SIZE, height: SHADOW_MAP_SIZE, depth_or_array_layers: 1 },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: super::pipelines::SHADOW_FORMAT,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        });
+        let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
+        let uniform = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("kloub shadow"),
+            size: size_of::<ShadowUniform>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("kloub shadow"),
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            compare: Some(wgpu::CompareFunction::LessEqual),
+            ..Default::default()
+        });
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("kloub shadow"),
+            layout: &layouts.shadow,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: uniform.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&view) },
+                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::Sampler(&sampler) },
+            ],
+        });
+        Self { view, uniform, bind_group, drawn: false }
+    }
 }
 
 /// What an environment on the GPU was made from.
@@ -414,15 +470,17 @@ impl SceneRenderer {
         let format = if format == wgpu::TextureFormat::Rgba8Unorm { format } else { COLOR_FORMAT };
         let super::pipelines::Kit { layouts, pipelines, compute, white } =
             super::pipelines::kit(device, queue, format, sample_count, share);
-        let frame_buffer = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("kloub frame"),
-            size: size_of::<FrameUniform>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
+        let frame_buffers = ["kloub frame", "kloub shadow frame"].map(|label| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: size_of::<FrameUniform>() as u64,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
         });
         let align = u64::from(device.limits().min_uniform_buffer_offset_alignment).max(1);
         let draw_stride = (size_of::<DrawUniform>() as u64).div_ceil(align) * align;
-        let empty = GpuScene::empty(device, queue, &layouts, &frame_buffer, draw_stride);
+        let empty = GpuScene::empty(device, queue, &layouts, &frame_buffers, draw_stride);
         let no_environment = fallback_environment(device, &layouts.environment, &white);
         Self {
             share,
@@ -431,7 +489,8 @@ impl SceneRenderer {
             draw_stride,
             layouts,
             pipelines,
-            frame_buffer,
+            frame_buffers,
+            shadow: None,
             white,
             samplers: HashMap::new(),
             material_buffer: None,
@@ -475,6 +534,27 @@ impl SceneRenderer {
     /// The image [`SceneRenderer::set_environment_image`] gave.
     pub fn environment_image(&self) -> Option<std::sync::Arc<HdrImage>> {
         self.environment_image.as_ref().map(|(_, i)| i.clone())
+    }
+
+    /// Writes this frame's ground shadow: the light's view into the shadow frame buffer and
+    /// the ground pass's uniform, for a key light `light` (towards it, scaled by its intensity)
+    /// and copies out to `extent`; nothing (and no shadow drawn) at intensity 0 or without a
+    /// model.
+    fn prepare_shadow(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, frame: &FrameUniform, extent: f32) {
+        let on = self.look.shadow_intensity > 0.0 && self.scene.as_ref().is_some_and(|s| !s.draws.is_empty());
+        if !on {
+            if let Some(shadow) = &mut self.shadow {
+                shadow.drawn = false;
+            }
+            return;
+        }
+        let light = Vec3::from_slice(&frame.light_dir[..3]) * frame.light_dir[3];
+        let uniform = ShadowUniform::new(&self.ground, light, extent, SHADOW_MAP_SIZE, &self.look);
+        let shadow = self.shadow.get_or_insert_with(|| ShadowMap::new(device, &self.layouts));
+        queue.write_buffer(&shadow.uniform, 0, bytemuck::bytes_of(&uniform));
+        let light_frame = FrameUniform { view_proj: uniform.light_view_proj, ..*frame };
+        queue.write_buffer(&self.frame_buffers[1], 0, bytemuck::bytes_of(&light_frame));
+        shadow.drawn = true;
     }
 
     /// Binds the environment the look asks for (prefiltering it if this device has not yet);
@@ -665,7 +745,7 @@ impl SceneRenderer {
         }
         let (draw_buffer, draw_bind_group) = draw_resources(device, &self.layouts, 2 * draws.len(), self.draw_stride);
         let morph_view = morphs.view().clone();
-        let frame_bind_group = frame_bind_group(device, &self.layouts, &self.frame_buffer, &palette, &morph_view);
+        let frame_bind_groups = frame_bind_groups(device, &self.layouts, &self.frame_buffers, &palette, &morph_view);
         let compute = self.compute.as_ref().map(|kit| compute_groups(device, kit, &palette, &morph_view, &draw_buffer));
 
         let mut rest = Instance::new(asset);
@@ -684,7 +764,7 @@ impl SceneRenderer {
             skin_base,
             palette,
             morph_view,
-            frame_bind_group,
+            frame_bind_groups,
             node_count: asset.nodes.len(),
             joints,
             copies: 1,
@@ -892,7 +972,9 @@ impl SceneRenderer {
             self.look,
             environment,
         );
-        queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&frame));
+        queue.write_buffer(&self.frame_buffers[0], 0, bytemuck::bytes_of(&frame));
+        let extent = offsets.iter().map(|o| o.length()).fold(0.0f32, f32::max);
+        self.prepare_shadow(device, queue, &frame, extent);
 
         let copies = instances.len();
         self.prepared_copies = copies;
@@ -900,7 +982,7 @@ impl SceneRenderer {
             scene.reserve(
                 device,
                 &self.layouts,
-                &self.frame_buffer,
+                &self.frame_buffers,
                 self.compute.as_ref(),
                 copies,
                 self.draw_stride,
@@ -918,9 +1000,13 @@ impl SceneRenderer {
                 self.draw_stride,
                 &mut self.scratch,
             )?;
+            let casting = self.shadow.as_ref().is_some_and(|s| s.drawn);
             for draw in &scene.draws {
                 if let Some(key) = draw.key {
                     self.pipelines.prepare(device, key);
+                    if let Some(caster) = key.caster().filter(|_| casting) {
+                        self.pipelines.prepare(device, caster);
+                    }
                 }
             }
         }
@@ -998,6 +1084,25 @@ impl SceneRenderer {
                 device.limits().max_compute_workgroups_per_dimension,
             );
         }
+        let draws = scene.draws.len();
+        let opaque = |slot: &usize| scene.draws.get(slot % draws).is_some_and(|d| !d.blend);
+        if let Some(shadow) = self.shadow.as_ref().filter(|s| s.drawn) {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("kloub shadow map"),
+                color_attachments: &[],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &shadow.view,
+                    depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Store }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_bind_group(0, &scene.frame_bind_groups[1], &[]);
+            pass.set_bind_group(3, &self.environment.1.bind_group, &[]);
+            scene.encode(&mut pass, &self.pipelines, (0..copies * draws).filter(opaque), self.draw_stride, true);
+        }
         {
             let background = self.look.background.is_drawn().then(|| self.pipelines.background(device));
             let grid = self.grid.then(|| self.pipelines.grid(device));
@@ -1025,22 +1130,25 @@ impl SceneRenderer {
                 pass.set_viewport(x as f32, y as f32, w as f32, h as f32, 0.0, 1.0);
                 pass.set_scissor_rect(x, y, w, h);
             }
-            pass.set_bind_group(0, &scene.frame_bind_group, &[]);
+            pass.set_bind_group(0, &scene.frame_bind_groups[0], &[]);
             pass.set_bind_group(3, &self.environment.1.bind_group, &[]);
             if let Some(background) = background {
                 pass.set_pipeline(background);
                 pass.draw(0..3, 0..1);
             }
+            if let Some(shadow) = self.shadow.as_ref().filter(|s| s.drawn) {
+                pass.set_pipeline(self.pipelines.ground_shadow(device));
+                pass.set_bind_group(1, &shadow.bind_group, &[]);
+                pass.draw(0..6, 0..1);
+            }
 
-            let draws = scene.draws.len();
-            let opaque = (0..copies * draws).filter(|slot| scene.draws.get(slot % draws).is_some_and(|d| !d.blend));
-            scene.encode(&mut pass, &self.pipelines, opaque, self.draw_stride);
+            scene.encode(&mut pass, &self.pipelines, (0..copies * draws).filter(opaque), self.draw_stride, false);
             if let Some(grid) = grid {
                 pass.set_pipeline(grid);
                 pass.draw(0..6, 0..1);
             }
             let blended = self.scratch.blend_order.iter().map(|&(_, i)| i);
-            scene.encode(&mut pass, &self.pipelines, blended, self.draw_stride);
+            scene.encode(&mut pass, &self.pipelines, blended, self.draw_stride, false);
         }
         self.times.draw_ms = encode_started.elapsed().as_secs_f32() * 1000.0;
     }
@@ -1207,31 +1315,41 @@ fn compute_groups(
     (textures, draws)
 }
 
-fn frame_bind_group(
+/// Group 0 of the view and of the shadow map: each frame buffer of `frames` with the palette
+/// and morph textures.
+fn frame_bind_groups(
     device: &wgpu::Device,
     layouts: &Layouts,
-    frame: &wgpu::Buffer,
+    frames: &[wgpu::Buffer; 2],
     palette: &PaletteTexture,
     morphs: &wgpu::TextureView,
-) -> wgpu::BindGroup {
-    device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("kloub frame"),
-        layout: &layouts.frame,
-        entries: &[
-            wgpu::BindGroupEntry { binding: 0, resource: frame.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(palette.view()) },
-            wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(morphs) },
-        ],
+) -> [wgpu::BindGroup; 2] {
+    frames.each_ref().map(|frame| {
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("kloub frame"),
+            layout: &layouts.frame,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: frame.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(palette.view()) },
+                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(morphs) },
+            ],
+        })
     })
 }
 
 impl GpuScene {
     /// A scene with nothing to draw (background and grid only).
-    fn empty(device: &wgpu::Device, queue: &wgpu::Queue, layouts: &Layouts, frame: &wgpu::Buffer, stride: u64) -> Self {
+    fn empty(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        layouts: &Layouts,
+        frames: &[wgpu::Buffer; 2],
+        stride: u64,
+    ) -> Self {
         let palette = PaletteTexture::with_rows(device, 1);
         let morph_view = MorphTexture::empty(device, queue).view().clone();
         let (draw_buffer, draw_bind_group) = draw_resources(device, layouts, 0, stride);
-        let frame_bind_group = frame_bind_group(device, layouts, frame, &palette, &morph_view);
+        let frame_bind_groups = frame_bind_groups(device, layouts, frames, &palette, &morph_view);
         Self {
             primitives: Vec::new(),
             materials: Vec::new(),
@@ -1241,7 +1359,7 @@ impl GpuScene {
             skin_base: Vec::new(),
             palette,
             morph_view,
-            frame_bind_group,
+            frame_bind_groups,
             node_count: 0,
             joints: 0,
             copies: 1,
@@ -1256,7 +1374,7 @@ impl GpuScene {
         &mut self,
         device: &wgpu::Device,
         layouts: &Layouts,
-        frame: &wgpu::Buffer,
+        frames: &[wgpu::Buffer; 2],
         kit: Option<&ComputeKit>,
         copies: usize,
         stride: u64,
@@ -1269,7 +1387,7 @@ impl GpuScene {
             .and_then(|c| c.checked_mul(self.joints))
             .ok_or("too many copies for the joint palette")?;
         self.palette = PaletteTexture::new(device, joints)?;
-        self.frame_bind_group = frame_bind_group(device, layouts, frame, &self.palette, &self.morph_view);
+        self.frame_bind_groups = frame_bind_groups(device, layouts, frames, &self.palette, &self.morph_view);
         let (buffer, group) = draw_resources(device, layouts, 2 * self.draws.len() * copies, stride);
         self.draw_buffer = buffer;
         self.draw_bind_group = group;
@@ -1455,6 +1573,7 @@ impl GpuScene {
                     mirrored,
                     skinning: method.unwrap_or(SKIN_FROM_DRAW),
                     heatmap: heatmap.is_some(),
+                    caster: false,
                 });
                 if draw.blend {
                     let (min, max) = source.bounds;
@@ -1510,13 +1629,14 @@ impl GpuScene {
     }
 
     /// Records the draw slots `slots` (copy `c` of draw `i` is slot `c * draws + i`; those
-    /// prepared this frame).
+    /// prepared this frame), or with `caster` their shadow casters (into the shadow map).
     fn encode(
         &self,
         pass: &mut wgpu::RenderPass<'_>,
         pipelines: &Pipelines,
         slots: impl Iterator<Item = usize>,
         stride: u64,
+        caster: bool,
     ) {
         let draws = self.draws.len().max(1);
         for slot in slots {
@@ -1524,7 +1644,8 @@ impl GpuScene {
             let Some(draw) = self.draws.get(i) else {
                 continue;
             };
-            let Some(pipeline) = draw.key.as_ref().and_then(|k| pipelines.mesh(k)) else {
+            let key = if caster { draw.key.and_then(PipelineKey::caster) } else { draw.key };
+            let Some(pipeline) = key.as_ref().and_then(|k| pipelines.mesh(k)) else {
                 continue;
             };
             let Some(gpu) = self.primitives.get(draw.mesh).and_then(|m| m.get(draw.primitive)).and_then(Option::as_ref)

@@ -280,6 +280,59 @@ pub struct Look {
     pub environment: EnvironmentChoice,
     /// The environment's turn about +Y, radians (counter-clockwise seen from above).
     pub environment_rotation: f32,
+    /// The ground shadow's darkness, 0 (none: no shadow pass) to 1 (model-viewer's
+    /// `shadow-intensity`).
+    pub shadow_intensity: f32,
+    /// The ground shadow's blur, 0 (sharp) to 1 (model-viewer's `shadow-softness`).
+    pub shadow_softness: f32,
+}
+
+/// The ground shadow's default darkness.
+pub const DEFAULT_SHADOW_INTENSITY: f32 = 0.6;
+
+/// `Shadow` in environment.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct ShadowUniform {
+    /// World to the shadow map's clip space.
+    pub light_view_proj: [[f32; 4]; 4],
+    /// Intensity, filter radius in texels, 1 / map size, quad half extent.
+    pub params: [f32; 4],
+    /// The quad's centre (xyz).
+    pub center: [f32; 4],
+}
+
+impl ShadowUniform {
+    /// The shadow of a character standing on `ground` (with copies out to `extent` from it),
+    /// cast along `light` (towards the light; tilted halfway to straight down, so the shadow
+    /// stays under the character; straight down for a light from below the horizon), into a
+    /// map of `size` texels, as `look` asks.
+    pub fn new(ground: &Ground, light: Vec3, extent: f32, size: u32, look: &Look) -> Self {
+        let center = Vec3::new(ground.center.x, ground.height, ground.center.z);
+        let radius = ground.radius * 1.5 + extent;
+        let toward =
+            if light.y > 0.05 { (light.normalize_or(Vec3::Y) + Vec3::Y).normalize_or(Vec3::Y) } else { Vec3::Y };
+        let eye = center + toward * radius * 3.0;
+        let up = if toward.y.abs() > 0.99 { Vec3::Z } else { Vec3::Y };
+        let view = glam::camera::rh::view::look_at_mat4(eye, center, up);
+        let projection =
+            glam::camera::rh::proj::directx::orthographic(-radius, radius, -radius, radius, 0.0, radius * 6.0);
+        Self {
+            light_view_proj: (projection * view).to_cols_array_2d(),
+            params: [
+                look.shadow_intensity.clamp(0.0, 1.0),
+                0.5 + 3.5 * look.shadow_softness.clamp(0.0, 1.0),
+                1.0 / size.max(1) as f32,
+                radius,
+            ],
+            center: [center.x, center.y, center.z, 0.0],
+        }
+    }
+
+    /// World to the shadow map's clip space.
+    pub fn view_proj(&self) -> Mat4 {
+        Mat4::from_cols_array_2d(&self.light_view_proj)
+    }
 }
 
 impl Default for Look {
@@ -291,6 +344,8 @@ impl Default for Look {
             tone_mapping: ToneMapping::default(),
             environment: EnvironmentChoice::default(),
             environment_rotation: 0.0,
+            shadow_intensity: DEFAULT_SHADOW_INTENSITY,
+            shadow_softness: 1.0,
         }
     }
 }

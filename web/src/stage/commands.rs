@@ -86,6 +86,17 @@ impl Stage {
                 self.scene.set_look(crate::render::uniforms::Look { environment, ..self.scene.look() });
                 return Ok(());
             }
+            Command::SetShadow(intensity, softness) => {
+                let unit = |x: f32| if x.is_finite() { x.clamp(0.0, 1.0) } else { 0.0 };
+                let (shadow_intensity, shadow_softness) = (unit(intensity), unit(softness));
+                self.scene.set_look(crate::render::uniforms::Look {
+                    shadow_intensity,
+                    shadow_softness,
+                    ..self.scene.look()
+                });
+                self.shadow_text = shadow_name(shadow_intensity, shadow_softness);
+                return Ok(());
+            }
             Command::SetEnvironmentRotation(angle) => {
                 let environment_rotation =
                     if angle.is_finite() { angle.rem_euclid(std::f32::consts::TAU) } else { 0.0 };
@@ -189,6 +200,7 @@ impl Stage {
             | Command::SetToneMapping(_)
             | Command::SetEnvironment(..)
             | Command::SetEnvironmentRotation(_)
+            | Command::SetShadow(..)
             | Command::ShowModel(_) => {}
             #[cfg(feature = "full")]
             Command::FinishSculpt | Command::DeleteExample(_) | Command::AddExamplePose(_) | Command::CancelSculpt => {}

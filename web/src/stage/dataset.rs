@@ -36,6 +36,7 @@ impl Stage {
         d.set(Key::Exposure, &self.exposure_text);
         d.set(Key::ToneMapping, self.scene.look().tone_mapping.name());
         d.set(Key::Environment, self.scene.look().environment.name());
+        d.set(Key::Shadow, &self.shadow_text);
         let progress = self.inbox.progress().filter(|_| self.status == Status::Loading);
         d.set(
             Key::Progress,

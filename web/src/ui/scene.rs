@@ -231,6 +231,17 @@ pub(super) fn view_panel(ui: &mut egui::Ui, state: &PanelState<'_>, actions: &mu
                 actions.commands.push(Command::SetEnvironmentRotation(degrees.to_radians()));
             }
         });
+        ui.horizontal(|ui| {
+            let (mut intensity, mut softness) = (state.look.shadow_intensity, state.look.shadow_softness);
+            ui.add(egui::Slider::new(&mut intensity, 0.0..=1.0).fixed_decimals(2).text("shadow"));
+            ui.add_enabled(
+                intensity > 0.0,
+                egui::Slider::new(&mut softness, 0.0..=1.0).fixed_decimals(2).text("softness"),
+            );
+            if (intensity, softness) != (state.look.shadow_intensity, state.look.shadow_softness) {
+                actions.commands.push(Command::SetShadow(intensity, softness));
+            }
+        });
     });
 }
 

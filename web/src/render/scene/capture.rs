@@ -193,7 +193,7 @@ impl SceneRenderer {
                     multiview_mask: None,
                 });
                 pass.set_pipeline(&pipeline);
-                pass.set_bind_group(0, &scene.frame_bind_group, &[]);
+                pass.set_bind_group(0, &scene.frame_bind_groups[0], &[]);
                 pass.set_bind_group(3, &self.environment.1.bind_group, &[]);
                 pass.set_bind_group(1, material, &[]);
                 pass.set_bind_group(2, &scene.draw_bind_group, &[(i as u64 * self.draw_stride) as u32]);
