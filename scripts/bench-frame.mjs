@@ -10,6 +10,8 @@
 // the GPU process (SwiftShader here: the CPU emulates the GPU) has not finished the previous frames, so the figure
 // includes the GPU's work. The runs alternate three.js and Kloub per cell, so both see the same machine load.
 // KLOUB_BENCH_EVAL: a function body run on the element `v` before measuring, e.g. "v.setGrid(false)".
+// KLOUB_BENCH_THREE_IBL=1: three.js lights with an environment map as Kloub does (its RoomEnvironment through PMREM
+// as `scene.environment`, plus the directional light) instead of a hemisphere light.
 // KLOUB_BACKENDS (webgl2,webgpu), KLOUB_BENCH_CASES ("Fox:1,Fox:10,Fox:50,CesiumMan:1,CesiumMan:10,CesiumMan:50").
 import { createServer } from 'node:http';
 import { readFileSync, readdirSync, statSync } from 'node:fs';
@@ -32,6 +34,7 @@ const THREE_PAGE = `<!doctype html><html><head><meta charset="utf-8">
 </head><body><script type="module">
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
+import { RoomEnvironment } from 'three/addons/environments/RoomEnvironment.js';
 import * as SkeletonUtils from 'three/addons/utils/SkeletonUtils.js';
 const q = new URLSearchParams(location.search);
 const n = Number(q.get('n')), clipName = q.get('clip'), webgpu = q.get('backend') === 'webgpu';
@@ -43,7 +46,8 @@ document.body.append(renderer.domElement);
 window.backend = webgpu ? (renderer.backend.isWebGPUBackend ? 'webgpu' : 'webgl2-fallback') : 'webgl2';
 const scene = new THREE.Scene();
 scene.background = new THREE.Color(0x202124);
-scene.add(new THREE.HemisphereLight(0xffffff, 0x444444, 1.5));
+if (q.get('ibl') === '1') scene.environment = new THREE.PMREMGenerator(renderer).fromScene(new RoomEnvironment(), 0.04).texture;
+else scene.add(new THREE.HemisphereLight(0xffffff, 0x444444, 1.5));
 const sun = new THREE.DirectionalLight(0xffffff, 2);
 sun.position.set(1, 2, 1.5);
 scene.add(sun);
@@ -139,7 +143,8 @@ async function measure(page, count) {
 
 async function three(page, base, backend, { model, n }) {
   const [file, clip] = MODELS[model];
-  await page.goto(`${base}/three.html?backend=${backend}&n=${n}&model=/assets/${file}&clip=${clip ?? ''}`);
+  const ibl = process.env.KLOUB_BENCH_THREE_IBL === '1' ? '1' : '0';
+  await page.goto(`${base}/three.html?backend=${backend}&n=${n}&model=/assets/${file}&clip=${clip ?? ''}&ibl=${ibl}`);
   await page.waitForFunction(() => window.ready === true, null, { timeout: 120000 });
   const used = await page.evaluate(() => window.backend);
   if (used !== backend) throw new Error(`three.js used ${used}, not ${backend}`);

@@ -209,7 +209,9 @@ fn perturb_normal(n: vec3<f32>, dpx: vec3<f32>, dpy: vec3<f32>, duvx: vec2<f32>,
 }
 
 /// Light reflected towards `v` from a key light from `l` of radiance `radiance` (irradiance
-/// `radiance` × N·L), glTF's BRDF: Lambert diffuse weighted by 1 − F plus GGX specular.
+/// `radiance` × N·L), glTF's BRDF: the metal and dielectric lobes mixed by metalness (Appendix
+/// B's `mix(dielectric_brdf, metal_brdf, metallic)`): GGX specular with F0 = mix(0.04, base,
+/// metallic), Lambert diffuse of the dielectric part weighted by its own 1 − F (F0 = 0.04).
 fn direct_light(n: vec3<f32>, v: vec3<f32>, l: vec3<f32>, c_diff: vec3<f32>, f0: vec3<f32>, alpha: f32, radiance: vec3<f32>) -> vec3<f32> {
     let nl = dot(n, l);
     if nl <= 0.0 {
@@ -227,7 +229,7 @@ fn direct_light(n: vec3<f32>, v: vec3<f32>, l: vec3<f32>, c_diff: vec3<f32>, f0:
     let vis = select(0.0, 0.5 / vis_den, vis_den > 0.0);
     // The lights' intensities are irradiances over π: a white Lambert surface facing a light
     // of intensity 1 reflects 1.
-    let diffuse = (vec3<f32>(1.0) - f) * c_diff;
+    let diffuse = (1.0 - (0.04 + 0.96 * pow(1.0 - vh, 5.0))) * c_diff;
     let specular = PI * f * d * vis;
     return (diffuse + specular) * radiance * nl;
 }
@@ -248,10 +250,26 @@ fn environment_direction(d: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(c * d.x - s * d.z, d.y, s * d.x + c * d.z);
 }
 
-/// The environment's light reflected towards `v` by a surface facing `n` (split sum with the
-/// BRDF table, and the energy GGX's single scattering loses given back as multiple scattering,
-/// after Fdez-Agüera 2019, as three.js and Filament do), before occlusion.
-fn environment_light(n: vec3<f32>, v: vec3<f32>, c_diff: vec3<f32>, f0: vec3<f32>, roughness: f32) -> vec3<f32> {
+/// The split-sum scattering of a specular lobe of F0 `f0` with the table's `ab`: single
+/// scattering (F0·A + B) and, after Fdez-Agüera 2019, the multiple scattering GGX's single
+/// scattering loses.
+struct Scattering {
+    single: vec3<f32>,
+    multiple: vec3<f32>,
+}
+
+fn scattering(f0: vec3<f32>, ab: vec2<f32>) -> Scattering {
+    let single = f0 * ab.x + ab.y;
+    let ems = 1.0 - (ab.x + ab.y);
+    let f_avg = f0 + (vec3<f32>(1.0) - f0) / 21.0;
+    return Scattering(single, ems * single * f_avg / (vec3<f32>(1.0) - ems * f_avg));
+}
+
+/// The environment's light reflected towards `v` by a surface facing `n`, before occlusion: the
+/// split sum with the BRDF table for the dielectric (F0 0.04) and metal (F0 = base) lobes mixed
+/// by metalness, multiple scattering included, and the diffuse part of the dielectric weighted
+/// by what its specular lobe leaves (as glTF's Appendix B, and three.js, mix them).
+fn environment_light(n: vec3<f32>, v: vec3<f32>, base: vec3<f32>, metallic: f32, roughness: f32) -> vec3<f32> {
     let intensity = frame.environment.z;
     let nv = clamp(dot(n, v), 1e-4, 1.0);
     let r = reflect(-v, n);
@@ -262,12 +280,11 @@ fn environment_light(n: vec3<f32>, v: vec3<f32>, c_diff: vec3<f32>, f0: vec3<f32
     let size = vec2<f32>(textureDimensions(environment_brdf));
     let table = (vec2<f32>(nv, roughness) * (size - 1.0) + 0.5) / size;
     let ab = textureSampleLevel(environment_brdf, environment_sampler, table, 0.0).rg;
-    let single = f0 * ab.x + ab.y;
-    let ess = ab.x + ab.y;
-    let ems = 1.0 - ess;
-    let f_avg = f0 + (vec3<f32>(1.0) - f0) / 21.0;
-    let multiple = ems * single * f_avg / (vec3<f32>(1.0) - ems * f_avg);
-    let diffuse = c_diff * (vec3<f32>(1.0) - single - multiple);
+    let dielectric = scattering(vec3<f32>(0.04), ab);
+    let metal = scattering(base, ab);
+    let single = mix(dielectric.single, metal.single, metallic);
+    let multiple = mix(dielectric.multiple, metal.multiple, metallic);
+    let diffuse = base * (1.0 - metallic) * (vec3<f32>(1.0) - dielectric.single - dielectric.multiple);
     return (single * radiance + (multiple + diffuse) * irradiance) * intensity;
 }
 
@@ -369,7 +386,7 @@ fn fs_main(in: VsOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f
     let radiance = frame.light_color.rgb * frame.light_dir.w;
     var rgb = direct_light(n, v, frame.light_dir.xyz, c_diff, f0, alpha, radiance);
     if frame.environment.z > 0.0 {
-        rgb += environment_light(n, v, c_diff, f0, roughness) * occlusion;
+        rgb += environment_light(n, v, color.rgb, metallic, roughness) * occlusion;
     } else {
         // Without an environment (a device that cannot prefilter one), the hemisphere: diffuse
         // from around the normal, specular from around the reflection (the normal's side for

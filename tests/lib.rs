@@ -15,7 +15,9 @@ pub fn shared_assets() -> PathBuf {
 /// Procedural material test scenes (issue 23's reference set): made in code, so a test needs no
 /// file and every renderer sees exactly the same geometry, factors and texels.
 pub mod materials {
-    use kloub_core::asset::{Asset, Image, Material, Mesh, Node, Primitive, Scene, TextureRef, TextureTransform};
+    use kloub_core::asset::{
+        AlphaMode, Asset, Image, Material, Mesh, Node, Primitive, Scene, TextureRef, TextureTransform,
+    };
 
     /// Columns of the sphere grid (metallic 0 → 1, left to right) and rows (roughness 0 → 1,
     /// top to bottom).
@@ -149,6 +151,7 @@ pub mod materials {
             transform: TextureTransform::default(),
             repeat: [true; 2],
             nearest: false,
+            min_filter: Default::default(),
         };
         let material = Material {
             name: Some("Bumps".into()),
@@ -160,4 +163,197 @@ pub mod materials {
         };
         scene_of("Normal-mapped plane", vec![p], vec![material], vec![image])
     }
+
+    /// A quad of `size` centred at `center` in a plane parallel to XY, facing +Z, uv (0, 0) at
+    /// its top left, drawn with `material`.
+    fn quad(center: [f32; 3], size: f32, material: u32) -> Primitive {
+        let h = size * 0.5;
+        let [x, y, z] = center;
+        finish(Primitive {
+            positions: vec![[x - h, y + h, z], [x - h, y - h, z], [x + h, y - h, z], [x + h, y + h, z]],
+            normals: vec![[0.0, 0.0, 1.0]; 4],
+            uv0: vec![[0.0, 0.0], [0.0, 1.0], [1.0, 1.0], [1.0, 0.0]],
+            indices: vec![0, 1, 2, 0, 2, 3],
+            material: Some(material),
+            ..Primitive::default()
+        })
+    }
+
+    /// Alpha modes: on the left a MASK quad (cutoff 0.5) whose texture is opaque in rings and
+    /// faint between them; on the right a BLEND quad (40 % opaque blue) over an opaque white
+    /// quad behind it, half covering it.
+    pub fn alpha_quads() -> Asset {
+        let n = 64u32;
+        let mut rgba8 = Vec::with_capacity((n * n * 4) as usize);
+        for y in 0..n {
+            for x in 0..n {
+                let (u, v) = ((x as f32 + 0.5) / n as f32 - 0.5, (y as f32 + 0.5) / n as f32 - 0.5);
+                let ring = ((u * u + v * v).sqrt() * 8.0).fract() < 0.5;
+                rgba8.extend([230, 120, 40, if ring { 255 } else { 40 }]);
+            }
+        }
+        let image = Image { name: Some("rings".into()), width: n, height: n, rgba8, encoded: None };
+        let texture = TextureRef {
+            image: 0,
+            tex_coord: 0,
+            transform: TextureTransform::default(),
+            repeat: [true; 2],
+            nearest: false,
+            min_filter: Default::default(),
+        };
+        let dielectric = |name: &str, base_color: [f32; 4]| Material {
+            name: Some(name.into()),
+            base_color,
+            metallic: 0.0,
+            roughness: 0.5,
+            ..Material::default()
+        };
+        let materials = vec![
+            Material {
+                base_color_texture: Some(texture),
+                alpha: AlphaMode::Mask(0.5),
+                double_sided: true,
+                ..dielectric("Mask rings", [1.0; 4])
+            },
+            Material { alpha: AlphaMode::Blend, ..dielectric("Blend blue", [0.1, 0.3, 0.9, 0.4]) },
+            dielectric("Opaque white", [0.9, 0.9, 0.9, 1.0]),
+        ];
+        let primitives =
+            vec![quad([-0.6, 0.0, 0.0], 1.0, 0), quad([0.85, 0.25, -0.3], 0.8, 2), quad([0.6, 0.0, 0.0], 1.0, 1)];
+        scene_of("Alpha quads", primitives, materials, vec![image])
+    }
+
+    /// `asset` (one node, one mesh: what the scenes above make) as a GLB: positions, normals,
+    /// texture coordinates and indices of each triangle primitive; its materials with their
+    /// factors, alpha modes and base colour and normal textures (PNG, repeat, linear).
+    ///
+    /// # Panics
+    /// On an asset with other parts (skins, clips, several meshes): the writer is for these
+    /// test scenes only.
+    pub fn to_glb(asset: &Asset) -> Vec<u8> {
+        use serde_json::{Value, json};
+        assert!(asset.meshes.len() == 1 && asset.skins.is_empty() && asset.clips.is_empty(), "a scene of this module");
+        let mut bin: Vec<u8> = Vec::new();
+        let mut views = Vec::new();
+        let mut accessors = Vec::new();
+        let mut push_view = |bin: &mut Vec<u8>, bytes: &[u8]| {
+            while !bin.len().is_multiple_of(4) {
+                bin.push(0);
+            }
+            views.push(json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": bytes.len()}));
+            bin.extend_from_slice(bytes);
+            views.len() - 1
+        };
+        let floats = |v: &[f32]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
+        let mut primitives = Vec::new();
+        for p in &asset.meshes[0].primitives {
+            let mut attributes = serde_json::Map::new();
+            let (lo, hi) = p.bounds;
+            let position = push_view(&mut bin, &floats(p.positions.as_flattened()));
+            accessors.push(json!({"bufferView": position, "componentType": 5126, "count": p.positions.len(),
+                "type": "VEC3", "min": lo, "max": hi}));
+            attributes.insert("POSITION".into(), json!(accessors.len() - 1));
+            let normal = push_view(&mut bin, &floats(p.normals.as_flattened()));
+            accessors
+                .push(json!({"bufferView": normal, "componentType": 5126, "count": p.normals.len(), "type": "VEC3"}));
+            attributes.insert("NORMAL".into(), json!(accessors.len() - 1));
+            let uv = push_view(&mut bin, &floats(p.uv0.as_flattened()));
+            accessors.push(json!({"bufferView": uv, "componentType": 5126, "count": p.uv0.len(), "type": "VEC2"}));
+            attributes.insert("TEXCOORD_0".into(), json!(accessors.len() - 1));
+            let indices: Vec<u8> = p.indices.iter().flat_map(|i| i.to_le_bytes()).collect();
+            let index = push_view(&mut bin, &indices);
+            accessors
+                .push(json!({"bufferView": index, "componentType": 5125, "count": p.indices.len(), "type": "SCALAR"}));
+            primitives.push(json!({"attributes": attributes, "indices": accessors.len() - 1, "material": p.material}));
+        }
+        let mut images = Vec::new();
+        for image in &asset.images {
+            let mut png = Vec::new();
+            image::RgbaImage::from_raw(image.width, image.height, image.rgba8.clone())
+                .expect("an image of its size")
+                .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+                .expect("encoding a PNG");
+            let view = push_view(&mut bin, &png);
+            images.push(json!({"bufferView": view, "mimeType": "image/png"}));
+        }
+        let textures: Vec<Value> = (0..asset.images.len()).map(|i| json!({"source": i, "sampler": 0})).collect();
+        let materials: Vec<Value> = asset
+            .materials
+            .iter()
+            .map(|m| {
+                let mut pbr = json!({"baseColorFactor": m.base_color, "metallicFactor": m.metallic, "roughnessFactor": m.roughness});
+                if let Some(t) = m.base_color_texture {
+                    pbr["baseColorTexture"] = json!({"index": t.image});
+                }
+                let mut material = json!({"name": m.name, "pbrMetallicRoughness": pbr, "doubleSided": m.double_sided});
+                if let Some(t) = m.normal_texture {
+                    material["normalTexture"] = json!({"index": t.image, "scale": m.normal_scale});
+                }
+                match m.alpha {
+                    AlphaMode::Opaque => {}
+                    AlphaMode::Mask(cutoff) => {
+                        material["alphaMode"] = json!("MASK");
+                        material["alphaCutoff"] = json!(cutoff);
+                    }
+                    AlphaMode::Blend => material["alphaMode"] = json!("BLEND"),
+                }
+                material
+            })
+            .collect();
+        while !bin.len().is_multiple_of(4) {
+            bin.push(0);
+        }
+        let name = asset.nodes[0].name.clone();
+        let mut doc = json!({
+            "asset": {"version": "2.0", "generator": "kloub-tests materials"},
+            "scene": 0,
+            "scenes": [{"nodes": [0]}],
+            "nodes": [{"name": name, "mesh": 0}],
+            "meshes": [{"name": name, "primitives": primitives}],
+            "materials": materials,
+            "accessors": accessors,
+            "bufferViews": views,
+            "buffers": [{"byteLength": bin.len()}],
+        });
+        if !images.is_empty() {
+            doc["images"] = json!(images);
+            doc["textures"] = json!(textures);
+            doc["samplers"] = json!([{"magFilter": 9729, "minFilter": 9987, "wrapS": 10497, "wrapT": 10497}]);
+        }
+        let mut json = serde_json::to_vec(&doc).expect("JSON");
+        while !json.len().is_multiple_of(4) {
+            json.push(b' ');
+        }
+        let total = 12 + 8 + json.len() + 8 + bin.len();
+        let mut glb = Vec::with_capacity(total);
+        glb.extend(b"glTF");
+        glb.extend(2u32.to_le_bytes());
+        glb.extend((total as u32).to_le_bytes());
+        glb.extend((json.len() as u32).to_le_bytes());
+        glb.extend(b"JSON");
+        glb.extend(&json);
+        glb.extend((bin.len() as u32).to_le_bytes());
+        glb.extend(b"BIN\0");
+        glb.extend(&bin);
+        glb
+    }
+}
+
+/// Writes an equirectangular image of linear RGB (`width` × `height`, top row first) as a
+/// Radiance `.hdr` file: flat RGBE scanlines (what three.js's HDRLoader and Kloub's reader take).
+pub fn write_hdr(width: u32, height: u32, rgb: &[[f32; 3]]) -> Vec<u8> {
+    let mut out = format!("#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y {height} +X {width}\n").into_bytes();
+    for p in rgb {
+        let m = p[0].max(p[1]).max(p[2]);
+        if m < 1e-32 {
+            out.extend([0, 0, 0, 0]);
+            continue;
+        }
+        // m = f · 2^e with f in [0.5, 1): bytes of 256 · c / 2^e.
+        let e = m.log2().floor() as i32 + 1;
+        let scale = 256.0 / 2f32.powi(e);
+        out.extend(p.map(|c| (c * scale).clamp(0.0, 255.0) as u8));
+        out.push((e + 128) as u8);
+    }
+    out
 }

@@ -281,6 +281,55 @@ pub struct TextureRef {
     pub repeat: [bool; 2],
     /// Nearest (true) or linear (false) magnification.
     pub nearest: bool,
+    /// Minification (the sampler's `minFilter`).
+    pub min_filter: MinFilter,
+}
+
+/// A sampler's minification filter (glTF's `minFilter`; absent: trilinear).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum MinFilter {
+    /// NEAREST (9728): the nearest texel of the full image.
+    Nearest,
+    /// LINEAR (9729): bilinear in the full image.
+    Linear,
+    /// NEAREST_MIPMAP_NEAREST (9984).
+    NearestMipmapNearest,
+    /// LINEAR_MIPMAP_NEAREST (9985).
+    LinearMipmapNearest,
+    /// NEAREST_MIPMAP_LINEAR (9986).
+    NearestMipmapLinear,
+    /// LINEAR_MIPMAP_LINEAR (9987), also what an absent `minFilter` draws with.
+    #[default]
+    LinearMipmapLinear,
+}
+
+impl MinFilter {
+    /// The filter of a glTF `minFilter` code; `None` for any other number.
+    pub fn from_gl(code: u64) -> Option<Self> {
+        Some(match code {
+            9728 => Self::Nearest,
+            9729 => Self::Linear,
+            9984 => Self::NearestMipmapNearest,
+            9985 => Self::LinearMipmapNearest,
+            9986 => Self::NearestMipmapLinear,
+            9987 => Self::LinearMipmapLinear,
+            _ => return None,
+        })
+    }
+
+    /// Whether texels within a level are filtered linearly.
+    pub fn linear(self) -> bool {
+        matches!(self, Self::Linear | Self::LinearMipmapNearest | Self::LinearMipmapLinear)
+    }
+
+    /// Whether mip levels are used; and if so whether between them linearly.
+    pub fn mipmap(self) -> Option<bool> {
+        match self {
+            Self::Nearest | Self::Linear => None,
+            Self::NearestMipmapNearest | Self::LinearMipmapNearest => Some(false),
+            Self::NearestMipmapLinear | Self::LinearMipmapLinear => Some(true),
+        }
+    }
 }
 
 /// A metallic-roughness material (glTF 2.0 core, `KHR_materials_emissive_strength`,

@@ -1106,8 +1106,14 @@ for (const backend of BACKENDS) {
   test(`${backend}: a lost GPU device comes back with the same model, clip and time, with no reload`, async (ctx) => {
     const { page } = ctx;
     await page.goto(`${ctx.url}/embed.html?backend=${backend}`);
-    // Full resolution throughout (slow SwiftShader frames would otherwise lower it): the frames compared are equal.
-    await page.evaluate(() => { for (const v of document.querySelectorAll('kloub-viewer')) v.setAttribute('min-pixel-ratio', '1'); });
+    // Full resolution throughout (slow SwiftShader frames would otherwise lower it), and no interaction prompt (it
+    // appears 3 s after the load without input, which a slow machine reaches): the frames compared are equal.
+    await page.evaluate(() => {
+      for (const v of document.querySelectorAll('kloub-viewer')) {
+        v.setAttribute('min-pixel-ratio', '1');
+        v.setAttribute('interaction-prompt', 'none');
+      }
+    });
     await waitForDataset(page, () => ['left', 'right'].every((id) => document.getElementById(id).dataset.status === 'ready' && Number(document.getElementById(id).dataset.frames) > 0), 'both viewers');
     await page.evaluate(() => { const v = document.getElementById('left'); v.pause(); v.currentTime = 0.25; v.setSkinning('dqs'); });
     await waitForDataset(page, () => {
@@ -2115,6 +2121,25 @@ test('kloub serve --assets: a library without Fox opens its first model; an empt
     }
   }
   rmSync(base, { recursive: true, force: true });
+});
+
+test('three.js r187 still draws the committed reference pictures of tests/reference (Kloub is compared with them in tests/reference.rs)', async () => {
+  const { renderReferences, referenceScenes } = await import('../../scripts/reference-three.mjs');
+  const names = referenceScenes();
+  assert(names.length >= 5, `reference scenes: ${names.join(', ')}`);
+  for (const { name, png } of await renderReferences(names)) {
+    const committed = PNG.sync.read(readFileSync(join(ROOT, 'tests/reference', name, 'three.png')));
+    assert(committed.width === png.width && committed.height === png.height, `${name}: ${png.width}×${png.height}, committed ${committed.width}×${committed.height}`);
+    let differing = 0;
+    for (let i = 0; i < png.data.length; i += 4) {
+      let d = 0;
+      for (let k = 0; k < 4; k++) d = Math.max(d, Math.abs(png.data[i + k] - committed.data[i + k]));
+      if (d > 3) differing++;
+    }
+    const share = differing / (png.width * png.height);
+    if (share > 0.002) savePng(png, `reference-${name}-three.png`);
+    assert(share <= 0.002, `${name}: ${(share * 100).toFixed(2)}% of the pixels differ from the committed three.png; run node scripts/reference-three.mjs`);
+  }
 });
 
 test('hash-state.js: a view round-trips through the hash; malformed keys are dropped', async () => {

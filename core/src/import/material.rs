@@ -6,7 +6,7 @@ use super::json::{
     Obj, child, extension, member_error, objects, opt_bool, opt_f32, opt_f32_array, opt_index, opt_object, opt_str,
     opt_u64,
 };
-use crate::asset::{AlphaMode, EncodedImage, Image, ImageFormat, Material, TextureRef, TextureTransform};
+use crate::asset::{AlphaMode, EncodedImage, Image, ImageFormat, Material, MinFilter, TextureRef, TextureTransform};
 use crate::error::ImportError;
 use std::borrow::Cow;
 #[cfg(feature = "images")]
@@ -312,6 +312,7 @@ struct Resolved {
     image: u32,
     repeat: [bool; 2],
     nearest: bool,
+    min_filter: MinFilter,
 }
 
 /// What a texture draws: its image (a WebP of `EXT_texture_webp` preferred, `source` its
@@ -345,6 +346,7 @@ fn resolve_texture(
     };
     let mut repeat = [true, true];
     let mut nearest = false;
+    let mut min_filter = MinFilter::default();
     if let Some(s) = sampler {
         let (sampler, sptr) = &samplers[s as usize];
         repeat = [
@@ -352,8 +354,17 @@ fn resolve_texture(
             opt_u64(sampler, "wrapT", sptr)?.unwrap_or(10497) != 33071,
         ];
         nearest = opt_u64(sampler, "magFilter", sptr)? == Some(9728);
+        if let Some(code) = opt_u64(sampler, "minFilter", sptr)? {
+            match MinFilter::from_gl(code) {
+                Some(filter) => min_filter = filter,
+                None => cx.warn(
+                    child(sptr, "minFilter"),
+                    format!("minFilter {code} is not a glTF filter; trilinear is used"),
+                ),
+            }
+        }
     }
-    Ok((Some(Resolved { image, repeat, nearest }), named))
+    Ok((Some(Resolved { image, repeat, nearest, min_filter }), named))
 }
 
 /// A texture reference from a `textureInfo` (at `ptr`) to a resolved texture. A `texCoord`
@@ -378,6 +389,6 @@ fn texture_ref(cx: &mut Cx<'_>, texture: &Resolved, info: &Obj, ptr: &str) -> Re
     } else {
         tex_coord
     };
-    let Resolved { image, repeat, nearest } = *texture;
-    Ok(TextureRef { image, tex_coord, transform, repeat, nearest })
+    let Resolved { image, repeat, nearest, min_filter } = *texture;
+    Ok(TextureRef { image, tex_coord, transform, repeat, nearest, min_filter })
 }

@@ -1275,7 +1275,8 @@ fn every_core_texture_of_a_material_is_read_with_its_factors() {
     doc["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_1"] = json!(uv1);
     doc["meshes"][0]["primitives"][0]["material"] = json!(0);
     doc["images"] = json!([{"bufferView": view, "mimeType": "image/png"}]);
-    doc["textures"] = json!([{"source": 0}]);
+    doc["textures"] = json!([{"source": 0, "sampler": 0}]);
+    doc["samplers"] = json!([{"minFilter": 9986}]);
     doc["materials"] = json!([{
         "pbrMetallicRoughness": {"metallicFactor": 0.25, "roughnessFactor": 0.75,
             "baseColorTexture": {"index": 0}, "metallicRoughnessTexture": {"index": 0, "texCoord": 1}},
@@ -1296,6 +1297,14 @@ fn every_core_texture_of_a_material_is_read_with_its_factors() {
     assert!(m.base_color_texture.is_some() && m.emissive_texture.is_some());
     assert_eq!((m.emissive, m.emissive_strength), ([1.0, 0.5, 0.0], 4.0));
     assert_eq!(imported.asset.meshes[0].primitives[0].uv1, [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]);
+    assert_eq!(m.base_color_texture.map(|t| t.min_filter), Some(crate::asset::MinFilter::NearestMipmapLinear));
+    // Not a glTF filter: reported, and trilinear.
+    doc["samplers"][0]["minFilter"] = json!(1234);
+    let imported = run(&doc, &bin).expect("a bad filter is a warning");
+    assert_eq!(imported.warnings.iter().map(|w| w.pointer.as_str()).collect::<Vec<_>>(), ["/samplers/0/minFilter"]);
+    let t = imported.asset.materials[0].base_color_texture.expect("drawn");
+    assert_eq!(t.min_filter, crate::asset::MinFilter::LinearMipmapLinear);
+    doc["samplers"][0]["minFilter"] = json!(9986);
     // Out of range: an occlusion strength above 1, a negative emissive strength, each clamped
     // and reported where it is.
     doc["materials"][0]["occlusionTexture"]["strength"] = json!(3);

@@ -3,7 +3,7 @@
 //! decoded and on the GPU ([`MipMaker`]) for those the browser decoded (copied in as they are,
 //! never through the wasm heap), and sampler creation from glTF sampler settings.
 
-use kloub_core::asset::{Image, TextureRef};
+use kloub_core::asset::{Image, MinFilter, TextureRef};
 
 /// The sRGB texture format every colour image is uploaded as.
 pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
@@ -432,15 +432,21 @@ pub struct SamplerKey {
     pub repeat: [bool; 2],
     /// Nearest magnification.
     pub nearest: bool,
+    /// Minification.
+    pub min_filter: MinFilter,
 }
 
 impl SamplerKey {
-    /// The key of a material's texture reference; linear repeat when there is none.
+    /// The key of a material's texture reference; trilinear repeat when there is none.
     pub fn of(texture: Option<&TextureRef>) -> Self {
-        texture.map_or(Self { repeat: [true; 2], nearest: false }, |t| Self { repeat: t.repeat, nearest: t.nearest })
+        texture.map_or(Self { repeat: [true; 2], nearest: false, min_filter: MinFilter::default() }, |t| Self {
+            repeat: t.repeat,
+            nearest: t.nearest,
+            min_filter: t.min_filter,
+        })
     }
 
-    /// Creates the sampler (trilinear minification).
+    /// Creates the sampler (a filter without mipmaps samples level 0 only).
     pub fn create(&self, device: &wgpu::Device) -> wgpu::Sampler {
         let mode = |repeat: bool| {
             if repeat { wgpu::AddressMode::Repeat } else { wgpu::AddressMode::ClampToEdge }
@@ -450,8 +456,13 @@ impl SamplerKey {
             address_mode_u: mode(self.repeat[0]),
             address_mode_v: mode(self.repeat[1]),
             mag_filter: if self.nearest { wgpu::FilterMode::Nearest } else { wgpu::FilterMode::Linear },
-            min_filter: wgpu::FilterMode::Linear,
-            mipmap_filter: wgpu::MipmapFilterMode::Linear,
+            min_filter: if self.min_filter.linear() { wgpu::FilterMode::Linear } else { wgpu::FilterMode::Nearest },
+            mipmap_filter: if self.min_filter.mipmap() == Some(true) {
+                wgpu::MipmapFilterMode::Linear
+            } else {
+                wgpu::MipmapFilterMode::Nearest
+            },
+            lod_max_clamp: if self.min_filter.mipmap().is_some() { 32.0 } else { 0.0 },
             ..Default::default()
         })
     }
