@@ -119,17 +119,18 @@ fn fs_grid(in: GridOut) -> @location(0) vec4<f32> {
 struct Shadow {
     // World to the shadow map's clip space (orthographic, along the light).
     light_view_proj: mat4x4<f32>,
-    // x: intensity (0..1), y: filter radius in texels, z: 1 / map size, w: quad half extent.
+    // x: intensity (0..1), y: filter radius in texels, z: 1 / map size.
     params: vec4<f32>,
-    // xyz: the quad's centre (on the ground).
-    center: vec4<f32>,
+    // The quad on the ground: x, y: its centre's x and z; z, w: its half sizes along x and z
+    // (where the character's box can throw its shadow).
+    quad: vec4<f32>,
 }
 
 @group(1) @binding(0) var<uniform> shadow: Shadow;
 @group(1) @binding(1) var shadow_map: texture_depth_2d;
 @group(1) @binding(2) var shadow_sampler: sampler_comparison;
 
-/// A square on the ground centred under the character (two triangles).
+/// The shadow's rectangle on the ground (two triangles).
 @vertex
 fn vs_shadow(@builtin(vertex_index) index: u32) -> GridOut {
     var corners = array<vec2<f32>, 6>(
@@ -140,8 +141,8 @@ fn vs_shadow(@builtin(vertex_index) index: u32) -> GridOut {
         vec2<f32>(-1.0, 1.0),
         vec2<f32>(1.0, 1.0),
     );
-    let c = corners[index % 6u] * shadow.params.w;
-    let world = vec3<f32>(shadow.center.x + c.x, frame.grid.x, shadow.center.z + c.y);
+    let c = corners[index % 6u] * shadow.quad.zw;
+    let world = vec3<f32>(shadow.quad.x + c.x, frame.grid.x, shadow.quad.y + c.y);
     var out: GridOut;
     out.clip = frame.view_proj * vec4<f32>(world, 1.0);
     out.world_pos = world;
@@ -154,34 +155,44 @@ fn fs_shadow(in: GridOut) -> @location(0) vec4<f32> {
     let uv = vec2<f32>(light.x * 0.5 + 0.5, 0.5 - light.y * 0.5);
     // The ground itself casts nothing: what is above it in the map is a little nearer the light.
     let depth = light.z - 0.002;
-    // A Poisson disc of 16 taps, each a hardware 2×2 comparison.
+    // A Poisson disc of 16 taps, each a hardware 2×2 comparison; the first four lie near its edge,
+    // one each way.
     var taps = array<vec2<f32>, 16>(
         vec2<f32>(-0.94201624, -0.39906216),
         vec2<f32>(0.94558609, -0.76890725),
-        vec2<f32>(-0.09418410, -0.92938870),
-        vec2<f32>(0.34495938, 0.29387760),
+        vec2<f32>(-0.24188840, 0.99706507),
+        vec2<f32>(0.44323325, -0.97511554),
         vec2<f32>(-0.91588581, 0.45771432),
         vec2<f32>(-0.81544232, -0.87912464),
         vec2<f32>(-0.38277543, 0.27676845),
         vec2<f32>(0.97484398, 0.75648379),
-        vec2<f32>(0.44323325, -0.97511554),
+        vec2<f32>(-0.09418410, -0.92938870),
         vec2<f32>(0.53742981, -0.47373420),
         vec2<f32>(-0.26496911, -0.41893023),
         vec2<f32>(0.79197514, 0.19090188),
-        vec2<f32>(-0.24188840, 0.99706507),
+        vec2<f32>(0.34495938, 0.29387760),
         vec2<f32>(-0.81409955, 0.91437590),
         vec2<f32>(0.19984126, 0.78641367),
         vec2<f32>(0.14383161, -0.14100790),
     );
     let radius = shadow.params.y * shadow.params.z;
+    // Four taps at the disc's edge first: where they agree (most of the quad: wholly lit or
+    // wholly shadowed) the other twelve would too.
     var lit = 0.0;
-    for (var i = 0u; i < 16u; i += 1u) {
+    for (var i = 0u; i < 4u; i += 1u) {
         lit += textureSampleCompareLevel(shadow_map, shadow_sampler, uv + taps[i] * radius, depth);
     }
-    lit /= 16.0;
-    // Faded out towards the quad's edge (the map covers it, nothing beyond).
-    let distance = length(in.world_pos.xz - shadow.center.xz) / shadow.params.w;
-    let fade = 1.0 - smoothstep(0.6, 1.0, distance);
+    if lit > 0.0 && lit < 4.0 {
+        for (var i = 4u; i < 16u; i += 1u) {
+            lit += textureSampleCompareLevel(shadow_map, shadow_sampler, uv + taps[i] * radius, depth);
+        }
+        lit /= 16.0;
+    } else {
+        lit /= 4.0;
+    }
+    // Faded out at the rectangle's rim (the shadow should end inside it).
+    let edge = abs(in.world_pos.xz - shadow.quad.xy) / max(shadow.quad.zw, vec2<f32>(1e-6));
+    let fade = 1.0 - smoothstep(0.85, 1.0, max(edge.x, edge.y));
     let alpha = (1.0 - lit) * shadow.params.x * fade;
     if alpha < 1.0 / 512.0 {
         discard;

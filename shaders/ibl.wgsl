@@ -135,7 +135,7 @@ fn fs_brdf(in: FullOut) -> @location(0) vec4<f32> {
         let l = 2.0 * dot(v, h) * h - v;
         let nl = l.z;
         let nh = max(h.z, 0.0);
-        let vh = max(dot(v, h), 0.0);
+        let vh = clamp(dot(v, h), 0.0, 1.0);
         if nl > 0.0 && nh > 0.0 {
             let vis = 0.5 / (nl * sqrt(nv * nv * (1.0 - a2) + a2) + nv * sqrt(nl * nl * (1.0 - a2) + a2));
             let g = vis * 4.0 * nl * vh / nh;

@@ -250,6 +250,15 @@ fn environment_direction(d: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(c * d.x - s * d.z, d.y, s * d.x + c * d.z);
 }
 
+/// The shadow caster of an alpha-masked material (depth only): discards where `fs_main` does.
+@fragment
+fn fs_caster_mask(in: VsOut) {
+    let texel = textureSample(base_texture, base_sampler, texture_uv(TEX_BASE, in));
+    if material.base_color.a * texel.a * in.color.a < material.emissive.w {
+        discard;
+    }
+}
+
 /// The split-sum scattering of a specular lobe of F0 `f0` with the table's `ab`: single
 /// scattering (F0·A + B) and, after Fdez-Agüera 2019, the multiple scattering GGX's single
 /// scattering loses.
@@ -276,9 +285,10 @@ fn environment_light(n: vec3<f32>, v: vec3<f32>, base: vec3<f32>, metallic: f32,
     let lod = roughness * (frame.environment.w - 1.0);
     let radiance = textureSampleLevel(environment_specular, environment_sampler, equirect_uv(environment_direction(r)), lod).rgb;
     let irradiance = textureSampleLevel(environment_irradiance, environment_sampler, equirect_uv(environment_direction(n)), 0.0).rgb;
-    // Texel centres of the table (the sampler wraps in u).
+    // Texel i of the table holds (i + 0.5) / size: looked up where it is, kept off the edge
+    // (the sampler wraps in u).
     let size = vec2<f32>(textureDimensions(environment_brdf));
-    let table = (vec2<f32>(nv, roughness) * (size - 1.0) + 0.5) / size;
+    let table = clamp(vec2<f32>(nv, roughness), 0.5 / size, 1.0 - 0.5 / size);
     let ab = textureSampleLevel(environment_brdf, environment_sampler, table, 0.0).rg;
     let dielectric = scattering(vec3<f32>(0.04), ab);
     let metal = scattering(base, ab);

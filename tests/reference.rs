@@ -136,19 +136,11 @@ fn check_or_write(path: &Path, bytes: &[u8], bless: bool, stale: &mut Vec<String
     }
 }
 
-/// The studio environment as three.js reads an equirectangular image: its u = 0.5 looks along
-/// +X where Kloub's looks along −Z, a quarter turn: column x of the file is Kloub's column
-/// x + width / 4.
+/// The studio environment as a file three.js reads the way Kloub reads an `.hdr` (its u = 0.5
+/// looks along +X where Kloub's looks along −Z: `HdrImage::to_three_layout`).
 fn environment_for_three() -> Vec<u8> {
-    let image = EnvironmentName::Studio.image();
-    let (w, h) = (image.width as usize, image.height as usize);
-    let mut turned = Vec::with_capacity(w * h);
-    for y in 0..h {
-        for x in 0..w {
-            turned.push(image.rgb[y * w + (x + w / 4) % w]);
-        }
-    }
-    kloub_tests::write_hdr(image.width, image.height, &turned)
+    let image = EnvironmentName::Studio.image().to_three_layout();
+    kloub_tests::write_hdr(image.width, image.height, &image.rgb)
 }
 
 /// sRGB bytes over mid grey, to CIELAB (D65): `premultiplied` as Kloub's target holds them,

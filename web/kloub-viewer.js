@@ -1495,7 +1495,11 @@ class KloubViewer extends HTMLElement {
       if (this.#viewer !== viewer || this.getAttribute('environment-image') !== value) return;
       viewer.setEnvironmentImage(bytes);
       this.#wake(0);
-    })().catch((e) => report(e instanceof Error ? e.message : String(e)));
+    })().catch((e) => {
+      // Changed or unmounted meanwhile: nobody asks for this image any more.
+      if (this.#viewer !== viewer || this.getAttribute('environment-image') !== value) return;
+      report(e instanceof Error ? e.message : String(e));
+    });
   }
 
   #fail(message) {

@@ -20,7 +20,9 @@ export const WEBGPU_FLAGS = ['--enable-unsafe-webgpu', '--use-angle=swiftshader'
 /** Starts `kloub serve` on a free loopback port (the sample library, or `assets`); resolves to { url, stop() }. */
 export async function startServer({ assets = join(ROOT, 'web/assets'), args = [] } = {}) {
   const bin = join(ROOT, 'target/debug/kloub');
-  const child = spawn(bin, ['serve', '--addr', '127.0.0.1:0', '--dist', join(ROOT, 'web/dist'), '--assets', assets, ...args], {
+  // KLOUB_DIST: another build's web/dist (benchmarks of an earlier build against this one).
+  const dist = process.env.KLOUB_DIST ?? join(ROOT, 'web/dist');
+  const child = spawn(bin, ['serve', '--addr', '127.0.0.1:0', '--dist', dist, '--assets', assets, ...args], {
     stdio: ['ignore', 'pipe', 'pipe'],
   });
   const url = await new Promise((ok, fail) => {

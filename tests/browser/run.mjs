@@ -2142,6 +2142,62 @@ test('three.js r187 still draws the committed reference pictures of tests/refere
   }
 });
 
+test('WebGPU and WebGL2 show the same materials: the reference scenes (metal/rough spheres, normal map, alpha mask and blend) drawn by both backends agree', async (ctx) => {
+  const { page } = ctx;
+  const shots = {};
+  for (const name of ['sphere_grid', 'normal_plane', 'alpha_quads']) {
+    const file = join(ROOT, 'tests/out/reference', name, 'scene.glb');
+    let bytes;
+    try { bytes = readFileSync(file); } catch { throw new Error(`${file} is missing: run \`cargo test -p kloub-tests --test reference\` first (it writes it)`); }
+    for (const backend of BACKENDS) {
+      await viewersPage(page, ctx.url, [{ attrs: { backend, 'min-pixel-ratio': '1', 'interaction-prompt': 'none', 'shadow-intensity': '0' }, style: 'width:256px;height:256px' }], 'margin:0', backend);
+      await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.status === 'ready', `${backend} viewer`);
+      await page.evaluate(async (b64) => {
+        const data = Uint8Array.from(atob(b64), (c) => c.charCodeAt(0));
+        await document.querySelector('kloub-viewer').load([new File([data], 'scene.glb')]);
+      }, bytes.toString('base64'));
+      const url = await page.evaluate(() => document.querySelector('kloub-viewer').toDataURL());
+      shots[`${name}/${backend}`] = PNG.sync.read(Buffer.from(url.replace(/^data:image\/png;base64,/, ''), 'base64'));
+    }
+    if (BACKENDS.length < 2) continue;
+    const [a, b] = BACKENDS.map((backend) => shots[`${name}/${backend}`]);
+    // Pixels either backend covers, composited over grey; how many differ by more than 12 levels in a channel, and
+    // by how much on average. The backends blend differently on purpose (WebGPU in linear light on an sRGB view of its
+    // canvas, WebGL2 in gamma space on a plain one, as three.js's WebGL renderer and the browser do): the blended
+    // quad of alpha_quads (its blue pixels) is held to a mean difference only; all else matches to rounding.
+    const bluish = (i) => [a, b].some((img) => img.data[i + 2] > img.data[i] + 20);
+    const compare = (blended) => {
+      let covered = 0; let differing = 0; let total = 0;
+      for (let y = 0; y < a.height; y++) {
+        for (let x = 0; x < a.width; x++) {
+          const i = (y * a.width + x) * 4;
+          if (a.data[i + 3] === 0 && b.data[i + 3] === 0) continue;
+          if (name === 'alpha_quads' && bluish(i) !== blended) continue;
+          covered++;
+          let d = 0;
+          for (let k = 0; k < 3; k++) {
+            const over = (img) => img.data[i + k] * img.data[i + 3] / 255 + 128 * (1 - img.data[i + 3] / 255);
+            d = Math.max(d, Math.abs(over(a) - over(b)));
+          }
+          total += d;
+          if (d > 12) differing++;
+        }
+      }
+      return { covered, share: differing / Math.max(covered, 1), mean: total / Math.max(covered, 1) };
+    };
+    const opaque = compare(false);
+    console.log(`     ${name}: ${opaque.covered} pixels, ${(opaque.share * 100).toFixed(2)} % differ between ${BACKENDS.join(' and ')}`);
+    if (opaque.share > 0.01) { savePng(a, `materials-${name}-${BACKENDS[0]}.png`); savePng(b, `materials-${name}-${BACKENDS[1]}.png`); }
+    assert(opaque.covered > 3000, `${name}: only ${opaque.covered} pixels drawn`);
+    assert(opaque.share <= 0.01, `${name}: ${(opaque.share * 100).toFixed(2)} % of the pixels differ between the backends`);
+    if (name === 'alpha_quads') {
+      const blended = compare(true);
+      console.log(`     ${name}, blended quad: mean difference ${blended.mean.toFixed(1)} levels`);
+      assert(blended.covered > 3000 && blended.mean < 40, `${name}, blended quad: mean difference ${blended.mean.toFixed(1)} levels over ${blended.covered} pixels`);
+    }
+  }
+});
+
 test('hash-state.js: a view round-trips through the hash; malformed keys are dropped', async () => {
   const { viewToHash, hashToView } = await import('../../web/hash-state.js');
   const state = { clip: 'Run', time: '0.300', playing: 'false', speed: '1.500', layer: 'Survey@b_Neck_04:0.60', skinning: 'dqs', camera: '0.9,0.35,260,5,40,-10' };

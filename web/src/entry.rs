@@ -610,7 +610,9 @@ impl Viewer {
     #[wasm_bindgen(js_name = setEnvironmentImage)]
     pub fn set_environment_image(&self, bytes: &[u8]) -> Result<(), JsValue> {
         let image = crate::render::environment::parse_hdr(bytes, crate::render::environment::MAX_HDR_PIXELS)
+            .and_then(|image| image.check_equirectangular().map(|()| image))
             .map_err(|e| range_error(format!("environment image: {e}")))?
+            .from_three_layout()
             .fitted();
         let choice = crate::render::uniforms::EnvironmentChoice::Image;
         self.controls.send_global(Command::SetEnvironment(choice, Some(std::sync::Arc::new(image))));

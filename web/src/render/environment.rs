@@ -81,7 +81,7 @@ impl EnvironmentName {
     /// # Errors
     /// A message naming the accepted names.
     pub fn from_name(name: &str) -> Result<Self, String> {
-        Self::ALL.into_iter().chain([EnvironmentName::Flat]).find(|e| e.name() == name).ok_or_else(|| {
+        Self::ALL.into_iter().find(|e| e.name() == name).ok_or_else(|| {
             format!("environment {name:?}: expected \"neutral\", \"studio\", \"outdoor\" or the URL of an .hdr image")
         })
     }
@@ -202,6 +202,47 @@ impl HdrImage {
             self = HdrImage { width: w as u32, height: h as u32, rgb };
         }
         self
+    }
+
+    /// This image as an environment: an equirectangular image is twice as wide as it is tall.
+    ///
+    /// # Errors
+    /// A message giving the size, for any other shape.
+    pub fn check_equirectangular(&self) -> Result<(), String> {
+        if self.width < 2 || self.width != 2 * self.height || self.rgb.len() != (self.width * self.height) as usize {
+            return Err(format!(
+                "{}×{} pixels: an equirectangular environment is twice as wide as it is tall",
+                self.width, self.height
+            ));
+        }
+        Ok(())
+    }
+
+    /// An image laid out as three.js and model-viewer read equirectangular files (their u = 0.5
+    /// looks along +X; Kloub's along −Z), turned to Kloub's: the same file lights a model from
+    /// the same side in both. Column `x` of the result is column `x − width / 4` of the file.
+    pub fn from_three_layout(&self) -> Self {
+        let (w, h) = (self.width as usize, self.height as usize);
+        let mut rgb = Vec::with_capacity(self.rgb.len());
+        for y in 0..h {
+            for x in 0..w {
+                rgb.push(self.rgb.get(y * w + (x + w - w / 4) % w.max(1)).copied().unwrap_or_default());
+            }
+        }
+        Self { width: self.width, height: self.height, rgb }
+    }
+
+    /// Kloub's layout as three.js reads equirectangular files (the inverse of
+    /// [`HdrImage::from_three_layout`]).
+    pub fn to_three_layout(&self) -> Self {
+        let (w, h) = (self.width as usize, self.height as usize);
+        let mut rgb = Vec::with_capacity(self.rgb.len());
+        for y in 0..h {
+            for x in 0..w {
+                rgb.push(self.rgb.get(y * w + (x + w / 4) % w.max(1)).copied().unwrap_or_default());
+            }
+        }
+        Self { width: self.width, height: self.height, rgb }
     }
 
     /// RGBA half floats for an [`HDR_FORMAT`] texture (alpha 1; values beyond half's range
@@ -443,6 +484,22 @@ mod tests {
         // Never a panic on any prefix of a valid file.
         for n in 0..rle.len() {
             let _ = parse_hdr(&rle[..n], 100);
+        }
+    }
+
+    #[test]
+    fn environments_are_equirectangular_and_turn_to_three_js_layout_and_back() {
+        let image = EnvironmentName::Studio.image();
+        assert!(image.check_equirectangular().is_ok());
+        assert_eq!(image.to_three_layout().from_three_layout(), image);
+        // three.js's u = 0.5 looks along +X: Kloub's u = 0.75.
+        let three = image.to_three_layout();
+        let (w, h) = (image.width as usize, image.height as usize);
+        let row = h / 2;
+        assert_eq!(three.rgb[row * w + w / 2], image.rgb[row * w + 3 * w / 4]);
+        for (w, h) in [(64u32, 64u32), (1, 1), (2048 * 1024, 1), (128, 16384)] {
+            let wrong = HdrImage { width: w, height: h, rgb: vec![[0.0; 3]; (w * h) as usize] };
+            assert!(wrong.check_equirectangular().is_err(), "{w}×{h}");
         }
     }
 
@@ -698,9 +755,10 @@ impl IblKit {
         } else {
             image
         };
+        image.check_equirectangular()?;
         let (width, height) = (image.width, image.height);
-        if width < 2 || height < 1 || image.rgb.len() != (width * height) as usize {
-            return Err(format!("environment image of {width}×{height} pixels has {} values", image.rgb.len()));
+        if width > max || height > max {
+            return Err(format!("{width}×{height} pixels: this device takes at most {max}×{max}"));
         }
         let levels = super::texture::mip_count(width, height);
         let source = hdr_texture(device, "kloub environment source", width, height, levels, super::texture::GPU_MIPPED);

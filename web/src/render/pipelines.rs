@@ -229,17 +229,21 @@ pub struct PipelineKey {
     /// A shadow caster: depth only, into the single-sampled [`SHADOW_FORMAT`] map, both faces,
     /// with a slope-scaled depth bias.
     pub caster: bool,
+    /// A caster of an alpha-masked material: it discards where the material does (always
+    /// false in colour pipelines: the material's flags say it there).
+    pub mask: bool,
 }
 
 impl PipelineKey {
-    /// The caster variant of this draw's pipeline; `None` for what casts no shadow (blended
-    /// draws, points and lines).
-    pub fn caster(self) -> Option<Self> {
+    /// The caster variant of this draw's pipeline, for an alpha-masked material with `mask`;
+    /// `None` for what casts no shadow (blended draws, points and lines).
+    pub fn caster(self, mask: bool) -> Option<Self> {
         (!self.blend && self.topology == wgpu::PrimitiveTopology::TriangleList).then_some(Self {
             double_sided: true,
             mirrored: false,
             heatmap: false,
             caster: true,
+            mask,
             ..self
         })
     }
@@ -535,7 +539,13 @@ impl Pipelines {
                     bias: wgpu::DepthBiasState { constant: 2, slope_scale: 2.0, clamp: 0.0 },
                 }),
                 multisample: wgpu::MultisampleState::default(),
-                fragment: None,
+                // Masked materials cut their shadow as they cut themselves.
+                fragment: key.mask.then_some(wgpu::FragmentState {
+                    module: &self.mesh_module,
+                    entry_point: Some("fs_caster_mask"),
+                    compilation_options: Default::default(),
+                    targets: &[],
+                }),
                 multiview_mask: None,
                 cache: None,
             })

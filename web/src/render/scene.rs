@@ -188,6 +188,8 @@ struct DrawItem {
     /// Index into [`GpuScene::materials`].
     material: usize,
     blend: bool,
+    /// Alpha-masked (its shadow caster discards as the material does).
+    mask: bool,
     double_sided: bool,
     morphed: bool,
     /// Where the morph targets are on the GPU (`None`: not morphed, or morphed on the CPU).
@@ -715,6 +717,7 @@ impl SceneRenderer {
                     pivots: pivots.map(|p| p.0),
                     material: material_index.unwrap_or(default_material),
                     blend: material.is_some_and(|m| m.alpha == AlphaMode::Blend),
+                    mask: material.is_some_and(|m| matches!(m.alpha, AlphaMode::Mask(_))),
                     double_sided: material.is_some_and(|m| m.double_sided),
                     morphed: !primitive.targets.is_empty(),
                     deformed: Vec::new(),
@@ -1004,7 +1007,7 @@ impl SceneRenderer {
             for draw in &scene.draws {
                 if let Some(key) = draw.key {
                     self.pipelines.prepare(device, key);
-                    if let Some(caster) = key.caster().filter(|_| casting) {
+                    if let Some(caster) = key.caster(draw.mask).filter(|_| casting) {
                         self.pipelines.prepare(device, caster);
                     }
                 }
@@ -1574,6 +1577,7 @@ impl GpuScene {
                     skinning: method.unwrap_or(SKIN_FROM_DRAW),
                     heatmap: heatmap.is_some(),
                     caster: false,
+                    mask: false,
                 });
                 if draw.blend {
                     let (min, max) = source.bounds;
@@ -1644,7 +1648,7 @@ impl GpuScene {
             let Some(draw) = self.draws.get(i) else {
                 continue;
             };
-            let key = if caster { draw.key.and_then(PipelineKey::caster) } else { draw.key };
+            let key = if caster { draw.key.and_then(|k| k.caster(draw.mask)) } else { draw.key };
             let Some(pipeline) = key.as_ref().and_then(|k| pipelines.mesh(k)) else {
                 continue;
             };

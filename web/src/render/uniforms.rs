@@ -2,7 +2,7 @@
 //! field is a 16-byte vector or a matrix, so `repr(C)` matches without padding surprises).
 
 use bytemuck::{Pod, Zeroable};
-use glam::{Mat4, Vec3};
+use glam::{Mat4, Vec2, Vec3};
 use kloub_core::asset::{AlphaMode, Material};
 use kloub_core::job::dqs::SkinningMethod;
 
@@ -48,12 +48,19 @@ pub struct Ground {
     pub radius: f32,
     /// Centre of the scene (the grid is centred below it).
     pub center: Vec3,
+    /// Half the size of the scene's box along each axis (the ground shadow's footprint).
+    pub half: Vec3,
 }
 
 impl Ground {
     /// Ground under the box `min..max`.
     pub fn under(min: Vec3, max: Vec3) -> Self {
-        Self { height: min.y, radius: (0.5 * (max - min).length()).max(1e-3), center: 0.5 * (min + max) }
+        Self {
+            height: min.y,
+            radius: (0.5 * (max - min).length()).max(1e-3),
+            center: 0.5 * (min + max),
+            half: (0.5 * (max - min)).max(Vec3::splat(0.0)),
+        }
     }
 
     /// Grid cell size: a power of ten, about a tenth of the scene radius or finer.
@@ -64,7 +71,7 @@ impl Ground {
 
 impl Default for Ground {
     fn default() -> Self {
-        Self { height: 0.0, radius: 1.0, center: Vec3::ZERO }
+        Self { height: 0.0, radius: 1.0, center: Vec3::ZERO, half: Vec3::splat(0.5) }
     }
 }
 
@@ -296,10 +303,10 @@ pub const DEFAULT_SHADOW_INTENSITY: f32 = 0.6;
 pub struct ShadowUniform {
     /// World to the shadow map's clip space.
     pub light_view_proj: [[f32; 4]; 4],
-    /// Intensity, filter radius in texels, 1 / map size, quad half extent.
+    /// Intensity, filter radius in texels, 1 / map size.
     pub params: [f32; 4],
-    /// The quad's centre (xyz).
-    pub center: [f32; 4],
+    /// The quad on the ground: centre x, z and half sizes along x, z.
+    pub quad: [f32; 4],
 }
 
 impl ShadowUniform {
@@ -315,6 +322,16 @@ impl ShadowUniform {
         let eye = center + toward * radius * 3.0;
         let up = if toward.y.abs() > 0.99 { Vec3::Z } else { Vec3::Y };
         let view = glam::camera::rh::view::look_at_mat4(eye, center, up);
+        // The quad covers where the scene's box (with its copies) can throw its shadow: the box's
+        // footprint and the footprint moved along the light by the box's height, grown by a
+        // quarter for the animation, which the rest pose's box does not hold.
+        let top = (ground.center.y + ground.half.y - ground.height).max(0.0);
+        let reach = Vec2::new(toward.x, toward.z) * (top / toward.y.max(0.05));
+        let half = Vec2::new(ground.half.x, ground.half.z) * 1.25 + Vec2::splat(extent + 0.1 * ground.radius);
+        let footprint = Vec2::new(ground.center.x, ground.center.z);
+        let (lo, hi) =
+            ((footprint - half).min(footprint - half - reach), (footprint + half).max(footprint + half - reach));
+        let (quad_center, quad_half) = (0.5 * (lo + hi), 0.5 * (hi - lo));
         let projection =
             glam::camera::rh::proj::directx::orthographic(-radius, radius, -radius, radius, 0.0, radius * 6.0);
         Self {
@@ -323,9 +340,9 @@ impl ShadowUniform {
                 look.shadow_intensity.clamp(0.0, 1.0),
                 0.5 + 3.5 * look.shadow_softness.clamp(0.0, 1.0),
                 1.0 / size.max(1) as f32,
-                radius,
+                0.0,
             ],
-            center: [center.x, center.y, center.z, 0.0],
+            quad: [quad_center.x, quad_center.y, quad_half.x, quad_half.y],
         }
     }
 
