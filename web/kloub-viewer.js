@@ -1130,6 +1130,12 @@ class KloubViewer extends HTMLElement {
       const exposure = Number(snapshot.exposure);
       if (!this.hasAttribute('exposure') && Number.isFinite(exposure) && exposure >= 0 && exposure <= MAX_EXPOSURE) this.setExposure(exposure);
       if (!this.hasAttribute('tone-mapping') && TONE_MAPPINGS.includes(snapshot.toneMapping)) this.setToneMapping(snapshot.toneMapping);
+      // The environment and shadow chosen in the panel (an attribute is applied again at the mount).
+      if (!this.hasAttribute('environment-image') && ENVIRONMENTS.includes(snapshot.environment)) this.#viewer?.setEnvironment(snapshot.environment);
+      const [intensity, softness] = (snapshot.shadow ?? '').split(',').map(Number);
+      if (!this.hasAttribute('shadow-intensity') && !this.hasAttribute('shadow-softness') && [intensity, softness].every((x) => x >= 0 && x <= 1)) {
+        this.#viewer?.setShadow(intensity, softness);
+      }
       if (snapshot.playing === 'true') this.play();
       else if (snapshot.playing === 'false') this.pause();
       if (snapshot.skinning && snapshot.skinning !== this.getAttribute('skinning')) this.setSkinning(snapshot.skinning);

@@ -374,6 +374,9 @@ pub struct SceneRenderer {
     environment_image: Option<(u64, std::sync::Arc<HdrImage>)>,
     /// The environment bound now, what it is (`None`: none could be made) and its intensity.
     environment: (Option<EnvironmentKey>, GpuEnvironment, f32),
+    /// The environment image's prefiltered textures, kept while it is the image (choosing it
+    /// again after a named one does not prefilter it again).
+    image_environment: Option<(u64, GpuEnvironment)>,
 }
 
 /// The shadow map's size in texels (square).
@@ -513,6 +516,7 @@ impl SceneRenderer {
             ibl_supported: true,
             environment_image: None,
             environment: (None, no_environment, 0.0),
+            image_environment: None,
         }
     }
 
@@ -577,17 +581,22 @@ impl SceneRenderer {
                 Some(EnvironmentKey::Named(name)) => {
                     self.pipelines.named_environment(device, queue, &self.layouts.environment, self.ibl_supported, name)
                 }
-                Some(EnvironmentKey::Image(_)) => {
-                    let image = self.environment_image.as_ref().map(|(_, i)| i.clone());
-                    let kit = self.pipelines.ibl(device, queue, self.ibl_supported);
-                    match (kit, image) {
-                        (Some(kit), Some(image)) => kit
-                            .environment(device, queue, &self.layouts.environment, &image)
-                            .map_err(|e| log::warn!("kloub: environment image: {e}"))
-                            .ok(),
-                        _ => None,
+                Some(EnvironmentKey::Image(id)) => match &self.image_environment {
+                    Some((cached, env)) if *cached == id => Some(env.clone()),
+                    _ => {
+                        let image = self.environment_image.as_ref().map(|(_, i)| i.clone());
+                        let kit = self.pipelines.ibl(device, queue, self.ibl_supported);
+                        let made = match (kit, image) {
+                            (Some(kit), Some(image)) => kit
+                                .environment(device, queue, &self.layouts.environment, &image)
+                                .map_err(|e| log::warn!("kloub: environment image: {e}"))
+                                .ok(),
+                            _ => None,
+                        };
+                        self.image_environment = made.clone().map(|env| (id, env));
+                        made
                     }
-                }
+                },
                 None => None,
             };
             match made {

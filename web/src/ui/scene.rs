@@ -177,16 +177,21 @@ pub(super) fn view_panel(ui: &mut egui::Ui, state: &PanelState<'_>, actions: &mu
                 actions.commands.push(Command::SetBackground(background));
             }
         });
+        // One control a row: two sliders side by side would widen the panel.
+        let mut exposure = state.look.exposure;
+        // A page may set more than the slider shows (up to MAX_EXPOSURE): kept as it is.
+        let slider = egui::Slider::new(&mut exposure, 0.0..=4.0)
+            .logarithmic(true)
+            .smallest_positive(0.05)
+            .clamping(egui::SliderClamping::Edits)
+            .fixed_decimals(2)
+            .text("exposure");
+        ui.add(slider);
+        if exposure != state.look.exposure {
+            actions.commands.push(Command::SetExposure(exposure));
+        }
         ui.horizontal(|ui| {
             use crate::render::uniforms::ToneMapping;
-            let mut exposure = state.look.exposure;
-            // A page may set more than the slider shows (up to MAX_EXPOSURE): kept as it is.
-            let slider = egui::Slider::new(&mut exposure, 0.0..=4.0)
-                .logarithmic(true)
-                .smallest_positive(0.05)
-                .clamping(egui::SliderClamping::Edits)
-                .text("exposure");
-            ui.add(slider);
             let mut tone = state.look.tone_mapping;
             let shown = egui::ComboBox::from_id_salt("tone mapping").selected_text(tone.name()).show_ui(ui, |ui| {
                 for t in ToneMapping::ALL {
@@ -194,10 +199,7 @@ pub(super) fn view_panel(ui: &mut egui::Ui, state: &PanelState<'_>, actions: &mu
                 }
             });
             super::named_combo(&shown, "Tone mapping");
-            ui.label("tone");
-            if exposure != state.look.exposure {
-                actions.commands.push(Command::SetExposure(exposure));
-            }
+            ui.label("tone mapping");
             if tone != state.look.tone_mapping {
                 actions.commands.push(Command::SetToneMapping(tone));
             }
@@ -222,16 +224,16 @@ pub(super) fn view_panel(ui: &mut egui::Ui, state: &PanelState<'_>, actions: &mu
                 });
             super::named_combo(&shown, "Environment");
             ui.label("environment");
-            let mut degrees = state.look.environment_rotation.to_degrees();
-            ui.add(egui::Slider::new(&mut degrees, 0.0..=360.0).suffix("°").fixed_decimals(0).text("turn"));
             if environment != state.look.environment {
                 actions.commands.push(Command::SetEnvironment(environment, None));
             }
-            if degrees != state.look.environment_rotation.to_degrees() {
-                actions.commands.push(Command::SetEnvironmentRotation(degrees.to_radians()));
-            }
         });
-        ui.horizontal(|ui| {
+        let mut degrees = state.look.environment_rotation.to_degrees();
+        ui.add(egui::Slider::new(&mut degrees, 0.0..=360.0).suffix("°").fixed_decimals(0).text("turn"));
+        if degrees != state.look.environment_rotation.to_degrees() {
+            actions.commands.push(Command::SetEnvironmentRotation(degrees.to_radians()));
+        }
+        {
             let (mut intensity, mut softness) = (state.look.shadow_intensity, state.look.shadow_softness);
             ui.add(egui::Slider::new(&mut intensity, 0.0..=1.0).fixed_decimals(2).text("shadow"));
             ui.add_enabled(
@@ -241,7 +243,7 @@ pub(super) fn view_panel(ui: &mut egui::Ui, state: &PanelState<'_>, actions: &mu
             if (intensity, softness) != (state.look.shadow_intensity, state.look.shadow_softness) {
                 actions.commands.push(Command::SetShadow(intensity, softness));
             }
-        });
+        }
     });
 }
 
