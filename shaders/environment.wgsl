@@ -56,9 +56,9 @@ struct GridOut {
     @location(0) world_pos: vec3<f32>,
 }
 
-/// A square on the ground plane (two triangles), centred on `frame.grid_center`.
-@vertex
-fn vs_grid(@builtin(vertex_index) index: u32) -> GridOut {
+/// Vertex `index` of a rectangle on the ground plane (two triangles) centred on `center` (x, z)
+/// with half sizes `half` (along x, z).
+fn ground_rectangle(index: u32, center: vec2<f32>, half: vec2<f32>) -> GridOut {
     // Corners of the two triangles: (0,1,2) and (2,1,3) of the unit square.
     var corners = array<vec2<f32>, 6>(
         vec2<f32>(-1.0, -1.0),
@@ -68,12 +68,18 @@ fn vs_grid(@builtin(vertex_index) index: u32) -> GridOut {
         vec2<f32>(-1.0, 1.0),
         vec2<f32>(1.0, 1.0),
     );
-    let c = corners[index % 6u] * frame.grid.w;
-    let world = vec3<f32>(frame.grid_center.x + c.x, frame.grid.x, frame.grid_center.z + c.y);
+    let c = center + corners[index % 6u] * half;
+    let world = vec3<f32>(c.x, frame.grid.x, c.y);
     var out: GridOut;
     out.clip = frame.view_proj * vec4<f32>(world, 1.0);
     out.world_pos = world;
     return out;
+}
+
+/// A square on the ground plane, centred on `frame.grid_center`.
+@vertex
+fn vs_grid(@builtin(vertex_index) index: u32) -> GridOut {
+    return ground_rectangle(index, frame.grid_center.xz, vec2<f32>(frame.grid.w));
 }
 
 /// Coverage (0..1) of anti-aliased lines about one pixel wide at integer values of `coord`,
@@ -130,23 +136,10 @@ struct Shadow {
 @group(1) @binding(1) var shadow_map: texture_depth_2d;
 @group(1) @binding(2) var shadow_sampler: sampler_comparison;
 
-/// The shadow's rectangle on the ground (two triangles).
+/// The shadow's rectangle on the ground.
 @vertex
 fn vs_shadow(@builtin(vertex_index) index: u32) -> GridOut {
-    var corners = array<vec2<f32>, 6>(
-        vec2<f32>(-1.0, -1.0),
-        vec2<f32>(-1.0, 1.0),
-        vec2<f32>(1.0, -1.0),
-        vec2<f32>(1.0, -1.0),
-        vec2<f32>(-1.0, 1.0),
-        vec2<f32>(1.0, 1.0),
-    );
-    let c = corners[index % 6u] * shadow.quad.zw;
-    let world = vec3<f32>(shadow.quad.x + c.x, frame.grid.x, shadow.quad.y + c.y);
-    var out: GridOut;
-    out.clip = frame.view_proj * vec4<f32>(world, 1.0);
-    out.world_pos = world;
-    return out;
+    return ground_rectangle(index, shadow.quad.xy, shadow.quad.zw);
 }
 
 @fragment

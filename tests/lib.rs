@@ -63,6 +63,18 @@ pub mod materials {
         p
     }
 
+    /// A reference to image 0 with glTF's default sampling (repeat, linear, trilinear).
+    fn first_image() -> TextureRef {
+        TextureRef {
+            image: 0,
+            tex_coord: 0,
+            transform: TextureTransform::default(),
+            repeat: [true; 2],
+            nearest: false,
+            min_filter: Default::default(),
+        }
+    }
+
     /// One node showing `primitives` (one mesh) with `materials` and `images`.
     fn scene_of(name: &str, primitives: Vec<Primitive>, materials: Vec<Material>, images: Vec<Image>) -> Asset {
         Asset {
@@ -145,14 +157,7 @@ pub mod materials {
             }
         }
         let image = Image { name: Some("bumps".into()), width: BUMP_TEXELS, height: BUMP_TEXELS, rgba8, encoded: None };
-        let texture = TextureRef {
-            image: 0,
-            tex_coord: 0,
-            transform: TextureTransform::default(),
-            repeat: [true; 2],
-            nearest: false,
-            min_filter: Default::default(),
-        };
+        let texture = first_image();
         let material = Material {
             name: Some("Bumps".into()),
             base_color: [0.6, 0.6, 0.6, 1.0],
@@ -193,14 +198,7 @@ pub mod materials {
             }
         }
         let image = Image { name: Some("rings".into()), width: n, height: n, rgba8, encoded: None };
-        let texture = TextureRef {
-            image: 0,
-            tex_coord: 0,
-            transform: TextureTransform::default(),
-            repeat: [true; 2],
-            nearest: false,
-            min_filter: Default::default(),
-        };
+        let texture = first_image();
         let dielectric = |name: &str, base_color: [f32; 4]| Material {
             name: Some(name.into()),
             base_color,

@@ -72,7 +72,8 @@ fn skinned_buffers() -> [Option<wgpu::VertexBufferLayout<'static>>; 4] {
     ]
 }
 
-fn uniform_entry(
+/// A uniform buffer binding of `size` bytes.
+pub(super) fn uniform_entry(
     binding: u32,
     visibility: wgpu::ShaderStages,
     size: usize,
@@ -90,7 +91,8 @@ fn uniform_entry(
     }
 }
 
-fn texture_entry(
+/// A 2D texture binding.
+pub(super) fn texture_entry(
     binding: u32,
     visibility: wgpu::ShaderStages,
     sample_type: wgpu::TextureSampleType,
@@ -105,6 +107,15 @@ fn texture_entry(
         },
         count: None,
     }
+}
+
+/// A sampler binding of `kind`.
+pub(super) fn sampler_entry(
+    binding: u32,
+    visibility: wgpu::ShaderStages,
+    kind: wgpu::SamplerBindingType,
+) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry { binding, visibility, ty: wgpu::BindingType::Sampler(kind), count: None }
 }
 
 /// Textures of a material (`TEX_*` in mesh.wgsl): base colour, metallic-roughness, normal,
@@ -142,12 +153,11 @@ impl Layouts {
         for slot in 0..MATERIAL_TEXTURES as u32 {
             let filterable = wgpu::TextureSampleType::Float { filterable: true };
             entries.push(texture_entry(1 + 2 * slot, wgpu::ShaderStages::FRAGMENT, filterable));
-            entries.push(wgpu::BindGroupLayoutEntry {
-                binding: 2 + 2 * slot,
-                visibility: wgpu::ShaderStages::FRAGMENT,
-                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                count: None,
-            });
+            entries.push(sampler_entry(
+                2 + 2 * slot,
+                wgpu::ShaderStages::FRAGMENT,
+                wgpu::SamplerBindingType::Filtering,
+            ));
         }
         let material = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("kloub material"),
@@ -165,34 +175,15 @@ impl Layouts {
                 texture_entry(0, f, filterable),
                 texture_entry(1, f, filterable),
                 texture_entry(2, f, filterable),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 3,
-                    visibility: f,
-                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                    count: None,
-                },
+                sampler_entry(3, f, wgpu::SamplerBindingType::Filtering),
             ],
         });
         let shadow = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("kloub shadow"),
             entries: &[
                 uniform_entry(0, vf, size_of::<super::uniforms::ShadowUniform>(), false),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 1,
-                    visibility: f,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Depth,
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
-                wgpu::BindGroupLayoutEntry {
-                    binding: 2,
-                    visibility: f,
-                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Comparison),
-                    count: None,
-                },
+                texture_entry(1, f, wgpu::TextureSampleType::Depth),
+                sampler_entry(2, f, wgpu::SamplerBindingType::Comparison),
             ],
         });
         Self { frame, material, draw, environment, shadow }
@@ -520,16 +511,15 @@ impl Pipelines {
             VertexPath::Static => wgpu::PipelineCompilationOptions::default(),
             VertexPath::Skinned => wgpu::PipelineCompilationOptions { constants: &constants, ..Default::default() },
         };
-        let pipeline = if key.caster {
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        let vertex =
+            wgpu::VertexState { module: &self.mesh_module, entry_point: Some(entry), compilation_options, buffers };
+        let output = output_constants(self.format);
+        let targets = color_target(self.format, key.blend);
+        let descriptor = if key.caster {
+            wgpu::RenderPipelineDescriptor {
                 label: Some("kloub shadow caster"),
                 layout: Some(&self.mesh_layout),
-                vertex: wgpu::VertexState {
-                    module: &self.mesh_module,
-                    entry_point: Some(entry),
-                    compilation_options,
-                    buffers,
-                },
+                vertex,
                 primitive: wgpu::PrimitiveState { topology: key.topology, cull_mode: None, ..Default::default() },
                 depth_stencil: Some(wgpu::DepthStencilState {
                     format: SHADOW_FORMAT,
@@ -548,54 +538,37 @@ impl Pipelines {
                 }),
                 multiview_mask: None,
                 cache: None,
-            })
+            }
         } else {
-            self.mesh_pipeline(device, key, entry, buffers, compilation_options)
+            wgpu::RenderPipelineDescriptor {
+                label: Some("kloub mesh"),
+                layout: Some(&self.mesh_layout),
+                vertex,
+                primitive: wgpu::PrimitiveState {
+                    topology: key.topology,
+                    front_face: if key.mirrored { wgpu::FrontFace::Cw } else { wgpu::FrontFace::Ccw },
+                    cull_mode: (!key.double_sided).then_some(wgpu::Face::Back),
+                    ..Default::default()
+                },
+                depth_stencil: depth_state(wgpu::CompareFunction::Less, !key.blend),
+                multisample: wgpu::MultisampleState { count: self.sample_count, ..Default::default() },
+                fragment: Some(wgpu::FragmentState {
+                    module: &self.mesh_module,
+                    entry_point: Some("fs_main"),
+                    compilation_options: wgpu::PipelineCompilationOptions { constants: &output, ..Default::default() },
+                    targets: &targets,
+                }),
+                multiview_mask: None,
+                cache: None,
+            }
         };
+        let pipeline = device.create_render_pipeline(&descriptor);
         KITS.with(|kits| {
             if let Some(kit) = kits.borrow_mut().iter_mut().find(|k| k.matches(share, format, samples)) {
                 kit.pipelines.mesh.insert(key, pipeline.clone());
             }
         });
         self.mesh.insert(key, pipeline);
-    }
-
-    /// The colour pipeline of a mesh draw.
-    fn mesh_pipeline(
-        &self,
-        device: &wgpu::Device,
-        key: PipelineKey,
-        entry: &str,
-        buffers: &[Option<wgpu::VertexBufferLayout<'_>>],
-        compilation_options: wgpu::PipelineCompilationOptions<'_>,
-    ) -> wgpu::RenderPipeline {
-        let output = output_constants(self.format);
-        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("kloub mesh"),
-            layout: Some(&self.mesh_layout),
-            vertex: wgpu::VertexState {
-                module: &self.mesh_module,
-                entry_point: Some(entry),
-                compilation_options,
-                buffers,
-            },
-            primitive: wgpu::PrimitiveState {
-                topology: key.topology,
-                front_face: if key.mirrored { wgpu::FrontFace::Cw } else { wgpu::FrontFace::Ccw },
-                cull_mode: (!key.double_sided).then_some(wgpu::Face::Back),
-                ..Default::default()
-            },
-            depth_stencil: depth_state(wgpu::CompareFunction::Less, !key.blend),
-            multisample: wgpu::MultisampleState { count: self.sample_count, ..Default::default() },
-            fragment: Some(wgpu::FragmentState {
-                module: &self.mesh_module,
-                entry_point: Some("fs_main"),
-                compilation_options: wgpu::PipelineCompilationOptions { constants: &output, ..Default::default() },
-                targets: &color_target(self.format, key.blend),
-            }),
-            multiview_mask: None,
-            cache: None,
-        })
     }
 
     /// The capture pipeline: `vs_capture_skinned` over a point list into two
