@@ -24,6 +24,9 @@ struct Frame {
     // Image-based light: x, y: cosine and sine of the environment's turn about +Y, z: its
     // intensity (0: none, the hemisphere lights), w: levels of its specular chain.
     environment: vec4<f32>,
+    // The environment's irradiance over π as nine spherical-harmonic coefficients (rgb), the
+    // basis constants and cosine lobe folded in (mesh.wgsl's `sh_irradiance`).
+    irradiance: array<vec4<f32>, 9>,
 }
 
 @group(0) @binding(0) var<uniform> frame: Frame;

@@ -6,14 +6,12 @@
 //                  `params.x` roughness (N = V = R), importance sampled, each sample read from
 //                  the source mip whose texels match its solid angle (Karis 2013, §"prefiltered
 //                  environment map"; the "PDF-based filtering" of GPU Gems 3, ch. 20).
-//   fs_irradiance: cosine-weighted irradiance over π, summed over every texel of source mip
-//                  `params.y`.
-//   fs_brdf:       the split-sum table: GGX's directional albedo as scale (r) and bias (g) on F0,
-//                  by N·V (u) and roughness (v), with the height-correlated Smith visibility
-//                  mesh.wgsl's direct light uses.
+//
+// The diffuse irradiance is nine spherical-harmonic coefficients summed on the CPU, and the
+// split sum's scale and bias an analytic fit (mesh.wgsl): no pass here.
 
 struct Prefilter {
-    // x: roughness (fs_specular) | the source mip to sum (fs_irradiance), y: samples (for
+    // x: roughness, y: samples (for
     // roughness 0: the source mip copied), z: source mip levels, w: source width (level 0).
     params: vec4<f32>,
 }
@@ -98,51 +96,4 @@ fn fs_specular(in: FullOut) -> @location(0) vec4<f32> {
         }
     }
     return vec4<f32>(sum / max(weight, 1e-6), 1.0);
-}
-
-@fragment
-fn fs_irradiance(in: FullOut) -> @location(0) vec4<f32> {
-    let n = equirect_direction(in.uv);
-    let lod = i32(prefilter.params.x);
-    let size = textureDimensions(source, lod);
-    var sum = vec3<f32>(0.0);
-    for (var y = 0u; y < size.y; y += 1u) {
-        let v = (f32(y) + 0.5) / f32(size.y);
-        let solid = (2.0 * EQUIRECT_PI / f32(size.x)) * (EQUIRECT_PI / f32(size.y)) * sin(v * EQUIRECT_PI);
-        for (var x = 0u; x < size.x; x += 1u) {
-            let d = equirect_direction(vec2<f32>((f32(x) + 0.5) / f32(size.x), v));
-            let c = max(dot(n, d), 0.0) * solid;
-            sum += textureLoad(source, vec2<i32>(i32(x), i32(y)), lod).rgb * c;
-        }
-    }
-    return vec4<f32>(sum / EQUIRECT_PI, 1.0);
-}
-
-@fragment
-fn fs_brdf(in: FullOut) -> @location(0) vec4<f32> {
-    let nv = max(in.uv.x, 1e-3);
-    let roughness = max(in.uv.y, 0.05);
-    let alpha = roughness * roughness;
-    let a2 = alpha * alpha;
-    let v = vec3<f32>(sqrt(1.0 - nv * nv), 0.0, nv);
-    let n = vec3<f32>(0.0, 0.0, 1.0);
-    let samples = u32(prefilter.params.y);
-    var a = 0.0;
-    var b = 0.0;
-    for (var i = 0u; i < samples; i += 1u) {
-        let xi = vec2<f32>((f32(i) + 0.5) / f32(samples), radical_inverse(i));
-        let h = importance_ggx(xi, n, alpha);
-        let l = 2.0 * dot(v, h) * h - v;
-        let nl = l.z;
-        let nh = max(h.z, 0.0);
-        let vh = clamp(dot(v, h), 0.0, 1.0);
-        if nl > 0.0 && nh > 0.0 {
-            let vis = 0.5 / (nl * sqrt(nv * nv * (1.0 - a2) + a2) + nv * sqrt(nl * nl * (1.0 - a2) + a2));
-            let g = vis * 4.0 * nl * vh / nh;
-            let fc = pow(1.0 - vh, 5.0);
-            a += (1.0 - fc) * g;
-            b += fc * g;
-        }
-    }
-    return vec4<f32>(a / f32(samples), b / f32(samples), 0.0, 1.0);
 }

@@ -12,7 +12,7 @@
 //   0: Frame uniform (camera, lights) + joint palette + morph deltas (per frame)
 //   1: Material uniform + five textures, each with its sampler        (per material)
 //   2: Draw uniform with a dynamic offset                           (per draw)
-//   3: the environment: specular chain, irradiance, BRDF table, sampler (ibl.wgsl made them)
+//   3: the environment: its specular chain (ibl.wgsl made it) and sampler
 // The Frame struct is shared with environment.wgsl and must stay identical
 // (tests/shaders.rs checks that same-named structs have the same layout in every file).
 
@@ -36,6 +36,9 @@ struct Frame {
     // Image-based light: x, y: cosine and sine of the environment's turn about +Y, z: its
     // intensity (0: none, the hemisphere lights), w: levels of its specular chain.
     environment: vec4<f32>,
+    // The environment's irradiance over π as nine spherical-harmonic coefficients (rgb), the
+    // basis constants and cosine lobe folded in (mesh.wgsl's `sh_irradiance`).
+    irradiance: array<vec4<f32>, 9>,
 }
 
 struct Material {
@@ -88,9 +91,7 @@ const MIN_ROUGHNESS: f32 = 0.05;
 @group(1) @binding(10) var emissive_sampler: sampler;
 
 @group(3) @binding(0) var environment_specular: texture_2d<f32>;
-@group(3) @binding(1) var environment_irradiance: texture_2d<f32>;
-@group(3) @binding(2) var environment_brdf: texture_2d<f32>;
-@group(3) @binding(3) var environment_sampler: sampler;
+@group(3) @binding(1) var environment_sampler: sampler;
 
 struct VsOut {
     @builtin(position) clip: vec4<f32>,
@@ -137,6 +138,21 @@ fn vs_skinned(g: GeometryIn, s: SkinIn) -> VsOut {
         out.color = vec4<f32>(heat_color(distance(v.position, other.position) / max(draw.heat.x, 1e-20)), 1.0);
     }
     return out;
+}
+
+/// A shadow caster's vertex (depth only; masked materials' casters use `vs_static` or
+/// `vs_skinned`, their fragment shader reads the texture coordinates): the position alone, so
+/// the compiler drops the normal, the texture coordinates and the colours. The frame's
+/// `view_proj` is the light's.
+@vertex
+fn vs_caster_static(g: GeometryIn) -> @builtin(position) vec4<f32> {
+    return frame.view_proj * (draw.model * vec4<f32>(morphed(g).position, 1.0));
+}
+
+@vertex
+fn vs_caster_skinned(g: GeometryIn, s: SkinIn) -> @builtin(position) vec4<f32> {
+    let v = skin_with(morphed(g), s, draw_method());
+    return frame.view_proj * (draw.model * vec4<f32>(v.position, 1.0));
 }
 
 /// Blue (0) through green and yellow to red (1 and beyond).
@@ -234,13 +250,22 @@ fn direct_light(n: vec3<f32>, v: vec3<f32>, l: vec3<f32>, c_diff: vec3<f32>, f0:
     return (diffuse + specular) * radiance * nl;
 }
 
-/// The split-sum environment BRDF's scale and bias on F0, by Karis's analytic fit (the
-/// hemisphere has no prefiltered map to look up).
-fn analytic_environment_brdf(f0: vec3<f32>, roughness: f32, nv: f32) -> vec3<f32> {
+/// The split-sum environment BRDF: the scale (x) and bias (y) on F0 of GGX's directional
+/// albedo, by Karis's analytic fit (three.js's `DFGApprox`; no table to look up).
+fn environment_ab(roughness: f32, nv: f32) -> vec2<f32> {
     let r = roughness * vec4<f32>(-1.0, -0.0275, -0.572, 0.022) + vec4<f32>(1.0, 0.0425, 1.04, -0.04);
     let a004 = min(r.x * r.x, exp2(-9.28 * nv)) * r.x + r.y;
-    let ab = vec2<f32>(-1.04, 1.04) * a004 + r.zw;
-    return f0 * ab.x + ab.y;
+    return vec2<f32>(-1.04, 1.04) * a004 + r.zw;
+}
+
+/// The environment's irradiance over π at the unit direction `d` (environment frame) from the
+/// frame's spherical-harmonic coefficients (environment.rs's `irradiance_from_sh`).
+fn sh_irradiance(d: vec3<f32>) -> vec3<f32> {
+    let c = frame.irradiance;
+    let e = c[0].rgb + c[1].rgb * d.y + c[2].rgb * d.z + c[3].rgb * d.x + c[4].rgb * (d.x * d.y)
+        + c[5].rgb * (d.y * d.z) + c[6].rgb * (3.0 * d.z * d.z - 1.0) + c[7].rgb * (d.x * d.z)
+        + c[8].rgb * (d.x * d.x - d.y * d.y);
+    return max(e, vec3<f32>(0.0));
 }
 
 /// World direction `d` in the environment's frame (it is turned about +Y by the frame's angle).
@@ -259,7 +284,7 @@ fn fs_caster_mask(in: VsOut) {
     }
 }
 
-/// The split-sum scattering of a specular lobe of F0 `f0` with the table's `ab`: single
+/// The split-sum scattering of a specular lobe of F0 `f0` with the fit's `ab`: single
 /// scattering (F0·A + B) and, after Fdez-Agüera 2019, the multiple scattering GGX's single
 /// scattering loses.
 struct Scattering {
@@ -275,7 +300,8 @@ fn scattering(f0: vec3<f32>, ab: vec2<f32>) -> Scattering {
 }
 
 /// The environment's light reflected towards `v` by a surface facing `n`, before occlusion: the
-/// split sum with the BRDF table for the dielectric (F0 0.04) and metal (F0 = base) lobes mixed
+/// split sum (one lookup of the specular chain; the diffuse from the spherical harmonics) for
+/// the dielectric (F0 0.04) and metal (F0 = base) lobes mixed
 /// by metalness, multiple scattering included, and the diffuse part of the dielectric weighted
 /// by what its specular lobe leaves (as glTF's Appendix B, and three.js, mix them).
 fn environment_light(n: vec3<f32>, v: vec3<f32>, base: vec3<f32>, metallic: f32, roughness: f32) -> vec3<f32> {
@@ -284,12 +310,8 @@ fn environment_light(n: vec3<f32>, v: vec3<f32>, base: vec3<f32>, metallic: f32,
     let r = reflect(-v, n);
     let lod = roughness * (frame.environment.w - 1.0);
     let radiance = textureSampleLevel(environment_specular, environment_sampler, equirect_uv(environment_direction(r)), lod).rgb;
-    let irradiance = textureSampleLevel(environment_irradiance, environment_sampler, equirect_uv(environment_direction(n)), 0.0).rgb;
-    // Texel i of the table holds (i + 0.5) / size: looked up where it is, kept off the edge
-    // (the sampler wraps in u).
-    let size = vec2<f32>(textureDimensions(environment_brdf));
-    let table = clamp(vec2<f32>(nv, roughness), 0.5 / size, 1.0 - 0.5 / size);
-    let ab = textureSampleLevel(environment_brdf, environment_sampler, table, 0.0).rg;
+    let irradiance = sh_irradiance(environment_direction(n));
+    let ab = environment_ab(roughness, nv);
     let dielectric = scattering(vec3<f32>(0.04), ab);
     let metal = scattering(base, ab);
     let single = mix(dielectric.single, metal.single, metallic);
@@ -403,7 +425,8 @@ fn fs_main(in: VsOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f
         // rough surfaces), weighted by the analytic environment BRDF; occlusion dims both.
         let nv = clamp(dot(n, v), 1e-4, 1.0);
         let reflected = mix(hemisphere(reflect(-v, n)), hemisphere(n), roughness);
-        rgb += (c_diff * hemisphere(n) + reflected * analytic_environment_brdf(f0, roughness, nv)) * occlusion;
+        let ab = environment_ab(roughness, nv);
+        rgb += (c_diff * hemisphere(n) + reflected * (f0 * ab.x + ab.y)) * occlusion;
     }
     rgb += emissive;
     if heatmap {

@@ -22,7 +22,7 @@ use kloub_core::import::NoResolver;
 use kloub_core::{Asset, ImportOptions, Instance};
 use kloub_web::render::environment::EnvironmentName;
 use kloub_web::render::offscreen::Offscreen;
-use kloub_web::render::uniforms::{Background, FrameUniform, Ground, Look};
+use kloub_web::render::uniforms::{Background, EnvironmentLight, FrameUniform, Ground, Look};
 use kloub_web::render::{Camera, SceneRenderer};
 
 /// One scene: its name, where its model comes from, its clip and time, its view (yaw, pitch in
@@ -53,10 +53,11 @@ const SIZE: u32 = 256;
 ///   blur per roughness; Kloub importance-samples GGX into an equirectangular chain. Rough
 ///   reflections differ by a few percent of their brightness.
 /// - **Diffuse light.** three.js lights diffuse surfaces with the roughest PMREM level (a wide
-///   GGX lobe); Kloub with the cosine-weighted irradiance. The difference is largest on strongly
-///   directional environments (the studio's softboxes): ~5–10 % on a dielectric.
-/// - **The BRDF's environment term.** three.js uses Karis's analytic fit; Kloub a table of the
-///   exact integral. Within ~2 %.
+///   GGX lobe); Kloub with the cosine-weighted irradiance as nine spherical harmonics (within
+///   3 % of the full sum on the studio, a unit test in environment.rs). The difference is
+///   largest on strongly directional environments (the studio's softboxes): ~5–10 % on a
+///   dielectric.
+/// - **The BRDF's environment term.** Both use Karis's analytic fit of the split sum.
 /// - **Edges.** Neither antialiases here; the rasterizers' coverage rules still differ by a pixel
 ///   on some silhouettes, which the 99th percentile sees.
 ///
@@ -65,8 +66,10 @@ const SIZE: u32 = 256;
 ///   highlights and sharp reflections of the top rows are wider in three.js's picture: the grid's
 ///   worst percent of pixels.
 ///
-/// Measured 2026-11-26 (ΔE00 mean / 99th percentile): sphere grid 1.79 / 12.2, normal-mapped
-/// plane 0.33 / 1.1, alpha quads 0.26 / 0.85, CesiumMan 0.55 / 4.1, RobotExpressive 0.49 / 1.5.
+/// Measured 2026-11-26 (ΔE00 mean / 99th percentile): sphere grid 1.86 / 11.4, normal-mapped
+/// plane 0.56 / 1.4, alpha quads 0.40 / 0.86, CesiumMan 0.67 / 4.4, RobotExpressive 0.62 / 2.2
+/// (with the irradiance texture and the BRDF table that the harmonics and the fit replaced:
+/// 1.79 / 12.2, 0.33 / 1.1, 0.26 / 0.85, 0.55 / 4.1, 0.49 / 1.5).
 /// A ΔE00 of 1 is about the smallest difference a person sees side by side, 2–3 a small but
 /// visible one, above 5 another colour. The bounds sit above the measurements with room for the
 /// rasterizers' rounding, and under what a shading error costs: the dielectric lobe's Fresnel
@@ -260,8 +263,14 @@ fn render(offscreen: &Offscreen, asset: &Asset, scene: &Scene) -> (RgbaImage, se
     renderer.set_look(look);
     let picture = offscreen.render(&mut renderer, asset, &mut instance, &camera, SIZE, SIZE).expect("rendering");
     // The key light as the frame uniform has it: towards the light, colour × intensity.
-    let frame =
-        FrameUniform::new(camera.view_proj(1.0), camera.eye(), camera.target, &Ground::default(), look, (1.0, 6));
+    let frame = FrameUniform::new(
+        camera.view_proj(1.0),
+        camera.eye(),
+        camera.target,
+        &Ground::default(),
+        look,
+        EnvironmentLight::NONE,
+    );
     let light = &frame.light_dir;
     let (near, far) = camera.clip_planes();
     let view = serde_json::json!({

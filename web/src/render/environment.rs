@@ -5,10 +5,12 @@
 //! - a specular chain: [`SPECULAR_LEVELS`] mips of an equirectangular `rgba16float` texture,
 //!   level `k` the environment seen through glTF's GGX lobe at roughness `k / (levels − 1)`
 //!   (importance sampled, with the source's own mips taken by each sample's solid angle);
-//! - diffuse irradiance: a small equirectangular texture, each texel the cosine-weighted
-//!   integral over the whole environment, divided by π (what a white Lambert surface reflects);
-//! - the split-sum BRDF table (one per device): the scale and bias on F0 of GGX's directional
-//!   albedo by N·V and roughness.
+//! - diffuse irradiance as nine spherical-harmonic coefficients ([`HdrImage::irradiance_sh`],
+//!   summed on the CPU; the frame uniform carries them): the cosine-weighted integral over the
+//!   whole environment, divided by π (what a white Lambert surface reflects), with no texture
+//!   lookup per pixel;
+//! - the split sum's scale and bias on F0 come from Karis's analytic fit (as three.js's), not a
+//!   table: one texture lookup per pixel in all, the specular chain's.
 //!
 //! Directions map to the equirectangular square as `shaders/equirect.wgsl` says: u = 0.5 looks
 //! down −Z, u grows towards +X; v = 0 is straight up.
@@ -23,10 +25,9 @@ use std::f32::consts::PI;
 pub const SPECULAR_LEVELS: u32 = 6;
 /// Width of the specular chain's first level (its height is half).
 pub const SPECULAR_WIDTH: u32 = 256;
-/// Width of the irradiance texture (its height is half).
-pub const IRRADIANCE_WIDTH: u32 = 32;
-/// Size of the BRDF table (square).
-pub const BRDF_SIZE: u32 = 64;
+/// The widest image the spherical-harmonic irradiance is summed over (wider ones are averaged
+/// down first: nine coefficients hold nothing finer).
+pub const SH_SOURCE_WIDTH: u32 = 128;
 /// The texture format of every prefiltered texture.
 pub const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 /// The most pixels an `.hdr` file given to the viewer may have (2048 × 1024).
@@ -187,8 +188,13 @@ impl HdrImage {
     }
 
     /// This image averaged down (2×2 boxes) until it is at most [`MAX_SOURCE_WIDTH`] wide.
-    pub fn fitted(mut self) -> Self {
-        while self.width > MAX_SOURCE_WIDTH && self.height >= 2 {
+    pub fn fitted(self) -> Self {
+        self.fitted_to(MAX_SOURCE_WIDTH)
+    }
+
+    /// This image averaged down (2×2 boxes) until it is at most `width` wide.
+    pub fn fitted_to(mut self, width: u32) -> Self {
+        while self.width > width && self.height >= 2 {
             let (w, h) = (self.width as usize / 2, self.height as usize / 2);
             let src = self.width as usize;
             let mut rgb = Vec::with_capacity(w * h);
@@ -202,6 +208,46 @@ impl HdrImage {
             self = HdrImage { width: w as u32, height: h as u32, rgb };
         }
         self
+    }
+
+    /// The irradiance over π ([`HdrImage::irradiance`]) as nine spherical-harmonic coefficients
+    /// (bands 0–2, Ramamoorthi and Hanrahan 2001), each with its basis constant and its band's
+    /// cosine-lobe factor folded in: the irradiance at a unit normal `n` (environment frame) is
+    /// `c0 + c1·y + c2·z + c3·x + c4·xy + c5·yz + c6·(3z² − 1) + c7·xz + c8·(x² − y²)`
+    /// ([`irradiance_from_sh`]; `shaders/mesh.wgsl` evaluates the same). Summed over this image
+    /// averaged down to at most [`SH_SOURCE_WIDTH`] pixels wide (nine coefficients need no more).
+    pub fn irradiance_sh(&self) -> [[f32; 3]; 9] {
+        let fitted;
+        let image = if self.width > SH_SOURCE_WIDTH {
+            fitted = self.clone().fitted_to(SH_SOURCE_WIDTH);
+            &fitted
+        } else {
+            self
+        };
+        let (w, h) = (image.width as usize, image.height as usize);
+        let mut sum = [[0.0f64; 3]; 9];
+        for y in 0..h {
+            let v = (y as f32 + 0.5) / h as f32;
+            let solid = f64::from((2.0 * PI / w as f32) * (PI / h as f32) * (v * PI).sin());
+            for x in 0..w {
+                let d = direction((x as f32 + 0.5) / w as f32, v);
+                let basis = sh_basis(d);
+                let p = image.rgb[y * w + x];
+                for (s, b) in sum.iter_mut().zip(basis) {
+                    for k in 0..3 {
+                        s[k] += f64::from(p[k]) * f64::from(b) * solid;
+                    }
+                }
+            }
+        }
+        // Irradiance = Σ A_l L_lm Y_lm with A = π, 2π/3, π/4 by band; over π: 1, 2/3, 1/4. The
+        // basis constants are folded in too, so the shader multiplies by bare polynomials.
+        let mut out = [[0.0f32; 3]; 9];
+        for (i, (o, s)) in out.iter_mut().zip(sum).enumerate() {
+            let factor = SH_BAND_FACTOR[i] * SH_CONSTANT[i];
+            *o = s.map(|c| (c * f64::from(factor)) as f32);
+        }
+        out
     }
 
     /// This image as an environment: an equirectangular image is twice as wide as it is tall.
@@ -251,6 +297,38 @@ impl HdrImage {
         let one = f32_to_f16(1.0);
         self.rgb.iter().flat_map(|p| [f32_to_f16(p[0]), f32_to_f16(p[1]), f32_to_f16(p[2]), one]).collect()
     }
+}
+
+/// The real spherical-harmonic basis constants of bands 0–2 (`Y_lm = constant × polynomial`).
+const SH_CONSTANT: [f32; 9] =
+    [0.282_095, 0.488_603, 0.488_603, 0.488_603, 1.092_548, 1.092_548, 0.315_392, 1.092_548, 0.546_274];
+/// The cosine lobe's band factors over π (A_l / π: 1, 2/3, 1/4), per coefficient.
+const SH_BAND_FACTOR: [f32; 9] = [1.0, 2.0 / 3.0, 2.0 / 3.0, 2.0 / 3.0, 0.25, 0.25, 0.25, 0.25, 0.25];
+
+/// The polynomials of the basis at unit direction `d` (the constants apart): 1, y, z, x, xy,
+/// yz, 3z² − 1, xz, x² − y².
+fn sh_polynomials(d: [f32; 3]) -> [f32; 9] {
+    let [x, y, z] = d;
+    [1.0, y, z, x, x * y, y * z, 3.0 * z * z - 1.0, x * z, x * x - y * y]
+}
+
+/// The basis `Y_lm` of bands 0–2 at unit direction `d`.
+fn sh_basis(d: [f32; 3]) -> [f32; 9] {
+    let p = sh_polynomials(d);
+    std::array::from_fn(|i| p[i] * SH_CONSTANT[i])
+}
+
+/// The irradiance over π at unit normal `n` from [`HdrImage::irradiance_sh`]'s coefficients
+/// (what `shaders/mesh.wgsl`'s `sh_irradiance` computes).
+pub fn irradiance_from_sh(sh: &[[f32; 3]; 9], n: [f32; 3]) -> [f32; 3] {
+    let p = sh_polynomials(n);
+    let mut out = [0.0f32; 3];
+    for (c, w) in sh.iter().zip(p) {
+        for k in 0..3 {
+            out[k] += c[k] * w;
+        }
+    }
+    out.map(|c| c.max(0.0))
 }
 
 /// `x` as an IEEE half float, rounded to nearest even; negative and NaN become 0 (radiance),
@@ -415,6 +493,44 @@ mod tests {
         assert_eq!(f32_to_f16(0.1), 0x2e66);
     }
 
+    /// The nine coefficients give the irradiance the full sum gives: within a few percent of the
+    /// brightest direction's for the environments made in code, and within the bound that
+    /// Ramamoorthi and Hanrahan give for any lighting (band-2 truncation loses at most ~9 % of
+    /// a point light's irradiance) for a small bright patch, the hardest case.
+    #[test]
+    fn spherical_harmonics_give_the_irradiance_of_the_full_sum() {
+        let mut patch = HdrImage { width: 64, height: 32, rgb: vec![[0.05; 3]; 64 * 32] };
+        for y in 6..9 {
+            for x in 40..43 {
+                patch.rgb[y * 64 + x] = [40.0, 30.0, 20.0];
+            }
+        }
+        let mut failures = Vec::new();
+        let images = EnvironmentName::ALL.into_iter().chain([EnvironmentName::Flat]).map(|n| (n.name(), n.image()));
+        for (name, image) in images.chain([("bright patch", patch)]) {
+            let sh = image.irradiance_sh();
+            let mut worst = 0.0f32;
+            let mut peak = 0.0f32;
+            for i in 0..64 {
+                // Normals spread over the sphere (a Fibonacci spiral).
+                let z = 1.0 - (i as f32 + 0.5) / 32.0;
+                let r = (1.0 - z * z).max(0.0).sqrt();
+                let phi = i as f32 * 2.399_963;
+                let n = [r * phi.cos(), z, r * phi.sin()];
+                let (exact, fit) = (image.irradiance(n), irradiance_from_sh(&sh, n));
+                for k in 0..3 {
+                    worst = worst.max((exact[k] - fit[k]).abs());
+                    peak = peak.max(exact[k]);
+                }
+            }
+            let relative = worst / peak.max(1e-6);
+            eprintln!("{name}: largest difference {worst:.4} ({:.1} % of the brightest)", relative * 100.0);
+            let bound = if name == "bright patch" { 0.12 } else { 0.05 };
+            failures.extend((relative > bound).then(|| format!("{name}: {relative}")));
+        }
+        assert!(failures.is_empty(), "{failures:?}");
+    }
+
     /// The environments light about as the hemispheres they replace did: what a white surface
     /// facing up and facing down reflects, per preset.
     #[test]
@@ -525,26 +641,27 @@ struct PrefilterUniform {
     params: [f32; 4],
 }
 
-/// GGX samples per texel of the specular chain and per texel of the BRDF table.
+/// GGX samples per texel of the specular chain.
 const SAMPLES: f32 = 128.0;
 
-/// The prefiltering pipelines and the BRDF table of one device (built on first use, shared by
-/// every viewer of the device with the kit).
+/// The prefiltering pipeline of one device (built on first use, shared by every viewer of the
+/// device with the kit).
 pub struct IblKit {
     layout: wgpu::BindGroupLayout,
     specular: wgpu::RenderPipeline,
-    irradiance: wgpu::RenderPipeline,
     /// The sampler of the prefiltered textures: linear with mips, wrapping around in u.
     sampler: wgpu::Sampler,
-    brdf: wgpu::TextureView,
     mips: super::texture::MipMaker,
 }
 
-/// An environment ready to light meshes: its bind group ([`super::pipelines::Layouts::environment`]).
+/// An environment ready to light meshes: its bind group ([`super::pipelines::Layouts::environment`])
+/// and its diffuse irradiance ([`HdrImage::irradiance_sh`], for the frame uniform).
 #[derive(Clone)]
 pub struct GpuEnvironment {
     /// Group 3 of the mesh pipelines.
     pub bind_group: wgpu::BindGroup,
+    /// The irradiance's spherical-harmonic coefficients (rgb; w unused).
+    pub irradiance: [[f32; 4]; 9],
 }
 
 fn hdr_texture(
@@ -577,9 +694,8 @@ fn mip_view(texture: &wgpu::Texture, mip: u32) -> wgpu::TextureView {
 }
 
 impl IblKit {
-    /// Compiles ibl.wgsl and makes the BRDF table; `None` where the device cannot render
-    /// [`HDR_FORMAT`] ([`supports_ibl`]).
-    pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, adapter_supports: bool) -> Option<Self> {
+    /// Compiles ibl.wgsl; `None` where the device cannot render [`HDR_FORMAT`] ([`supports_ibl`]).
+    pub fn new(device: &wgpu::Device, adapter_supports: bool) -> Option<Self> {
         if !adapter_supports {
             return None;
         }
@@ -629,8 +745,6 @@ impl IblKit {
             })
         };
         let specular = pipeline("fs_specular");
-        let irradiance = pipeline("fs_irradiance");
-        let brdf_pipeline = pipeline("fs_brdf");
         let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
             label: Some("kloub environment"),
             address_mode_u: wgpu::AddressMode::Repeat,
@@ -640,36 +754,8 @@ impl IblKit {
             mipmap_filter: wgpu::MipmapFilterMode::Linear,
             ..Default::default()
         });
-        let brdf = hdr_texture(
-            device,
-            "kloub brdf table",
-            BRDF_SIZE,
-            BRDF_SIZE,
-            1,
-            wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::RENDER_ATTACHMENT,
-        );
         let mips = super::texture::MipMaker::new(device, HDR_FORMAT);
-        let kit = Self {
-            layout,
-            specular,
-            irradiance,
-            sampler,
-            brdf: brdf.create_view(&wgpu::TextureViewDescriptor::default()),
-            mips,
-        };
-        // The table reads no source: any texture fills the binding.
-        let dummy = hdr_texture(device, "kloub ibl dummy", 1, 1, 1, wgpu::TextureUsages::TEXTURE_BINDING);
-        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("kloub brdf") });
-        kit.pass(
-            device,
-            &mut encoder,
-            &brdf_pipeline,
-            &dummy.create_view(&Default::default()),
-            &mip_view(&brdf, 0),
-            [0.0, SAMPLES, 1.0, 1.0],
-        );
-        queue.submit([encoder.finish()]);
-        Some(kit)
+        Some(Self { layout, specular, sampler, mips })
     }
 
     /// One full-screen pass of `pipeline` from `source` into `target` with `params`.
@@ -756,8 +842,6 @@ impl IblKit {
             SPECULAR_LEVELS,
             usage,
         );
-        let irradiance =
-            hdr_texture(device, "kloub environment irradiance", IRRADIANCE_WIDTH, IRRADIANCE_WIDTH / 2, 1, usage);
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("kloub ibl") });
         let source_levels = levels as f32;
         for level in 0..SPECULAR_LEVELS {
@@ -771,16 +855,6 @@ impl IblKit {
             };
             self.pass(device, &mut encoder, &self.specular, &source_view, &mip_view(&specular, level), params);
         }
-        // Irradiance sums the source mip about as wide as the irradiance texture.
-        let sum_level = ((width as f32 / IRRADIANCE_WIDTH as f32).log2().floor().max(0.0)).min(source_levels - 1.0);
-        self.pass(
-            device,
-            &mut encoder,
-            &self.irradiance,
-            &source_view,
-            &mip_view(&irradiance, 0),
-            [sum_level, 0.0, source_levels, width as f32],
-        );
         queue.submit([encoder.finish()]);
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("kloub environment"),
@@ -790,20 +864,16 @@ impl IblKit {
                     binding: 0,
                     resource: wgpu::BindingResource::TextureView(&specular.create_view(&Default::default())),
                 },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::TextureView(&irradiance.create_view(&Default::default())),
-                },
-                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&self.brdf) },
-                wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::Sampler(&self.sampler) },
+                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::Sampler(&self.sampler) },
             ],
         });
-        Ok(GpuEnvironment { bind_group })
+        let irradiance = image.irradiance_sh().map(|[r, g, b]| [r, g, b, 0.0]);
+        Ok(GpuEnvironment { bind_group, irradiance })
     }
 }
 
-/// The bind group of meshes on a device without [`IblKit`]: `white` in every texture (the
-/// shader reads none of them: `Frame.environment.z` is 0, the hemisphere lights instead).
+/// The bind group of meshes on a device without [`IblKit`]: `white` as the specular chain (the
+/// shader reads it not: `Frame.environment.z` is 0, the hemisphere lights instead).
 pub fn fallback_environment(
     device: &wgpu::Device,
     layout: &wgpu::BindGroupLayout,
@@ -816,10 +886,8 @@ pub fn fallback_environment(
         layout,
         entries: &[
             wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(white) },
-            wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(white) },
-            wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(white) },
-            wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::Sampler(&sampler) },
+            wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::Sampler(&sampler) },
         ],
     });
-    GpuEnvironment { bind_group }
+    GpuEnvironment { bind_group, irradiance: [[0.0; 4]; 9] }
 }

@@ -131,7 +131,7 @@ pub struct Layouts {
     pub material: wgpu::BindGroupLayout,
     /// Group 2: draw uniform (dynamic offset).
     pub draw: wgpu::BindGroupLayout,
-    /// Group 3: the environment's specular chain, irradiance and BRDF table, and its sampler.
+    /// Group 3: the environment's specular chain and its sampler.
     pub environment: wgpu::BindGroupLayout,
     /// Group 1 of the ground shadow: its uniform, the shadow map and a comparison sampler.
     pub shadow: wgpu::BindGroupLayout,
@@ -171,12 +171,7 @@ impl Layouts {
         let filterable = wgpu::TextureSampleType::Float { filterable: true };
         let environment = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("kloub environment"),
-            entries: &[
-                texture_entry(0, f, filterable),
-                texture_entry(1, f, filterable),
-                texture_entry(2, f, filterable),
-                sampler_entry(3, f, wgpu::SamplerBindingType::Filtering),
-            ],
+            entries: &[texture_entry(0, f, filterable), sampler_entry(1, f, wgpu::SamplerBindingType::Filtering)],
         });
         let shadow = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("kloub shadow"),
@@ -391,13 +386,8 @@ impl Pipelines {
 
     /// The prefiltering kit, built on first use (`supported`: whether the adapter renders
     /// [`super::environment::HDR_FORMAT`]; `None` where it does not).
-    pub fn ibl(
-        &self,
-        device: &wgpu::Device,
-        queue: &wgpu::Queue,
-        supported: bool,
-    ) -> Option<&super::environment::IblKit> {
-        self.first_use.ibl.get_or_init(|| super::environment::IblKit::new(device, queue, supported)).as_ref()
+    pub fn ibl(&self, device: &wgpu::Device, supported: bool) -> Option<&super::environment::IblKit> {
+        self.first_use.ibl.get_or_init(|| super::environment::IblKit::new(device, supported)).as_ref()
     }
 
     /// The environment `name` prefiltered for this device (made on first use, then shared by
@@ -410,7 +400,7 @@ impl Pipelines {
         supported: bool,
         name: super::environment::EnvironmentName,
     ) -> Option<super::environment::GpuEnvironment> {
-        let kit = self.ibl(device, queue, supported)?;
+        let kit = self.ibl(device, supported)?;
         let mut cache = self.first_use.environments.lock().ok()?;
         if let Some(env) = cache.get(&name) {
             return Some(env.clone());
@@ -497,9 +487,14 @@ impl Pipelines {
             return;
         }
         let skinned = skinned_buffers();
-        let (entry, buffers): (_, &[_]) = match key.vertex {
-            VertexPath::Static => ("vs_static", &skinned[..2]),
-            VertexPath::Skinned => ("vs_skinned", &skinned[..]),
+        // Casters of opaque materials need the position only; masked ones' fragment shader reads
+        // what the full vertex shader passes on.
+        let position_only = key.caster && !key.mask;
+        let (entry, buffers): (_, &[_]) = match (key.vertex, position_only) {
+            (VertexPath::Static, false) => ("vs_static", &skinned[..2]),
+            (VertexPath::Static, true) => ("vs_caster_static", &skinned[..2]),
+            (VertexPath::Skinned, false) => ("vs_skinned", &skinned[..]),
+            (VertexPath::Skinned, true) => ("vs_caster_skinned", &skinned[..]),
         };
         // Skinned pipelines are specialised: only the method and the heatmap they draw with are
         // compiled (`SKIN_METHOD`, `HEATMAP` in skinning.wgsl).

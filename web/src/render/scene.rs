@@ -19,7 +19,7 @@ use super::pipelines::{
 };
 use super::texture::{COLOR_FORMAT, SamplerKey, upload_decoded, upload_image};
 use super::uniforms::EnvironmentChoice;
-use super::uniforms::{DrawUniform, FrameUniform, Ground, MaterialUniform, ShadowUniform, skin_code};
+use super::uniforms::{DrawUniform, EnvironmentLight, FrameUniform, Ground, MaterialUniform, ShadowUniform, skin_code};
 
 #[cfg(not(target_arch = "wasm32"))]
 mod capture;
@@ -564,8 +564,8 @@ impl SceneRenderer {
     }
 
     /// Binds the environment the look asks for (prefiltering it if this device has not yet);
-    /// returns its intensity and specular levels for the frame uniform (0: none).
-    fn ensure_environment(&mut self, device: &wgpu::Device, queue: &wgpu::Queue) -> (f32, u32) {
+    /// returns what the frame uniform says of it.
+    fn ensure_environment(&mut self, device: &wgpu::Device, queue: &wgpu::Queue) -> EnvironmentLight {
         let (key, intensity) = match self.look.environment {
             EnvironmentChoice::Preset => {
                 let (name, intensity) = self.look.lighting.environment();
@@ -585,7 +585,7 @@ impl SceneRenderer {
                     Some((cached, env)) if *cached == id => Some(env.clone()),
                     _ => {
                         let image = self.environment_image.as_ref().map(|(_, i)| i.clone());
-                        let kit = self.pipelines.ibl(device, queue, self.ibl_supported);
+                        let kit = self.pipelines.ibl(device, self.ibl_supported);
                         let made = match (kit, image) {
                             (Some(kit), Some(image)) => kit
                                 .environment(device, queue, &self.layouts.environment, &image)
@@ -609,9 +609,13 @@ impl SceneRenderer {
             }
         }
         if self.environment.2 == 0.0 {
-            return (0.0, 0);
+            return EnvironmentLight::NONE;
         }
-        (intensity, super::environment::SPECULAR_LEVELS)
+        EnvironmentLight {
+            intensity,
+            levels: super::environment::SPECULAR_LEVELS,
+            irradiance: self.environment.1.irradiance,
+        }
     }
 
     /// Uploads `asset` (meshes of the default scene, materials, textures with mips, a palette

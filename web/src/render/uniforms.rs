@@ -37,6 +37,25 @@ pub struct FrameUniform {
     pub tone: [f32; 4],
     /// The environment's turn (cosine, sine), its intensity (0: none) and specular levels.
     pub environment: [f32; 4],
+    /// The environment's irradiance as spherical-harmonic coefficients
+    /// ([`super::environment::GpuEnvironment::irradiance`]).
+    pub irradiance: [[f32; 4]; 9],
+}
+
+/// What the frame uniform says about the environment that lights the meshes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EnvironmentLight {
+    /// Its intensity (0: none, the hemisphere lights instead).
+    pub intensity: f32,
+    /// Levels of its specular chain.
+    pub levels: u32,
+    /// Its irradiance ([`super::environment::GpuEnvironment::irradiance`]).
+    pub irradiance: [[f32; 4]; 9],
+}
+
+impl EnvironmentLight {
+    /// No environment: the hemisphere lights.
+    pub const NONE: Self = Self { intensity: 0.0, levels: 0, irradiance: [[0.0; 4]; 9] };
 }
 
 /// Where the ground grid lies and how dense it is.
@@ -371,9 +390,15 @@ impl FrameUniform {
     /// Frame constants for a camera (`view_proj`, `eye`) over `ground`. The key light comes
     /// from above, over the viewer's left shoulder, so the lit side always faces the camera.
     /// Lit and cleared as `look` says (the key light follows the camera, except the sun), the
-    /// meshes' ambient light from an environment of `environment` intensity and specular levels
-    /// (intensity 0: none, the hemisphere instead).
-    pub fn new(view_proj: Mat4, eye: Vec3, target: Vec3, ground: &Ground, look: Look, environment: (f32, u32)) -> Self {
+    /// meshes' ambient light from `environment` (intensity 0: none, the hemisphere instead).
+    pub fn new(
+        view_proj: Mat4,
+        eye: Vec3,
+        target: Vec3,
+        ground: &Ground,
+        look: Look,
+        environment: EnvironmentLight,
+    ) -> Self {
         let forward = (target - eye).normalize_or(Vec3::NEG_Z);
         let right = forward.cross(Vec3::Y).normalize_or(Vec3::X);
         let light = match look.lighting {
@@ -398,8 +423,9 @@ impl FrameUniform {
             tone: [look.exposure, look.tone_mapping.code(), 0.0, 0.0],
             environment: {
                 let (s, c) = look.environment_rotation.sin_cos();
-                [c, s, environment.0, environment.1 as f32]
+                [c, s, environment.intensity, environment.levels as f32]
             },
+            irradiance: environment.irradiance,
         }
     }
 
