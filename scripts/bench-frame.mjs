@@ -12,6 +12,9 @@
 // KLOUB_BENCH_EVAL: a function body run on the element `v` before measuring, e.g. "v.setGrid(false)".
 // KLOUB_BENCH_THREE_IBL=1: three.js lights with an environment map as Kloub does (its RoomEnvironment through PMREM
 // as `scene.environment`, plus the directional light) instead of a hemisphere light.
+// KLOUB_BENCH_THREE_SHADOW=1: three.js draws a ground shadow as Kloub does (the key light's 512² PCF-soft shadow
+// map, every copy casting, a ShadowMaterial ground of opacity 0.6). With both, three.js shows what Kloub shows.
+// KLOUB_BENCH_SHOTS=<folder>: a screenshot of each page after it is measured.
 // KLOUB_BACKENDS (webgl2,webgpu), KLOUB_BENCH_CASES ("Fox:1,Fox:10,Fox:50,CesiumMan:1,CesiumMan:10,CesiumMan:50").
 import { createServer } from 'node:http';
 import { readFileSync, readdirSync, statSync } from 'node:fs';
@@ -27,7 +30,8 @@ const WIDTH = Number(process.env.KLOUB_BENCH_WIDTH ?? 800);
 const HEIGHT = Number(process.env.KLOUB_BENCH_HEIGHT ?? 600);
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 
-// The three.js page: N clones in a square grid one model size apart, framed like Kloub's copies, each with its mixer.
+// The three.js page: N clones in a square grid as Kloub places its copies, each with its mixer, seen through the camera
+// Kloub framed them with (measured first in each cell; its yaw, pitch, distance and target, 45° vertical field of view).
 const THREE_PAGE = `<!doctype html><html><head><meta charset="utf-8">
 <style>body{margin:0} canvas{display:block;width:${WIDTH}px;height:${HEIGHT}px}</style>
 <script type="importmap">{"imports":{"three":"/three/build/THREE_BUILD","three/addons/":"/three/examples/jsm/"}}</script>
@@ -55,7 +59,7 @@ const gltf = await new GLTFLoader().loadAsync(q.get('model'));
 const box = new THREE.Box3().setFromObject(gltf.scene);
 const size = box.getSize(new THREE.Vector3());
 const side = Math.ceil(Math.sqrt(n));
-const spacing = Math.max(size.x, size.z) * 1.2;
+const spacing = Math.max(size.x, size.z) * 1.25; // Kloub's copy spacing (over its animated bounds)
 const clip = gltf.animations.find((a) => a.name === clipName) ?? gltf.animations[0];
 const mixers = [];
 for (let i = 0; i < n; i++) {
@@ -67,9 +71,37 @@ for (let i = 0; i < n; i++) {
   mixers.push(mixer);
 }
 const extent = Math.max(size.y, spacing * side);
+if (q.get('shadow') === '1') {
+  // Like Kloub's ground shadow: the key light's 512² shadow map, soft (PCF), every copy casting, a shadow-only
+  // ground of opacity 0.6 (Kloub's default shadow-intensity).
+  renderer.shadowMap.enabled = true;
+  renderer.shadowMap.type = THREE.PCFSoftShadowMap;
+  sun.castShadow = true;
+  sun.shadow.mapSize.set(512, 512);
+  const reach = spacing * side * 0.75 + size.y;
+  Object.assign(sun.shadow.camera, { left: -reach, right: reach, top: reach, bottom: -reach, near: 0.01 * reach, far: 10 * reach });
+  sun.position.set(0.4 * reach, 2 * reach, 0.6 * reach);
+  sun.shadow.camera.updateProjectionMatrix();
+  scene.traverse((o) => { if (o.isMesh) o.castShadow = true; });
+  const ground = new THREE.Mesh(new THREE.PlaneGeometry(2 * reach, 2 * reach), new THREE.ShadowMaterial({ opacity: 0.6 }));
+  ground.rotation.x = -Math.PI / 2;
+  ground.position.y = box.min.y;
+  ground.receiveShadow = true;
+  scene.add(ground);
+}
 const camera = new THREE.PerspectiveCamera(45, ${WIDTH} / ${HEIGHT}, extent * 0.01, extent * 20);
-camera.position.set(0, size.y * 0.6 + extent * 0.5, extent * 1.6);
-camera.lookAt(0, size.y * 0.4, 0);
+// Kloub's camera (its yaw, pitch, distance and target, 45° vertical field of view): the same framing.
+const [yaw, pitch, distance, tx, ty, tz] = (q.get('camera') ?? '').split(',').map(Number);
+if (Number.isFinite(distance) && distance > 0) {
+  camera.position.set(tx + distance * Math.sin(yaw) * Math.cos(pitch), ty + distance * Math.sin(pitch), tz + distance * Math.cos(yaw) * Math.cos(pitch));
+  camera.near = distance * 0.01;
+  camera.far = distance * 20;
+  camera.updateProjectionMatrix();
+  camera.lookAt(tx, ty, tz);
+} else {
+  camera.position.set(0, size.y * 0.6 + extent * 0.5, extent * 1.6);
+  camera.lookAt(0, size.y * 0.4, 0);
+}
 const clock = new THREE.Clock();
 window.frames = 0;
 renderer.setAnimationLoop(() => {
@@ -141,10 +173,17 @@ async function measure(page, count) {
     : { wall: Infinity, cpu: Infinity, gpu: Infinity };
 }
 
-async function three(page, base, backend, { model, n }) {
+/** With KLOUB_BENCH_SHOTS=<folder>: a screenshot of what was measured (to see that both pages show the same). */
+async function shot(page, name) {
+  const dir = process.env.KLOUB_BENCH_SHOTS;
+  if (dir) await page.screenshot({ path: join(dir, `${name}.png`) });
+}
+
+async function three(page, base, backend, { model, n }, camera) {
   const [file, clip] = MODELS[model];
   const ibl = process.env.KLOUB_BENCH_THREE_IBL === '1' ? '1' : '0';
-  await page.goto(`${base}/three.html?backend=${backend}&n=${n}&model=/assets/${file}&clip=${clip ?? ''}&ibl=${ibl}`);
+  const shadow = process.env.KLOUB_BENCH_THREE_SHADOW === '1' ? '1' : '0';
+  await page.goto(`${base}/three.html?backend=${backend}&n=${n}&model=/assets/${file}&clip=${clip ?? ''}&ibl=${ibl}&shadow=${shadow}&camera=${camera.join(',')}`);
   await page.waitForFunction(() => window.ready === true, null, { timeout: 120000 });
   const used = await page.evaluate(() => window.backend);
   if (used !== backend) throw new Error(`three.js used ${used}, not ${backend}`);
@@ -179,7 +218,10 @@ async function kloub(page, base, backend, { model, n }) {
     await page.evaluate((n) => document.querySelector('kloub-viewer').setCopies(n), n);
     await page.waitForFunction((n) => document.querySelector('kloub-viewer').dataset.copies === String(n), n, { timeout: 30000 });
   }
-  return measure(page, () => [performance.now(), Number(document.querySelector('kloub-viewer').dataset.frames)]);
+  const result = await measure(page, () => [performance.now(), Number(document.querySelector('kloub-viewer').dataset.frames)]);
+  // [yaw, pitch, distance, target x, y, z] (radians, model units; the field of view is 45° vertically).
+  result.camera = await page.evaluate(() => document.querySelector('kloub-viewer').camera);
+  return result;
 }
 
 const kloubServer = await startServer();
@@ -191,8 +233,11 @@ try {
     try {
       await ctx.page.setViewportSize({ width: WIDTH + 40, height: HEIGHT + 40 });
       for (const c of CASES) {
-        const t = await three(ctx.page, threeServer.url, backend, c);
+        // Kloub first: three.js then looks through the camera Kloub framed (the same pixels covered).
         const k = await kloub(ctx.page, kloubServer.url, backend, c);
+        await shot(ctx.page, `${backend}-${c.model}-${c.n}-kloub`);
+        const t = await three(ctx.page, threeServer.url, backend, c, k.camera);
+        await shot(ctx.page, `${backend}-${c.model}-${c.n}-three`);
         rows.push([backend, `${c.model} ×${c.n}`, t, k]);
         console.error(`bench-frame: ${backend} ${c.model} ×${c.n}: three.js ${t.wall.toFixed(1)} ms (CPU ${t.cpu.toFixed(1)}, GPU process ${t.gpu.toFixed(1)}), Kloub ${k.wall.toFixed(1)} ms (CPU ${k.cpu.toFixed(1)}, GPU process ${k.gpu.toFixed(1)})`);
       }

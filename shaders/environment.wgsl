@@ -122,9 +122,13 @@ fn fs_grid(in: GridOut) -> @location(0) vec4<f32> {
     return scene_output(vec4<f32>(color, alpha));
 }
 
-// The ground shadow (group 1, its own pipeline layout): a quad on the ground under the
-// character, darkened where the key light's shadow map (drawn by the meshes' depth-only
-// caster pipelines) says the light is blocked, softened by percentage-closer filtering.
+// The ground shadow, in two passes with group 1 laid out for each:
+//   1. the mask (`vs_shadow_mask`, `fs_shadow_mask`; bindings 0–2): a small texture over the
+//      ground rectangle under the character, each texel how much of the key light the shadow
+//      map (drawn by the meshes' depth-only caster pipelines) says is blocked there, softened
+//      by percentage-closer filtering — a fixed cost, whatever the size of the view;
+//   2. the ground (`vs_shadow`, `fs_shadow`; bindings 0, 3, 4): the rectangle in the view,
+//      darkened by one filtered lookup of the mask per pixel.
 struct Shadow {
     // World to the shadow map's clip space (orthographic, along the light).
     light_view_proj: mat4x4<f32>,
@@ -138,6 +142,20 @@ struct Shadow {
 @group(1) @binding(0) var<uniform> shadow: Shadow;
 @group(1) @binding(1) var shadow_map: texture_depth_2d;
 @group(1) @binding(2) var shadow_sampler: sampler_comparison;
+@group(1) @binding(3) var shadow_mask: texture_2d<f32>;
+@group(1) @binding(4) var shadow_mask_sampler: sampler;
+
+/// One triangle over the whole mask: texel (u, v) of the mask is the ground at (x, z) = the
+/// rectangle's centre + (2u − 1, 2v − 1) × its half sizes.
+@vertex
+fn vs_shadow_mask(@builtin(vertex_index) index: u32) -> GridOut {
+    let c = vec2<f32>(f32((index << 1u) & 2u), f32(index & 2u)) * 2.0 - 1.0;
+    let xz = shadow.quad.xy + vec2<f32>(c.x, -c.y) * shadow.quad.zw;
+    var out: GridOut;
+    out.clip = vec4<f32>(c, 0.0, 1.0);
+    out.world_pos = vec3<f32>(xz.x, frame.grid.x, xz.y);
+    return out;
+}
 
 /// The shadow's rectangle on the ground.
 @vertex
@@ -145,8 +163,20 @@ fn vs_shadow(@builtin(vertex_index) index: u32) -> GridOut {
     return ground_rectangle(index, shadow.quad.xy, shadow.quad.zw);
 }
 
+/// The ground darkened by the mask (intensity applied here, so changing it redraws no mask).
 @fragment
 fn fs_shadow(in: GridOut) -> @location(0) vec4<f32> {
+    let uv = (in.world_pos.xz - shadow.quad.xy) / max(shadow.quad.zw, vec2<f32>(1e-6)) * 0.5 + 0.5;
+    let alpha = textureSampleLevel(shadow_mask, shadow_mask_sampler, uv, 0.0).r * shadow.params.x;
+    if alpha < 1.0 / 512.0 {
+        discard;
+    }
+    return scene_output(vec4<f32>(0.0, 0.0, 0.0, alpha));
+}
+
+/// How much of the key light is blocked at a texel of the mask (0..1), faded out at the rim.
+@fragment
+fn fs_shadow_mask(in: GridOut) -> @location(0) vec4<f32> {
     let light = shadow.light_view_proj * vec4<f32>(in.world_pos, 1.0);
     let uv = vec2<f32>(light.x * 0.5 + 0.5, 0.5 - light.y * 0.5);
     // The ground itself casts nothing: what is above it in the map is a little nearer the light.
@@ -189,9 +219,5 @@ fn fs_shadow(in: GridOut) -> @location(0) vec4<f32> {
     // Faded out at the rectangle's rim (the shadow should end inside it).
     let edge = abs(in.world_pos.xz - shadow.quad.xy) / max(shadow.quad.zw, vec2<f32>(1e-6));
     let fade = 1.0 - smoothstep(0.85, 1.0, max(edge.x, edge.y));
-    let alpha = (1.0 - lit) * shadow.params.x * fade;
-    if alpha < 1.0 / 512.0 {
-        discard;
-    }
-    return scene_output(vec4<f32>(0.0, 0.0, 0.0, alpha));
+    return vec4<f32>((1.0 - lit) * fade, 0.0, 0.0, 1.0);
 }

@@ -133,8 +133,11 @@ pub struct Layouts {
     pub draw: wgpu::BindGroupLayout,
     /// Group 3: the environment's specular chain and its sampler.
     pub environment: wgpu::BindGroupLayout,
-    /// Group 1 of the ground shadow: its uniform, the shadow map and a comparison sampler.
+    /// Group 1 of the ground shadow's mask pass: its uniform, the shadow map and a comparison
+    /// sampler.
     pub shadow: wgpu::BindGroupLayout,
+    /// Group 1 of the ground shadow's ground pass: its uniform, the mask and a linear sampler.
+    pub shadow_ground: wgpu::BindGroupLayout,
 }
 
 impl Layouts {
@@ -181,7 +184,15 @@ impl Layouts {
                 sampler_entry(2, f, wgpu::SamplerBindingType::Comparison),
             ],
         });
-        Self { frame, material, draw, environment, shadow }
+        let shadow_ground = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("kloub shadow ground"),
+            entries: &[
+                uniform_entry(0, vf, size_of::<super::uniforms::ShadowUniform>(), false),
+                texture_entry(3, f, filterable),
+                sampler_entry(4, f, wgpu::SamplerBindingType::Filtering),
+            ],
+        });
+        Self { frame, material, draw, environment, shadow, shadow_ground }
     }
 }
 
@@ -237,6 +248,8 @@ impl PipelineKey {
 
 /// The shadow map's format.
 pub const SHADOW_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+/// The ground shadow mask's format (how much light is blocked, 0..1).
+pub const SHADOW_MASK_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R8Unorm;
 
 /// [`PipelineKey::skinning`] for a pipeline that reads the method from each draw.
 pub const SKIN_FROM_DRAW: u32 = 4;
@@ -267,8 +280,11 @@ struct FirstUse {
     background: std::sync::OnceLock<wgpu::RenderPipeline>,
     /// Ground grid (blended quad).
     grid: std::sync::OnceLock<wgpu::RenderPipeline>,
-    /// The ground shadow (blended quad) and its layout (frame, shadow).
+    /// The ground shadow (blended quad) and its layout (frame, shadow ground).
     shadow: std::sync::OnceLock<wgpu::RenderPipeline>,
+    shadow_ground_layout: wgpu::PipelineLayout,
+    /// The ground shadow's mask pass and its layout (frame, shadow).
+    shadow_mask: std::sync::OnceLock<wgpu::RenderPipeline>,
     shadow_layout: wgpu::PipelineLayout,
     /// Mip levels on the GPU (`shaders/mip.wgsl`), of colour and of data textures.
     mips: [std::sync::OnceLock<super::texture::MipMaker>; 2],
@@ -338,14 +354,21 @@ impl Pipelines {
             immediate_size: 0,
         });
         let shadow_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("kloub ground shadow"),
+            label: Some("kloub ground shadow mask"),
             bind_group_layouts: &[Some(&layouts.frame), Some(&layouts.shadow)],
+            immediate_size: 0,
+        });
+        let shadow_ground_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("kloub ground shadow"),
+            bind_group_layouts: &[Some(&layouts.frame), Some(&layouts.shadow_ground)],
             immediate_size: 0,
         });
         let first_use = std::sync::Arc::new(FirstUse {
             module: env_module,
             layout: env_layout,
             shadow: std::sync::OnceLock::new(),
+            shadow_ground_layout,
+            shadow_mask: std::sync::OnceLock::new(),
             shadow_layout,
             background: std::sync::OnceLock::new(),
             grid: std::sync::OnceLock::new(),
@@ -427,6 +450,35 @@ impl Pipelines {
         })
     }
 
+    /// The ground shadow's mask pass (full-screen triangle into the [`SHADOW_MASK_FORMAT`] mask),
+    /// built on first use.
+    pub fn shadow_mask(&self, device: &wgpu::Device) -> &wgpu::RenderPipeline {
+        self.first_use.shadow_mask.get_or_init(|| {
+            let module = &self.first_use.module;
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some("kloub ground shadow mask"),
+                layout: Some(&self.first_use.shadow_layout),
+                vertex: wgpu::VertexState {
+                    module,
+                    entry_point: Some("vs_shadow_mask"),
+                    compilation_options: Default::default(),
+                    buffers: &[],
+                },
+                primitive: wgpu::PrimitiveState::default(),
+                depth_stencil: None,
+                multisample: wgpu::MultisampleState::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module,
+                    entry_point: Some("fs_shadow_mask"),
+                    compilation_options: Default::default(),
+                    targets: &color_target(SHADOW_MASK_FORMAT, false),
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        })
+    }
+
     /// The mip maker for the colour (`srgb`) or data images the browser decoded, built on first
     /// use (one of each per kit: the page's viewers share them).
     pub fn mip_maker(&self, device: &wgpu::Device, srgb: bool) -> &super::texture::MipMaker {
@@ -445,7 +497,7 @@ impl Pipelines {
     ) -> wgpu::RenderPipeline {
         let output = output_constants(self.format);
         let module = &self.first_use.module;
-        let layout = if vs == "vs_shadow" { &self.first_use.shadow_layout } else { &self.first_use.layout };
+        let layout = if vs == "vs_shadow" { &self.first_use.shadow_ground_layout } else { &self.first_use.layout };
         device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some(label),
             layout: Some(layout),

@@ -382,12 +382,18 @@ pub struct SceneRenderer {
 /// The shadow map's size in texels (square).
 pub const SHADOW_MAP_SIZE: u32 = 512;
 
-/// The ground shadow's GPU side: the map the casters draw into, the ground pass's uniform and
-/// bind group, and whether this frame draws it.
+/// Size of the ground shadow's mask (square, over the ground rectangle the shadow can fall on).
+pub const SHADOW_MASK_SIZE: u32 = 256;
+
+/// The ground shadow's GPU side: the map the casters draw into, the mask the shadow is
+/// filtered into, the uniform, the mask pass's and the ground pass's bind groups, and whether
+/// this frame draws it.
 struct ShadowMap {
     view: wgpu::TextureView,
+    mask: wgpu::TextureView,
     uniform: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
+    ground_bind_group: wgpu::BindGroup,
     drawn: bool,
 }
 
@@ -426,7 +432,34 @@ impl ShadowMap {
                 wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::Sampler(&sampler) },
             ],
         });
-        Self { view, uniform, bind_group, drawn: false }
+        let mask = device
+            .create_texture(&wgpu::TextureDescriptor {
+                label: Some("kloub shadow mask"),
+                size: wgpu::Extent3d { width: SHADOW_MASK_SIZE, height: SHADOW_MASK_SIZE, depth_or_array_layers: 1 },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: super::pipelines::SHADOW_MASK_FORMAT,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+                view_formats: &[],
+            })
+            .create_view(&wgpu::TextureViewDescriptor::default());
+        let linear = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("kloub shadow mask"),
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            ..Default::default()
+        });
+        let ground_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("kloub shadow ground"),
+            layout: &layouts.shadow_ground,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: uniform.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&mask) },
+                wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::Sampler(&linear) },
+            ],
+        });
+        Self { view, mask, uniform, bind_group, ground_bind_group, drawn: false }
     }
 }
 
@@ -1118,6 +1151,28 @@ impl SceneRenderer {
             pass.set_bind_group(0, &scene.frame_bind_groups[1], &[]);
             pass.set_bind_group(3, &self.environment.1.bind_group, &[]);
             scene.encode(&mut pass, &self.pipelines, (0..copies * draws).filter(opaque), self.draw_stride, true);
+            drop(pass);
+            // The shadow filtered once into the mask (a fixed cost), not per pixel of the view.
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("kloub shadow mask"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &shadow.mask,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(self.pipelines.shadow_mask(device));
+            pass.set_bind_group(0, &scene.frame_bind_groups[0], &[]);
+            pass.set_bind_group(1, &shadow.bind_group, &[]);
+            pass.draw(0..3, 0..1);
         }
         {
             let background = self.look.background.is_drawn().then(|| self.pipelines.background(device));
@@ -1154,7 +1209,7 @@ impl SceneRenderer {
             }
             if let Some(shadow) = self.shadow.as_ref().filter(|s| s.drawn) {
                 pass.set_pipeline(self.pipelines.ground_shadow(device));
-                pass.set_bind_group(1, &shadow.bind_group, &[]);
+                pass.set_bind_group(1, &shadow.ground_bind_group, &[]);
                 pass.draw(0..6, 0..1);
             }
 
