@@ -12,8 +12,9 @@
 // KLOUB_BENCH_EVAL: a function body run on the element `v` before measuring, e.g. "v.setGrid(false)".
 // KLOUB_BENCH_THREE_IBL=1: three.js lights with an environment map as Kloub does (its RoomEnvironment through PMREM
 // as `scene.environment`, plus the directional light) instead of a hemisphere light.
-// KLOUB_BENCH_THREE_SHADOW=1: three.js draws a ground shadow as Kloub does (the key light's 512² PCF-soft shadow
-// map, every copy casting, a ShadowMaterial ground of opacity 0.6). With both, three.js shows what Kloub shows.
+// KLOUB_BENCH_THREE_SHADOW=1: three.js draws a ground shadow as Kloub does (the key light's 512² PCF shadow map,
+// every copy casting, a ShadowMaterial ground of opacity 0.6). With both, three.js draws the same kinds of light and
+// shadow as Kloub's defaults (not from the same directions: Kloub's key light follows its camera).
 // KLOUB_BENCH_SHOTS=<folder>: a screenshot of each page after it is measured.
 // KLOUB_BACKENDS (webgl2,webgpu), KLOUB_BENCH_CASES ("Fox:1,Fox:10,Fox:50,CesiumMan:1,CesiumMan:10,CesiumMan:50").
 import { createServer } from 'node:http';
@@ -59,12 +60,13 @@ const gltf = await new GLTFLoader().loadAsync(q.get('model'));
 const box = new THREE.Box3().setFromObject(gltf.scene);
 const size = box.getSize(new THREE.Vector3());
 const side = Math.ceil(Math.sqrt(n));
+const rows = Math.ceil(n / side); // Kloub's grid: rows of side copies, centred on the number of rows
 const spacing = Math.max(size.x, size.z) * 1.25; // Kloub's copy spacing (over its animated bounds)
 const clip = gltf.animations.find((a) => a.name === clipName) ?? gltf.animations[0];
 const mixers = [];
 for (let i = 0; i < n; i++) {
   const copy = SkeletonUtils.clone(gltf.scene);
-  copy.position.set((i % side - (side - 1) / 2) * spacing, 0, (Math.floor(i / side) - (side - 1) / 2) * spacing);
+  copy.position.set((i % side - (side - 1) / 2) * spacing, 0, (Math.floor(i / side) - (rows - 1) / 2) * spacing);
   scene.add(copy);
   const mixer = new THREE.AnimationMixer(copy);
   mixer.clipAction(clip).play();
@@ -72,15 +74,15 @@ for (let i = 0; i < n; i++) {
 }
 const extent = Math.max(size.y, spacing * side);
 if (q.get('shadow') === '1') {
-  // Like Kloub's ground shadow: the key light's 512² shadow map, soft (PCF), every copy casting, a shadow-only
-  // ground of opacity 0.6 (Kloub's default shadow-intensity).
+  // Like Kloub's ground shadow: the key light's 512² shadow map, filtered (PCF; r187 has no PCFSoftShadowMap), every
+  // copy casting, a shadow-only ground of opacity 0.6 (Kloub's default shadow-intensity).
   renderer.shadowMap.enabled = true;
-  renderer.shadowMap.type = THREE.PCFSoftShadowMap;
+  renderer.shadowMap.type = THREE.PCFShadowMap;
   sun.castShadow = true;
   sun.shadow.mapSize.set(512, 512);
   const reach = spacing * side * 0.75 + size.y;
   Object.assign(sun.shadow.camera, { left: -reach, right: reach, top: reach, bottom: -reach, near: 0.01 * reach, far: 10 * reach });
-  sun.position.set(0.4 * reach, 2 * reach, 0.6 * reach);
+  sun.position.normalize().multiplyScalar(3 * reach); // the same direction, far enough for the shadow camera
   sun.shadow.camera.updateProjectionMatrix();
   scene.traverse((o) => { if (o.isMesh) o.castShadow = true; });
   const ground = new THREE.Mesh(new THREE.PlaneGeometry(2 * reach, 2 * reach), new THREE.ShadowMaterial({ opacity: 0.6 }));

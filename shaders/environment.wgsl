@@ -163,7 +163,7 @@ fn vs_shadow(@builtin(vertex_index) index: u32) -> GridOut {
     return ground_rectangle(index, shadow.quad.xy, shadow.quad.zw);
 }
 
-/// The ground darkened by the mask (intensity applied here, so changing it redraws no mask).
+/// The ground darkened by the mask (which holds coverage only: the intensity is applied here).
 @fragment
 fn fs_shadow(in: GridOut) -> @location(0) vec4<f32> {
     let uv = (in.world_pos.xz - shadow.quad.xy) / max(shadow.quad.zw, vec2<f32>(1e-6)) * 0.5 + 0.5;

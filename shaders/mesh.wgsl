@@ -251,11 +251,13 @@ fn direct_light(n: vec3<f32>, v: vec3<f32>, l: vec3<f32>, c_diff: vec3<f32>, f0:
 }
 
 /// The split-sum environment BRDF: the scale (x) and bias (y) on F0 of GGX's directional
-/// albedo, by Karis's analytic fit (three.js's `DFGApprox`; no table to look up).
+/// albedo, by Karis's analytic fit ("Physically Based Shading on Mobile", 2014; no table to look
+/// up — three.js r187 reads a 16×16 table of the integral instead, within ~2–3 %). The fit's
+/// bias dips just below 0 for rough surfaces seen head-on: held at 0.
 fn environment_ab(roughness: f32, nv: f32) -> vec2<f32> {
     let r = roughness * vec4<f32>(-1.0, -0.0275, -0.572, 0.022) + vec4<f32>(1.0, 0.0425, 1.04, -0.04);
     let a004 = min(r.x * r.x, exp2(-9.28 * nv)) * r.x + r.y;
-    return vec2<f32>(-1.04, 1.04) * a004 + r.zw;
+    return max(vec2<f32>(-1.04, 1.04) * a004 + r.zw, vec2<f32>(0.0));
 }
 
 /// The environment's irradiance over π at the unit direction `d` (environment frame) from the

@@ -530,17 +530,15 @@ fn ground_shadow_darkens_the_floor_under_the_character() {
     renderer.set_asset(device, queue, &asset).expect("uploading");
     renderer.set_grid(false);
     let size = 192;
-    let mut shot = |intensity: f32, softness: f32| {
-        let look = Look {
-            background: Background::Grey,
-            shadow_intensity: intensity,
-            shadow_softness: softness,
-            ..Look::default()
-        };
+    let mut shot_on = |background: Background, intensity: f32, softness: f32| {
+        let look = Look { background, shadow_intensity: intensity, shadow_softness: softness, ..Look::default() };
         renderer.set_look(look);
         offscreen.render(&mut renderer, &asset, &mut instance, &camera, size, size).expect("rendering")
     };
-    let (with, sharp, without) = (shot(1.0, 1.0), shot(1.0, 0.0), shot(0.0, 1.0));
+    let grey = Background::Grey;
+    let (with, sharp, without) = (shot_on(grey, 1.0, 1.0), shot_on(grey, 1.0, 0.0), shot_on(grey, 0.0, 1.0));
+    // The character alone: opaque on a transparent background.
+    let alone = shot_on(Background::Transparent, 0.0, 1.0);
     // Pixels where the shadow changed the floor, and how much darker it made them in all.
     let darkened = |a: &RgbaImage| {
         let (mut count, mut total) = (0usize, 0.0f32);
@@ -563,6 +561,39 @@ fn ground_shadow_darkens_the_floor_under_the_character() {
     for (x, y) in [(2, 2), (size - 3, 2)] {
         assert_eq!(with.get_pixel(x, y), without.get_pixel(x, y), "({x}, {y}) changed");
     }
+    // The shadow starts at the feet (a shadow drawn under the wrong place would not): the
+    // character is what is opaque on a transparent background, its feet its lowest rows, and
+    // the shadow darkens the floor right beside them.
+    let character: Vec<(u32, u32)> =
+        alone.enumerate_pixels().filter(|(_, _, p)| p.0[3] > 0).map(|(x, y, _)| (x, y)).collect();
+    let lowest = character.iter().map(|&(_, y)| y).max().expect("the character is in view");
+    let feet: Vec<(u32, u32)> = character.iter().copied().filter(|&(_, y)| y + 3 >= lowest).collect();
+    let beside_feet = with
+        .enumerate_pixels()
+        .filter(|&(x, y, p)| {
+            luminance_of(without.get_pixel(x, y)) - luminance_of(p) > 2.0
+                && feet.iter().any(|&(fx, fy)| fx.abs_diff(x) <= 4 && fy.abs_diff(y) <= 4)
+        })
+        .count();
+    // And it falls away from the key light, which comes over the viewer's left shoulder: the
+    // darkened floor's centre lies right of the feet's on screen.
+    let centre_x = |points: &mut dyn Iterator<Item = u32>| {
+        let (sum, n) = points.fold((0u64, 0u64), |(s, n), x| (s + u64::from(x), n + 1));
+        sum as f32 / n.max(1) as f32
+    };
+    let feet_x = centre_x(&mut feet.iter().map(|&(x, _)| x));
+    let shadow_x = centre_x(
+        &mut with
+            .enumerate_pixels()
+            .filter(|&(x, y, p)| luminance_of(without.get_pixel(x, y)) - luminance_of(p) > 2.0)
+            .map(|(x, _, _)| x),
+    );
+    eprintln!(
+        "ground shadow: {beside_feet} darkened pixels beside the {} pixels of the feet; centre x {shadow_x:.1}, feet {feet_x:.1}",
+        feet.len()
+    );
+    assert!(shadow_x > feet_x + 2.0, "the shadow (centre x {shadow_x}) does not fall right of the feet ({feet_x})");
+    assert!(beside_feet >= 10, "the shadow is not at the feet ({beside_feet} darkened pixels beside them)");
 }
 
 fn luminance_of(p: &Rgba<u8>) -> f32 {

@@ -57,7 +57,10 @@ const SIZE: u32 = 256;
 ///   3 % of the full sum on the studio, a unit test in environment.rs). The difference is
 ///   largest on strongly directional environments (the studio's softboxes): ~5–10 % on a
 ///   dielectric.
-/// - **The BRDF's environment term.** Both use Karis's analytic fit of the split sum.
+/// - **The BRDF's environment term.** three.js r187 reads a 16×16 table of the split sum's
+///   integral; Kloub uses Karis's analytic fit (no lookup). Within ~2–3 %. With the fit and the
+///   harmonics in place of Kloub's own 64² table and irradiance texture, the plane's, the
+///   quads' and the robot's means rose by 0.1–0.2 (see below).
 /// - **Edges.** Neither antialiases here; the rasterizers' coverage rules still differ by a pixel
 ///   on some silhouettes, which the 99th percentile sees.
 ///
@@ -66,8 +69,8 @@ const SIZE: u32 = 256;
 ///   highlights and sharp reflections of the top rows are wider in three.js's picture: the grid's
 ///   worst percent of pixels.
 ///
-/// Measured 2026-11-26 (ΔE00 mean / 99th percentile): sphere grid 1.86 / 11.4, normal-mapped
-/// plane 0.56 / 1.4, alpha quads 0.40 / 0.86, CesiumMan 0.67 / 4.4, RobotExpressive 0.62 / 2.2
+/// Measured 2026-11-26 (ΔE00 mean / 99th percentile): sphere grid 1.86 / 11.3, normal-mapped
+/// plane 0.56 / 1.4, alpha quads 0.40 / 0.86, CesiumMan 0.67 / 4.4, RobotExpressive 0.60 / 2.1
 /// (with the irradiance texture and the BRDF table that the harmonics and the fit replaced:
 /// 1.79 / 12.2, 0.33 / 1.1, 0.26 / 0.85, 0.55 / 4.1, 0.49 / 1.5).
 /// A ΔE00 of 1 is about the smallest difference a person sees side by side, 2–3 a small but

@@ -9,8 +9,8 @@
 //!   summed on the CPU; the frame uniform carries them): the cosine-weighted integral over the
 //!   whole environment, divided by π (what a white Lambert surface reflects), with no texture
 //!   lookup per pixel;
-//! - the split sum's scale and bias on F0 come from Karis's analytic fit (as three.js's), not a
-//!   table: one texture lookup per pixel in all, the specular chain's.
+//! - the split sum's scale and bias on F0 come from Karis's analytic fit, not a table: one
+//!   texture lookup per pixel in all, the specular chain's.
 //!
 //! Directions map to the equirectangular square as `shaders/equirect.wgsl` says: u = 0.5 looks
 //! down −Z, u grows towards +X; v = 0 is straight up.
@@ -167,8 +167,8 @@ pub fn direction(u: f32, v: f32) -> [f32; 3] {
 }
 
 impl HdrImage {
-    /// The cosine-weighted irradiance over π arriving at a surface facing `n` (what
-    /// `fs_irradiance` computes on the GPU; tests and calibration).
+    /// The cosine-weighted irradiance over π arriving at a surface facing `n`, summed over every
+    /// pixel (the reference [`HdrImage::irradiance_sh`] is tested against; calibration).
     pub fn irradiance(&self, n: [f32; 3]) -> [f32; 3] {
         let mut sum = [0.0f32; 3];
         let (w, h) = (self.width as usize, self.height as usize);
@@ -214,28 +214,43 @@ impl HdrImage {
     /// (bands 0–2, Ramamoorthi and Hanrahan 2001), each with its basis constant and its band's
     /// cosine-lobe factor folded in: the irradiance at a unit normal `n` (environment frame) is
     /// `c0 + c1·y + c2·z + c3·x + c4·xy + c5·yz + c6·(3z² − 1) + c7·xz + c8·(x² − y²)`
-    /// ([`irradiance_from_sh`]; `shaders/mesh.wgsl` evaluates the same). Summed over this image
-    /// averaged down to at most [`SH_SOURCE_WIDTH`] pixels wide (nine coefficients need no more).
+    /// ([`irradiance_from_sh`]; `shaders/mesh.wgsl` evaluates the same). Summed over blocks of
+    /// pixels, at most [`SH_SOURCE_WIDTH`] across (nine coefficients need no more).
     pub fn irradiance_sh(&self) -> [[f32; 3]; 9] {
-        let fitted;
-        let image = if self.width > SH_SOURCE_WIDTH {
-            fitted = self.clone().fitted_to(SH_SOURCE_WIDTH);
-            &fitted
-        } else {
-            self
+        // Blocks of `step`² pixels, each summed and projected at its centre (no copy of the
+        // image is made). Each pixel is taken as the GPU takes it: capped at the half float's
+        // largest value, non-finite as 0 (an .hdr may hold values that would overflow the sums).
+        let (width, height) = (self.width as usize, self.height as usize);
+        let step = (self.width / SH_SOURCE_WIDTH).max(1) as usize;
+        let texel = |x: usize, y: usize| -> [f32; 3] {
+            self.rgb
+                .get(y * width + x)
+                .copied()
+                .unwrap_or_default()
+                .map(|c| if c.is_finite() { c.clamp(0.0, 65504.0) } else { 0.0 })
         };
-        let (w, h) = (image.width as usize, image.height as usize);
         let mut sum = [[0.0f64; 3]; 9];
-        for y in 0..h {
-            let v = (y as f32 + 0.5) / h as f32;
-            let solid = f64::from((2.0 * PI / w as f32) * (PI / h as f32) * (v * PI).sin());
-            for x in 0..w {
-                let d = direction((x as f32 + 0.5) / w as f32, v);
+        for y0 in (0..height).step_by(step) {
+            let y1 = (y0 + step).min(height);
+            let v = 0.5 * (y0 + y1) as f32 / height as f32;
+            for x0 in (0..width).step_by(step) {
+                let x1 = (x0 + step).min(width);
+                let mut block = [0.0f64; 3];
+                for y in y0..y1 {
+                    for x in x0..x1 {
+                        let p = texel(x, y);
+                        for k in 0..3 {
+                            block[k] += f64::from(p[k]);
+                        }
+                    }
+                }
+                // One pixel's solid angle at the block's latitude (the block holds their sum).
+                let solid = f64::from((2.0 * PI / width as f32) * (PI / height as f32) * (v * PI).sin());
+                let d = direction(0.5 * (x0 + x1) as f32 / width as f32, v);
                 let basis = sh_basis(d);
-                let p = image.rgb[y * w + x];
                 for (s, b) in sum.iter_mut().zip(basis) {
                     for k in 0..3 {
-                        s[k] += f64::from(p[k]) * f64::from(b) * solid;
+                        s[k] += block[k] * f64::from(b) * solid;
                     }
                 }
             }
@@ -529,6 +544,18 @@ mod tests {
             failures.extend((relative > bound).then(|| format!("{name}: {relative}")));
         }
         assert!(failures.is_empty(), "{failures:?}");
+    }
+
+    /// Values an .hdr file may hold but a half float cannot (and non-finite ones) give finite
+    /// coefficients: capped as the GPU's copy of the image is.
+    #[test]
+    fn spherical_harmonics_of_extreme_values_stay_finite() {
+        let mut image = HdrImage { width: 512, height: 256, rgb: vec![[1.0e38; 3]; 512 * 256] };
+        image.rgb[7] = [f32::INFINITY, f32::NAN, -1.0];
+        let sh = image.irradiance_sh();
+        assert!(sh.iter().flatten().all(|c| c.is_finite()), "{sh:?}");
+        let up = irradiance_from_sh(&sh, [0.0, 1.0, 0.0]);
+        assert!((up[0] / 65504.0 - 1.0).abs() < 0.05, "a uniform environment at the cap lights at the cap: {up:?}");
     }
 
     /// The environments light about as the hemispheres they replace did: what a white surface
