@@ -320,6 +320,62 @@ fn color_target(format: wgpu::TextureFormat, blend: bool) -> [Option<wgpu::Color
     [Some(wgpu::ColorTargetState { format, blend, write_mask: wgpu::ColorWrites::ALL })]
 }
 
+/// A pipeline of one full-screen triangle (vertex entry `vs`, no vertex buffers) whose fragment
+/// entry `fs` writes `format` unblended: the passes that fill a texture (mips, prefiltering, the
+/// ground shadow's mask).
+pub(super) fn fill_pipeline(
+    device: &wgpu::Device,
+    label: &str,
+    layout: &wgpu::PipelineLayout,
+    module: &wgpu::ShaderModule,
+    (vs, fs): (&str, &str),
+    format: wgpu::TextureFormat,
+) -> wgpu::RenderPipeline {
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some(label),
+        layout: Some(layout),
+        vertex: wgpu::VertexState {
+            module,
+            entry_point: Some(vs),
+            compilation_options: Default::default(),
+            buffers: &[],
+        },
+        primitive: wgpu::PrimitiveState::default(),
+        depth_stencil: None,
+        multisample: wgpu::MultisampleState::default(),
+        fragment: Some(wgpu::FragmentState {
+            module,
+            entry_point: Some(fs),
+            compilation_options: Default::default(),
+            targets: &color_target(format, false),
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
+}
+
+/// A render pass that clears `target` to black and draws into it alone (no depth): a
+/// [`fill_pipeline`]'s.
+pub(super) fn fill_pass<'e>(
+    encoder: &'e mut wgpu::CommandEncoder,
+    label: &str,
+    target: &wgpu::TextureView,
+) -> wgpu::RenderPass<'e> {
+    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some(label),
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+            view: target,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store },
+        })],
+        depth_stencil_attachment: None,
+        timestamp_writes: None,
+        occlusion_query_set: None,
+        multiview_mask: None,
+    })
+}
+
 /// The fragment stage's override constants for a target in `format` (`SRGB_ENCODE` in
 /// shaders/output.wgsl: the shader encodes sRGB where the target does not).
 fn output_constants(format: wgpu::TextureFormat) -> [(&'static str, f64); 1] {
@@ -454,28 +510,14 @@ impl Pipelines {
     /// built on first use.
     pub fn shadow_mask(&self, device: &wgpu::Device) -> &wgpu::RenderPipeline {
         self.first_use.shadow_mask.get_or_init(|| {
-            let module = &self.first_use.module;
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some("kloub ground shadow mask"),
-                layout: Some(&self.first_use.shadow_layout),
-                vertex: wgpu::VertexState {
-                    module,
-                    entry_point: Some("vs_shadow_mask"),
-                    compilation_options: Default::default(),
-                    buffers: &[],
-                },
-                primitive: wgpu::PrimitiveState::default(),
-                depth_stencil: None,
-                multisample: wgpu::MultisampleState::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module,
-                    entry_point: Some("fs_shadow_mask"),
-                    compilation_options: Default::default(),
-                    targets: &color_target(SHADOW_MASK_FORMAT, false),
-                }),
-                multiview_mask: None,
-                cache: None,
-            })
+            fill_pipeline(
+                device,
+                "kloub ground shadow mask",
+                &self.first_use.shadow_layout,
+                &self.first_use.module,
+                ("vs_shadow_mask", "fs_shadow_mask"),
+                SHADOW_MASK_FORMAT,
+            )
         })
     }
 

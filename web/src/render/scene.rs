@@ -1153,22 +1153,7 @@ impl SceneRenderer {
             scene.encode(&mut pass, &self.pipelines, (0..copies * draws).filter(opaque), self.draw_stride, true);
             drop(pass);
             // The shadow filtered once into the mask (a fixed cost), not per pixel of the view.
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("kloub shadow mask"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &shadow.mask,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: None,
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            let mut pass = super::pipelines::fill_pass(encoder, "kloub shadow mask", &shadow.mask);
             pass.set_pipeline(self.pipelines.shadow_mask(device));
             pass.set_bind_group(0, &scene.frame_bind_groups[0], &[]);
             pass.set_bind_group(1, &shadow.bind_group, &[]);
