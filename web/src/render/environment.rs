@@ -188,13 +188,8 @@ impl HdrImage {
     }
 
     /// This image averaged down (2×2 boxes) until it is at most [`MAX_SOURCE_WIDTH`] wide.
-    pub fn fitted(self) -> Self {
-        self.fitted_to(MAX_SOURCE_WIDTH)
-    }
-
-    /// This image averaged down (2×2 boxes) until it is at most `width` wide.
-    pub fn fitted_to(mut self, width: u32) -> Self {
-        while self.width > width && self.height >= 2 {
+    pub fn fitted(mut self) -> Self {
+        while self.width > MAX_SOURCE_WIDTH && self.height >= 2 {
             let (w, h) = (self.width as usize / 2, self.height as usize / 2);
             let src = self.width as usize;
             let mut rgb = Vec::with_capacity(w * h);
