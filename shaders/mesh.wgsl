@@ -100,13 +100,22 @@ struct VsOut {
     @location(2) uv: vec2<f32>,
     @location(3) color: vec4<f32>,
     @location(4) uv1: vec2<f32>,
+    // World-space tangent and the bitangent's sign (0: none, the fragment shader derives a frame).
+    @location(5) tangent: vec4<f32>,
 }
 
-fn finish(world_pos: vec3<f32>, normal: vec3<f32>, g: GeometryIn) -> VsOut {
+/// `v`'s tangent in world space by the draw's model matrix, with the bitangent's sign from
+/// `g` (flipped by a mirroring model matrix: `normal_matrix[3].w`, DrawUniform::new).
+fn world_tangent(v: Vertex, g: GeometryIn) -> vec4<f32> {
+    return vec4<f32>((draw.model * vec4<f32>(v.tangent, 0.0)).xyz, g.tangent.w * draw.normal_matrix[3].w);
+}
+
+fn finish(world_pos: vec3<f32>, normal: vec3<f32>, tangent: vec4<f32>, g: GeometryIn) -> VsOut {
     var out: VsOut;
     out.clip = frame.view_proj * vec4<f32>(world_pos, 1.0);
     out.world_pos = world_pos;
     out.normal = normal;
+    out.tangent = tangent;
     out.uv = g.uv;
     out.uv1 = g.uv1;
     out.color = g.color;
@@ -119,7 +128,7 @@ fn vs_static(g: GeometryIn) -> VsOut {
     let v = morphed(g);
     let world = draw.model * vec4<f32>(v.position, 1.0);
     let normal = (draw.normal_matrix * vec4<f32>(v.normal, 0.0)).xyz;
-    return finish(world.xyz, normal, g);
+    return finish(world.xyz, normal, world_tangent(v, g), g);
 }
 
 /// Skinned vertices are in world space; `draw.model` places a copy of the character (a
@@ -130,7 +139,7 @@ fn vs_skinned(g: GeometryIn, s: SkinIn) -> VsOut {
     let v = skin_with(rest, s, draw_method());
     let world = draw.model * vec4<f32>(v.position, 1.0);
     let normal = (draw.normal_matrix * vec4<f32>(v.normal, 0.0)).xyz;
-    var out = finish(world.xyz, normal, g);
+    var out = finish(world.xyz, normal, world_tangent(v, g), g);
     if HEATMAP != 0u && (draw.params.y & DRAW_HEATMAP) != 0u {
         // Deviation from linear blend skinning (from dual quaternions when LBS is shown).
         let reference = select(SKIN_LINEAR, SKIN_DUAL_QUATERNION, draw_method() == SKIN_LINEAR);
@@ -408,10 +417,26 @@ fn fs_main(in: VsOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f
     }
     if (flags & MATERIAL_NORMAL_TEXTURE) != 0u && !heatmap {
         let t = normal_texel.xyz * 2.0 - 1.0;
-        // Screen-right × screen-up on the surface faces the eye: where dpdy runs down the screen
-        // the cross product faces away, and the y derivatives are turned round.
-        let up = select(-1.0, 1.0, dot(cross(dpx, dpy), to_eye) >= 0.0);
-        n = perturb_normal(n, dpx, dpy * up, duvx, duvy * up, vec3<f32>(t.xy * material.pbr.z, t.z));
+        let scaled = vec3<f32>(t.xy * material.pbr.z, t.z);
+        // The vertex's tangent frame where the primitive has tangents (and normals: glTF ignores
+        // tangents without them), as the Khronos sample viewer builds it: the tangent made
+        // orthogonal to the normal, the bitangent cross(normal, tangent) · w, all three turned
+        // round on back faces.
+        let tangent = in.tangent.xyz - n * dot(n, in.tangent.xyz);
+        let tangent_len2 = dot(tangent, tangent);
+        if abs(in.tangent.w) > 0.5 && tangent_len2 > 1e-30 && (draw.params.y & DRAW_HAS_NORMALS) != 0u && vertex_len2 > 1e-36 {
+            let face_sign = select(-1.0, 1.0, front);
+            let tn = tangent * (inverseSqrt(tangent_len2) * face_sign);
+            let bn = cross(n * face_sign, tn * face_sign) * (sign(in.tangent.w) * face_sign);
+            let perturbed = tn * scaled.x + bn * scaled.y + n * scaled.z;
+            let p2 = dot(perturbed, perturbed);
+            n = select(n, perturbed * inverseSqrt(p2), p2 > 1e-30);
+        } else {
+            // Screen-right × screen-up on the surface faces the eye: where dpdy runs down the
+            // screen the cross product faces away, and the y derivatives are turned round.
+            let up = select(-1.0, 1.0, dot(cross(dpx, dpy), to_eye) >= 0.0);
+            n = perturb_normal(n, dpx, dpy * up, duvx, duvy * up, scaled);
+        }
     }
     let v = normalize(to_eye + vec3<f32>(0.0, 1e-9, 0.0));
     let c_diff = color.rgb * (1.0 - metallic);

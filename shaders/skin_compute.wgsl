@@ -17,6 +17,10 @@
 @group(3) @binding(2) var<storage, read> pivots_in: array<u32>;
 // Output in the geometry-stream layout.
 @group(3) @binding(3) var<storage, read_write> geometry_out: array<f32>;
+// Tangent stream (xyz, w: the bitangent's sign; zeros for none) and its output (a placeholder
+// of one tangent where the primitive has none: nothing is written then).
+@group(3) @binding(4) var<storage, read> tangents_in: array<vec4<f32>>;
+@group(3) @binding(5) var<storage, read_write> tangents_out: array<vec4<f32>>;
 
 fn unpack_joints(a: u32, b: u32) -> vec4<u32> {
     return vec4<u32>(a & 0xffffu, a >> 16u, b & 0xffffu, b >> 16u);
@@ -40,6 +44,7 @@ fn cs_skin(@builtin(global_invocation_id) id: vec3<u32>) {
     g.uv = vec2<f32>(0.0);
     g.uv1 = vec2<f32>(0.0);
     g.color = vec4<f32>(1.0);
+    g.tangent = tangents_in[v];
     let si = v * 12u;
     var s: SkinIn;
     s.joints0 = unpack_joints(skin_in[si], skin_in[si + 1u]);
@@ -56,4 +61,7 @@ fn cs_skin(@builtin(global_invocation_id) id: vec3<u32>) {
     geometry_out[gi + 3u] = out.normal.x;
     geometry_out[gi + 4u] = out.normal.y;
     geometry_out[gi + 5u] = out.normal.z;
+    if g.tangent.w != 0.0 {
+        tangents_out[v] = vec4<f32>(out.tangent, g.tangent.w);
+    }
 }

@@ -20,13 +20,17 @@ struct Draw {
     // z: skinning method (SKIN_* below), w: capture target width | height << 16 (vs_capture_*).
     params: vec4<u32>,
     // Morph targets in the morph texture: x: first texel, y: target count (0: none),
-    // z: vertex count, w: 1 when the targets carry normal deltas.
+    // z: vertex count, w: MORPH_NORMALS | MORPH_TANGENTS (which deltas the targets carry).
     morph: vec4<u32>,
     // Morph weights, four per vec4 (target t: weights[t / 4][t % 4]).
     weights: array<vec4<f32>, 16>,
     // Deviation heatmap (DRAW_HEATMAP): x: the distance drawn fully red.
     heat: vec4<f32>,
 }
+
+const MORPH_NORMALS: u32 = 1u;
+// With tangent deltas each vertex of each target takes three texels, else two.
+const MORPH_TANGENTS: u32 = 2u;
 
 const SKIN_RIGID: u32 = 0u;
 const SKIN_LINEAR: u32 = 1u;
@@ -67,6 +71,8 @@ struct GeometryIn {
     @location(2) uv: vec2<f32>,
     @location(3) color: vec4<f32>,
     @location(10) uv1: vec2<f32>,
+    // The tangent (xyz) and the bitangent's sign (w); all zero where the primitive has none.
+    @location(11) tangent: vec4<f32>,
 }
 
 struct SkinIn {
@@ -80,10 +86,12 @@ struct SkinIn {
     @location(9) pivot_joints: u32,
 }
 
-/// A position and normal on their way through the vertex stage.
+/// A position, normal and tangent on their way through the vertex stage (the tangent moves
+/// as a direction along the surface: the skinning transform without its translation).
 struct Vertex {
     position: vec3<f32>,
     normal: vec3<f32>,
+    tangent: vec3<f32>,
 }
 
 /// Texel `i` of a row-major texture of any height.
@@ -94,17 +102,22 @@ fn texel_at(t: texture_2d<f32>, i: u32) -> vec4<f32> {
 
 /// The bind-pose vertex plus the draw's weighted morph targets (glTF: before skinning).
 fn morphed(g: GeometryIn) -> Vertex {
-    var v = Vertex(g.position, g.normal);
+    var v = Vertex(g.position, g.normal, g.tangent.xyz);
     let count = draw.morph.y;
+    let tangents = (draw.morph.w & MORPH_TANGENTS) != 0u;
+    let stride = select(2u, 3u, tangents);
     for (var t = 0u; t < count; t += 1u) {
         let w = draw.weights[t / 4u][t % 4u];
         if w == 0.0 {
             continue;
         }
-        let texel = draw.morph.x + (t * draw.morph.z + g.index) * 2u;
+        let texel = draw.morph.x + (t * draw.morph.z + g.index) * stride;
         v.position += w * texel_at(morphs, texel).xyz;
-        if draw.morph.w != 0u {
+        if (draw.morph.w & MORPH_NORMALS) != 0u {
             v.normal += w * texel_at(morphs, texel + 1u).xyz;
+        }
+        if tangents {
+            v.tangent += w * texel_at(morphs, texel + 2u).xyz;
         }
     }
     return v;
@@ -148,6 +161,11 @@ fn add_rows(m: Rows, w: f32, joint: u32) -> Rows {
 fn transform_rows(m: Rows, p: vec3<f32>) -> vec3<f32> {
     let h = vec4<f32>(p, 1.0);
     return vec3<f32>(dot(m.r0, h), dot(m.r1, h), dot(m.r2, h));
+}
+
+/// The direction `d` through the 3x3 part of `m` (a tangent: no translation).
+fn rotate_rows(m: Rows, d: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(dot(m.r0.xyz, d), dot(m.r1.xyz, d), dot(m.r2.xyz, d));
 }
 
 /// Influence `k` (0..8) in kloub_core's order: JOINTS_0 then JOINTS_1.
@@ -202,7 +220,11 @@ fn skin_linear(v: Vertex, s: SkinIn) -> Vertex {
             }
         }
     }
-    return Vertex(transform_rows(m, v.position), cofactor_normal(m.r0.xyz, m.r1.xyz, m.r2.xyz, v.normal));
+    return Vertex(
+        transform_rows(m, v.position),
+        cofactor_normal(m.r0.xyz, m.r1.xyz, m.r2.xyz, v.normal),
+        rotate_rows(m, v.tangent),
+    );
 }
 
 /// The strongest influence only (ties: the first); no influence leaves the vertex in place.
@@ -220,7 +242,11 @@ fn skin_rigid(v: Vertex, s: SkinIn) -> Vertex {
         return v;
     }
     let m = joint_rows(best);
-    return Vertex(transform_rows(m, v.position), cofactor_normal(m.r0.xyz, m.r1.xyz, m.r2.xyz, v.normal));
+    return Vertex(
+        transform_rows(m, v.position),
+        cofactor_normal(m.r0.xyz, m.r1.xyz, m.r2.xyz, v.normal),
+        rotate_rows(m, v.tangent),
+    );
 }
 
 /// Dual-quaternion skinning with hemisphere alignment to the first influence; joints with
@@ -268,13 +294,15 @@ fn skin_dual_quaternion(v: Vertex, s: SkinIn) -> Vertex {
     }
     var p = v.position;
     var n = v.normal;
+    var tangent = v.tangent;
     if !all_rigid {
         p = vec3<f32>(dot(s0, p), dot(s1, p), dot(s2, p));
         n = cofactor_normal(s0, s1, s2, n);
+        tangent = vec3<f32>(dot(s0, tangent), dot(s1, tangent), dot(s2, tangent));
     }
     // Translation: 2 · dual · conj(real).
     let t = 2.0 * (real.w * dual.xyz - dual.w * real.xyz + cross(real.xyz, dual.xyz));
-    return Vertex(rotate(real, p) + t, rotate(real, n));
+    return Vertex(rotate(real, p) + t, rotate(real, n), rotate(real, tangent));
 }
 
 /// Spherical joint blending: rotation about the shared joint centre by the normalized,
@@ -305,7 +333,7 @@ fn skin_spherical(v: Vertex, s: SkinIn) -> Vertex {
         q = vec4<f32>(0.0, 0.0, 0.0, 1.0);
     }
     let centre = transform_rows(joint_rows(s.pivot_joints & 0xffffu), s.pivot);
-    return Vertex(rotate(q, v.position - s.pivot) + centre, rotate(q, v.normal));
+    return Vertex(rotate(q, v.position - s.pivot) + centre, rotate(q, v.normal), rotate(q, v.tangent));
 }
 
 /// Morph, then skin with the draw's method. The palette is in world space (joint world *

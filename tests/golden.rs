@@ -459,24 +459,154 @@ fn normal_map_bumps_face_the_light() {
     let mut renderer = offscreen.scene_renderer(&asset).expect("uploading");
     let size = 256;
     let image = offscreen.render(&mut renderer, &asset, &mut instance, &camera, size, size).expect("rendering");
-    let cell = 1.0 / kloub_tests::materials::BUMPS as f32;
-    let mut checked = 0;
-    for row in 0..kloub_tests::materials::BUMPS {
-        for col in 0..kloub_tests::materials::BUMPS {
-            // The bump's centre in world space (uv (0, 0) is the quad's top left), and points
-            // half its radius (0.4 of a cell) away from it.
+    let sides = bump_sides(&image, &camera, size);
+    for (bump, s) in sides.iter().enumerate() {
+        assert!(s.up > s.down + 8.0, "bump {bump}: top {} not brighter than bottom {}", s.up, s.down);
+        assert!(s.left > s.right + 8.0, "bump {bump}: left {} not brighter than right {}", s.left, s.right);
+        assert!(s.upper_left > s.lower_right + 16.0, "bump {bump}: upper left not brighter than lower right");
+    }
+    assert_eq!(sides.len(), 16);
+}
+
+/// Luminance at four sides of a bump of the normal-mapped plane, and at two corners.
+struct BumpSides {
+    up: f32,
+    down: f32,
+    left: f32,
+    right: f32,
+    upper_left: f32,
+    lower_right: f32,
+}
+
+/// Each bump of the normal-mapped plane (as drawn unturned, facing the camera) sampled half its
+/// radius (0.4 of a cell) from its centre.
+fn bump_sides(image: &RgbaImage, camera: &Camera, size: u32) -> Vec<BumpSides> {
+    let bumps = kloub_tests::materials::BUMPS;
+    let cell = 1.0 / bumps as f32;
+    let mut sides = Vec::new();
+    for row in 0..bumps {
+        for col in 0..bumps {
+            // The bump's centre in world space (uv (0, 0) is the quad's top left).
             let centre = glam::Vec3::new(-0.5 + (col as f32 + 0.5) * cell, 0.5 - (row as f32 + 0.5) * cell, 0.0);
             let at = |dx: f32, dy: f32| {
-                luminance(&image, pixel_of(&camera, centre + glam::Vec3::new(dx, dy, 0.0) * cell * 0.2, size))
+                luminance(image, pixel_of(camera, centre + glam::Vec3::new(dx, dy, 0.0) * cell * 0.2, size))
             };
-            let (up, down, left, right) = (at(0.0, 1.0), at(0.0, -1.0), at(-1.0, 0.0), at(1.0, 0.0));
-            assert!(up > down + 8.0, "bump {row},{col}: top {up} not brighter than bottom {down}");
-            assert!(left > right + 8.0, "bump {row},{col}: left {left} not brighter than right {right}");
-            assert!(at(-0.7, 0.7) > at(0.7, -0.7) + 16.0, "bump {row},{col}: upper left not brighter than lower right");
-            checked += 1;
+            sides.push(BumpSides {
+                up: at(0.0, 1.0),
+                down: at(0.0, -1.0),
+                left: at(-1.0, 0.0),
+                right: at(1.0, 0.0),
+                upper_left: at(-0.7, 0.7),
+                lower_right: at(0.7, -0.7),
+            });
         }
     }
-    assert_eq!(checked, 16);
+    sides
+}
+
+/// The file's tangents decide which way the normal map turns, and they move with the skin on
+/// every path. A TANGENT along world +y (the image's −v) with w = 1 turns every bump's frame
+/// by 90° (the bitangent, cross(normal, tangent), becomes −x): each bump is then brighter on
+/// its right than its left, where the derived frame makes it brighter on its left. The same
+/// plane skinned by a joint turned 90° about the view axis: tangents carried by the turn
+/// (to −x, the bitangent to −y) light each bump brighter on its right and its top again, in
+/// the vertex shader, the compute pass and the CPU path alike; and a morph target whose tangent
+/// deltas turn +x into +y gives the first case's light, morphed on the GPU or the CPU.
+/// Tangents ignored (the derived frame), left unturned by the skin or unmorphed would make the
+/// left brighter.
+#[test]
+fn file_tangents_turn_the_normal_map_and_follow_the_skin() {
+    use kloub_core::asset::{Node, Skin};
+    use kloub_core::math::{Quat, Transform};
+    let offscreen = Offscreen::new().expect("a wgpu adapter");
+    let size = 256;
+    let mut turned = kloub_tests::materials::normal_mapped_plane();
+    turned.meshes[0].primitives[0].tangents = vec![[0.0, 1.0, 0.0, 1.0]; 4];
+    let (mut instance, camera) = pose(&turned, None, 0.0, Some((0.0, 0.0)));
+    let mut renderer = offscreen.scene_renderer(&turned).expect("uploading");
+    let image = offscreen.render(&mut renderer, &turned, &mut instance, &camera, size, size).expect("rendering");
+    for (bump, s) in bump_sides(&image, &camera, size).iter().enumerate() {
+        assert!(
+            s.right > s.left + 8.0,
+            "bump {bump}: turned tangents, right {} not brighter than left {}",
+            s.right,
+            s.left
+        );
+        assert!(s.up > s.down + 8.0, "bump {bump}: turned tangents, top {} not brighter than bottom {}", s.up, s.down);
+    }
+
+    // Morphed: a target whose tangent deltas turn +x into +y, at weight 1, on the GPU (the morph
+    // texture) and on the CPU.
+    let mut morphed = kloub_tests::materials::normal_mapped_plane();
+    {
+        let p = &mut morphed.meshes[0].primitives[0];
+        p.tangents = vec![[1.0, 0.0, 0.0, 1.0]; 4];
+        p.targets = vec![kloub_core::asset::MorphTarget {
+            positions: vec![[0.0; 3]; 4],
+            normals: Vec::new(),
+            tangents: vec![[-1.0, 1.0, 0.0]; 4],
+        }];
+    }
+    morphed.meshes[0].weights = vec![1.0];
+    morphed.nodes[0].weights = vec![1.0];
+    morphed.weight_total = 1;
+    let (mut instance, camera) = pose(&morphed, None, 0.0, Some((0.0, 0.0)));
+    let mut renderer = offscreen.scene_renderer(&morphed).expect("uploading");
+    for path in [SkinningPath::Gpu, SkinningPath::Cpu] {
+        renderer.set_skinning_path(path).expect("lavapipe runs both paths");
+        let image = offscreen.render(&mut renderer, &morphed, &mut instance, &camera, size, size).expect("rendering");
+        for (bump, s) in bump_sides(&image, &camera, size).iter().enumerate() {
+            assert!(
+                s.right > s.left + 8.0,
+                "morphed, {path:?}, bump {bump}: right {} not brighter than left {}",
+                s.right,
+                s.left
+            );
+            assert!(
+                s.up > s.down + 8.0,
+                "morphed, {path:?}, bump {bump}: top {} not brighter than bottom {}",
+                s.up,
+                s.down
+            );
+        }
+    }
+
+    let mut skinned = kloub_tests::materials::normal_mapped_plane();
+    {
+        let p = &mut skinned.meshes[0].primitives[0];
+        p.tangents = vec![[0.0, 1.0, 0.0, 1.0]; 4];
+        p.joints = vec![[0; 8]; 4];
+        p.weights = vec![[1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]; 4];
+    }
+    let joint = Node {
+        name: Some("turn".into()),
+        rest: Transform { rotation: Quat::from_rotation_z(std::f32::consts::FRAC_PI_2), ..Transform::default() },
+        ..Node::default()
+    };
+    skinned.nodes.push(joint);
+    skinned.nodes[0].skin = Some(0);
+    skinned.order.push(1);
+    skinned.scenes[0].roots.push(1);
+    skinned.weight_offsets.push(0);
+    skinned.skins =
+        vec![Skin { name: None, joints: vec![1], inverse_bind: vec![glam::Mat4::IDENTITY], skeleton: None }];
+    let (mut instance, camera) = pose(&skinned, None, 0.0, Some((0.0, 0.0)));
+    // WebGPU's limits: the compute pass too.
+    let offscreen = Offscreen::webgpu().expect("a device with WebGPU's default limits");
+    let mut renderer = offscreen.scene_renderer(&skinned).expect("uploading");
+    for path in [SkinningPath::Gpu, SkinningPath::Compute, SkinningPath::Cpu] {
+        renderer.set_skinning_path(path).expect("lavapipe runs every path");
+        let image = offscreen.render(&mut renderer, &skinned, &mut instance, &camera, size, size).expect("rendering");
+        for (bump, s) in bump_sides(&image, &camera, size).iter().enumerate() {
+            assert!(
+                s.right > s.left + 8.0,
+                "{path:?}, bump {bump}: right {} not brighter than left {}",
+                s.right,
+                s.left
+            );
+            assert!(s.up > s.down + 8.0, "{path:?}, bump {bump}: top {} not brighter than bottom {}", s.up, s.down);
+        }
+    }
 }
 
 /// The sphere grid orders as the BRDF says: along the top row (smooth), the dielectric's

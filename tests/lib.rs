@@ -169,6 +169,23 @@ pub mod materials {
         scene_of("Normal-mapped plane", vec![p], vec![material], vec![image])
     }
 
+    /// Two normal-mapped quads side by side carrying TANGENT: the left one's tangents run up
+    /// (+y, w = 1: its bumps' frame turned a quarter), the right one's along +x with w = −1
+    /// (its bitangent mirrored, down the image). Without tangents both would look like
+    /// [`normal_mapped_plane`]'s.
+    pub fn tangent_planes() -> Asset {
+        let mut plane = normal_mapped_plane();
+        let mut left = quad([-0.55, 0.0, 0.0], 1.0, 0);
+        left.tangents = vec![[0.0, 1.0, 0.0, 1.0]; 4];
+        let mut right = quad([0.55, 0.0, 0.0], 1.0, 0);
+        right.tangents = vec![[1.0, 0.0, 0.0, -1.0]; 4];
+        plane.meshes[0].primitives = vec![left, right];
+        plane.nodes[0].name = Some("Tangent planes".into());
+        plane.meshes[0].name = Some("Tangent planes".into());
+        plane.scenes[0].name = Some("Tangent planes".into());
+        plane
+    }
+
     /// A quad of `size` centred at `center` in a plane parallel to XY, facing +Z, uv (0, 0) at
     /// its top left, drawn with `material`.
     fn quad(center: [f32; 3], size: f32, material: u32) -> Primitive {
@@ -258,6 +275,18 @@ pub mod materials {
             let uv = push_view(&mut bin, &floats(p.uv0.as_flattened()));
             accessors.push(json!({"bufferView": uv, "componentType": 5126, "count": p.uv0.len(), "type": "VEC2"}));
             attributes.insert("TEXCOORD_0".into(), json!(accessors.len() - 1));
+            if !p.uv1.is_empty() {
+                let uv = push_view(&mut bin, &floats(p.uv1.as_flattened()));
+                accessors.push(json!({"bufferView": uv, "componentType": 5126, "count": p.uv1.len(), "type": "VEC2"}));
+                attributes.insert("TEXCOORD_1".into(), json!(accessors.len() - 1));
+            }
+            if !p.tangents.is_empty() {
+                let tangent = push_view(&mut bin, &floats(p.tangents.as_flattened()));
+                accessors.push(
+                    json!({"bufferView": tangent, "componentType": 5126, "count": p.tangents.len(), "type": "VEC4"}),
+                );
+                attributes.insert("TANGENT".into(), json!(accessors.len() - 1));
+            }
             let indices: Vec<u8> = p.indices.iter().flat_map(|i| i.to_le_bytes()).collect();
             let index = push_view(&mut bin, &indices);
             accessors
@@ -286,6 +315,9 @@ pub mod materials {
                 let mut material = json!({"name": m.name, "pbrMetallicRoughness": pbr, "doubleSided": m.double_sided});
                 if let Some(t) = m.normal_texture {
                     material["normalTexture"] = json!({"index": t.image, "scale": m.normal_scale});
+                    if t.tex_coord != 0 {
+                        material["normalTexture"]["texCoord"] = json!(t.tex_coord);
+                    }
                 }
                 match m.alpha {
                     AlphaMode::Opaque => {}

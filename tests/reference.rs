@@ -78,7 +78,7 @@ const SIZE: u32 = 256;
 /// rasterizers' rounding, and under what a shading error costs: the dielectric lobe's Fresnel
 /// applied to the whole mixed F0 (a real bug, fixed) read 5.2 / 15.1 on the grid; sampling
 /// CesiumMan's NEAREST_MIPMAP_LINEAR texture trilinearly read 2.0 / 15.0.
-const SCENES: [Scene; 5] = [
+const SCENES: [Scene; 6] = [
     Scene {
         name: "sphere_grid",
         model: Model::Procedural(kloub_tests::materials::sphere_grid),
@@ -91,6 +91,15 @@ const SCENES: [Scene; 5] = [
     Scene {
         name: "normal_plane",
         model: Model::Procedural(kloub_tests::materials::normal_mapped_plane),
+        clip: None,
+        time: 0.0,
+        view: (0.35, -0.3),
+        mean_bound: 1.5,
+        p99_bound: 5.0,
+    },
+    Scene {
+        name: "tangent_planes",
+        model: Model::Procedural(kloub_tests::materials::tangent_planes),
         clip: None,
         time: 0.0,
         view: (0.35, -0.3),

@@ -210,6 +210,13 @@ impl Primitive {
     pub fn is_skinned(&self) -> bool {
         !self.joints.is_empty()
     }
+
+    /// Whether this primitive's TANGENT attribute is used: it has one for every vertex, and
+    /// normals too (glTF: without normals, tangents are ignored).
+    pub fn has_tangents(&self) -> bool {
+        let n = self.positions.len();
+        n > 0 && self.tangents.len() == n && self.normals.len() == n
+    }
 }
 
 /// A morph target: per-vertex deltas. Absent attributes are empty.

@@ -1,6 +1,6 @@
 //! Everything one character needs per frame, allocated once in [`Instance::new`].
 
-use crate::asset::{Asset, MorphTarget};
+use crate::asset::{Asset, MorphTarget, Primitive};
 use crate::error::JobError;
 use std::collections::HashMap;
 
@@ -36,6 +36,10 @@ pub struct Instance {
     morph_normals: Vec<[f32; 3]>,
     scratch_positions: Vec<[f32; 3]>,
     scratch_normals: Vec<[f32; 3]>,
+    /// Morphed tangents, then their tips ([`Instance::deform_tangents`]).
+    morph_tangents: Vec<[f32; 3]>,
+    scratch_tangents: Vec<[f32; 3]>,
+    scratch_tips: Vec<[f32; 3]>,
     /// Palettes split for dual-quaternion skinning, laid out like `palettes`.
     joint_dqs: Vec<JointDq>,
     skinning: SkinningMethod,
@@ -71,6 +75,9 @@ impl Instance {
             morph_normals: Vec::with_capacity(max_vertices),
             scratch_positions: Vec::with_capacity(max_vertices),
             scratch_normals: Vec::with_capacity(max_vertices),
+            morph_tangents: Vec::new(),
+            scratch_tangents: Vec::new(),
+            scratch_tips: Vec::new(),
             joint_dqs: vec![JointDq::default(); total],
             skinning: SkinningMethod::default(),
             sjb_plans: HashMap::new(),
@@ -307,6 +314,93 @@ impl Instance {
         out_positions: &mut Vec<[f32; 3]>,
         out_normals: &mut Vec<[f32; 3]>,
     ) -> Result<(), JobError> {
+        let (prim, weights) = self.morph_source(asset, node, primitive)?;
+        let targets = &prim.targets[..weights.len()];
+        let weights = &self.pose.weights[weights];
+        morph(&prim.positions, targets, |t| &t.positions, weights, &mut self.morph_positions)?;
+        morph(&prim.normals, targets, |t| &t.normals, weights, &mut self.morph_normals)?;
+        out_positions.clear();
+        out_positions.resize(self.morph_positions.len(), [0.0; 3]);
+        out_normals.clear();
+        out_normals.resize(self.morph_normals.len(), [0.0; 3]);
+        self.deform_stream(asset, node, primitive, Stream::Morphed, out_positions, out_normals)
+    }
+
+    /// World-space tangents (xyz, and w: the bitangent's sign) of one primitive instanced by
+    /// `node`, morphed and skinned as [`Instance::deform_primitive`] deforms its vertices:
+    /// `deformed` is what that call gave for the same pose. Empty when the primitive's tangents
+    /// are not used ([`Primitive::has_tangents`](crate::asset::Primitive::has_tangents)).
+    ///
+    /// A tangent is a direction along the surface, so it moves as the difference of two
+    /// points: the vertex and the vertex plus its tangent, deformed by the same per-vertex
+    /// transform. That holds for every skinning method (each one applies one transform per
+    /// vertex; example poses add displacements that cancel). Not normalized: the shader
+    /// normalizes. Skinning keeps w (palettes do not mirror a bound pose); a mirroring node
+    /// transform flips it.
+    pub fn deform_tangents(
+        &mut self,
+        asset: &Asset,
+        node: u32,
+        primitive: usize,
+        deformed: &[[f32; 3]],
+        out: &mut Vec<[f32; 4]>,
+    ) -> Result<(), JobError> {
+        out.clear();
+        let (prim, weights) = self.morph_source(asset, node, primitive)?;
+        if !prim.has_tangents() {
+            return Ok(());
+        }
+        check_eq("deformed positions", deformed.len(), prim.positions.len())?;
+        let targets = &prim.targets[..weights.len()];
+        let weights = &self.pose.weights[weights];
+        let mut rest = std::mem::take(&mut self.scratch_tangents);
+        rest.clear();
+        rest.extend(prim.tangents.iter().map(|&[x, y, z, _]| [x, y, z]));
+        morph(&rest, targets, |t| &t.tangents, weights, &mut self.morph_tangents)?;
+        morph(&prim.positions, targets, |t| &t.positions, weights, &mut self.morph_positions)?;
+        let signs = prim.tangents.iter().map(|t| if t[3] < 0.0 { -1.0 } else { 1.0 });
+        let result = if n_skin(asset, node, prim).is_some() {
+            // The tips of the tangents, skinned like the vertices.
+            for (tip, (p, t)) in rest.iter_mut().zip(self.morph_positions.iter().zip(&self.morph_tangents)) {
+                *tip = [p[0] + t[0], p[1] + t[1], p[2] + t[2]];
+            }
+            std::mem::swap(&mut rest, &mut self.morph_tangents);
+            let mut tips = std::mem::take(&mut self.scratch_tips);
+            tips.clear();
+            tips.resize(deformed.len(), [0.0; 3]);
+            let skinned = self.deform_stream(asset, node, primitive, Stream::Tips, &mut tips, &mut Vec::new());
+            out.extend(
+                tips.iter()
+                    .zip(deformed)
+                    .zip(signs)
+                    .map(|((tip, p), w)| [tip[0] - p[0], tip[1] - p[1], tip[2] - p[2], w]),
+            );
+            self.scratch_tips = tips;
+            skinned
+        } else {
+            let world = self.worlds[node as usize];
+            let mirror = if world.determinant() < 0.0 { -1.0 } else { 1.0 };
+            out.extend(self.morph_tangents.iter().zip(signs).map(|(t, w)| {
+                let [x, y, z] = world.transform_vector3(Vec3::from(*t)).to_array();
+                [x, y, z, w * mirror]
+            }));
+            Ok(())
+        };
+        self.scratch_tangents = rest;
+        if result.is_err() {
+            out.clear();
+        }
+        result
+    }
+
+    /// Checks `node` and `primitive`: the primitive, and the range of `self.pose.weights` its
+    /// morph targets take (cut to the targets it has).
+    fn morph_source<'a>(
+        &self,
+        asset: &'a Asset,
+        node: u32,
+        primitive: usize,
+    ) -> Result<(&'a Primitive, std::ops::Range<usize>), JobError> {
         self.check_asset(asset)?;
         check_index("node", node as usize, asset.nodes.len())?;
         let n = &asset.nodes[node as usize];
@@ -316,23 +410,41 @@ impl Instance {
         check_index("primitive", primitive, mesh.primitives.len())?;
         let prim = &mesh.primitives[primitive];
         let start = asset.weight_offsets.get(node as usize).map_or(0, |&o| o as usize);
-        let weights = self.pose.weights.get(start..start + n.weights.len()).unwrap_or(&[]);
-        let weights = &weights[..weights.len().min(prim.targets.len())];
-        let targets = &prim.targets[..weights.len()];
-        morph(&prim.positions, targets, |t| &t.positions, weights, &mut self.morph_positions)?;
-        morph(&prim.normals, targets, |t| &t.normals, weights, &mut self.morph_normals)?;
+        // The node's weights as the pose holds them (none when they do not fit), cut to the
+        // primitive's targets.
+        let range = match start.checked_add(n.weights.len()) {
+            Some(end) if end <= self.pose.weights.len() => start..start + n.weights.len().min(prim.targets.len()),
+            _ => 0..0,
+        };
+        Ok((prim, range))
+    }
 
-        out_positions.clear();
-        out_positions.resize(self.morph_positions.len(), [0.0; 3]);
-        out_normals.clear();
-        out_normals.resize(self.morph_normals.len(), [0.0; 3]);
-        let skin = n.skin.filter(|_| prim.is_skinned()).map(|s| s as usize);
-        match skin {
+    /// Skins `stream` (the morphed vertices, or the tips of the morphed tangents) with the
+    /// palette of `node`'s skin, or transforms it by the node's world when unskinned; the
+    /// outputs are sized by the caller.
+    fn deform_stream(
+        &mut self,
+        asset: &Asset,
+        node: u32,
+        primitive: usize,
+        stream: Stream,
+        out_positions: &mut [[f32; 3]],
+        out_normals: &mut [[f32; 3]],
+    ) -> Result<(), JobError> {
+        let prim = asset.nodes.get(node as usize).and_then(|n| n.mesh).and_then(|m| asset.meshes.get(m as usize));
+        let Some(prim) = prim.and_then(|m| m.primitives.get(primitive)) else {
+            return Err(JobError::InvalidInput(format!("node {node} has no primitive {primitive}")));
+        };
+        match n_skin(asset, node, prim) {
             Some(s) => {
                 check_index("skin", s, asset.skins.len())?;
                 if self.skinning.uses_sjb_plan() && !self.sjb_plans.contains_key(&(node, primitive)) {
                     self.sjb_plan(asset, node, primitive);
                 }
+                let (positions, normals): (&[[f32; 3]], &[[f32; 3]]) = match stream {
+                    Stream::Morphed => (&self.morph_positions, &self.morph_normals),
+                    Stream::Tips => (&self.morph_tangents, &[]),
+                };
                 let range = self.palette_starts[s]..self.palette_starts[s + 1];
                 let palette = &self.palettes[range.clone()];
                 let rig = self
@@ -358,8 +470,8 @@ impl Instance {
                 };
                 SkinJob {
                     method: self.skinning,
-                    positions: &self.morph_positions,
-                    normals: &self.morph_normals,
+                    positions,
+                    normals,
                     joints: &prim.joints,
                     weights: &prim.weights,
                     palette,
@@ -372,11 +484,15 @@ impl Instance {
                 .run()
             }
             None => {
+                let (positions, normals): (&[[f32; 3]], &[[f32; 3]]) = match stream {
+                    Stream::Morphed => (&self.morph_positions, &self.morph_normals),
+                    Stream::Tips => (&self.morph_tangents, &[]),
+                };
                 let world = self.worlds[node as usize];
-                for (o, p) in out_positions.iter_mut().zip(&self.morph_positions) {
+                for (o, p) in out_positions.iter_mut().zip(positions) {
                     *o = world.transform_point3(Vec3::from(*p)).to_array();
                 }
-                for (o, p) in out_normals.iter_mut().zip(&self.morph_normals) {
+                for (o, p) in out_normals.iter_mut().zip(normals) {
                     *o = transform_normal(&world, Vec3::from(*p)).to_array();
                 }
                 Ok(())
@@ -423,6 +539,20 @@ impl Instance {
     }
 }
 
+/// Which of an [`Instance`]'s scratch streams [`Instance::deform_stream`] deforms.
+#[derive(Clone, Copy, Debug)]
+enum Stream {
+    /// `morph_positions` and `morph_normals`.
+    Morphed,
+    /// `morph_tangents`, holding the tips of the tangents (no normals).
+    Tips,
+}
+
+/// The skin that deforms `prim` as instanced by `node`, if any.
+fn n_skin(asset: &Asset, node: u32, prim: &Primitive) -> Option<usize> {
+    asset.nodes.get(node as usize)?.skin.filter(|_| prim.is_skinned()).map(|s| s as usize)
+}
+
 /// `out = base + Σ weights[t] · pick(targets[t])`, gathering the target slices on the stack.
 fn morph(
     base: &[[f32; 3]],
@@ -450,7 +580,7 @@ mod tests {
     use super::*;
     use crate::asset::{Mesh, Node, Primitive, Scene, Skin};
     use crate::clip::{Channel, ChannelTarget, Clip, Interpolation};
-    use crate::math::{Quat, Transform};
+    use crate::math::{Quat, Transform, Vec4};
     use std::f32::consts::{FRAC_PI_2, SQRT_2};
 
     fn node(parent: Option<u32>, children: Vec<u32>, translation: Vec3) -> Node {
@@ -607,6 +737,65 @@ mod tests {
 
     /// A frame (advance, sample, world transforms, palettes, CPU deformation into warm
     /// buffers) allocates nothing.
+    #[test]
+    fn tangents_move_with_their_vertices_under_every_method() {
+        let mut asset = rig();
+        {
+            let skinned = &mut asset.meshes[0].primitives[0];
+            skinned.tangents = vec![[0.0, 1.0, 0.0, -1.0]];
+            skinned.targets[0].tangents = vec![[0.0, 0.0, 1.0]];
+        }
+        let mut instance = Instance::new(&asset);
+        let (mut p, mut n, mut t) = (Vec::new(), Vec::new(), Vec::new());
+        let close4 = |a: [f32; 4], b: [f32; 4]| Vec4::from(a).abs_diff_eq(Vec4::from(b), 1e-5);
+        instance.deform_primitive(&asset, 2, 0, &mut p, &mut n).expect("valid");
+        instance.deform_tangents(&asset, 2, 0, &p, &mut t).expect("valid");
+        assert!(close4(t[0], [0.0, 1.0, 0.0, -1.0]), "rest: {t:?}");
+        // t = 1: joint 1 turned 90° about z; the target's weight 1 tilts the tangent up z.
+        instance.evaluate(&asset, Some(0), 1.0).expect("valid");
+        for method in [
+            SkinningMethod::Linear,
+            SkinningMethod::Rigid,
+            SkinningMethod::DualQuaternion,
+            SkinningMethod::SphericalJointBlend,
+        ] {
+            instance.set_skinning(&asset, method);
+            instance.deform_primitive(&asset, 2, 0, &mut p, &mut n).expect("valid");
+            instance.deform_tangents(&asset, 2, 0, &p, &mut t).expect("valid");
+            assert!(close4(t[0], [-1.0, 0.0, 1.0, -1.0]), "{method:?}: {t:?}");
+        }
+        // The positions must be this primitive's.
+        assert!(instance.deform_tangents(&asset, 2, 0, &[], &mut t).is_err() && t.is_empty());
+        // Without normals the tangents are not used.
+        asset.meshes[0].primitives[0].normals.clear();
+        instance.deform_tangents(&asset, 2, 0, &p, &mut t).expect("valid");
+        assert!(t.is_empty());
+    }
+
+    #[test]
+    fn unskinned_tangents_follow_the_node_and_its_mirror() {
+        let mut asset = rig();
+        {
+            let rigid = &mut asset.meshes[1].primitives[0];
+            rigid.normals = vec![[0.0, 0.0, 1.0]];
+            rigid.tangents = vec![[1.0, 0.0, 0.0, 1.0]];
+        }
+        asset.nodes[3].rest.scale = Vec3::new(-1.0, 1.0, 1.0);
+        let mut instance = Instance::new(&asset);
+        let (mut p, mut n, mut t) = (Vec::new(), Vec::new(), Vec::new());
+        instance.deform_primitive(&asset, 3, 0, &mut p, &mut n).expect("valid");
+        instance.deform_tangents(&asset, 3, 0, &p, &mut t).expect("valid");
+        // Mirrored in x: the tangent turns round and the bitangent's sign with it.
+        assert!(Vec4::from(t[0]).abs_diff_eq(Vec4::new(-1.0, 0.0, 0.0, -1.0), 1e-6), "{t:?}");
+        // Deforming tangents every frame allocates nothing once the buffers have grown.
+        let before = crate::testutil::allocations();
+        for _ in 0..10 {
+            instance.deform_primitive(&asset, 3, 0, &mut p, &mut n).expect("valid");
+            instance.deform_tangents(&asset, 3, 0, &p, &mut t).expect("valid");
+        }
+        assert_eq!(crate::testutil::allocations() - before, 0);
+    }
+
     #[test]
     fn frames_do_not_allocate() {
         for file in ["khronos/Fox/glTF-Binary/Fox.glb", "threejs/RobotExpressive/RobotExpressive.glb"] {

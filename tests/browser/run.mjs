@@ -2142,10 +2142,10 @@ test('three.js r187 still draws the committed reference pictures of tests/refere
   }
 });
 
-test('WebGPU and WebGL2 show the same materials: the reference scenes (metal/rough spheres, normal map, alpha mask and blend) drawn by both backends agree', async (ctx) => {
+test('WebGPU and WebGL2 show the same materials: the reference scenes (metal/rough spheres, normal maps with derived and file tangents, alpha mask and blend) drawn by both backends agree', async (ctx) => {
   const { page } = ctx;
   const shots = {};
-  for (const name of ['sphere_grid', 'normal_plane', 'alpha_quads']) {
+  for (const name of ['sphere_grid', 'normal_plane', 'tangent_planes', 'alpha_quads']) {
     const file = join(ROOT, 'tests/out/reference', name, 'scene.glb');
     let bytes;
     try { bytes = readFileSync(file); } catch { throw new Error(`${file} is missing: run \`cargo test -p kloub-tests --test reference\` first (it writes it)`); }

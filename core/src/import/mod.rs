@@ -17,6 +17,7 @@ mod material;
 mod mesh;
 mod meshopt;
 mod scene;
+pub mod tangents;
 mod tree;
 
 use crate::asset::Asset;
@@ -203,7 +204,22 @@ pub fn import(bytes: &[u8], resolver: &dyn Resolver, options: &ImportOptions) ->
     let skin_count = array(root, "skins", "")?.len();
     let scene::Graph { mut nodes, order, file_weights } = scene::nodes(&mut cx, mesh_count, skin_count)?;
     let (scenes, default_scene) = scene::scenes(&mut cx, &nodes)?;
-    let imported_meshes = mesh::meshes(&mut cx, materials.len())?;
+    let mut imported_meshes = mesh::meshes(&mut cx, materials.len())?;
+    // glTF: a normal-mapped primitive without tangents takes MikkTSpace's.
+    for (m, imported) in imported_meshes.iter_mut().enumerate() {
+        for (k, primitive) in imported.mesh.primitives.iter_mut().enumerate() {
+            let normal_texture =
+                primitive.material.and_then(|i| materials.get(i as usize)).and_then(|m| m.normal_texture);
+            let Some(texture) = normal_texture.filter(|_| primitive.tangents.is_empty()) else { continue };
+            cx.budget.take_items(
+                primitive.indices.len() as u64,
+                TANGENT_BYTES_PER_CORNER,
+                &format_args!("/meshes/{m}/primitives/{k}"),
+                "generating tangents",
+            )?;
+            tangents::generate(primitive, texture.tex_coord);
+        }
+    }
     let mut skins = scene::skins(&mut cx, nodes.len())?;
     repair_inverse_binds(&mut cx, &mut skins, &nodes);
 
@@ -273,6 +289,10 @@ pub fn import(bytes: &[u8], resolver: &dyn Resolver, options: &ImportOptions) ->
     };
     Ok(Imported { asset, warnings: cx.warnings })
 }
+
+/// What generating one corner's tangent takes at most, with the copies of split vertices
+/// ([`tangents::generate`]'s welding table, triangles, edges, spaces and output).
+const TANGENT_BYTES_PER_CORNER: u64 = 256;
 
 /// Refuses documents that are not glTF 2.x.
 fn check_version(root: &Obj) -> Result<(), ImportError> {

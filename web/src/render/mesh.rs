@@ -65,6 +65,21 @@ pub const GEOMETRY_STRIDE: u64 = size_of::<GeometryVertex>() as u64;
 pub const ATTRIBUTE_STRIDE: u64 = size_of::<AttributeVertex>() as u64;
 /// Byte stride of the skin stream: 8 joints (`u16`), 8 weights (`f32`).
 pub const SKIN_STRIDE: u64 = size_of::<SkinVertex>() as u64;
+/// Byte stride of the tangent stream: the tangent (`f32x3`) and the bitangent's sign (`f32`).
+pub const TANGENT_STRIDE: u64 = 16;
+
+/// The tangent stream of `primitive`: its TANGENT attribute where it is used
+/// ([`Primitive::has_tangents`]), each sign made ±1 and non-finite directions zero (the
+/// fragment shader derives a frame there); `None` when unused.
+pub fn tangents(primitive: &Primitive) -> Option<Vec<[f32; 4]>> {
+    primitive.has_tangents().then(|| primitive.tangents.iter().copied().map(sanitize_tangent).collect())
+}
+
+/// A tangent as the shader reads it: a finite direction (else zero) and a sign of ±1.
+pub fn sanitize_tangent([x, y, z, w]: [f32; 4]) -> [f32; 4] {
+    let sign = if w < 0.0 { -1.0 } else { 1.0 };
+    if x.is_finite() && y.is_finite() && z.is_finite() { [x, y, z, sign] } else { [0.0, 0.0, 0.0, sign] }
+}
 
 /// Interleaves positions and normals (zeros where normals are missing) into `out`.
 pub fn interleave(positions: &[[f32; 3]], normals: &[[f32; 3]], out: &mut Vec<GeometryVertex>) {
@@ -86,6 +101,10 @@ pub struct GpuPrimitive {
     pub attributes: wgpu::Buffer,
     /// Joints and weights, for skinned primitives.
     pub skin: Option<wgpu::Buffer>,
+    /// Rest tangents ([`TANGENT_STRIDE`]); zeros where the primitive has none.
+    pub tangents: wgpu::Buffer,
+    /// Whether the tangent stream holds the primitive's tangents.
+    pub has_tangents: bool,
     /// `u32` indices.
     pub indices: wgpu::Buffer,
     /// Number of indices.
@@ -123,6 +142,18 @@ impl GpuPrimitive {
             buffer(device, "kloub skin", bytemuck::cast_slice(&skin), stream_usage(storage))
         });
         let has_normals = primitive.normals.len() == n;
+        let tangent_data = tangents(primitive);
+        let has_tangents = tangent_data.is_some();
+        let tangents = match tangent_data {
+            Some(t) => buffer(device, "kloub tangents", bytemuck::cast_slice(&t), stream_usage(storage)),
+            // Zeros: a new buffer is zero-initialized.
+            None => device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("kloub no tangents"),
+                size: n as u64 * TANGENT_STRIDE,
+                usage: stream_usage(storage),
+                mapped_at_creation: false,
+            }),
+        };
         Some(Self {
             geometry: buffer(device, "kloub geometry", bytemuck::cast_slice(&geometry), stream_usage(storage)),
             attributes: buffer(
@@ -132,6 +163,8 @@ impl GpuPrimitive {
                 wgpu::BufferUsages::VERTEX,
             ),
             skin,
+            tangents,
+            has_tangents,
             indices: buffer(
                 device,
                 "kloub indices",
@@ -154,6 +187,21 @@ impl GpuPrimitive {
         device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("kloub deformed geometry"),
             size: u64::from(self.vertex_count) * GEOMETRY_STRIDE,
+            usage,
+            mapped_at_creation: false,
+        })
+    }
+
+    /// A tangent-stream buffer for tangents deformed every frame (by the CPU, or with `storage`
+    /// also by the compute skinning pass).
+    pub fn deform_tangent_buffer(&self, device: &wgpu::Device, storage: bool) -> wgpu::Buffer {
+        let mut usage = wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST;
+        if storage {
+            usage |= wgpu::BufferUsages::STORAGE;
+        }
+        device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("kloub deformed tangents"),
+            size: u64::from(self.vertex_count) * TANGENT_STRIDE,
             usage,
             mapped_at_creation: false,
         })

@@ -2,8 +2,9 @@
 //! texture, read by the vertex shader (`morphed` in mesh.wgsl) before skinning.
 //!
 //! Layout: a primitive placed at texel `base` with `n` vertices stores target `t`, vertex `v`
-//! at texels `base + (t·n + v)·2` (position delta) and `+ 1` (normal delta, zero when the
-//! target has none), row-major over [`MORPH_WIDTH`] texels. Like the palette it is a texture,
+//! at texels `base + (t·n + v)·s` (position delta), `+ 1` (normal delta, zero when the
+//! target has none) and, with `s = 3` where the primitive's tangents are used, `+ 2` (tangent
+//! delta; else `s = 2`), row-major over [`MORPH_WIDTH`] texels. Like the palette it is a texture,
 //! not a storage buffer, so WebGL2 morphs on the GPU too. Primitives with more than
 //! [`MAX_GPU_TARGETS`] targets, or that would grow the texture past the device's limit, are
 //! left out and morphed on the CPU.
@@ -30,6 +31,15 @@ pub struct MorphSlot {
     pub vertices: u32,
     /// Whether any target carries normal deltas.
     pub normals: bool,
+    /// Whether the targets' tangent deltas are stored (three texels per vertex and target).
+    pub tangents: bool,
+}
+
+impl MorphSlot {
+    /// The draw uniform's `morph.w`: `MORPH_NORMALS` | `MORPH_TANGENTS` (skinning.wgsl).
+    pub fn flags(&self) -> u32 {
+        u32::from(self.normals) | (u32::from(self.tangents) << 1)
+    }
 }
 
 /// The texture and where each (mesh, primitive) went.
@@ -59,7 +69,8 @@ impl MorphTexture {
             if slots.contains_key(&(mesh, primitive)) || p.targets.is_empty() || p.targets.len() > MAX_GPU_TARGETS {
                 continue;
             }
-            let needed = 2 * p.targets.len() as u64 * p.positions.len() as u64;
+            let tangents = p.has_tangents() && p.targets.iter().any(|t| !t.tangents.is_empty());
+            let needed = (2 + u64::from(tangents)) * p.targets.len() as u64 * p.positions.len() as u64;
             if texels.len() as u64 + needed > limit {
                 log::info!(
                     "mesh {mesh} primitive {primitive}: morph targets exceed the GPU texture; morphing on the CPU"
@@ -67,7 +78,7 @@ impl MorphTexture {
                 continue;
             }
             let base = texels.len() as u32;
-            pack(p, &mut texels);
+            pack(p, tangents, &mut texels);
             slots.insert(
                 (mesh, primitive),
                 MorphSlot {
@@ -75,6 +86,7 @@ impl MorphTexture {
                     targets: p.targets.len() as u32,
                     vertices: p.positions.len() as u32,
                     normals: p.targets.iter().any(|t| !t.normals.is_empty()),
+                    tangents,
                 },
             );
         }
@@ -120,13 +132,17 @@ impl MorphTexture {
     }
 }
 
-fn pack(p: &Primitive, texels: &mut Vec<[f32; 4]>) {
+fn pack(p: &Primitive, tangents: bool, texels: &mut Vec<[f32; 4]>) {
     for target in &p.targets {
         for v in 0..p.positions.len() {
             let [x, y, z] = target.positions.get(v).copied().unwrap_or_default();
             let [nx, ny, nz] = target.normals.get(v).copied().unwrap_or_default();
             texels.push([x, y, z, 0.0]);
             texels.push([nx, ny, nz, 0.0]);
+            if tangents {
+                let [tx, ty, tz] = target.tangents.get(v).copied().unwrap_or_default();
+                texels.push([tx, ty, tz, 0.0]);
+            }
         }
     }
 }

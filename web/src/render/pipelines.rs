@@ -13,7 +13,7 @@ pub fn topology(topology: Topology) -> wgpu::PrimitiveTopology {
     }
 }
 
-use super::mesh::{ATTRIBUTE_STRIDE, GEOMETRY_STRIDE, PIVOT_STRIDE, SKIN_STRIDE};
+use super::mesh::{ATTRIBUTE_STRIDE, GEOMETRY_STRIDE, PIVOT_STRIDE, SKIN_STRIDE, TANGENT_STRIDE};
 use super::uniforms::{DrawUniform, FrameUniform, MaterialUniform};
 
 /// Depth buffer format.
@@ -55,20 +55,42 @@ const ATTRIBUTE_ATTRIBUTES: [wgpu::VertexAttribute; 3] =
 const SKIN_ATTRIBUTES: [wgpu::VertexAttribute; 4] =
     wgpu::vertex_attr_array![4 => Uint16x4, 5 => Uint16x4, 6 => Float32x4, 7 => Float32x4];
 const PIVOT_ATTRIBUTES: [wgpu::VertexAttribute; 2] = wgpu::vertex_attr_array![8 => Float32x3, 9 => Uint32];
+const TANGENT_ATTRIBUTES: [wgpu::VertexAttribute; 1] = wgpu::vertex_attr_array![11 => Float32x4];
+
+/// The vertex buffer slot of the tangent stream: after geometry and attributes in a static
+/// draw, after the skin and pivot streams in a skinned one.
+pub fn tangent_slot(vertex: VertexPath) -> u32 {
+    match vertex {
+        VertexPath::Static => 2,
+        VertexPath::Skinned => 4,
+    }
+}
 
 /// Format of the capture targets (the bits of the world position and unit normal).
 pub const CAPTURE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Uint;
 
-/// The vertex buffer layouts of a skinned draw: geometry, attributes, skin, pivots.
-fn skinned_buffers() -> [Option<wgpu::VertexBufferLayout<'static>>; 4] {
-    let layout = |stride, attributes| {
-        Some(wgpu::VertexBufferLayout { array_stride: stride, step_mode: wgpu::VertexStepMode::Vertex, attributes })
-    };
+fn layout(stride: u64, attributes: &'static [wgpu::VertexAttribute]) -> Option<wgpu::VertexBufferLayout<'static>> {
+    Some(wgpu::VertexBufferLayout { array_stride: stride, step_mode: wgpu::VertexStepMode::Vertex, attributes })
+}
+
+/// The vertex buffer layouts of a skinned draw: geometry, attributes, skin, pivots, tangents
+/// ([`tangent_slot`]).
+fn skinned_buffers() -> [Option<wgpu::VertexBufferLayout<'static>>; 5] {
     [
         layout(GEOMETRY_STRIDE, &GEOMETRY_ATTRIBUTES),
         layout(ATTRIBUTE_STRIDE, &ATTRIBUTE_ATTRIBUTES),
         layout(SKIN_STRIDE, &SKIN_ATTRIBUTES),
         layout(PIVOT_STRIDE, &PIVOT_ATTRIBUTES),
+        layout(TANGENT_STRIDE, &TANGENT_ATTRIBUTES),
+    ]
+}
+
+/// The vertex buffer layouts of a static draw: geometry, attributes, tangents.
+fn static_buffers() -> [Option<wgpu::VertexBufferLayout<'static>>; 3] {
+    [
+        layout(GEOMETRY_STRIDE, &GEOMETRY_ATTRIBUTES),
+        layout(ATTRIBUTE_STRIDE, &ATTRIBUTE_ATTRIBUTES),
+        layout(TANGENT_STRIDE, &TANGENT_ATTRIBUTES),
     ]
 }
 
@@ -581,12 +603,13 @@ impl Pipelines {
             return;
         }
         let skinned = skinned_buffers();
+        let fixed = static_buffers();
         // Casters of opaque materials need the position only; masked ones' fragment shader reads
         // what the full vertex shader passes on.
         let position_only = key.caster && !key.mask;
         let (entry, buffers): (_, &[_]) = match (key.vertex, position_only) {
-            (VertexPath::Static, false) => ("vs_static", &skinned[..2]),
-            (VertexPath::Static, true) => ("vs_caster_static", &skinned[..2]),
+            (VertexPath::Static, false) => ("vs_static", &fixed[..]),
+            (VertexPath::Static, true) => ("vs_caster_static", &fixed[..]),
             (VertexPath::Skinned, false) => ("vs_skinned", &skinned[..]),
             (VertexPath::Skinned, true) => ("vs_caster_skinned", &skinned[..]),
         };
@@ -697,7 +720,7 @@ impl Pipelines {
 /// Whether `device` can run the compute skinning pass (WebGPU and native; not WebGL2).
 pub fn supports_compute(device: &wgpu::Device) -> bool {
     let limits = device.limits();
-    limits.max_storage_buffers_per_shader_stage >= 4
+    limits.max_storage_buffers_per_shader_stage >= 6
         && limits.max_compute_invocations_per_workgroup >= 64
         && limits.max_compute_workgroup_size_x >= 64
         && limits.max_compute_workgroups_per_dimension > 0
@@ -758,7 +781,14 @@ impl ComputeKit {
         };
         let io = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("kloub compute streams"),
-            entries: &[storage(0, true), storage(1, true), storage(2, true), storage(3, false)],
+            entries: &[
+                storage(0, true),
+                storage(1, true),
+                storage(2, true),
+                storage(3, false),
+                storage(4, true),
+                storage(5, false),
+            ],
         });
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("kloub compute skinning"),

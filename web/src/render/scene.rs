@@ -10,12 +10,13 @@ use super::camera::Camera;
 use kloub_core::job::sjb::SjbPlan;
 
 use super::environment::{EnvironmentName, GpuEnvironment, HdrImage, fallback_environment};
-use super::mesh::{GeometryVertex, GpuPrimitive, interleave, pivot_buffer};
+use super::mesh::{GeometryVertex, GpuPrimitive, TANGENT_STRIDE, interleave, pivot_buffer, sanitize_tangent};
 use super::morph::{MorphSlot, MorphTexture};
 use super::palette::PaletteTexture;
 use super::pipelines::MATERIAL_TEXTURES;
 use super::pipelines::{
-    ComputeKit, DEPTH_FORMAT, Layouts, PipelineKey, Pipelines, SKIN_FROM_DRAW, SKIN_WORKGROUP, VertexPath, topology,
+    ComputeKit, DEPTH_FORMAT, Layouts, PipelineKey, Pipelines, SKIN_FROM_DRAW, SKIN_WORKGROUP, VertexPath,
+    tangent_slot, topology,
 };
 use super::texture::{COLOR_FORMAT, SamplerKey, upload_decoded, upload_image};
 use super::uniforms::EnvironmentChoice;
@@ -201,6 +202,9 @@ struct DrawItem {
     /// Per copy: the geometry stream rewritten each frame when deformed on the CPU (created
     /// on first use).
     deformed: Vec<Option<wgpu::Buffer>>,
+    /// Per copy: the tangent stream beside `deformed` (a placeholder of one tangent for the
+    /// compute pass where the primitive has no tangents; the draw then binds its zeros).
+    deformed_tangents: Vec<Option<wgpu::Buffer>>,
     /// Set each frame.
     key: Option<PipelineKey>,
     /// Set each frame: vertices come from `deformed`, written by the CPU.
@@ -288,6 +292,7 @@ pub fn release_unused_uploads(lost: Option<u32>) {
 struct Scratch {
     positions: Vec<[f32; 3]>,
     normals: Vec<[f32; 3]>,
+    tangents: Vec<[f32; 4]>,
     geometry: Vec<GeometryVertex>,
     draw_bytes: Vec<u8>,
     blend_order: Vec<(f32, usize)>,
@@ -767,6 +772,7 @@ impl SceneRenderer {
                     double_sided: material.is_some_and(|m| m.double_sided),
                     morphed: !primitive.targets.is_empty(),
                     deformed: Vec::new(),
+                    deformed_tangents: Vec::new(),
                     key: None,
                     on_cpu: false,
                     on_compute: false,
@@ -1521,6 +1527,9 @@ impl GpuScene {
             if draw.deformed.len() < instances.len() {
                 draw.deformed.resize_with(instances.len(), || None);
             }
+            if draw.deformed_tangents.len() < instances.len() {
+                draw.deformed_tangents.resize_with(instances.len(), || None);
+            }
             if draw.compute_groups.len() < instances.len() {
                 draw.compute_groups.resize_with(instances.len(), || None);
             }
@@ -1551,7 +1560,12 @@ impl GpuScene {
                             scratch.positions.clone_from(positions);
                             scratch.normals.clone_from(normals);
                             scratch.sculpt_written.push((draw.node, draw.primitive));
+                            // A sculpted shape has no tangents of its own: zeros, the fragment
+                            // shader derives a frame.
+                            scratch.tangents.clear();
+                            scratch.tangents.resize(positions.len(), [0.0; 4]);
                         } else {
+                            let failed = |e| format!("deforming node {} primitive {}: {e}", draw.node, draw.primitive);
                             instance
                                 .deform_primitive(
                                     asset,
@@ -1560,9 +1574,19 @@ impl GpuScene {
                                     &mut scratch.positions,
                                     &mut scratch.normals,
                                 )
-                                .map_err(|e| {
-                                    format!("deforming node {} primitive {}: {e}", draw.node, draw.primitive)
-                                })?;
+                                .map_err(failed)?;
+                            if gpu.has_tangents {
+                                instance
+                                    .deform_tangents(
+                                        asset,
+                                        draw.node,
+                                        draw.primitive,
+                                        &scratch.positions,
+                                        &mut scratch.tangents,
+                                    )
+                                    .map_err(failed)?;
+                                scratch.tangents.iter_mut().for_each(|t| *t = sanitize_tangent(*t));
+                            }
                         }
                         scratch.cpu_skin += skin_started.elapsed();
                         if scratch.positions.len() != gpu.vertex_count as usize {
@@ -1575,6 +1599,11 @@ impl GpuScene {
                         let storage = kit.is_some();
                         let buffer = draw.deformed[c].get_or_insert_with(|| gpu.deform_buffer(device, storage));
                         queue.write_buffer(buffer, 0, bytemuck::cast_slice(&scratch.geometry));
+                        if gpu.has_tangents && scratch.tangents.len() == scratch.positions.len() {
+                            let tangents = draw.deformed_tangents[c]
+                                .get_or_insert_with(|| gpu.deform_tangent_buffer(device, storage));
+                            queue.write_buffer(tangents, 0, bytemuck::cast_slice(&scratch.tangents));
+                        }
                         scratch.normals.len() == scratch.positions.len()
                     };
                     (DrawUniform::new(place, 0, has_normals), VertexPath::Static)
@@ -1587,6 +1616,18 @@ impl GpuScene {
                     scratch.draw_bytes[start..start + size_of::<DrawUniform>()]
                         .copy_from_slice(bytemuck::bytes_of(&skinning));
                     let output = draw.deformed[c].get_or_insert_with(|| gpu.deform_buffer(device, true));
+                    let tangents_out = draw.deformed_tangents[c].get_or_insert_with(|| {
+                        if gpu.has_tangents {
+                            gpu.deform_tangent_buffer(device, true)
+                        } else {
+                            device.create_buffer(&wgpu::BufferDescriptor {
+                                label: Some("kloub no deformed tangents"),
+                                size: TANGENT_STRIDE,
+                                usage: wgpu::BufferUsages::STORAGE,
+                                mapped_at_creation: false,
+                            })
+                        }
+                    });
                     if draw.compute_groups[c].is_none() {
                         let (Some(skin_stream), Some(pivots)) = (&gpu.skin, &draw.pivots) else {
                             return Err("a compute-skinned draw lacks its skin streams".into());
@@ -1599,6 +1640,8 @@ impl GpuScene {
                                 wgpu::BindGroupEntry { binding: 1, resource: skin_stream.as_entire_binding() },
                                 wgpu::BindGroupEntry { binding: 2, resource: pivots.as_entire_binding() },
                                 wgpu::BindGroupEntry { binding: 3, resource: output.as_entire_binding() },
+                                wgpu::BindGroupEntry { binding: 4, resource: gpu.tangents.as_entire_binding() },
+                                wgpu::BindGroupEntry { binding: 5, resource: tangents_out.as_entire_binding() },
                             ],
                         }));
                     }
@@ -1718,13 +1761,20 @@ impl GpuScene {
                 Some(&gpu.geometry)
             };
             let Some(geometry) = geometry else { continue };
+            let tangents = if (draw.on_cpu || draw.on_compute) && gpu.has_tangents {
+                draw.deformed_tangents.get(c).and_then(Option::as_ref)
+            } else {
+                Some(&gpu.tangents)
+            };
+            let (Some(tangents), Some(vertex)) = (tangents, draw.key.map(|k| k.vertex)) else { continue };
             pass.set_pipeline(pipeline);
             pass.set_bind_group(1, material, &[]);
             // `i * stride` is within the draw buffer sized `draws.len() * stride`.
             pass.set_bind_group(2, &self.draw_bind_group, &[(slot as u64 * stride) as u32]);
             pass.set_vertex_buffer(0, geometry.slice(..));
             pass.set_vertex_buffer(1, gpu.attributes.slice(..));
-            if draw.key.is_some_and(|k| k.vertex == VertexPath::Skinned) {
+            pass.set_vertex_buffer(tangent_slot(vertex), tangents.slice(..));
+            if vertex == VertexPath::Skinned {
                 let (Some(skin), Some(pivots)) = (&gpu.skin, &draw.pivots) else {
                     continue;
                 };

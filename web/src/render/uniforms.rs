@@ -550,7 +550,10 @@ impl DrawUniform {
     /// vertices carry normals (no morphing, linear blend skinning).
     pub fn new(model: Mat4, joint_base: u32, has_normals: bool) -> Self {
         let normal = model.inverse().transpose();
-        let normal = if normal.is_finite() { normal } else { Mat4::IDENTITY };
+        let mut normal = if normal.is_finite() { normal } else { Mat4::IDENTITY };
+        // The fourth column is unused by normals (w = 0): it carries the sign a mirroring model
+        // matrix gives the bitangent (mesh.wgsl's `world_tangent`).
+        normal.w_axis = glam::Vec4::new(0.0, 0.0, 0.0, if model.determinant() < 0.0 { -1.0 } else { 1.0 });
         Self {
             model: model.to_cols_array_2d(),
             normal_matrix: normal.to_cols_array_2d(),
@@ -569,7 +572,7 @@ impl DrawUniform {
 
     /// Applies the morph targets in `slot` with `weights` (extra weights are ignored).
     pub fn with_morph(mut self, slot: MorphSlot, weights: &[f32]) -> Self {
-        self.morph = [slot.base, slot.targets, slot.vertices, u32::from(slot.normals)];
+        self.morph = [slot.base, slot.targets, slot.vertices, slot.flags()];
         for (i, &w) in weights.iter().take(slot.targets as usize).take(64).enumerate() {
             self.weights[i / 4][i % 4] = w;
         }

@@ -8,7 +8,7 @@ use kloub_core::{Asset, Instance};
 
 use super::super::camera::Camera;
 use super::super::offscreen::{read_buffer_bytes, read_texture_bytes};
-use super::super::pipelines::CAPTURE_FORMAT;
+use super::super::pipelines::{CAPTURE_FORMAT, VertexPath, tangent_slot};
 use super::super::uniforms::DrawUniform;
 use super::{SceneRenderer, SkinningPath};
 
@@ -201,6 +201,7 @@ impl SceneRenderer {
                 pass.set_vertex_buffer(1, gpu.attributes.slice(..));
                 pass.set_vertex_buffer(2, skin.slice(..));
                 pass.set_vertex_buffer(3, pivots.slice(..));
+                pass.set_vertex_buffer(tangent_slot(VertexPath::Skinned), gpu.tangents.slice(..));
                 pass.draw(0..count, 0..1);
             }
             queue.submit([encoder.finish()]);
