@@ -107,6 +107,9 @@ struct VsOut {
 /// `v`'s tangent in world space by the draw's model matrix, with the bitangent's sign from
 /// `g` (flipped by a mirroring model matrix: `normal_matrix[3].w`, DrawUniform::new).
 fn world_tangent(v: Vertex, g: GeometryIn) -> vec4<f32> {
+    if TANGENTS == 0u {
+        return vec4<f32>(0.0);
+    }
     return vec4<f32>((draw.model * vec4<f32>(v.tangent, 0.0)).xyz, g.tangent.w * draw.normal_matrix[3].w);
 }
 

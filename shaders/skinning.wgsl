@@ -47,6 +47,9 @@ const TEXELS_PER_JOINT: u32 = 8u;
 const SKIN_FROM_DRAW: u32 = 4u;
 override SKIN_METHOD: u32 = 4u;
 override HEATMAP: u32 = 1u;
+// Whether the draw's tangent stream is read (a normal-mapped primitive with tangents): without,
+// the pipeline compiles no tangent fetch or transform (0, the tangent stays zero).
+override TANGENTS: u32 = 1u;
 
 /// The draw's skinning method: the pipeline's when it was built for one, else the draw's own.
 fn draw_method() -> u32 {
@@ -102,10 +105,15 @@ fn texel_at(t: texture_2d<f32>, i: u32) -> vec4<f32> {
 
 /// The bind-pose vertex plus the draw's weighted morph targets (glTF: before skinning).
 fn morphed(g: GeometryIn) -> Vertex {
-    var v = Vertex(g.position, g.normal, g.tangent.xyz);
+    var v = Vertex(g.position, g.normal, vec3<f32>(0.0));
+    if TANGENTS != 0u {
+        v.tangent = g.tangent.xyz;
+    }
     let count = draw.morph.y;
-    let tangents = (draw.morph.w & MORPH_TANGENTS) != 0u;
-    let stride = select(2u, 3u, tangents);
+    // The texture's layout follows the primitive; whether the deltas are read, the pipeline.
+    let stored = (draw.morph.w & MORPH_TANGENTS) != 0u;
+    let tangents = TANGENTS != 0u && stored;
+    let stride = select(2u, 3u, stored);
     for (var t = 0u; t < count; t += 1u) {
         let w = draw.weights[t / 4u][t % 4u];
         if w == 0.0 {

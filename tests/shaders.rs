@@ -40,7 +40,8 @@ fn translate_for_webgl2(module: &naga::Module, info: &ModuleInfo) -> Result<(), 
         ..Default::default()
     };
     // Every specialisation the renderer builds: the overrides' defaults, each skinning method
-    // with and without the heatmap (`PipelineKey` in web/src/render/pipelines.rs), and the
+    // with and without the heatmap and the tangent stream (`PipelineKey` in
+    // web/src/render/pipelines.rs), and the
     // fragment shaders encoding sRGB themselves (`SRGB_ENCODE`, the WebGL2 canvas).
     let has = |name: &str| module.overrides.iter().any(|(_, o)| o.name.as_deref() == Some(name));
     let specialised = has("SKIN_METHOD");
@@ -53,10 +54,13 @@ fn translate_for_webgl2(module: &naga::Module, info: &ModuleInfo) -> Result<(), 
     if specialised {
         for method in 0..5 {
             for heatmap in 0..2 {
-                let mut constants = naga::back::PipelineConstants::default();
-                constants.insert("SKIN_METHOD".to_owned(), f64::from(method));
-                constants.insert("HEATMAP".to_owned(), f64::from(heatmap));
-                variants.push(constants);
+                for tangents in 0..2 {
+                    let mut constants = naga::back::PipelineConstants::default();
+                    constants.insert("SKIN_METHOD".to_owned(), f64::from(method));
+                    constants.insert("HEATMAP".to_owned(), f64::from(heatmap));
+                    constants.insert("TANGENTS".to_owned(), f64::from(tangents));
+                    variants.push(constants);
+                }
             }
         }
     }

@@ -133,6 +133,7 @@ fn a_mirrored_seam_splits_its_vertices_and_keeps_their_attributes() {
     assert!(generate(&mut strip, 0));
     // The two shared middle vertices get a copy each for the mirrored half.
     assert_eq!(strip.positions.len(), 8);
+    assert_eq!(strip.copied_from, [1, 4]);
     assert_eq!(strip.vertex_count, 8);
     for stream in [strip.normals.len(), strip.uv0.len(), strip.colors.len(), strip.tangents.len()] {
         assert_eq!(stream, 8);

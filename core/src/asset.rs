@@ -182,8 +182,13 @@ pub struct Primitive {
     pub positions: Vec<[f32; 3]>,
     /// NORMAL; empty when absent (the renderer then uses flat normals).
     pub normals: Vec<[f32; 3]>,
-    /// TANGENT (xyz + handedness w); empty when absent.
+    /// TANGENT (xyz + handedness w); empty when absent. Generated (MikkTSpace) on import for a
+    /// normal-mapped primitive without them.
     pub tangents: Vec<[f32; 4]>,
+    /// Vertices the importer added to the file's, each a copy of this vertex of the file's (the
+    /// last `copied_from.len()` vertices): where generated tangents split a vertex. Per-vertex
+    /// data in sidecars is numbered without them.
+    pub copied_from: Vec<u32>,
     /// TEXCOORD_0; empty when absent.
     pub uv0: Vec<[f32; 2]>,
     /// TEXCOORD_1; empty when absent (textures whose `texCoord` is 1 read it).

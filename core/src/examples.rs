@@ -68,7 +68,8 @@ pub enum ExampleShape {
         /// What it holds.
         space: ExampleSpace,
     },
-    /// Offsets in the reference pose per vertex of the mesh (its primitives in order).
+    /// Offsets in the reference pose per vertex of the mesh (its primitives in order, the
+    /// importer's copies included; a sidecar holds them in the file's numbering).
     Inline {
         /// Position offsets.
         positions: Vec<[f32; 3]>,
@@ -78,8 +79,45 @@ pub enum ExampleShape {
 }
 
 /// The vertex count of every primitive of `mesh` together.
-fn mesh_vertices(asset: &Asset, mesh: u32) -> usize {
-    asset.meshes.get(mesh as usize).map_or(0, |m| m.primitives.iter().map(|p| p.positions.len()).sum())
+/// Vertices of `mesh` as the file numbers them: its primitives' in turn, without the copies the
+/// importer added ([`Primitive::copied_from`](crate::asset::Primitive::copied_from)).
+fn file_vertices(asset: &Asset, mesh: u32) -> usize {
+    asset
+        .meshes
+        .get(mesh as usize)
+        .map_or(0, |m| m.primitives.iter().map(|p| p.positions.len().saturating_sub(p.copied_from.len())).sum())
+}
+
+/// Per-vertex data of `mesh` in the file's numbering ([`file_vertices`] long) in the mesh's:
+/// each primitive's copies take their source's value.
+fn from_file_numbering(asset: &Asset, mesh: u32, file: Vec<[f32; 3]>) -> Vec<[f32; 3]> {
+    let Some(m) = asset.meshes.get(mesh as usize) else { return file };
+    if m.primitives.iter().all(|p| p.copied_from.is_empty()) {
+        return file;
+    }
+    let mut out = Vec::with_capacity(m.primitives.iter().map(|p| p.positions.len()).sum());
+    let mut start = 0;
+    for p in &m.primitives {
+        let own = p.positions.len().saturating_sub(p.copied_from.len());
+        let slice = file.get(start..start + own).unwrap_or(&[]);
+        out.extend_from_slice(slice);
+        out.extend(p.copied_from.iter().map(|&v| slice.get(v as usize).copied().unwrap_or_default()));
+        start += own;
+    }
+    out
+}
+
+/// The inverse of [`from_file_numbering`]: the copies left out.
+fn to_file_numbering(asset: &Asset, mesh: u32, values: &[[f32; 3]]) -> Vec<[f32; 3]> {
+    let Some(m) = asset.meshes.get(mesh as usize) else { return values.to_vec() };
+    let mut out = Vec::with_capacity(values.len());
+    let mut start = 0;
+    for p in &m.primitives {
+        let own = p.positions.len().saturating_sub(p.copied_from.len());
+        out.extend_from_slice(values.get(start..start + own).unwrap_or(&[]));
+        start += p.positions.len();
+    }
+    out
 }
 
 impl Examples {
@@ -185,9 +223,10 @@ impl Examples {
                     entry.insert("space".into(), json!(space));
                 }
                 ExampleShape::Inline { positions, normals } => {
-                    entry.insert("offsets".into(), json!(encode(positions)));
+                    // In the file's numbering: a sidecar does not depend on how the importer split.
+                    entry.insert("offsets".into(), json!(encode(&to_file_numbering(asset, e.mesh, positions))));
                     if !normals.is_empty() {
-                        entry.insert("normals".into(), json!(encode(normals)));
+                        entry.insert("normals".into(), json!(encode(&to_file_numbering(asset, e.mesh, normals))));
                     }
                 }
             }
@@ -500,10 +539,10 @@ fn shape(asset: &Asset, mesh: u32, example: &Map<String, Value>, ptr: &str) -> R
             Ok(ExampleShape::Target { index: index as u32, space })
         }
         (None, Some(offsets)) => {
-            let n = mesh_vertices(asset, mesh);
-            let positions = decode(offsets, n, &format!("{ptr}/offsets"))?;
+            let n = file_vertices(asset, mesh);
+            let positions = from_file_numbering(asset, mesh, decode(offsets, n, &format!("{ptr}/offsets"))?);
             let normals = match example.get("normals") {
-                Some(v) => decode(v, n, &format!("{ptr}/normals"))?,
+                Some(v) => from_file_numbering(asset, mesh, decode(v, n, &format!("{ptr}/normals"))?),
                 None => Vec::new(),
             };
             Ok(ExampleShape::Inline { positions, normals })
@@ -692,6 +731,46 @@ mod tests {
         let json = serde_json::to_string(&examples.to_json(&asset)).expect("JSON");
         let back = Examples::from_json(&asset, &json).expect("reads back");
         assert_eq!(back, examples);
+    }
+
+    /// A mesh whose vertices the importer split (generated tangents) reads and writes inline
+    /// shapes in the file's numbering: the copies take their source's offsets.
+    #[cfg_attr(not(target_arch = "wasm32"), test)]
+    #[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+    fn inline_examples_are_numbered_as_the_file_is() {
+        let mut asset = model();
+        {
+            let p = &mut asset.meshes[0].primitives[0];
+            for source in [3u32, 7] {
+                let v = source as usize;
+                p.positions.push(p.positions[v]);
+                p.normals.push(p.normals[v]);
+                p.joints.push(p.joints[v]);
+                p.weights.push(p.weights[v]);
+                for t in &mut p.targets {
+                    t.positions.push(t.positions[v]);
+                    if !t.normals.is_empty() {
+                        t.normals.push(t.normals[v]);
+                    }
+                }
+                p.copied_from.push(source);
+            }
+            p.vertex_count += 2;
+        }
+        let file: Vec<[f32; 3]> = (0..200).map(|v| [v as f32, 0.0, 0.0]).collect();
+        let json = sidecar(&format!(r#""Lower": [{{"rotation": {BENT}, "offsets": "{}"}}]"#, super::encode(&file)));
+        let examples = Examples::from_json(&asset, &json).expect("200 offsets: the file's vertices");
+        let ExampleShape::Inline { positions, .. } = &examples.poses[0].shape else { panic!("inline") };
+        assert_eq!(positions.len(), 202);
+        assert_eq!(&positions[..200], &file[..]);
+        assert_eq!(positions[200..], [[3.0, 0.0, 0.0], [7.0, 0.0, 0.0]]);
+        let written = examples.to_json(&asset);
+        let offsets = &written["examples"]["Lower"][0]["offsets"];
+        assert_eq!(offsets.as_str(), Some(super::encode(&file).as_str()), "written back as read");
+        // 202 offsets are not the file's count.
+        let json =
+            sidecar(&format!(r#""Lower": [{{"rotation": {BENT}, "offsets": "{}"}}]"#, super::encode(&positions[..])));
+        assert!(Examples::from_json(&asset, &json).is_err());
     }
 
     #[cfg_attr(not(target_arch = "wasm32"), test)]

@@ -194,6 +194,7 @@ fn parse_primitive(
         positions,
         normals,
         tangents,
+        copied_from: Vec::new(),
         uv0,
         uv1,
         colors,

@@ -211,13 +211,22 @@ pub fn import(bytes: &[u8], resolver: &dyn Resolver, options: &ImportOptions) ->
             let normal_texture =
                 primitive.material.and_then(|i| materials.get(i as usize)).and_then(|m| m.normal_texture);
             let Some(texture) = normal_texture.filter(|_| primitive.tangents.is_empty()) else { continue };
-            cx.budget.take_items(
-                primitive.indices.len() as u64,
-                TANGENT_BYTES_PER_CORNER,
-                &format_args!("/meshes/{m}/primitives/{k}"),
-                "generating tangents",
-            )?;
-            tangents::generate(primitive, texture.tex_coord);
+            let ptr = format!("/meshes/{m}/primitives/{k}");
+            // The scratch is freed once the tangents are made: checked against the budget, not taken.
+            let scratch = (primitive.indices.len() as u64).checked_mul(tangents::SCRATCH_BYTES_PER_INDEX);
+            if scratch.is_none_or(|b| b > cx.budget.left()) {
+                return Err(ImportError::new(
+                    ptr,
+                    format!(
+                        "generating tangents for {} indices needs more than the {} bytes left of the import budget",
+                        primitive.indices.len(),
+                        cx.budget.left()
+                    ),
+                ));
+            }
+            let Some(split) = tangents::plan(primitive, texture.tex_coord) else { continue };
+            cx.budget.take(Some(split.kept_bytes(primitive)), &ptr, "the generated tangents")?;
+            split.apply(primitive);
         }
     }
     let mut skins = scene::skins(&mut cx, nodes.len())?;
@@ -289,10 +298,6 @@ pub fn import(bytes: &[u8], resolver: &dyn Resolver, options: &ImportOptions) ->
     };
     Ok(Imported { asset, warnings: cx.warnings })
 }
-
-/// What generating one corner's tangent takes at most, with the copies of split vertices
-/// ([`tangents::generate`]'s welding table, triangles, edges, spaces and output).
-const TANGENT_BYTES_PER_CORNER: u64 = 256;
 
 /// Refuses documents that are not glTF 2.x.
 fn check_version(root: &Obj) -> Result<(), ImportError> {

@@ -262,6 +262,23 @@ pub fn mikktspace(positions: &[[f32; 3]], normals: &[[f32; 3]], uvs: &[[f32; 2]]
         subgroups.clear();
         // Every face of a group has its corner on the group's vertex: one normal.
         let n = normal(group.vertex);
+        if group.faces.len() > LARGEST_COMPARED_GROUP {
+            // The threshold (180°) parts only exactly opposite tangents; a group this large (a fan
+            // of hundreds of triangles on one vertex, or a hostile file) is one subgroup, not
+            // compared pair by pair.
+            members.clear();
+            members.extend_from_slice(&group.faces);
+            members.sort_unstable();
+            let space = eval_space(&members, &tris, group.vertex, &position, &normal);
+            for &f in &group.faces {
+                let tri = &tris[f as usize];
+                let Some(k) = tri.groups.iter().position(|&x| x == g as u32) else { continue };
+                if let Some(slot) = spaces.get_mut(tri.original as usize * 3 + k) {
+                    *slot = Space { orient: group.orient, ..space };
+                }
+            }
+            continue;
+        }
         projected.clear();
         projected
             .extend(group.faces.iter().map(|&t| (project(n, tris[t as usize].os), project(n, tris[t as usize].ot))));
@@ -270,18 +287,11 @@ pub fn mikktspace(positions: &[[f32; 3]], normals: &[[f32; 3]], uvs: &[[f32; 2]]
             let Some(k) = tri.groups.iter().position(|&x| x == g as u32) else { continue };
             let (os, ot) = projected[a];
             members.clear();
-            if group.faces.len() > LARGEST_COMPARED_GROUP {
-                // The threshold (180°) parts only exactly opposite tangents; a group this large
-                // (a fan of hundreds of triangles on one vertex, or a hostile file) is taken whole
-                // rather than compared pair by pair.
-                members.extend_from_slice(&group.faces);
-            } else {
-                for (b, &t) in group.faces.iter().enumerate() {
-                    let (os2, ot2) = projected[b];
-                    let any = (tri.flags | tris[t as usize].flags) & GROUP_WITH_ANY != 0;
-                    if any || f == t || (os.dot(os2) > threshold && ot.dot(ot2) > threshold) {
-                        members.push(t);
-                    }
+            for (b, &t) in group.faces.iter().enumerate() {
+                let (os2, ot2) = projected[b];
+                let any = (tri.flags | tris[t as usize].flags) & GROUP_WITH_ANY != 0;
+                if any || f == t || (os.dot(os2) > threshold && ot.dot(ot2) > threshold) {
+                    members.push(t);
                 }
             }
             members.sort_unstable();
@@ -368,25 +378,93 @@ fn eval_space(
     Space { os: normalized(os), orient: false }
 }
 
-/// Gives `primitive` MikkTSpace tangents from its positions, normals and texture coordinate
-/// set `tex_coord` (the normal texture's), splitting each vertex whose corners got different
-/// tangents (its copies carry every other attribute and morph delta unchanged). Returns whether
-/// it did: a primitive that is not a triangle list, or lacks normals or that set, is left as
-/// it is. Allocates O(indices), which the importer charges to its budget first.
-pub fn generate(primitive: &mut Primitive, tex_coord: u32) -> bool {
+/// Bytes of scratch memory [`plan`] may take per index of a primitive at most (the welding
+/// table, triangles, edges, groups, spaces and the output), freed when it returns.
+pub const SCRATCH_BYTES_PER_INDEX: u64 = 256;
+
+/// MikkTSpace's tangents for a primitive, and the vertices to split ([`plan`]).
+#[derive(Debug)]
+pub struct Split {
+    /// The new index list (copies past the primitive's vertices).
+    indices: Vec<u32>,
+    /// A tangent per vertex, copies included (glTF's convention).
+    tangents: Vec<[f32; 4]>,
+    /// The vertex each copy is made from.
+    sources: Vec<u32>,
+}
+
+impl Split {
+    /// The vertices this split adds.
+    pub fn copies(&self) -> usize {
+        self.sources.len()
+    }
+
+    /// Bytes the primitive keeps once [`Split::apply`]'d: the tangents and the copies of every
+    /// vertex stream and morph delta.
+    pub fn kept_bytes(&self, primitive: &Primitive) -> u64 {
+        let targets = primitive
+            .targets
+            .iter()
+            .map(|t| !t.positions.is_empty() as u64 + !t.normals.is_empty() as u64 + !t.tangents.is_empty() as u64)
+            .sum::<u64>();
+        let per_copy = 12 + 12 + 8 + 8 + 16 + 16 + 32 + 16 + 12 * targets;
+        (self.tangents.len() as u64 * 16).saturating_add((self.sources.len() as u64).saturating_mul(per_copy))
+    }
+
+    /// Gives `primitive` the tangents and the copies (each carrying every attribute and morph
+    /// delta of its source), and records where the copies come from
+    /// ([`Primitive::copied_from`], which sidecars' per-vertex data is numbered without).
+    pub fn apply(self, primitive: &mut Primitive) {
+        let Split { indices, tangents, sources } = self;
+        fn extend<T: Copy>(stream: &mut Vec<T>, sources: &[u32]) {
+            if stream.is_empty() {
+                return;
+            }
+            let copies: Vec<T> = sources.iter().filter_map(|&s| stream.get(s as usize).copied()).collect();
+            stream.extend(copies);
+        }
+        primitive.indices = indices;
+        primitive.tangents = tangents;
+        if sources.is_empty() {
+            return;
+        }
+        extend(&mut primitive.positions, &sources);
+        extend(&mut primitive.normals, &sources);
+        extend(&mut primitive.uv0, &sources);
+        extend(&mut primitive.uv1, &sources);
+        extend(&mut primitive.colors, &sources);
+        extend(&mut primitive.joints, &sources);
+        extend(&mut primitive.weights, &sources);
+        for target in &mut primitive.targets {
+            extend(&mut target.positions, &sources);
+            extend(&mut target.normals, &sources);
+            extend(&mut target.tangents, &sources);
+        }
+        primitive.vertex_count = primitive.positions.len() as u32;
+        primitive.copied_from.extend(sources);
+    }
+}
+
+/// MikkTSpace's tangents for `primitive` from its positions, normals and texture coordinate
+/// set `tex_coord` (the normal texture's), with each vertex whose corners got different
+/// tangents split: the first tangent a vertex gets keeps it, each other one makes a copy.
+/// `None` for a primitive that is not a triangle list, or lacks normals or that set. Takes up
+/// to [`SCRATCH_BYTES_PER_INDEX`] per index while it runs; the importer checks that against
+/// its budget first, and charges [`Split::kept_bytes`] before applying.
+pub fn plan(primitive: &Primitive, tex_coord: u32) -> Option<Split> {
     let n = primitive.positions.len();
     let uvs = if tex_coord == 1 { &primitive.uv1 } else { &primitive.uv0 };
     if primitive.topology != Topology::Triangles || primitive.normals.len() != n || uvs.len() != n || n == 0 {
-        return false;
+        return None;
     }
     let corner_tangents = mikktspace(&primitive.positions, &primitive.normals, uvs, &primitive.indices);
-    // The first tangent each vertex gets keeps the vertex; each other one makes a copy.
+    let mut indices = primitive.indices.clone();
     let mut tangents: Vec<Option<[f32; 4]>> = vec![None; n];
     let mut copies: HashMap<(u32, [u32; 4]), u32> = HashMap::new();
     let mut sources: Vec<u32> = Vec::new();
     let mut extra: Vec<[f32; 4]> = Vec::new();
-    let whole = primitive.indices.len() / 3 * 3;
-    for (index, tangent) in primitive.indices[..whole].iter_mut().zip(corner_tangents) {
+    let whole = indices.len() / 3 * 3;
+    for (index, tangent) in indices[..whole].iter_mut().zip(corner_tangents) {
         let v = *index as usize;
         let Some(slot) = tangents.get_mut(v) else { continue };
         match slot {
@@ -409,30 +487,19 @@ pub fn generate(primitive: &mut Primitive, tex_coord: u32) -> bool {
         t[3] = -t[3];
     }
     // Vertices no triangle uses get a tangent along +X.
-    primitive.tangents = tangents.into_iter().map(|t| t.unwrap_or([1.0, 0.0, 0.0, 1.0])).chain(extra).collect();
-    if !sources.is_empty() {
-        fn extend<T: Copy>(stream: &mut Vec<T>, sources: &[u32]) {
-            if stream.is_empty() {
-                return;
-            }
-            let copies: Vec<T> = sources.iter().filter_map(|&s| stream.get(s as usize).copied()).collect();
-            stream.extend(copies);
+    let tangents = tangents.into_iter().map(|t| t.unwrap_or([1.0, 0.0, 0.0, 1.0])).chain(extra).collect();
+    Some(Split { indices, tangents, sources })
+}
+
+/// [`plan`] and [`Split::apply`] without a budget; whether the primitive took tangents.
+pub fn generate(primitive: &mut Primitive, tex_coord: u32) -> bool {
+    match plan(primitive, tex_coord) {
+        Some(split) => {
+            split.apply(primitive);
+            true
         }
-        extend(&mut primitive.positions, &sources);
-        extend(&mut primitive.normals, &sources);
-        extend(&mut primitive.uv0, &sources);
-        extend(&mut primitive.uv1, &sources);
-        extend(&mut primitive.colors, &sources);
-        extend(&mut primitive.joints, &sources);
-        extend(&mut primitive.weights, &sources);
-        for target in &mut primitive.targets {
-            extend(&mut target.positions, &sources);
-            extend(&mut target.normals, &sources);
-            extend(&mut target.tangents, &sources);
-        }
-        primitive.vertex_count = primitive.positions.len() as u32;
+        None => false,
     }
-    true
 }
 
 #[cfg(test)]

@@ -251,6 +251,9 @@ pub struct PipelineKey {
     /// A caster of an alpha-masked material: it discards where the material does (always
     /// false in colour pipelines: the material's flags say it there).
     pub mask: bool,
+    /// The tangent stream compiled in (`TANGENTS` in skinning.wgsl): a normal-mapped primitive
+    /// with tangents. Without, the vertex shader neither fetches nor transforms them.
+    pub tangents: bool,
 }
 
 impl PipelineKey {
@@ -263,6 +266,7 @@ impl PipelineKey {
             heatmap: false,
             caster: true,
             mask,
+            tangents: false,
             ..self
         })
     }
@@ -615,12 +619,14 @@ impl Pipelines {
         };
         // Skinned pipelines are specialised: only the method and the heatmap they draw with are
         // compiled (`SKIN_METHOD`, `HEATMAP` in skinning.wgsl).
+        let tangents = ("TANGENTS", f64::from(u8::from(key.tangents)));
         let constants = [
             ("SKIN_METHOD", f64::from(key.skinning.min(SKIN_FROM_DRAW))),
             ("HEATMAP", f64::from(u8::from(key.heatmap))),
+            tangents,
         ];
         let compilation_options = match key.vertex {
-            VertexPath::Static => wgpu::PipelineCompilationOptions::default(),
+            VertexPath::Static => wgpu::PipelineCompilationOptions { constants: &[tangents], ..Default::default() },
             VertexPath::Skinned => wgpu::PipelineCompilationOptions { constants: &constants, ..Default::default() },
         };
         let vertex =

@@ -192,6 +192,8 @@ struct DrawItem {
     /// Alpha-masked (its shadow caster discards as the material does).
     mask: bool,
     double_sided: bool,
+    /// The material has a normal texture (only then are tangents read).
+    normal_mapped: bool,
     morphed: bool,
     /// Where the morph targets are on the GPU (`None`: not morphed, or morphed on the CPU).
     morph: Option<MorphSlot>,
@@ -770,6 +772,7 @@ impl SceneRenderer {
                     blend: material.is_some_and(|m| m.alpha == AlphaMode::Blend),
                     mask: material.is_some_and(|m| matches!(m.alpha, AlphaMode::Mask(_))),
                     double_sided: material.is_some_and(|m| m.double_sided),
+                    normal_mapped: material.is_some_and(|m| m.normal_texture.is_some()),
                     morphed: !primitive.targets.is_empty(),
                     deformed: Vec::new(),
                     deformed_tangents: Vec::new(),
@@ -1674,6 +1677,7 @@ impl GpuScene {
                     heatmap: heatmap.is_some(),
                     caster: false,
                     mask: false,
+                    tangents: gpu.has_tangents && draw.normal_mapped,
                 });
                 if draw.blend {
                     let (min, max) = source.bounds;
