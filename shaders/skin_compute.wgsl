@@ -17,8 +17,9 @@
 @group(3) @binding(2) var<storage, read> pivots_in: array<u32>;
 // Output in the geometry-stream layout.
 @group(3) @binding(3) var<storage, read_write> geometry_out: array<f32>;
-// Tangent stream (xyz, w: the bitangent's sign; zeros for none) and its output (a placeholder
-// of one tangent where the primitive has none: nothing is written then).
+// Tangent stream (xyz, w: the bitangent's sign; zeros for none) and its output. A primitive
+// without tangents binds a one-tangent output (WebGPU needs every binding bound), which this
+// shader never writes: it writes only where w is not zero.
 @group(3) @binding(4) var<storage, read> tangents_in: array<vec4<f32>>;
 @group(3) @binding(5) var<storage, read_write> tangents_out: array<vec4<f32>>;
 

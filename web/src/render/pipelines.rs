@@ -346,16 +346,25 @@ fn color_target(format: wgpu::TextureFormat, blend: bool) -> [Option<wgpu::Color
     [Some(wgpu::ColorTargetState { format, blend, write_mask: wgpu::ColorWrites::ALL })]
 }
 
-/// A pipeline of one full-screen triangle (vertex entry `vs`, no vertex buffers) whose fragment
-/// entry `fs` writes `format` unblended: the passes that fill a texture (mips, prefiltering, the
-/// ground shadow's mask).
-pub(super) fn fill_pipeline(
+/// What a [`vertexless_pipeline`] draws into.
+struct Target<'a> {
+    format: wgpu::TextureFormat,
+    blend: bool,
+    depth: Option<wgpu::DepthStencilState>,
+    samples: u32,
+    /// The fragment entry's override constants.
+    constants: &'a [(&'a str, f64)],
+}
+
+/// A pipeline without vertex buffers (its vertex entry `vs` makes the positions: a full-screen
+/// triangle or a quad), its fragment entry `fs` writing `target`.
+fn vertexless_pipeline(
     device: &wgpu::Device,
     label: &str,
     layout: &wgpu::PipelineLayout,
     module: &wgpu::ShaderModule,
     (vs, fs): (&str, &str),
-    format: wgpu::TextureFormat,
+    target: Target<'_>,
 ) -> wgpu::RenderPipeline {
     device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
         label: Some(label),
@@ -367,17 +376,32 @@ pub(super) fn fill_pipeline(
             buffers: &[],
         },
         primitive: wgpu::PrimitiveState::default(),
-        depth_stencil: None,
-        multisample: wgpu::MultisampleState::default(),
+        depth_stencil: target.depth,
+        multisample: wgpu::MultisampleState { count: target.samples, ..Default::default() },
         fragment: Some(wgpu::FragmentState {
             module,
             entry_point: Some(fs),
-            compilation_options: Default::default(),
-            targets: &color_target(format, false),
+            compilation_options: wgpu::PipelineCompilationOptions { constants: target.constants, ..Default::default() },
+            targets: &color_target(target.format, target.blend),
         }),
         multiview_mask: None,
         cache: None,
     })
+}
+
+/// A pipeline of one full-screen triangle (vertex entry `vs`, no vertex buffers) whose fragment
+/// entry `fs` writes `format` unblended: the passes that fill a texture (mips, prefiltering, the
+/// ground shadow's mask).
+pub(super) fn fill_pipeline(
+    device: &wgpu::Device,
+    label: &str,
+    layout: &wgpu::PipelineLayout,
+    module: &wgpu::ShaderModule,
+    entries: (&str, &str),
+    format: wgpu::TextureFormat,
+) -> wgpu::RenderPipeline {
+    let target = Target { format, blend: false, depth: None, samples: 1, constants: &[] };
+    vertexless_pipeline(device, label, layout, module, entries, target)
 }
 
 /// A render pass that clears `target` to black and draws into it alone (no depth): a
@@ -564,29 +588,9 @@ impl Pipelines {
         blend: bool,
     ) -> wgpu::RenderPipeline {
         let output = output_constants(self.format);
-        let module = &self.first_use.module;
         let layout = if vs == "vs_shadow" { &self.first_use.shadow_ground_layout } else { &self.first_use.layout };
-        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some(label),
-            layout: Some(layout),
-            vertex: wgpu::VertexState {
-                module,
-                entry_point: Some(vs),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
-            primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: depth,
-            multisample: wgpu::MultisampleState { count: self.sample_count, ..Default::default() },
-            fragment: Some(wgpu::FragmentState {
-                module,
-                entry_point: Some(fs),
-                compilation_options: wgpu::PipelineCompilationOptions { constants: &output, ..Default::default() },
-                targets: &color_target(self.format, blend),
-            }),
-            multiview_mask: None,
-            cache: None,
-        })
+        let target = Target { format: self.format, blend, depth, samples: self.sample_count, constants: &output };
+        vertexless_pipeline(device, label, layout, &self.first_use.module, (vs, fs), target)
     }
 
     /// Builds the mesh pipeline of `key` if it does not exist yet (here, or in the device's

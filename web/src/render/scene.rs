@@ -204,8 +204,9 @@ struct DrawItem {
     /// Per copy: the geometry stream rewritten each frame when deformed on the CPU (created
     /// on first use).
     deformed: Vec<Option<wgpu::Buffer>>,
-    /// Per copy: the tangent stream beside `deformed` (a placeholder of one tangent for the
-    /// compute pass where the primitive has no tangents; the draw then binds its zeros).
+    /// Per copy: the tangent stream beside `deformed`. Where the primitive has no tangents, a
+    /// one-tangent buffer the compute pass binds and never writes; the draw then binds the
+    /// primitive's zeros.
     deformed_tangents: Vec<Option<wgpu::Buffer>>,
     /// Set each frame.
     key: Option<PipelineKey>,
