@@ -26,6 +26,8 @@ const BACKENDS = (process.env.KLOUB_BACKENDS ?? 'webgpu,webgl2').split(',');
 const ENCODING = process.env.KLOUB_BENCH_ENCODING ?? 'gzip';
 /** KLOUB_BENCH_TRACE=1: each run's resource timings (start, first byte, end) and the page's console, on stderr. */
 const TRACE = process.env.KLOUB_BENCH_TRACE === '1';
+/** KLOUB_BENCH_PROFILE=1: the main thread's CPU profile of each run, its heaviest functions (self time) up to `load`. */
+const PROFILE_CPU = process.env.KLOUB_BENCH_PROFILE === '1';
 const PROFILE = { offline: false, latency: 170, downloadThroughput: (9e6 / 8), uploadThroughput: (9e6 / 8) };
 const MIME = { '.html': 'text/html', '.js': 'text/javascript', '.wasm': 'application/wasm', '.glb': 'model/gltf-binary' };
 const ROOTS = {
@@ -125,9 +127,15 @@ async function run(url) {
   await cdp.send('Network.emulateNetworkConditions', PROFILE);
   let bytes = 0;
   cdp.on('Network.loadingFinished', (e) => { bytes += e.encodedDataLength; });
+  if (PROFILE_CPU) {
+    await cdp.send('Profiler.enable');
+    await cdp.send('Profiler.setSamplingInterval', { interval: 200 });
+    await cdp.send('Profiler.start');
+  }
   await page.goto(url);
   await page.waitForFunction(() => window.__painted !== undefined, null, { timeout: 120000, polling: 50 });
   const [ms, painted] = await page.evaluate(() => [window.__firstFrame, window.__painted]);
+  if (PROFILE_CPU) printProfile((await cdp.send('Profiler.stop')).profile, ms);
   if (TRACE) {
     const entries = await page.evaluate(() => performance.getEntriesByType('resource')
       .map((e) => [e.name.replace(location.origin, ''), e.startTime, e.responseStart, e.responseEnd, e.encodedBodySize]));
@@ -139,6 +147,24 @@ async function run(url) {
   await context.close();
   await browser.close();
   return [ms, bytes, painted];
+}
+
+/** The functions with the most self time in `profile` (a CDP CPU profile) until `untilMs` after its start. */
+function printProfile(profile, untilMs) {
+  const byId = new Map(profile.nodes.map((n) => [n.id, n]));
+  const self = new Map();
+  let t = profile.startTime;
+  const end = profile.startTime + untilMs * 1000;
+  profile.samples.forEach((id, i) => {
+    t += profile.timeDeltas[i];
+    if (t > end) return;
+    const f = byId.get(id).callFrame;
+    const key = `${f.functionName || '(anonymous)'} ${f.url.split('/').pop()}`;
+    self.set(key, (self.get(key) ?? 0) + profile.timeDeltas[i] / 1000);
+  });
+  for (const [key, msSelf] of [...self].sort((a, b) => b[1] - a[1]).slice(0, 25)) {
+    console.error(`  ${msSelf.toFixed(1).padStart(7)} ms  ${key}`);
+  }
 }
 
 const median = (xs) => [...xs].sort((a, b) => a - b)[Math.floor(xs.length / 2)];

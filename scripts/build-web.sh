@@ -9,7 +9,6 @@ cd "$(dirname "$0")/.."
 
 PROFILE=wasm-release
 DIST=web/dist
-WASM_IN=target/wasm32-unknown-unknown/$PROFILE/kloub_web.wasm
 
 # WebAssembly SIMD (every browser with WebGPU or WebGL2 2021+ has it): glam's vector math uses it, ~1.3x faster
 # per-frame animation in BENCHMARKS.md. Set only for the wasm target, so host build scripts are unaffected.
@@ -20,10 +19,12 @@ mkdir -p "$DIST"
 #   kloub_widget     the light widget: the 3D view and the element's API, WebGPU only (the default)
 #   kloub_widget_gl  the light widget with WebGL2 (browsers without WebGPU)
 # Cargo keeps each feature set's artifacts, so switching between them rebuilds only what changed.
-build_one() { # name, cargo feature flags...
+build_one() { # name, cargo feature flags... (KLOUB_PACKAGE: the crate, default kloub-web)
   local name=$1; shift
-  cargo build --profile "$PROFILE" --target wasm32-unknown-unknown -p kloub-web --lib "$@"
-  wasm-bindgen --target web --no-typescript --out-name "$name" --out-dir target/wasm-bindgen "$WASM_IN"
+  local package=${KLOUB_PACKAGE:-kloub-web}
+  cargo build --profile "$PROFILE" --target wasm32-unknown-unknown -p "$package" --lib "$@"
+  wasm-bindgen --target web --no-typescript --out-name "$name" --out-dir target/wasm-bindgen \
+    "target/wasm32-unknown-unknown/$PROFILE/${package//-/_}.wasm"
   # wasm-opt is the slow step (~1.5 min cold for the full app): skip it when its input did not change.
   # The mode is part of the key: a quick KLOUB_WASM_OPT=0 build must not pass for an optimised one.
   local sum stamp="$DIST/.wasm-opt-input-$name"
@@ -43,6 +44,8 @@ build_one() { # name, cargo feature flags...
 build_one kloub_web
 build_one kloub_widget --no-default-features
 build_one kloub_widget_gl --no-default-features --features webgl
+#   kloub_codecs     the Draco decoder and the zip reader (web/codecs), fetched by the widgets when a file needs them
+KLOUB_PACKAGE=kloub-codecs build_one kloub_codecs
 rm -f "$DIST/.wasm-opt-input"
 # Copy only on change: unchanged files keep their mtime, so neither the compression below nor the
 # server's embedding (server/build.rs) redo their work.
@@ -69,8 +72,8 @@ cat > "$DIST/package.json.new" <<JSON
   "main": "./kloub-viewer.js",
   "module": "./kloub-viewer.js",
   "types": "./kloub-viewer.d.ts",
-  "exports": { ".": { "types": "./kloub-viewer.d.ts", "default": "./kloub-viewer.js" }, "./kloub_web_bg.wasm": "./kloub_web_bg.wasm", "./kloub_widget_bg.wasm": "./kloub_widget_bg.wasm", "./kloub_widget_gl_bg.wasm": "./kloub_widget_gl_bg.wasm" },
-  "files": ["kloub-viewer.js", "kloub-viewer.d.ts", "hash-state.js", "accessibility.js", "validator-worker.js", "gltf-validator.js", "gltf-validator.LICENSE.txt", "gltf-validator.NOTICES.txt", "kloub_web.js", "kloub_web_bg.wasm", "kloub_widget.js", "kloub_widget_bg.wasm", "kloub_widget_gl.js", "kloub_widget_gl_bg.wasm"],
+  "exports": { ".": { "types": "./kloub-viewer.d.ts", "default": "./kloub-viewer.js" }, "./kloub_web_bg.wasm": "./kloub_web_bg.wasm", "./kloub_widget_bg.wasm": "./kloub_widget_bg.wasm", "./kloub_widget_gl_bg.wasm": "./kloub_widget_gl_bg.wasm", "./kloub_codecs_bg.wasm": "./kloub_codecs_bg.wasm" },
+  "files": ["kloub-viewer.js", "kloub-viewer.d.ts", "hash-state.js", "accessibility.js", "validator-worker.js", "gltf-validator.js", "gltf-validator.LICENSE.txt", "gltf-validator.NOTICES.txt", "kloub_web.js", "kloub_web_bg.wasm", "kloub_widget.js", "kloub_widget_bg.wasm", "kloub_widget_gl.js", "kloub_widget_gl_bg.wasm", "kloub_codecs.js", "kloub_codecs_bg.wasm"],
   "sideEffects": ["./kloub-viewer.js"]
 }
 JSON
@@ -83,7 +86,7 @@ import { join } from 'node:path';
 import zlib from 'node:zlib';
 const [dist, quality] = process.argv.slice(2);
 const C = zlib.constants;
-for (const name of ['index.html', 'app.js', 'hash-state.js', 'accessibility.js', 'validator-worker.js', 'gltf-validator.js', 'kloub-viewer.js', 'embed.html', 'embed.js', 'style.css', 'kloub_web.js', 'kloub_web_bg.wasm', 'kloub_widget.js', 'kloub_widget_bg.wasm', 'kloub_widget_gl.js', 'kloub_widget_gl_bg.wasm']) {
+for (const name of ['index.html', 'app.js', 'hash-state.js', 'accessibility.js', 'validator-worker.js', 'gltf-validator.js', 'kloub-viewer.js', 'embed.html', 'embed.js', 'style.css', 'kloub_web.js', 'kloub_web_bg.wasm', 'kloub_widget.js', 'kloub_widget_bg.wasm', 'kloub_widget_gl.js', 'kloub_widget_gl_bg.wasm', 'kloub_codecs.js', 'kloub_codecs_bg.wasm']) {
   const file = join(dist, name);
   if (!existsSync(file)) continue;
   const mtime = statSync(file).mtimeMs;
@@ -105,5 +108,5 @@ for (const name of ['index.html', 'app.js', 'hash-state.js', 'accessibility.js',
   console.error(`build-web: ${name}: ${data.length} B, gzip ${gz.length} B, brotli ${br.length} B (${Date.now() - started} ms)`);
 }
 EOF
-printf 'build-web: %s (wasm: full %s, widget %s, widget with WebGL2 %s bytes)\n' "$DIST" \
-  "$(stat -c %s "$DIST/kloub_web_bg.wasm")" "$(stat -c %s "$DIST/kloub_widget_bg.wasm")" "$(stat -c %s "$DIST/kloub_widget_gl_bg.wasm")" >&2
+printf 'build-web: %s (wasm: full %s, widget %s, widget with WebGL2 %s, codecs %s bytes)\n' "$DIST" \
+  "$(stat -c %s "$DIST/kloub_web_bg.wasm")" "$(stat -c %s "$DIST/kloub_widget_bg.wasm")" "$(stat -c %s "$DIST/kloub_widget_gl_bg.wasm")" "$(stat -c %s "$DIST/kloub_codecs_bg.wasm")" >&2

@@ -3,7 +3,8 @@
 # model (the element module and the light build's wasm-bindgen glue and wasm; hash-state.js and accessibility.js
 # are imported only when a viewer moves to another build or has `controls`), raw / gzip -9 /
 # brotli as `kloub serve` sends them; then what a browser without WebGPU downloads instead of the light wasm, and
-# what the full app (panels, ragdoll: loaded for `controls`) adds. Then what each crate contributes to each wasm
+# what a Draco file or a zip adds (the decoders, web/codecs), what the full app (panels, ragdoll: loaded for `controls`)
+# adds. Then what each crate contributes to each wasm
 # (needs `cargo install twiggy`). Run after scripts/build-web.sh. Exits non-zero when the widget is over its budget
 # (KLOUB_WIDGET_BUDGET bytes gzip, default 900 KB = 921,600).
 set -euo pipefail
@@ -25,6 +26,7 @@ ELEMENT=(kloub-viewer.js)
 table "widget (WebGPU): before the model" "${ELEMENT[@]}" kloub_widget.js kloub_widget_bg.wasm
 widget=${total[1]}
 table "widget without WebGPU (WebGL2): before the model" "${ELEMENT[@]}" kloub_widget_gl.js kloub_widget_gl_bg.wasm
+table "decoders (a Draco file or a zip in a widget): loaded on demand" kloub_codecs.js kloub_codecs_bg.wasm
 table "full app (controls, or a method that needs it): loaded on demand" kloub_web.js kloub_web_bg.wasm hash-state.js accessibility.js
 printf '\nwidget: %d B gzip of a budget of %d B (%s)\n' "$widget" "$BUDGET" "$([ "$widget" -le "$BUDGET" ] && echo within || echo OVER)"
 if command -v twiggy > /dev/null; then

@@ -72,10 +72,28 @@ function loadRuntime() {
     const [module, glue] = await Promise.all([compileBuild(build), GLUE[build](instance)]);
     await glue.default({ module_or_path: module });
     glue.setPanicHandler(onPanic);
-    glue.setPrefetch(takePrefetch, takeImages);
+    glue.setPrefetch(takePrefetch, takeImages, loadCodecs);
     return glue;
   })();
   return runtime;
+}
+
+let codecs = null;
+/**
+ * The decoders few files need (Draco, zip archives: web/codecs), a module of their own that the widget builds
+ * leave out of their first download: loaded once per page, when a file needs them (the module asks, or the
+ * element sees a Draco GLB or a zip while the module still downloads). A failure may be tried again.
+ */
+function loadCodecs() {
+  codecs ??= (async () => {
+    const glue = await import('./kloub_codecs.js');
+    await glue.default({ module_or_path: new URL('./kloub_codecs_bg.wasm', import.meta.url) });
+    return glue;
+  })().catch((e) => {
+    codecs = null;
+    throw e;
+  });
+  return codecs;
 }
 
 /** Whether the browser gives a WebGPU adapter (asked once). */
@@ -157,6 +175,8 @@ function prefetchModel(src) {
   response.catch(() => {});
   const entry = { response, abort: () => controller.abort(), images };
   prefetches.set(href, entry);
+  // A zip needs the codecs module in the widget builds: fetched beside the model.
+  if (build !== 'full' && /\.zip$/i.test(new URL(href).pathname)) loadCodecs().catch(() => {});
   setTimeout(() => {
     if (prefetches.get(href) !== entry) return;
     prefetches.delete(href);
@@ -224,6 +244,8 @@ async function decodeGlbImages(response) {
   } catch {
     return null;
   }
+  // A Draco GLB needs the codecs module in the widget builds: fetched while the module downloads.
+  if (build !== 'full' && json?.extensionsUsed?.includes?.('KHR_draco_mesh_compression')) loadCodecs().catch(() => {});
   const images = Array.isArray(json?.images) ? json.images : [];
   const embedded = json?.buffers?.[0] && json.buffers[0].uri === undefined;
   const types = new Set(['image/png', 'image/jpeg', 'image/webp']);

@@ -7,7 +7,11 @@
 //! refused), and each entry is read no further than its declared size (an entry that inflates
 //! past it is refused). Names that are absolute or climb out with `..` are left out with a
 //! note, as are macOS's `__MACOSX/` resource forks; nothing is ever written anywhere.
+//!
+//! [`read_zip`] needs the `codecs` feature; a build without it opens archives through
+//! [`crate::codecs::Codecs::unzip`].
 
+#[cfg(feature = "codecs")]
 use std::io::Read;
 
 /// Limits on what an archive may hold.
@@ -64,6 +68,7 @@ pub fn is_zip(bytes: &[u8]) -> bool {
 }
 
 /// Reads every file of the zip archive `bytes`.
+#[cfg(feature = "codecs")]
 ///
 /// # Errors
 /// A message a user can act on: not a zip archive, too many entries, more declared bytes than
@@ -130,6 +135,7 @@ pub fn read_zip(bytes: &[u8], limits: &ArchiveLimits) -> Result<Archive, String>
     Ok(archive)
 }
 
+#[cfg(feature = "codecs")]
 /// `name` as a relative `/`-separated path, or `None` when it is absolute, has a drive letter or
 /// climbs out of the archive with `..`.
 fn safe_path(name: &str) -> Option<String> {
@@ -148,7 +154,7 @@ fn safe_path(name: &str) -> Option<String> {
     (!parts.is_empty()).then(|| parts.join("/"))
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "codecs"))]
 mod tests {
     use super::*;
     use std::io::Write;

@@ -65,6 +65,16 @@ export async function startStatic(dir, { cors = false } = {}) {
  * A zip archive of `entries` ([{ name, bytes }]), deflated; `declare` overrides an entry's declared uncompressed size
  * (a zip bomb's lie) in both of its headers.
  */
+/** Fraction of pixels with a clearly coloured (saturated) look: a texture, not flat grey shading. */
+export function saturatedFraction(img) {
+  let n = 0;
+  for (let i = 0; i < img.data.length; i += 4) {
+    const [r, g, b] = [img.data[i], img.data[i + 1], img.data[i + 2]];
+    if (Math.max(r, g, b) - Math.min(r, g, b) > 40) n++;
+  }
+  return n / (img.width * img.height);
+}
+
 export function makeZip(entries) {
   const locals = [];
   const centrals = [];

@@ -6,7 +6,7 @@ import { tmpdir } from 'node:os';
 import { PNG } from 'pngjs';
 import { basename, join } from 'node:path';
 import {
-  ROOT, SHARED, control, openApp, dataset, diffFraction, dropFiles, makeZip, nonBackgroundFraction, openBrowser, pageUrl, recordEvents,
+  ROOT, SHARED, control, openApp, dataset, diffFraction, dropFiles, makeZip, nonBackgroundFraction, saturatedFraction, openBrowser, pageUrl, recordEvents,
   savePng, startServer, startStatic, viewerEvents, viewersPage, viewportShot, waitForDataset, waitFrames,
 } from './lib.mjs';
 import { registerAccessibilityTests } from './accessibility.mjs';
@@ -55,16 +55,6 @@ const RIGGED_FIGURE = join(SHARED, 'khronos/RiggedFigure/glTF-Binary/RiggedFigur
 const CESIUM_MAN = ['CesiumMan.gltf', 'CesiumMan_data.bin', 'CesiumMan_img0.jpg'].map((f) => join(SHARED, 'khronos/CesiumMan/glTF', f));
 const RECURSIVE = join(SHARED, 'khronos/RecursiveSkeletons/glTF-Binary/RecursiveSkeletons.glb');
 const KNIGHT = join(SHARED, 'kaykit/Knight/Knight.glb');
-
-/** Fraction of pixels with a clearly coloured (saturated) look: a texture, not flat grey shading. */
-function saturatedFraction(img) {
-  let n = 0;
-  for (let i = 0; i < img.data.length; i += 4) {
-    const [r, g, b] = [img.data[i], img.data[i + 1], img.data[i + 2]];
-    if (Math.max(r, g, b) - Math.min(r, g, b) > 40) n++;
-  }
-  return n / (img.width * img.height);
-}
 
 /** The box of pixels that differ from the most common colour, as fractions of the image: [x0, y0, x1, y1]. */
 function contentBox(img) {

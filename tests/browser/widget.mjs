@@ -1,9 +1,10 @@
 // The light widget build: a page with <kloub-viewer> and no `controls` downloads only the widget (its network log),
 // within the size budget; the element's methods that need no panels work on it; `controls` set later (or a method
 // that needs the full app) moves the viewer to the full app with the same model, clip and time. Registered by run.mjs.
-import { existsSync, statSync } from 'node:fs';
+import { existsSync, readFileSync, statSync } from 'node:fs';
 import { join } from 'node:path';
-import { ROOT, viewportShot, nonBackgroundFraction } from './lib.mjs';
+import { PNG } from 'pngjs';
+import { ROOT, makeZip, saturatedFraction, viewportShot, nonBackgroundFraction } from './lib.mjs';
 
 /** What a page embedding the widget may download before its model, gzip (scripts/widget-size.sh's budget). */
 export const WIDGET_BUDGET = 900 * 1024;
@@ -12,6 +13,8 @@ const FILES = {
   widget: ['kloub_widget.js', 'kloub_widget_bg.wasm'],
   'widget-gl': ['kloub_widget_gl.js', 'kloub_widget_gl_bg.wasm'],
   full: ['kloub_web.js', 'kloub_web_bg.wasm'],
+  // Not a build: the decoders (Draco, zip) the widget builds fetch when a file needs them.
+  codecs: ['kloub_codecs.js', 'kloub_codecs_bg.wasm'],
 };
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 function assert(cond, msg) { if (!cond) throw new Error(msg); }
@@ -105,6 +108,11 @@ export function registerWidgetTests(test, backends) {
       assert(dims.x > 0 && dims.y > 0 && dims.z > 0, `getDimensions ${JSON.stringify(dims)}`);
       const blob = await page.evaluate(async () => (await document.getElementById('v').toBlob()).size);
       assert(blob > 1000, `toBlob gave ${blob} B`);
+      // screenshot() downloads the frame as a PNG (encoded by the browser in the light builds).
+      const [download] = await Promise.all([page.waitForEvent('download'), page.evaluate(() => document.getElementById('v').screenshot())]);
+      assert(download.suggestedFilename() === 'default.png', `screenshot file ${download.suggestedFilename()}`);
+      const png = PNG.sync.read(readFileSync(await download.path()));
+      assert(png.width > 100 && png.height > 100 && nonBackgroundFraction(png) > 0.02, `screenshot ${png.width}×${png.height}`);
       // Camera input: a drag on the canvas orbits, the wheel zooms, a key (Home) goes back to the start.
       const before2 = (await ds(page)).camera.split(',').map(Number);
       const box = await page.locator('#v').boundingBox();
@@ -156,6 +164,40 @@ export function registerWidgetTests(test, backends) {
       assert(await page.evaluate(() => window.__loads) === loads, 'the move is not a second load event');
       const controls = await page.evaluate(() => document.getElementById('v')._testAccessibilityControls().length);
       assert(controls > 5, `the panels' controls: ${controls}`);
+    });
+
+    test(`${backend}: a Draco GLB and a zipped glTF folder in a widget: the decoders are fetched once, the light build stays`, async (ctx) => {
+      const { page } = ctx;
+      const serveFile = (name, body) => page.route(`${ctx.url}/files/${name}`, (route) => route.fulfill({
+        contentType: name.endsWith('.zip') ? 'application/zip' : 'model/gltf-binary', body,
+      }));
+      await serveFile('CesiumMan.draco.glb', readFileSync(join(ROOT, 'tests/optimized/CesiumMan.draco.glb')));
+      const folder = join(ROOT, 'tests/assets/khronos/CesiumMan/glTF');
+      const zip = makeZip(['CesiumMan.gltf', 'CesiumMan_data.bin', 'CesiumMan_img0.jpg']
+        .filter((f) => existsSync(join(folder, f)))
+        .map((f) => ({ name: `CesiumMan/glTF/${f}`, bytes: readFileSync(join(folder, f)) })));
+      await serveFile('CesiumMan.zip', zip);
+      const fetched = await widgetPage(page, ctx.url, { ...attrs, src: '/files/CesiumMan.draco.glb' });
+      await ready(page);
+      let d = await ds(page);
+      assert(d.error === '' && d.model === 'CesiumMan.draco.glb', `Draco: ${JSON.stringify(d)}`);
+      assert(JSON.stringify(buildsFetched(fetched)) === JSON.stringify([light, 'codecs']), `module files fetched: ${fetched.filter((f) => /kloub_/.test(f))}`);
+      const frames = Number(d.frames);
+      await waitFor(page, (f) => Number(document.getElementById('v').dataset.frames) > f + 10, frames, 'frames while playing');
+      const shot = await viewportShot(page, '#v');
+      assert(saturatedFraction(shot) > 0.01, 'the Draco CesiumMan is shown without its texture');
+      // A zip by URL: the same decoders, not fetched again.
+      await page.evaluate(() => { document.getElementById('v').src = '/files/CesiumMan.zip'; });
+      await waitFor(page, () => {
+        const d = document.getElementById('v').dataset;
+        return (d.model === 'CesiumMan.gltf' && d.status === 'ready') || d.status === 'error';
+      }, null, 'the zip to open');
+      d = await ds(page);
+      assert(d.error === '', `zip: ${d.error}`);
+      assert(fetched.filter((f) => f === 'kloub_codecs_bg.wasm').length === 1, `the decoders were fetched ${fetched.filter((f) => f === 'kloub_codecs_bg.wasm').length} times`);
+      const counters = await page.evaluate(() => customElements.get('kloub-viewer')._testCounters());
+      assert(counters.codecLoads === 1, `codecs asked for: ${JSON.stringify(counters)}`);
+      assert(await page.evaluate(() => customElements.get('kloub-viewer')._testBuild()) === light, 'the page still runs the light build');
     });
 
     test(`${backend}: startRagdoll on a widget loads the full app and the character falls`, async (ctx) => {

@@ -404,6 +404,37 @@ pub fn download(name: &str, bytes: &[u8], mime: &str) -> Result<(), String> {
     }
 }
 
+/// Offers `width × height` RGBA8 `pixels` (straight alpha) as the PNG file `name`, encoded by the
+/// browser (a canvas's `toDataURL`): the widget builds carry no PNG encoder.
+///
+/// # Errors
+/// The browser refused a step (no document, no 2D context, a size it cannot hold).
+#[cfg(target_arch = "wasm32")]
+pub fn download_rgba(name: &str, pixels: &[u8], width: u32, height: u32) -> Result<(), String> {
+    use wasm_bindgen::JsCast;
+    let fail = |e: wasm_bindgen::JsValue| format!("download {name}: {}", js_error_text(&e));
+    let document = web_sys::window().and_then(|w| w.document()).ok_or("no document")?;
+    let canvas: web_sys::HtmlCanvasElement =
+        document.create_element("canvas").map_err(fail)?.dyn_into().map_err(|_| "not a canvas".to_owned())?;
+    canvas.set_width(width);
+    canvas.set_height(height);
+    let context: web_sys::CanvasRenderingContext2d = canvas
+        .get_context("2d")
+        .map_err(fail)?
+        .and_then(|c| c.dyn_into().ok())
+        .ok_or_else(|| format!("download {name}: no 2D canvas"))?;
+    let image = web_sys::ImageData::new_with_u8_clamped_array_and_sh(wasm_bindgen::Clamped(pixels), width, height)
+        .map_err(fail)?;
+    context.put_image_data(&image, 0.0, 0.0).map_err(fail)?;
+    let url = canvas.to_data_url_with_type("image/png").map_err(fail)?;
+    let anchor: web_sys::HtmlAnchorElement =
+        document.create_element("a").map_err(fail)?.dyn_into().map_err(|_| "not an anchor".to_owned())?;
+    anchor.set_href(&url);
+    anchor.set_download(name);
+    anchor.click();
+    Ok(())
+}
+
 #[cfg(target_arch = "wasm32")]
 fn overlay(parent: &web_sys::Node, message: &str) -> Option<()> {
     use wasm_bindgen::JsCast;

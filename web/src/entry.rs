@@ -1031,10 +1031,16 @@ pub fn set_panic_handler(handler: Option<js_sys::Function>) {
 
 /// Hands the element's prefetches to the module: `take(url)` gives a download started before the
 /// module was ready, `images(url)` the images of a GLB the browser decoded meanwhile
-/// ([`crate::prefetch`]).
+/// ([`crate::prefetch`]); `codecs()` a promise of the codecs module, which the widget builds
+/// load when a file needs a Draco decoder or a zip reader ([`crate::codecs`]).
 #[wasm_bindgen(js_name = setPrefetch)]
-pub fn set_prefetch(take: Option<js_sys::Function>, images: Option<js_sys::Function>) {
+pub fn set_prefetch(
+    take: Option<js_sys::Function>,
+    images: Option<js_sys::Function>,
+    codecs: Option<js_sys::Function>,
+) {
     crate::prefetch::set_hooks(take, images);
+    crate::codecs::set_loader(codecs);
 }
 
 /// For tests: panics inside the module (as a bug would), so recovery can be checked.
@@ -1054,6 +1060,7 @@ pub fn test_counters() -> String {
         "liveModels": crate::shared::live_models(),
         "liveUploads": crate::render::scene::live_uploads(),
         "predecoded": crate::decode::predecoded(),
+        "codecLoads": crate::codecs::loads(),
     })
     .to_string()
 }

@@ -19,6 +19,7 @@
 pub mod app;
 pub mod backend;
 pub mod candy;
+pub mod codecs;
 pub mod control;
 pub mod decode;
 pub mod dom;

@@ -8,7 +8,7 @@
 use std::cell::RefCell;
 use std::rc::Rc;
 
-use kloub_core::{Asset, ImportOptions, MapResolver, NoResolver, Resolver, Warning, import};
+use kloub_core::{Asset, ImportOptions, MapResolver, NoResolver, Resolver, Warning, import_with};
 
 /// One file's name (no directories on the web) and contents.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -184,13 +184,15 @@ pub fn import_model(files: &[SourceFile], wanted: Option<&str>) -> Result<Loaded
         Box::new(map)
     };
     let display = base_name(&model.name).to_owned();
-    let imported = import(&model.bytes, resolver.as_ref(), &ImportOptions::default()).map_err(|e| {
-        if e.pointer.is_empty() {
-            format!("{display}: {}", e.message)
-        } else {
-            format!("{display}: {}: {}", e.pointer, e.message)
-        }
-    })?;
+    let imported =
+        crate::codecs::with(|codecs| import_with(&model.bytes, resolver.as_ref(), codecs, &ImportOptions::default()))
+            .map_err(|e| {
+            if e.pointer.is_empty() {
+                format!("{display}: {}", e.message)
+            } else {
+                format!("{display}: {}: {}", e.pointer, e.message)
+            }
+        })?;
     Ok(LoadedModel { name: display, asset: std::sync::Arc::new(imported.asset), warnings: imported.warnings, sidecar })
 }
 
@@ -356,7 +358,7 @@ pub fn external_uris(gltf: &[u8]) -> Vec<String> {
 /// An archive that cannot be read, is over the import budget (a zip bomb: refused before it
 /// is inflated), or holds no model; the message names the archive.
 pub fn expand_archives(files: Vec<SourceFile>) -> Result<(Vec<SourceFile>, Vec<Warning>), String> {
-    use kloub_core::archive::{ArchiveLimits, is_zip, read_zip};
+    use kloub_core::archive::{ArchiveLimits, is_zip};
     let mut out = Vec::with_capacity(files.len());
     let mut notes = Vec::new();
     for file in files {
@@ -368,7 +370,8 @@ pub fn expand_archives(files: Vec<SourceFile>) -> Result<(Vec<SourceFile>, Vec<W
             out.push(file);
             continue;
         }
-        let archive = read_zip(&file.bytes, &ArchiveLimits::default()).map_err(|e| format!("{}: {e}", file.name))?;
+        let archive = crate::codecs::with(|codecs| codecs.unzip(&file.bytes, &ArchiveLimits::default()))
+            .map_err(|e| format!("{}: {e}", file.name))?;
         if archive.models().is_empty() {
             return Err(format!("{}: the archive holds no .glb or .gltf model", file.name));
         }

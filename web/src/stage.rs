@@ -259,6 +259,8 @@ pub struct Stage {
     pub(crate) view_rect: Rect,
     /// Large deliveries waiting one frame to be imported (the bar says "Parsing…").
     pub(crate) parsing: Vec<load::Delivery>,
+    /// Deliveries that wait for the codecs module (a Draco file or a zip in a widget build).
+    awaiting_codecs: Vec<load::Delivery>,
     /// Imported models waiting for the browser to decode their images ([`crate::decode`]),
     /// shown in order, with what [`Stage::finish_receive`] is to make of each.
     pub(crate) decoding: Vec<(LoadedModel, Shown)>,
@@ -375,6 +377,7 @@ impl Stage {
             screenshot_wanted: false,
             view_rect: Rect::ZERO,
             parsing: Vec::new(),
+            awaiting_codecs: Vec::new(),
             decoding: Vec::new(),
             drop_hint: false,
             announce_load: false,
@@ -546,6 +549,10 @@ impl Stage {
             self.finish_receive(result, shown);
         }
         let mut arrived = std::mem::take(&mut self.parsing);
+        // Deliveries that waited for the codecs module, once it is in (or has failed).
+        if !crate::codecs::loading() {
+            arrived.append(&mut self.awaiting_codecs);
+        }
         for delivery in self.inbox.take() {
             // A download shared with other viewers counts too (its files come as `shared`).
             let bytes: usize = delivery.contents().iter().map(|f| f.bytes.len()).sum();
@@ -587,6 +594,19 @@ impl Stage {
                     self.apply_sidecar(&files)
                 }
                 Ok(files) => {
+                    // A Draco file or a zip in a widget build: the codecs module first.
+                    match crate::codecs::ready_for(&files, self.controls.waker()) {
+                        Ok(true) => {}
+                        Ok(false) => {
+                            self.pending += 1;
+                            self.awaiting_codecs.push(load::Delivery { files: Ok(files), shared: None, ..delivery });
+                            continue;
+                        }
+                        Err(message) => {
+                            self.fail(format!("{}: {message}", delivery.origin));
+                            continue;
+                        }
+                    }
                     // Zip archives open into their files first (a bomb is refused before it is inflated).
                     let expanded = load::expand_archives(files);
                     let (files, notes) = match expanded {
@@ -895,6 +915,16 @@ impl Stage {
         };
         let (width, height) = pending.size();
         self.screenshot = None;
+        let stem = self.model.as_ref().map_or("kloub", |m| m.name.rsplit_once('.').map_or(m.name.as_str(), |s| s.0));
+        // The widget builds have the browser encode the PNG (no encoder in their download).
+        #[cfg(all(target_arch = "wasm32", not(feature = "full")))]
+        if let Err(message) = result.and_then(|mut pixels| {
+            crate::render::readback::unpremultiply(&mut pixels);
+            crate::dom::download_rgba(&format!("{stem}.png"), &pixels, width, height)
+        }) {
+            self.fail(message);
+        }
+        #[cfg(not(all(target_arch = "wasm32", not(feature = "full"))))]
         let png = result.and_then(|pixels| {
             let mut pixels = pixels;
             crate::render::readback::unpremultiply(&mut pixels);
@@ -907,10 +937,9 @@ impl Stage {
                 .map_err(|e| format!("screenshot: {e}"))?;
             Ok(out)
         });
+        #[cfg(not(all(target_arch = "wasm32", not(feature = "full"))))]
         match png {
             Ok(png) => {
-                let stem =
-                    self.model.as_ref().map_or("kloub", |m| m.name.rsplit_once('.').map_or(m.name.as_str(), |s| s.0));
                 #[cfg(target_arch = "wasm32")]
                 if let Err(message) = crate::dom::download(&format!("{stem}.png"), &png, "image/png") {
                     self.fail(message);

@@ -7,8 +7,8 @@ use super::accessor::{Accessors, Component};
 use super::container::Budget;
 use super::json::{Obj, child, member_error, objects, opt_object, opt_u64, req_index};
 use crate::asset::CompressedPrimitive;
+use crate::codecs::Codecs;
 use crate::error::{ImportError, Warning};
-use draco_core::{DecodeLimits, DecoderBuffer, Mesh, MeshDecoder, draco_types::DataType};
 
 /// The extension's name.
 pub(crate) const EXTENSION: &str = "KHR_draco_mesh_compression";
@@ -26,6 +26,7 @@ pub(crate) fn decode_all(
     root: &Obj,
     accessors: &mut Accessors<'_>,
     budget: &mut Budget,
+    codecs: &dyn Codecs,
 ) -> Result<(Vec<CompressedPrimitive>, Vec<Warning>), ImportError> {
     let mut state = State { filled: vec![None; accessors.len()], streams: Vec::new(), warnings: Vec::new() };
     let mut costs = Vec::new();
@@ -33,7 +34,7 @@ pub(crate) fn decode_all(
         for (p, (prim, pptr)) in objects(mesh, "primitives", &mptr)?.into_iter().enumerate() {
             let Some(x) = super::json::extension(prim, EXTENSION, &pptr)? else { continue };
             let xptr = format!("{pptr}/extensions/{EXTENSION}");
-            let cost = decode_primitive(prim, &pptr, x, &xptr, accessors, budget, &mut state)?;
+            let cost = decode_primitive(prim, &pptr, x, &xptr, accessors, budget, &mut state, codecs)?;
             costs.push(CompressedPrimitive { mesh: m as u32, primitive: p as u32, ..cost });
         }
     }
@@ -58,7 +59,8 @@ struct Pending<'a> {
     accessor: u32,
 }
 
-/// Decodes one primitive's stream (its extension object `x` at `xptr`).
+/// Decodes one primitive's stream (its extension object `x` at `xptr`) with `codecs`.
+#[allow(clippy::too_many_arguments)]
 fn decode_primitive(
     prim: &Obj,
     pptr: &str,
@@ -67,6 +69,7 @@ fn decode_primitive(
     accessors: &mut Accessors<'_>,
     budget: &mut Budget,
     state: &mut State,
+    codecs: &dyn Codecs,
 ) -> Result<CompressedPrimitive, ImportError> {
     let mode = opt_u64(prim, "mode", pptr)?.unwrap_or(4);
     if mode != 4 {
@@ -124,14 +127,12 @@ fn decode_primitive(
 
     // The decoder's own ceiling is what is left of the import budget.
     let left = budget.left();
-    let limits = DecodeLimits::default().with_max_decoded_bytes(left).with_max_points(u64::from(u32::MAX));
-    let mut buffer = DecoderBuffer::new(accessors.view_bytes(view as usize)?).with_limits(limits);
-    let mut mesh = Mesh::new();
-    MeshDecoder::new()
-        .decode(&mut buffer, &mut mesh)
+    let wanted: Vec<u32> = pending.iter().filter_map(|p| u32::try_from(p.id).ok()).collect();
+    let mesh = codecs
+        .draco(accessors.view_bytes(view as usize)?, &wanted, left)
         .map_err(|e| ImportError::new(child(xptr, "bufferView"), format!("the Draco stream does not decode: {e}")))?;
-    let points = mesh.num_points() as u64;
-    let triangles = mesh.num_faces() as u64;
+    let points = u64::from(mesh.points);
+    let triangles = mesh.indices.len() as u64 / 3;
     if points == 0 || triangles == 0 {
         return Err(ImportError::new(
             child(xptr, "bufferView"),
@@ -142,24 +143,25 @@ fn decode_primitive(
 
     let mut decoded_bytes = 0u64;
     for Pending { name, ptr, id, accessor: index } in pending {
-        let attribute = u32::try_from(id)
-            .ok()
-            .and_then(|id| mesh.attribute_by_unique_id(id))
+        let attribute = mesh
+            .attributes
+            .iter()
+            .find(|a| u64::from(a.id) == id)
             .ok_or_else(|| ImportError::new(&ptr, format!("the Draco stream has no attribute with id {id}")))?;
         let accessor = accessors.get(index)?;
         let (component, components) = (accessor.component(), accessor.components());
-        if usize::from(attribute.num_components()) != components {
+        if usize::from(attribute.components) != components
+            || attribute.values.len() as u64 != points * components as u64
+        {
             return Err(ImportError::new(
                 &ptr,
                 format!(
                     "the Draco attribute has {} components, accessor {index} ({}) has {components}",
-                    attribute.num_components(),
-                    accessor.type_name
+                    attribute.components, accessor.type_name
                 ),
             ));
         }
-        let integer = !matches!(attribute.data_type(), DataType::Float32 | DataType::Float64);
-        if component != Component::F32 && !integer {
+        if component != Component::F32 && attribute.float {
             return Err(ImportError::new(
                 &ptr,
                 format!("the Draco attribute holds floats, accessor {index} holds integers"),
@@ -172,9 +174,8 @@ fn decode_primitive(
             .ok_or_else(|| ImportError::new(&ptr, "the decoded attribute exceeds the import budget"))?;
         // The f32 values draco-core hands out and the accessor's bytes.
         budget.take(size.checked_add(points * components as u64 * 4), &ptr, &format!("decoded {name}"))?;
-        let values = attribute.read_f32s(points as usize, components);
         let mut bytes = Vec::with_capacity(size as usize);
-        for &v in &values {
+        for &v in &attribute.values {
             push(&mut bytes, component, v).ok_or_else(|| {
                 ImportError::new(&ptr, format!("the Draco value {v} does not fit accessor {index}'s component type"))
             })?;
@@ -191,16 +192,14 @@ fn decode_primitive(
         let size = count * 4;
         budget.take(Some(size), &child(pptr, "indices"), "decoded indices")?;
         let mut bytes = Vec::with_capacity(size as usize);
-        for face in mesh.faces() {
-            for corner in face {
-                if u64::from(corner.0) >= points {
-                    return Err(ImportError::new(
-                        child(xptr, "bufferView"),
-                        format!("the Draco stream has a triangle corner {} outside its {points} points", corner.0),
-                    ));
-                }
-                bytes.extend_from_slice(&corner.0.to_le_bytes());
+        for &corner in &mesh.indices[..count as usize] {
+            if u64::from(corner) >= points {
+                return Err(ImportError::new(
+                    child(xptr, "bufferView"),
+                    format!("the Draco stream has a triangle corner {corner} outside its {points} points"),
+                ));
             }
+            bytes.extend_from_slice(&corner.to_le_bytes());
         }
         accessors.replace(indices, bytes, count, Component::U32);
         decoded_bytes += size;

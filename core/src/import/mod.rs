@@ -182,8 +182,20 @@ impl Cx<'_> {
     }
 }
 
-/// Imports a GLB or a .gltf JSON document (detected by the `glTF` magic).
+/// Imports a GLB or a .gltf JSON document (detected by the `glTF` magic), decoding Draco
+/// streams with this build's decoders ([`crate::codecs::builtin`]).
 pub fn import(bytes: &[u8], resolver: &dyn Resolver, options: &ImportOptions) -> Result<Imported, ImportError> {
+    import_with(bytes, resolver, crate::codecs::builtin(), options)
+}
+
+/// [`import`] with the decoders `codecs` (a host that loads them on demand, such as the web
+/// widget).
+pub fn import_with(
+    bytes: &[u8],
+    resolver: &dyn Resolver,
+    codecs: &dyn crate::codecs::Codecs,
+    options: &ImportOptions,
+) -> Result<Imported, ImportError> {
     let mut warnings = Vec::new();
     let mut budget = Budget::new(options.budget_bytes);
     let container = container::split(bytes, &mut warnings)?;
@@ -194,7 +206,7 @@ pub fn import(bytes: &[u8], resolver: &dyn Resolver, options: &ImportOptions) ->
     check_required_extensions(root)?;
     let buffers = container::load_buffers(root, &container, resolver, &mut budget)?;
     let mut accessors = Accessors::new(root, buffers, &mut budget)?;
-    let (compressed_primitives, draco_warnings) = draco::decode_all(root, &mut accessors, &mut budget)?;
+    let (compressed_primitives, draco_warnings) = draco::decode_all(root, &mut accessors, &mut budget, codecs)?;
     warnings.extend(draco_warnings);
     let mut cx = Cx { root, accessors, budget, warnings, resolver, options };
 
