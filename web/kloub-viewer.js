@@ -79,18 +79,26 @@ function loadRuntime() {
 }
 
 let codecs = null;
+let codecsInstance = 0;
 /**
  * The decoders few files need (Draco, zip archives: web/codecs), a module of their own that the widget builds
  * leave out of their first download: loaded once per page, when a file needs them (the module asks, or the
- * element sees a Draco GLB or a zip while the module still downloads). A failure may be tried again.
+ * element sees a Draco GLB or a zip while the module still downloads). `fresh`: a new instance (after a trap in
+ * the last one, or a failed load: a new module URL, which the browser fetches again).
  */
-function loadCodecs() {
+function loadCodecs(fresh = false) {
+  if (fresh) {
+    codecs = null;
+    codecsInstance++;
+  }
   codecs ??= (async () => {
-    const glue = await import('./kloub_codecs.js');
+    const n = codecsInstance;
+    const glue = await (n ? import(`./kloub_codecs.js?instance=${n}`) : import('./kloub_codecs.js'));
     await glue.default({ module_or_path: new URL('./kloub_codecs_bg.wasm', import.meta.url) });
     return glue;
   })().catch((e) => {
     codecs = null;
+    codecsInstance++;
     throw e;
   });
   return codecs;
@@ -158,7 +166,8 @@ function modelHref(url) {
   return u.href;
 }
 
-function prefetchModel(src) {
+/** `full`: the element will run the full app (which decodes Draco and zips itself). */
+function prefetchModel(src, full = false) {
   let href;
   try {
     href = modelHref(src);
@@ -171,12 +180,12 @@ function prefetchModel(src) {
   // What the viewer's own fetch would send: CORS, credentials for the same origin only.
   const response = fetch(href, { mode: 'cors', credentials: 'same-origin', signal: controller.signal });
   // Registered before the viewer can read the body: the clone is made first.
-  const images = response.then((r) => (r.ok ? decodeGlbImages(r.clone()) : null)).catch(() => null);
+  const images = response.then((r) => (r.ok ? decodeGlbImages(r.clone(), full) : null)).catch(() => null);
   response.catch(() => {});
   const entry = { response, abort: () => controller.abort(), images };
   prefetches.set(href, entry);
   // A zip needs the codecs module in the widget builds: fetched beside the model.
-  if (build !== 'full' && /\.zip$/i.test(new URL(href).pathname)) loadCodecs().catch(() => {});
+  if (!full && build !== 'full' && /\.zip$/i.test(new URL(href).pathname)) loadCodecs().catch(() => {});
   setTimeout(() => {
     if (prefetches.get(href) !== entry) return;
     prefetches.delete(href);
@@ -215,7 +224,7 @@ function takeFrom(url, field, pick) {
  * viewer decodes them: not premultiplied, no colour conversion. `null` for a file that is not a GLB, and per
  * image that is not embedded or fails (the viewer decodes those itself, and reports what fails).
  */
-async function decodeGlbImages(response) {
+async function decodeGlbImages(response, full = false) {
   const type = response.headers.get('content-type') ?? '';
   const length = Number(response.headers.get('content-length') ?? 0);
   let glb = type.includes('gltf-binary');
@@ -245,7 +254,7 @@ async function decodeGlbImages(response) {
     return null;
   }
   // A Draco GLB needs the codecs module in the widget builds: fetched while the module downloads.
-  if (build !== 'full' && json?.extensionsUsed?.includes?.('KHR_draco_mesh_compression')) loadCodecs().catch(() => {});
+  if (!full && build !== 'full' && json?.extensionsUsed?.includes?.('KHR_draco_mesh_compression')) loadCodecs().catch(() => {});
   const images = Array.isArray(json?.images) ? json.images : [];
   const embedded = json?.buffers?.[0] && json.buffers[0].uri === undefined;
   const types = new Set(['image/png', 'image/jpeg', 'image/webp']);
@@ -1036,7 +1045,7 @@ class KloubViewer extends HTMLElement {
   async #mount(revive = null) {
     this.dataset.status = 'loading';
     try {
-      if (!revive && this.getAttribute('src')) prefetchModel(this.getAttribute('src'));
+      if (!revive && this.getAttribute('src')) prefetchModel(this.getAttribute('src'), this.hasAttribute('controls') || this[NEEDS_FULL]);
       await ensureBuild(await buildFor(this));
       const onBuild = build;
       const glue = await loadRuntime();

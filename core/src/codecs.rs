@@ -85,7 +85,6 @@ impl Codecs for Builtin {
             left = left.checked_sub(n).ok_or_else(|| "the decoded stream exceeds the import budget".to_owned())?;
             Ok::<_, String>(())
         };
-        take(mesh.num_faces() as u64 * 12)?;
         let mut indices = Vec::with_capacity(mesh.num_faces() * 3);
         for face in mesh.faces() {
             indices.extend(face.iter().map(|corner| corner.0));
@@ -136,15 +135,19 @@ impl Needs {
 }
 
 /// What the file `name` with `bytes` needs: see [`Needs`]. A GLB's JSON chunk, or the whole of a
-/// `.gltf`, is searched for the extension's name (false positives only cost a download).
+/// `.gltf` (or of a file named without an extension), is searched for the extension's name (false
+/// positives only cost a download); other files (`.bin`, images) are not read.
 pub fn needed(name: &str, bytes: &[u8]) -> Needs {
     let base = name.rsplit(['/', '\\']).next().unwrap_or(name);
-    let zip = base.to_ascii_lowercase().ends_with(".zip") || (!base.contains('.') && crate::archive::is_zip(bytes));
+    let lower = base.to_ascii_lowercase();
+    let zip = lower.ends_with(".zip") || (!base.contains('.') && crate::archive::is_zip(bytes));
     let json = if bytes.starts_with(b"glTF") {
         let length = bytes.get(12..16).map_or(0, |b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize);
         bytes.get(20..20usize.saturating_add(length)).unwrap_or(&[])
-    } else {
+    } else if lower.ends_with(".gltf") || !base.contains('.') {
         bytes
+    } else {
+        &[]
     };
     let draco = !zip && json.windows(DRACO.len()).any(|w| w == DRACO.as_bytes());
     Needs { zip, draco }
@@ -371,6 +374,9 @@ mod tests {
         plain.extend_from_slice(json);
         assert!(!needed("a.glb", &plain).any());
         assert!(!needed("a.glb", b"glTF").any());
+        // Buffers and images are not searched.
+        assert!(!needed("a.bin", json).any());
+        assert!(needed("download", json).draco);
     }
 
     #[cfg(not(feature = "codecs"))]

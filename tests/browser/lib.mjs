@@ -61,10 +61,6 @@ export async function startStatic(dir, { cors = false } = {}) {
   return { url: `http://127.0.0.1:${server.address().port}`, stop: () => server.close() };
 }
 
-/**
- * A zip archive of `entries` ([{ name, bytes }]), deflated; `declare` overrides an entry's declared uncompressed size
- * (a zip bomb's lie) in both of its headers.
- */
 /** Fraction of pixels with a clearly coloured (saturated) look: a texture, not flat grey shading. */
 export function saturatedFraction(img) {
   let n = 0;
@@ -75,6 +71,10 @@ export function saturatedFraction(img) {
   return n / (img.width * img.height);
 }
 
+/**
+ * A zip archive of `entries` ([{ name, bytes }]), deflated; `declare` overrides an entry's declared uncompressed size
+ * (a zip bomb's lie) in both of its headers.
+ */
 export function makeZip(entries) {
   const locals = [];
   const centrals = [];

@@ -33,15 +33,17 @@ pub fn with<R>(f: impl FnOnce(&dyn Codecs) -> R) -> R {
 /// # Errors
 /// The codecs module could not be loaded (the message says what the files needed).
 pub fn ready_for(files: &[SourceFile], wake: Option<Wake>) -> Result<bool, String> {
-    let needs = needs(files);
-    if !needs.any() {
-        return Ok(true);
-    }
     #[cfg(all(target_arch = "wasm32", not(feature = "codecs")))]
-    return bridge::ready(needs, wake);
+    {
+        let needs = needs(files);
+        if !needs.any() {
+            return Ok(true);
+        }
+        bridge::ready(needs, wake)
+    }
     #[cfg(not(all(target_arch = "wasm32", not(feature = "codecs"))))]
     {
-        let _ = wake;
+        let _ = (files, wake);
         Ok(true)
     }
 }
@@ -91,6 +93,8 @@ mod bridge {
     }
 
     thread_local! {
+        /// Whether the next load must be a new instance (the last one trapped, or its load failed).
+        static FRESH: Cell<bool> = const { Cell::new(false) };
         pub(super) static LOADER: RefCell<Option<js_sys::Function>> = const { RefCell::new(None) };
         pub(super) static LOADS: Cell<u32> = const { Cell::new(0) };
         pub(super) static STATE: RefCell<State> = const { RefCell::new(State::Idle) };
@@ -133,6 +137,9 @@ mod bridge {
     }
 
     fn settle(state: State) {
+        if matches!(state, State::Failed(_)) {
+            FRESH.with(|f| f.set(true));
+        }
         let waiting = STATE.with(|s| match std::mem::replace(&mut *s.borrow_mut(), state) {
             State::Loading(waiting) => waiting,
             _ => Vec::new(),
@@ -144,7 +151,8 @@ mod bridge {
 
     fn load() {
         LOADS.with(|n| n.set(n.get() + 1));
-        let promise = LOADER.with(|l| l.borrow().as_ref().map(|f| f.call0(&JsValue::NULL)));
+        let fresh = JsValue::from_bool(FRESH.with(|f| f.replace(false)));
+        let promise = LOADER.with(|l| l.borrow().as_ref().map(|f| f.call1(&JsValue::NULL, &fresh)));
         let promise = match promise {
             Some(Ok(p)) => {
                 p.dyn_into::<js_sys::Promise>().map_err(|_| "the element's codecs() gave no promise".to_owned())
@@ -173,7 +181,14 @@ mod bridge {
                 .ok()
                 .and_then(|f| f.dyn_into().ok())
                 .ok_or_else(|| format!("the codecs module has no {name}()"))?;
-            let out = f.apply(&JsValue::NULL, args).map_err(|e| crate::dom::js_error_text(&e))?;
+            let out = f.apply(&JsValue::NULL, args).map_err(|e| {
+                // A trap leaves the module's memory as it was mid-call: the next file loads a new instance.
+                if e.is_instance_of::<js_sys::WebAssembly::RuntimeError>() {
+                    FRESH.with(|f| f.set(true));
+                    STATE.with(|s| *s.borrow_mut() = State::Idle);
+                }
+                crate::dom::js_error_text(&e)
+            })?;
             let out: js_sys::Uint8Array = out.dyn_into().map_err(|_| format!("{name}() gave no bytes"))?;
             Ok(out.to_vec())
         }

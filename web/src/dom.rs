@@ -405,7 +405,7 @@ pub fn download(name: &str, bytes: &[u8], mime: &str) -> Result<(), String> {
 }
 
 /// Offers `width × height` RGBA8 `pixels` (straight alpha) as the PNG file `name`, encoded by the
-/// browser (a canvas's `toDataURL`): the widget builds carry no PNG encoder.
+/// browser (a canvas's `toBlob`): the widget builds carry no PNG encoder.
 ///
 /// # Errors
 /// The browser refused a step (no document, no 2D context, a size it cannot hold).
@@ -426,12 +426,20 @@ pub fn download_rgba(name: &str, pixels: &[u8], width: u32, height: u32) -> Resu
     let image = web_sys::ImageData::new_with_u8_clamped_array_and_sh(wasm_bindgen::Clamped(pixels), width, height)
         .map_err(fail)?;
     context.put_image_data(&image, 0.0, 0.0).map_err(fail)?;
-    let url = canvas.to_data_url_with_type("image/png").map_err(fail)?;
     let anchor: web_sys::HtmlAnchorElement =
         document.create_element("a").map_err(fail)?.dyn_into().map_err(|_| "not an anchor".to_owned())?;
-    anchor.set_href(&url);
     anchor.set_download(name);
-    anchor.click();
+    // Encoded off the main thread into a Blob, offered by an object URL (no base64 copy).
+    let done = wasm_bindgen::closure::Closure::once_into_js(move |blob: Option<web_sys::Blob>| {
+        let Some(url) = blob.and_then(|b| web_sys::Url::create_object_url_with_blob(&b).ok()) else {
+            log::error!("kloub: the browser could not encode the screenshot");
+            return;
+        };
+        anchor.set_href(&url);
+        anchor.click();
+        let _ = web_sys::Url::revoke_object_url(&url);
+    });
+    canvas.to_blob_with_type(done.unchecked_ref(), "image/png").map_err(fail)?;
     Ok(())
 }
 

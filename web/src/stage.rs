@@ -548,11 +548,10 @@ impl Stage {
             let result = self.install(model, None);
             self.finish_receive(result, shown);
         }
-        let mut arrived = std::mem::take(&mut self.parsing);
-        // Deliveries that waited for the codecs module, once it is in (or has failed).
-        if !crate::codecs::loading() {
-            arrived.append(&mut self.awaiting_codecs);
-        }
+        // Deliveries that waited for the codecs module come first once it is in (or has failed), so
+        // that models are shown in the order they were asked for.
+        let mut arrived = if crate::codecs::loading() { Vec::new() } else { std::mem::take(&mut self.awaiting_codecs) };
+        arrived.append(&mut self.parsing);
         for delivery in self.inbox.take() {
             // A download shared with other viewers counts too (its files come as `shared`).
             let bytes: usize = delivery.contents().iter().map(|f| f.bytes.len()).sum();
@@ -567,6 +566,11 @@ impl Stage {
             self.controls.wake();
         }
         for delivery in arrived {
+            // Behind a delivery that waits for the codecs module, every later one waits too (still pending).
+            if !self.awaiting_codecs.is_empty() {
+                self.awaiting_codecs.push(delivery);
+                continue;
+            }
             self.pending = self.pending.saturating_sub(1);
             // A download shared with the page's other viewers: the model another viewer already
             // decoded from it, else its files (the first to get here decodes them for all).
