@@ -35,7 +35,6 @@ pub struct Instance {
     morph_positions: Vec<[f32; 3]>,
     morph_normals: Vec<[f32; 3]>,
     scratch_positions: Vec<[f32; 3]>,
-    scratch_normals: Vec<[f32; 3]>,
     /// Morphed tangents, then their tips ([`Instance::deform_tangents`]).
     morph_tangents: Vec<[f32; 3]>,
     scratch_tangents: Vec<[f32; 3]>,
@@ -74,7 +73,6 @@ impl Instance {
             morph_positions: Vec::with_capacity(max_vertices),
             morph_normals: Vec::with_capacity(max_vertices),
             scratch_positions: Vec::with_capacity(max_vertices),
-            scratch_normals: Vec::with_capacity(max_vertices),
             morph_tangents: Vec::new(),
             scratch_tangents: Vec::new(),
             scratch_tips: Vec::new(),
@@ -500,17 +498,17 @@ impl Instance {
         }
     }
 
-    /// World-space AABB of the default scene's deformed meshes (skinned included); None if nothing drawable.
+    /// World-space AABB of the default scene's deformed meshes (skinned included); None if nothing
+    /// drawable. Only the positions are deformed (no normals).
     pub fn scene_bounds(&mut self, asset: &Asset) -> Option<(Vec3, Vec3)> {
         let mut positions = std::mem::take(&mut self.scratch_positions);
-        let mut normals = std::mem::take(&mut self.scratch_normals);
         let mut bounds: Option<(Vec3, Vec3)> = None;
         for i in 0..self.scene_nodes.len() {
             let node = self.scene_nodes[i];
             let Some(mesh) = asset.nodes.get(node as usize).and_then(|n| n.mesh) else { continue };
             let count = asset.meshes.get(mesh as usize).map_or(0, |m| m.primitives.len());
             for p in 0..count {
-                if self.deform_primitive(asset, node, p, &mut positions, &mut normals).is_err() {
+                if self.deform_positions(asset, node, p, &mut positions).is_err() {
                     continue;
                 }
                 for v in positions.iter().map(|&v| Vec3::from(v)).filter(|v| v.is_finite()) {
@@ -522,8 +520,25 @@ impl Instance {
             }
         }
         self.scratch_positions = positions;
-        self.scratch_normals = normals;
         bounds
+    }
+
+    /// [`Instance::deform_primitive`]'s positions alone (the normals neither morphed nor skinned).
+    fn deform_positions(
+        &mut self,
+        asset: &Asset,
+        node: u32,
+        primitive: usize,
+        out_positions: &mut Vec<[f32; 3]>,
+    ) -> Result<(), JobError> {
+        let (prim, weights) = self.morph_source(asset, node, primitive)?;
+        let targets = &prim.targets[..weights.len()];
+        let weights = &self.pose.weights[weights];
+        morph(&prim.positions, targets, |t| &t.positions, weights, &mut self.morph_positions)?;
+        self.morph_normals.clear();
+        out_positions.clear();
+        out_positions.resize(self.morph_positions.len(), [0.0; 3]);
+        self.deform_stream(asset, node, primitive, Stream::Morphed, out_positions, &mut [])
     }
 
     /// Refuses an asset whose shape differs from the one this instance was made for.
@@ -794,6 +809,30 @@ mod tests {
             instance.deform_tangents(&asset, 3, 0, &p, &mut t).expect("valid");
         }
         assert_eq!(crate::testutil::allocations() - before, 0);
+    }
+
+    #[test]
+    fn scene_bounds_are_those_of_the_deformed_vertices_for_every_method() {
+        for file in ["khronos/Fox/glTF-Binary/Fox.glb", "khronos/AnimatedMorphCube/glTF-Binary/AnimatedMorphCube.glb"] {
+            let asset = crate::testutil::load(file);
+            let mut instance = Instance::new(&asset);
+            for method in SkinningMethod::ALL {
+                instance.set_skinning(&asset, method);
+                instance.evaluate(&asset, Some(0), 0.4).expect("valid");
+                let (mut p, mut n) = (Vec::new(), Vec::new());
+                let mut expected: Option<(Vec3, Vec3)> = None;
+                for &node in &instance.scene_nodes.clone() {
+                    let Some(mesh) = asset.nodes[node as usize].mesh else { continue };
+                    for prim in 0..asset.meshes[mesh as usize].primitives.len() {
+                        instance.deform_primitive(&asset, node, prim, &mut p, &mut n).expect("valid");
+                        for v in p.iter().map(|&v| Vec3::from(v)) {
+                            expected = Some(expected.map_or((v, v), |(lo, hi)| (lo.min(v), hi.max(v))));
+                        }
+                    }
+                }
+                assert_eq!(instance.scene_bounds(&asset), expected, "{file} {method:?}");
+            }
+        }
     }
 
     #[test]

@@ -87,31 +87,54 @@ impl EnvironmentName {
         })
     }
 
-    /// The environment as an image ([`PROCEDURAL_WIDTH`] × half).
+    /// The environment as an image ([`PROCEDURAL_WIDTH`] × half). Made while a page waits for its
+    /// first frame, so each pixel's [`direction`] takes its sines and cosines from its row and
+    /// column (the same values), and a light's edge is only evaluated near it ([`SoftBox`]).
     pub fn image(self) -> HdrImage {
         let (w, h) = (PROCEDURAL_WIDTH, PROCEDURAL_WIDTH / 2);
+        let columns: Vec<(f32, f32)> = (0..w)
+            .map(|x| {
+                let phi = ((x as f32 + 0.5) / w as f32 - 0.5) * 2.0 * PI;
+                (phi.sin(), phi.cos())
+            })
+            .collect();
+        let lights = self.soft_boxes();
         let mut rgb = Vec::with_capacity((w * h) as usize);
         for y in 0..h {
-            for x in 0..w {
-                let d = direction((x as f32 + 0.5) / w as f32, (y as f32 + 0.5) / h as f32);
-                rgb.push(self.radiance(d));
+            let theta = (y as f32 + 0.5) / h as f32 * PI;
+            let (st, ct) = (theta.sin(), theta.cos());
+            for &(sp, cp) in &columns {
+                rgb.push(self.radiance([st * sp, ct, -st * cp], &lights));
             }
         }
         HdrImage { width: w, height: h, rgb }
     }
 
-    /// Radiance arriving from direction `d` (unit).
-    fn radiance(self, d: [f32; 3]) -> [f32; 3] {
+    /// The round lights of this environment (what `radiance` adds over its gradient).
+    fn soft_boxes(self) -> Vec<SoftBox> {
+        let lights: &[([f32; 3], f32)] = match self {
+            // Softboxes: key (upper left of the default view), fill (right), rim (behind, above).
+            EnvironmentName::Studio => {
+                &[([-0.45, 0.75, 0.5], 0.22), ([0.85, 0.3, 0.45], 0.25), ([0.25, 0.55, -0.8], 0.18)]
+            }
+            EnvironmentName::Neutral => &[([-0.5, 0.85, 0.2], 0.2), ([0.5, 0.85, -0.2], 0.2), ([0.0, 0.5, 0.86], 0.2)],
+            EnvironmentName::Outdoor | EnvironmentName::Flat => &[],
+        };
+        lights.iter().map(|&(toward, radius)| SoftBox::new(toward, radius)).collect()
+    }
+
+    /// Radiance arriving from direction `d` (unit); `lights`: [`EnvironmentName::soft_boxes`].
+    fn radiance(self, d: [f32; 3], lights: &[SoftBox]) -> [f32; 3] {
         let up = d[1] * 0.5 + 0.5;
         let mix = |a: [f32; 3], b: [f32; 3], t: f32| [0, 1, 2].map(|k| a[k] + (b[k] - a[k]) * t);
         let add = |a: [f32; 3], b: [f32; 3], s: f32| [0, 1, 2].map(|k| a[k] + b[k] * s);
+        let light = |i: usize| lights.get(i).map_or(0.0, |l| l.at(d));
         match self {
             EnvironmentName::Studio => {
                 let mut c = mix([0.15, 0.14, 0.13], [0.3, 0.32, 0.35], smooth(0.35, 0.75, up));
-                // Softboxes: key (upper left of the default view), fill (right), rim (behind, above).
-                c = add(c, [1.0, 0.97, 0.92], 4.0 * soft_box(d, [-0.45, 0.75, 0.5], 0.22));
-                c = add(c, [0.9, 0.95, 1.0], 1.6 * soft_box(d, [0.85, 0.3, 0.45], 0.25));
-                add(c, [1.0, 1.0, 1.0], 3.0 * soft_box(d, [0.25, 0.55, -0.8], 0.18))
+                c = add(c, [1.0, 0.97, 0.92], 4.0 * light(0));
+                c = add(c, [0.9, 0.95, 1.0], 1.6 * light(1));
+                add(c, [1.0, 1.0, 1.0], 3.0 * light(2))
             }
             EnvironmentName::Outdoor => {
                 let sky = mix([0.62, 0.68, 0.75], [0.22, 0.36, 0.66], smooth(0.5, 1.0, up));
@@ -125,13 +148,38 @@ impl EnvironmentName {
             }
             EnvironmentName::Neutral => {
                 let mut c = mix([0.3, 0.3, 0.3], [0.55, 0.55, 0.55], smooth(0.3, 0.8, up));
-                for panel in [[-0.5, 0.85, 0.2], [0.5, 0.85, -0.2], [0.0, 0.5, 0.86]] {
-                    c = add(c, [1.0, 1.0, 1.0], 1.5 * soft_box(d, panel, 0.2));
+                for i in 0..3 {
+                    c = add(c, [1.0, 1.0, 1.0], 1.5 * light(i));
                 }
                 c
             }
             EnvironmentName::Flat => mix([0.8; 3], [0.95; 3], up),
         }
+    }
+}
+
+/// A round light of angular radius `radius` (radians, about) around a direction: 1 inside,
+/// fading over its edge.
+struct SoftBox {
+    /// The unit direction of its centre.
+    toward: [f32; 3],
+    radius: f32,
+    /// Below this cosine a direction is past the edge (by a margin over rounding): 0 there,
+    /// without an `acos`.
+    outside: f32,
+}
+
+impl SoftBox {
+    fn new(toward: [f32; 3], radius: f32) -> Self {
+        Self { toward: normalize(toward), radius, outside: radius.cos() - 1e-3 }
+    }
+
+    fn at(&self, d: [f32; 3]) -> f32 {
+        let cos = dot(d, self.toward).clamp(-1.0, 1.0);
+        if cos < self.outside {
+            return 0.0;
+        }
+        1.0 - smooth(self.radius * 0.7, self.radius, cos.acos())
     }
 }
 
@@ -150,13 +198,6 @@ fn normalize(a: [f32; 3]) -> [f32; 3] {
 fn smooth(e0: f32, e1: f32, x: f32) -> f32 {
     let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
     t * t * (3.0 - 2.0 * t)
-}
-
-/// 1 inside a round light of angular radius `radius` (radians, about) around `toward`, fading
-/// over its edge.
-fn soft_box(d: [f32; 3], toward: [f32; 3], radius: f32) -> f32 {
-    let angle = dot(d, normalize(toward)).clamp(-1.0, 1.0).acos();
-    1.0 - smooth(radius * 0.7, radius, angle)
 }
 
 /// The unit direction of equirectangular coordinates `(u, v)` (`shaders/equirect.wgsl`).
@@ -476,6 +517,28 @@ pub fn parse_hdr(bytes: &[u8], max_pixels: u64) -> Result<HdrImage, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn procedural_images_are_exactly_the_per_pixel_formula() {
+        for name in EnvironmentName::ALL.into_iter().chain([EnvironmentName::Flat]) {
+            let image = name.image();
+            let (w, h) = (image.width, image.height);
+            let lights = name.soft_boxes();
+            for y in 0..h {
+                for x in 0..w {
+                    let d = direction((x as f32 + 0.5) / w as f32, (y as f32 + 0.5) / h as f32);
+                    let got = image.rgb[(y * w + x) as usize];
+                    assert_eq!(got.map(f32::to_bits), name.radiance(d, &lights).map(f32::to_bits), "{x},{y}");
+                    // Each light as the formula has it: the acos of every direction, no shortcut.
+                    for l in &lights {
+                        let angle = dot(d, l.toward).clamp(-1.0, 1.0).acos();
+                        let exact = 1.0 - smooth(l.radius * 0.7, l.radius, angle);
+                        assert_eq!(l.at(d).to_bits(), exact.to_bits(), "{x},{y}");
+                    }
+                }
+            }
+        }
+    }
 
     #[test]
     fn directions_match_the_shader_convention() {

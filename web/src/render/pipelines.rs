@@ -20,25 +20,32 @@ use super::uniforms::{DrawUniform, FrameUniform, MaterialUniform};
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
 /// `shaders/skinning.wgsl` + `shaders/output.wgsl` + `shaders/equirect.wgsl` +
-/// `shaders/mesh.wgsl`: the mesh pipelines (vertex-shader skinning).
+/// `shaders/mesh.wgsl`: the mesh pipelines (vertex-shader skinning). Each file as `web/build.rs`
+/// embeds it: without comments, indentation or blank lines.
 pub const MESH_WGSL: &str = concat!(
-    include_str!("../../../shaders/skinning.wgsl"),
-    include_str!("../../../shaders/output.wgsl"),
-    include_str!("../../../shaders/equirect.wgsl"),
-    include_str!("../../../shaders/mesh.wgsl")
+    include_str!(concat!(env!("OUT_DIR"), "/skinning.wgsl")),
+    include_str!(concat!(env!("OUT_DIR"), "/output.wgsl")),
+    include_str!(concat!(env!("OUT_DIR"), "/equirect.wgsl")),
+    include_str!(concat!(env!("OUT_DIR"), "/mesh.wgsl"))
 );
 /// `shaders/equirect.wgsl` + `shaders/ibl.wgsl`: prefiltering environments.
-pub const IBL_WGSL: &str =
-    concat!(include_str!("../../../shaders/equirect.wgsl"), include_str!("../../../shaders/ibl.wgsl"));
+pub const IBL_WGSL: &str = concat!(
+    include_str!(concat!(env!("OUT_DIR"), "/equirect.wgsl")),
+    include_str!(concat!(env!("OUT_DIR"), "/ibl.wgsl"))
+);
 /// `shaders/skinning.wgsl` + `shaders/skin_compute.wgsl`: compute skinning (not on WebGL2).
-pub const SKIN_COMPUTE_WGSL: &str =
-    concat!(include_str!("../../../shaders/skinning.wgsl"), include_str!("../../../shaders/skin_compute.wgsl"));
+pub const SKIN_COMPUTE_WGSL: &str = concat!(
+    include_str!(concat!(env!("OUT_DIR"), "/skinning.wgsl")),
+    include_str!(concat!(env!("OUT_DIR"), "/skin_compute.wgsl"))
+);
 /// `shaders/output.wgsl` + `shaders/environment.wgsl`.
-pub const ENVIRONMENT_WGSL: &str =
-    concat!(include_str!("../../../shaders/output.wgsl"), include_str!("../../../shaders/environment.wgsl"));
+pub const ENVIRONMENT_WGSL: &str = concat!(
+    include_str!(concat!(env!("OUT_DIR"), "/output.wgsl")),
+    include_str!(concat!(env!("OUT_DIR"), "/environment.wgsl"))
+);
 
 /// `shaders/mip.wgsl`: a mip level from the one above it, for images the browser decoded.
-pub const MIP_WGSL: &str = include_str!("../../../shaders/mip.wgsl");
+pub const MIP_WGSL: &str = include_str!(concat!(env!("OUT_DIR"), "/mip.wgsl"));
 
 /// Every shader module the renderer compiles: name, WGSL source, whether it runs on WebGL2.
 pub const SHADER_MODULES: [(&str, &str, bool); 5] = [
