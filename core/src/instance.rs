@@ -312,11 +312,7 @@ impl Instance {
         out_positions: &mut Vec<[f32; 3]>,
         out_normals: &mut Vec<[f32; 3]>,
     ) -> Result<(), JobError> {
-        let (prim, weights) = self.morph_source(asset, node, primitive)?;
-        let targets = &prim.targets[..weights.len()];
-        let weights = &self.pose.weights[weights];
-        morph(&prim.positions, targets, |t| &t.positions, weights, &mut self.morph_positions)?;
-        morph(&prim.normals, targets, |t| &t.normals, weights, &mut self.morph_normals)?;
+        self.morph_vertices(asset, node, primitive, true)?;
         out_positions.clear();
         out_positions.resize(self.morph_positions.len(), [0.0; 3]);
         out_normals.clear();
@@ -523,6 +519,21 @@ impl Instance {
         bounds
     }
 
+    /// Morphs one primitive's positions into `morph_positions` and, with `normals`, its normals
+    /// into `morph_normals` (else left empty: nothing deforms them).
+    fn morph_vertices(&mut self, asset: &Asset, node: u32, primitive: usize, normals: bool) -> Result<(), JobError> {
+        let (prim, weights) = self.morph_source(asset, node, primitive)?;
+        let targets = &prim.targets[..weights.len()];
+        let weights = &self.pose.weights[weights];
+        morph(&prim.positions, targets, |t| &t.positions, weights, &mut self.morph_positions)?;
+        if normals {
+            morph(&prim.normals, targets, |t| &t.normals, weights, &mut self.morph_normals)?;
+        } else {
+            self.morph_normals.clear();
+        }
+        Ok(())
+    }
+
     /// [`Instance::deform_primitive`]'s positions alone (the normals neither morphed nor skinned).
     fn deform_positions(
         &mut self,
@@ -531,11 +542,7 @@ impl Instance {
         primitive: usize,
         out_positions: &mut Vec<[f32; 3]>,
     ) -> Result<(), JobError> {
-        let (prim, weights) = self.morph_source(asset, node, primitive)?;
-        let targets = &prim.targets[..weights.len()];
-        let weights = &self.pose.weights[weights];
-        morph(&prim.positions, targets, |t| &t.positions, weights, &mut self.morph_positions)?;
-        self.morph_normals.clear();
+        self.morph_vertices(asset, node, primitive, false)?;
         out_positions.clear();
         out_positions.resize(self.morph_positions.len(), [0.0; 3]);
         self.deform_stream(asset, node, primitive, Stream::Morphed, out_positions, &mut [])

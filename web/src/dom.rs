@@ -381,21 +381,13 @@ impl Dataset {
 pub fn download(name: &str, bytes: &[u8], mime: &str) -> Result<(), String> {
     #[cfg(target_arch = "wasm32")]
     {
-        use wasm_bindgen::JsCast;
         let fail = |e: wasm_bindgen::JsValue| format!("download {name}: {e:?}");
         let document = web_sys::window().and_then(|w| w.document()).ok_or("no document")?;
         let parts = js_sys::Array::of1(&js_sys::Uint8Array::from(bytes));
         let options = web_sys::BlobPropertyBag::new();
         options.set_type(mime);
         let blob = web_sys::Blob::new_with_u8_array_sequence_and_options(&parts, &options).map_err(fail)?;
-        let url = web_sys::Url::create_object_url_with_blob(&blob).map_err(fail)?;
-        let anchor: web_sys::HtmlAnchorElement =
-            document.create_element("a").map_err(fail)?.dyn_into().map_err(|_| "not an anchor".to_owned())?;
-        anchor.set_href(&url);
-        anchor.set_download(name);
-        anchor.click();
-        web_sys::Url::revoke_object_url(&url).map_err(fail)?;
-        Ok(())
+        offer_blob(&document, name, &blob)
     }
     #[cfg(not(target_arch = "wasm32"))]
     {
@@ -426,21 +418,30 @@ pub fn download_rgba(name: &str, pixels: &[u8], width: u32, height: u32) -> Resu
     let image = web_sys::ImageData::new_with_u8_clamped_array_and_sh(wasm_bindgen::Clamped(pixels), width, height)
         .map_err(fail)?;
     context.put_image_data(&image, 0.0, 0.0).map_err(fail)?;
-    let anchor: web_sys::HtmlAnchorElement =
-        document.create_element("a").map_err(fail)?.dyn_into().map_err(|_| "not an anchor".to_owned())?;
-    anchor.set_download(name);
     // Encoded off the main thread into a Blob, offered by an object URL (no base64 copy).
+    let name = name.to_owned();
     let done = wasm_bindgen::closure::Closure::once_into_js(move |blob: Option<web_sys::Blob>| {
-        let Some(url) = blob.and_then(|b| web_sys::Url::create_object_url_with_blob(&b).ok()) else {
-            log::error!("kloub: the browser could not encode the screenshot");
-            return;
-        };
-        anchor.set_href(&url);
-        anchor.click();
-        let _ = web_sys::Url::revoke_object_url(&url);
+        if let Err(message) = blob.ok_or_else(|| "no PNG".to_owned()).and_then(|b| offer_blob(&document, &name, &b)) {
+            log::error!("kloub: the browser could not encode the screenshot {name}: {message}");
+        }
     });
     canvas.to_blob_with_type(done.unchecked_ref(), "image/png").map_err(fail)?;
     Ok(())
+}
+
+/// Offers `blob` as the file `name`: an anchor with `download`, clicked, over an object URL that
+/// is let go at once (the browser keeps what it started downloading).
+#[cfg(target_arch = "wasm32")]
+fn offer_blob(document: &web_sys::Document, name: &str, blob: &web_sys::Blob) -> Result<(), String> {
+    use wasm_bindgen::JsCast;
+    let fail = |e: wasm_bindgen::JsValue| format!("download {name}: {}", js_error_text(&e));
+    let url = web_sys::Url::create_object_url_with_blob(blob).map_err(fail)?;
+    let anchor: web_sys::HtmlAnchorElement =
+        document.create_element("a").map_err(fail)?.dyn_into().map_err(|_| "not an anchor".to_owned())?;
+    anchor.set_href(&url);
+    anchor.set_download(name);
+    anchor.click();
+    web_sys::Url::revoke_object_url(&url).map_err(fail)
 }
 
 #[cfg(target_arch = "wasm32")]
