@@ -12,7 +12,9 @@
 //   scripts/build-web.sh && node scripts/bench-first-frame.mjs
 //
 // KLOUB_BENCH_RUNS (default 5; the median is printed), KLOUB_BACKENDS (webgpu,webgl2), KLOUB_BENCH_ENCODING=br,
-// KLOUB_BENCH_TRACE=1 (each run's resource timings, console, long tasks and gaps between animation frames).
+// KLOUB_BENCH_TRACE=1 (each run's resource timings, console, long tasks and gaps between animation frames),
+// KLOUB_BENCH_PROFILE=1 (each run's heaviest functions by self time, and at the end each viewer's functions by
+// inclusive time per run: keep the names in the wasm to read Kloub's, see BENCHMARKS.md).
 import { createServer } from 'node:http';
 import { readFileSync, statSync } from 'node:fs';
 import { extname, resolve } from 'node:path';
@@ -135,7 +137,10 @@ async function run(url) {
   await page.goto(url);
   await page.waitForFunction(() => window.__painted !== undefined, null, { timeout: 120000, polling: 50 });
   const [ms, painted] = await page.evaluate(() => [window.__firstFrame, window.__painted]);
-  if (PROFILE_CPU) printProfile((await cdp.send('Profiler.stop')).profile, ms);
+  if (PROFILE_CPU) {
+    if (!INCLUSIVE.has(url)) INCLUSIVE.set(url, new Map());
+    printProfile((await cdp.send('Profiler.stop')).profile, ms, INCLUSIVE.get(url));
+  }
   if (TRACE) {
     const entries = await page.evaluate(() => performance.getEntriesByType('resource')
       .map((e) => [e.name.replace(location.origin, ''), e.startTime, e.responseStart, e.responseEnd, e.encodedBodySize]));
@@ -149,9 +154,15 @@ async function run(url) {
   return [ms, bytes, painted];
 }
 
-/** The functions with the most self time in `profile` (a CDP CPU profile) until `untilMs` after its start. */
-function printProfile(profile, untilMs) {
+/** Per viewer, the inclusive time of each function over its runs' profiles (printed at the end). */
+const INCLUSIVE = new Map();
+
+/** The functions with the most self time in `profile` (a CDP CPU profile) until `untilMs` after its start; each
+ * sample's stack also adds to `inclusive` (every distinct function on it, once). */
+function printProfile(profile, untilMs, inclusive) {
   const byId = new Map(profile.nodes.map((n) => [n.id, n]));
+  const parent = new Map();
+  for (const n of profile.nodes) for (const c of n.children ?? []) parent.set(c, n.id);
   const self = new Map();
   let t = profile.startTime;
   const end = profile.startTime + untilMs * 1000;
@@ -161,6 +172,15 @@ function printProfile(profile, untilMs) {
     const f = byId.get(id).callFrame;
     const key = `${f.functionName || '(anonymous)'} ${f.url.split('/').pop()}`;
     self.set(key, (self.get(key) ?? 0) + profile.timeDeltas[i] / 1000);
+    const seen = new Set();
+    for (let node = id; node !== undefined; node = parent.get(node)) {
+      // Rust's symbol hashes dropped: a function and its copies count as one.
+      const name = (byId.get(node).callFrame.functionName || '(anonymous)').replace(/::h[0-9a-f]{16}|\[[0-9a-f]{16}\]/g, '');
+      if (!seen.has(name)) {
+        seen.add(name);
+        inclusive.set(name, (inclusive.get(name) ?? 0) + profile.timeDeltas[i] / 1000);
+      }
+    }
   });
   for (const [key, msSelf] of [...self].sort((a, b) => b[1] - a[1]).slice(0, 25)) {
     console.error(`  ${msSelf.toFixed(1).padStart(7)} ms  ${key}`);
@@ -174,19 +194,28 @@ try {
     ...BACKENDS.map((b) => [`kloub-viewer (widget), ${b === 'webgl2' ? 'WebGL2' : 'WebGPU'}`, `/kloub.html?backend=${b}`]),
     ['model-viewer 4.4.0 (WebGL)', '/mv.html'],
   ];
-  const rows = [];
-  for (const [name, path] of impls) {
-    const times = [];
-    const painted = [];
-    let transferred = 0;
-    for (let i = 0; i < RUNS; i++) {
+  // The viewers take turns, run by run: a slower or faster spell of the shared machine falls on all of them alike.
+  const results = impls.map(() => ({ times: [], painted: [], transferred: 0 }));
+  for (let i = 0; i < RUNS; i++) {
+    for (const [k, [name, path]] of impls.entries()) {
       const [ms, bytes, frame] = await run(`${server.url}${path}`);
-      times.push(ms);
-      painted.push(frame);
-      transferred = bytes;
+      results[k].times.push(ms);
+      results[k].painted.push(frame);
+      results[k].transferred = bytes;
       console.error(`${name}: run ${i + 1}: load ${ms.toFixed(0)} ms, next frame ${frame.toFixed(0)} ms, ${bytes} B`);
     }
-    rows.push([name, median(times), Math.min(...times), Math.max(...times), transferred, median(painted)]);
+  }
+  const rows = impls.map(([name], k) => {
+    const { times, painted, transferred } = results[k];
+    return [name, median(times), Math.min(...times), Math.max(...times), transferred, median(painted)];
+  });
+  for (const [url, inclusive] of INCLUSIVE) {
+    // What the main thread did until `load`, inclusive of callees, per run: where Kloub's time after its wasm goes.
+    console.error(`${url}: inclusive time per run until \`load\``);
+    const pseudo = /^\((root|program|idle|garbage collector|anonymous)\)$/;
+    for (const [name, total] of [...inclusive].filter(([n]) => !pseudo.test(n)).sort((a, b) => b[1] - a[1]).slice(0, 40)) {
+      console.error(`  ${(total / RUNS).toFixed(1).padStart(7)} ms  ${name.slice(0, 140)}`);
+    }
   }
   const mv = rows.at(-1)[1];
   const mvPainted = rows.at(-1)[5];

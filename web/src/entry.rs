@@ -1045,7 +1045,7 @@ pub fn set_prefetch(
 
 /// For tests: panics inside the module (as a bug would), so recovery can be checked.
 /// Test hook: what the page's viewers share, as JSON: per model URL the downloads started and
-/// the imports done, the assets uploaded to a GPU, the pipeline kits built, the decoded
+/// the imports done, the assets uploaded to a GPU, the pipeline kits and named environments built, the decoded
 /// models still shown, and the images decoded while the module loaded.
 #[wasm_bindgen(js_name = _testCounters)]
 pub fn test_counters() -> String {
@@ -1057,6 +1057,7 @@ pub fn test_counters() -> String {
         "models": models,
         "uploads": crate::render::scene::uploads_made(),
         "kits": crate::render::pipelines::kits_built(),
+        "environments": crate::render::pipelines::environments_built(),
         "liveModels": crate::shared::live_models(),
         "liveUploads": crate::render::scene::live_uploads(),
         "predecoded": crate::decode::predecoded(),

@@ -1,10 +1,15 @@
-//! `log` records on the browser console (info and above).
+//! `log` records on the browser console: info and above in the full app; warnings and errors only
+//! in the widget builds, which live on other people's pages (and whose every console line, before
+//! the first frame, is time a page waits: a few ms each where the console is inspected).
 
 struct Console;
 
+/// The most verbose level written.
+const LEVEL: log::LevelFilter = if cfg!(feature = "full") { log::LevelFilter::Info } else { log::LevelFilter::Warn };
+
 impl log::Log for Console {
     fn enabled(&self, metadata: &log::Metadata<'_>) -> bool {
-        metadata.level() <= log::Level::Info
+        metadata.level() <= LEVEL
     }
 
     fn log(&self, record: &log::Record<'_>) {
@@ -27,6 +32,6 @@ static CONSOLE: Console = Console;
 /// Installs the console logger (once; later calls do nothing).
 pub fn init() {
     if log::set_logger(&CONSOLE).is_ok() {
-        log::set_max_level(log::LevelFilter::Info);
+        log::set_max_level(LEVEL);
     }
 }

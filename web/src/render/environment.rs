@@ -103,6 +103,14 @@ impl EnvironmentName {
         for y in 0..h {
             let theta = (y as f32 + 0.5) / h as f32 * PI;
             let (st, ct) = (theta.sin(), theta.cos());
+            // Away from the lights (and the outdoor sun's glow) a row is one colour: the gradient
+            // depends on the height alone, and every light adds exactly 0 there.
+            if self != EnvironmentName::Outdoor && !lights.iter().any(|l| l.reaches_row(st, ct)) {
+                let (sp, cp) = columns.first().copied().unwrap_or((0.0, 1.0));
+                let c = self.radiance([st * sp, ct, -st * cp], &lights);
+                rgb.extend(std::iter::repeat_n(c, columns.len()));
+                continue;
+            }
             for &(sp, cp) in &columns {
                 rgb.push(self.radiance([st * sp, ct, -st * cp], &lights));
             }
@@ -172,6 +180,14 @@ struct SoftBox {
 impl SoftBox {
     fn new(toward: [f32; 3], radius: f32) -> Self {
         Self { toward: normalize(toward), radius, outside: radius.cos() - 1e-3 }
+    }
+
+    /// Whether some direction of the row at polar angle θ (`sin θ`, `cos θ`; every azimuth) may
+    /// be lit: the greatest cosine to the centre over the row, `sin θ·|t_xz| + cos θ·t_y`, is
+    /// past the edge by less than a margin far over `at`'s rounding.
+    fn reaches_row(&self, st: f32, ct: f32) -> bool {
+        let [x, y, z] = self.toward;
+        st * (x * x + z * z).sqrt() + ct * y >= self.outside - 1e-4
     }
 
     fn at(&self, d: [f32; 3]) -> f32 {
@@ -258,32 +274,36 @@ impl HdrImage {
         // largest value, non-finite as 0 (an .hdr may hold values that would overflow the sums).
         let (width, height) = (self.width as usize, self.height as usize);
         let step = (self.width / SH_SOURCE_WIDTH).max(1) as usize;
-        let texel = |x: usize, y: usize| -> [f32; 3] {
-            self.rgb
-                .get(y * width + x)
-                .copied()
-                .unwrap_or_default()
-                .map(|c| if c.is_finite() { c.clamp(0.0, 65504.0) } else { 0.0 })
-        };
+        let taken = |c: f32| f64::from(if c.is_finite() { c.clamp(0.0, 65504.0) } else { 0.0 });
+        // Each block's direction as `direction` gives it, its sines and cosines taken once per
+        // row and column of blocks (the same values).
+        let columns: Vec<(f32, f32)> = (0..width)
+            .step_by(step)
+            .map(|x0| {
+                let u = 0.5 * (x0 + (x0 + step).min(width)) as f32 / width as f32;
+                let phi = (u - 0.5) * 2.0 * PI;
+                (phi.sin(), phi.cos())
+            })
+            .collect();
         let mut sum = [[0.0f64; 3]; 9];
         for y0 in (0..height).step_by(step) {
             let y1 = (y0 + step).min(height);
             let v = 0.5 * (y0 + y1) as f32 / height as f32;
-            for x0 in (0..width).step_by(step) {
+            let theta = v * PI;
+            let (st, ct) = (theta.sin(), theta.cos());
+            for (&(sp, cp), x0) in columns.iter().zip((0..width).step_by(step)) {
                 let x1 = (x0 + step).min(width);
                 let mut block = [0.0f64; 3];
                 for y in y0..y1 {
-                    for x in x0..x1 {
-                        let p = texel(x, y);
-                        for k in 0..3 {
-                            block[k] += f64::from(p[k]);
-                        }
+                    for p in self.rgb.get(y * width + x0..y * width + x1).unwrap_or_default() {
+                        block[0] += taken(p[0]);
+                        block[1] += taken(p[1]);
+                        block[2] += taken(p[2]);
                     }
                 }
                 // One pixel's solid angle at the block's latitude (the block holds their sum).
-                let solid = f64::from((2.0 * PI / width as f32) * (PI / height as f32) * (v * PI).sin());
-                let d = direction(0.5 * (x0 + x1) as f32 / width as f32, v);
-                let basis = sh_basis(d);
+                let solid = f64::from((2.0 * PI / width as f32) * (PI / height as f32) * st);
+                let basis = sh_basis([st * sp, ct, -st * cp]);
                 for (s, b) in sum.iter_mut().zip(basis) {
                     for k in 0..3 {
                         s[k] += block[k] * f64::from(b) * solid;
@@ -346,7 +366,25 @@ impl HdrImage {
     /// clamped to its largest).
     pub fn rgba16f(&self) -> Vec<u16> {
         let one = f32_to_f16(1.0);
-        self.rgb.iter().flat_map(|p| [f32_to_f16(p[0]), f32_to_f16(p[1]), f32_to_f16(p[2]), one]).collect()
+        let mut out = Vec::with_capacity(self.rgb.len() * 4);
+        // A run of equal pixels (the environments made in code are mostly such rows) is
+        // converted once.
+        let mut last: Option<([f32; 3], [u16; 4])> = None;
+        for &p in &self.rgb {
+            let half = match last {
+                Some((q, half))
+                    if q[0].to_bits() == p[0].to_bits()
+                        && q[1].to_bits() == p[1].to_bits()
+                        && q[2].to_bits() == p[2].to_bits() =>
+                {
+                    half
+                }
+                _ => [f32_to_f16(p[0]), f32_to_f16(p[1]), f32_to_f16(p[2]), one],
+            };
+            last = Some((p, half));
+            out.extend_from_slice(&half);
+        }
+        out
     }
 }
 
@@ -547,6 +585,22 @@ mod tests {
         assert!(close(direction(0.75, 0.5), [1.0, 0.0, 0.0]));
         assert!(close(direction(0.0, 0.5), [0.0, 0.0, 1.0]));
         assert!(close(direction(0.3, 0.0), [0.0, 1.0, 0.0]));
+    }
+
+    #[test]
+    fn half_float_images_convert_every_pixel() {
+        // Runs of equal pixels are converted once: the same halves as pixel by pixel, for the
+        // environments made in code (mostly such runs) and an image whose neighbours differ,
+        // including -0.0 beside 0.0 and NaNs.
+        let mut mixed = EnvironmentName::Studio.image();
+        for (i, p) in mixed.rgb.iter_mut().enumerate().step_by(7) {
+            *p = [[0.0, -0.0, f32::NAN], [1e-6, 70000.0, 0.3], [0.0; 3]][i % 3];
+        }
+        for image in EnvironmentName::ALL.into_iter().map(EnvironmentName::image).chain([mixed]) {
+            let each: Vec<u16> =
+                image.rgb.iter().flat_map(|p| [f32_to_f16(p[0]), f32_to_f16(p[1]), f32_to_f16(p[2]), 0x3c00]).collect();
+            assert_eq!(image.rgba16f(), each);
+        }
     }
 
     #[test]

@@ -43,9 +43,21 @@ struct PivotVertex {
 /// joints (`u32`).
 pub const PIVOT_STRIDE: u64 = size_of::<PivotVertex>() as u64;
 
-/// Uploads the per-vertex joint centres of `plan` (vertices past the plan fall back to dual
-/// quaternions).
-pub fn pivot_buffer(device: &wgpu::Device, plan: &SjbPlan, vertices: usize, storage: bool) -> wgpu::Buffer {
+/// The spherical-joint-blend stream of a draw of `vertices` vertices, its contents still to be
+/// written ([`write_pivots`], when a copy first chooses a method that reads it): a model shown
+/// with another method never builds its plan. Read before, it holds zeros.
+pub fn pivot_buffer(device: &wgpu::Device, vertices: usize, storage: bool) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("kloub skin pivots"),
+        size: PIVOT_STRIDE * vertices.max(1) as u64,
+        usage: stream_usage(storage) | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+/// Writes the per-vertex joint centres of `plan` into `buffer` ([`pivot_buffer`] of `vertices`;
+/// vertices past the plan fall back to dual quaternions).
+pub fn write_pivots(queue: &wgpu::Queue, buffer: &wgpu::Buffer, plan: &SjbPlan, vertices: usize) {
     let data: Vec<PivotVertex> = (0..vertices.max(1))
         .map(|v| {
             let pivot = plan.vertex_pivots.get(v).and_then(|&i| plan.pivots.get(i as usize));
@@ -55,7 +67,7 @@ pub fn pivot_buffer(device: &wgpu::Device, plan: &SjbPlan, vertices: usize, stor
             }
         })
         .collect();
-    buffer(device, "kloub skin pivots", bytemuck::cast_slice(&data), stream_usage(storage))
+    queue.write_buffer(buffer, 0, bytemuck::cast_slice(&data));
 }
 
 /// Byte stride of the geometry stream: position, normal (`f32x3` each). Skinned on the CPU,

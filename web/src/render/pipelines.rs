@@ -546,6 +546,7 @@ impl Pipelines {
             .map_err(|e| log::warn!("kloub: environment {}: {e}", name.name()))
             .ok()?;
         cache.insert(name, env.clone());
+        ENVIRONMENTS_BUILT.with(|n| n.set(n.get() + 1));
         Some(env)
     }
 
@@ -873,6 +874,7 @@ impl std::ops::DerefMut for SharedKit {
 thread_local! {
     static KITS: std::cell::RefCell<Vec<SharedKit>> = const { std::cell::RefCell::new(Vec::new()) };
     static KITS_BUILT: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+    static ENVIRONMENTS_BUILT: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
 }
 
 /// The kit of `device` for `format` and `sample_count`: with `share` (the page's key of the
@@ -906,6 +908,12 @@ pub fn kit(
 /// Forgets the kits of the device `share` names (it was lost: its pipelines are of no use).
 pub fn forget_device(share: u32) {
     KITS.with(|kits| kits.borrow_mut().retain(|k| k.share != share));
+}
+
+/// How many named environments were prefiltered on this thread (tests: one per device and name,
+/// whatever the number of viewers).
+pub fn environments_built() -> usize {
+    ENVIRONMENTS_BUILT.with(std::cell::Cell::get)
 }
 
 /// How many kits were built on this thread (tests: one per device, format and sample count).

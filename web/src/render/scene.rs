@@ -10,7 +10,9 @@ use super::camera::Camera;
 use kloub_core::job::sjb::SjbPlan;
 
 use super::environment::{EnvironmentName, GpuEnvironment, HdrImage, fallback_environment};
-use super::mesh::{GeometryVertex, GpuPrimitive, TANGENT_STRIDE, interleave, pivot_buffer, sanitize_tangent};
+use super::mesh::{
+    GeometryVertex, GpuPrimitive, TANGENT_STRIDE, interleave, pivot_buffer, sanitize_tangent, write_pivots,
+};
 use super::morph::{MorphSlot, MorphTexture};
 use super::palette::PaletteTexture;
 use super::pipelines::MATERIAL_TEXTURES;
@@ -197,10 +199,12 @@ struct DrawItem {
     morphed: bool,
     /// Where the morph targets are on the GPU (`None`: not morphed, or morphed on the CPU).
     morph: Option<MorphSlot>,
-    /// Spherical-joint-blend centres per vertex (skinned draws).
+    /// Spherical-joint-blend centres per vertex (skinned draws), written when a copy first
+    /// chooses a method that reads them.
     pivots: Option<wgpu::Buffer>,
-    /// Vertices of `pivots` that fall back to dual quaternions.
-    sjb_fallbacks: usize,
+    /// Vertices of `pivots` that fall back to dual quaternions once written ([`PIVOTS_UNWRITTEN`]
+    /// before; shared by every viewer of the upload).
+    sjb_fallbacks: std::sync::Arc<std::sync::atomic::AtomicUsize>,
     /// Per copy: the geometry stream rewritten each frame when deformed on the CPU (created
     /// on first use).
     deformed: Vec<Option<wgpu::Buffer>>,
@@ -216,6 +220,26 @@ struct DrawItem {
     on_compute: bool,
     /// Per copy: the compute pass's streams (created on first use).
     compute_groups: Vec<Option<wgpu::BindGroup>>,
+}
+
+/// [`DrawItem::sjb_fallbacks`] before its pivots are written.
+const PIVOTS_UNWRITTEN: usize = usize::MAX;
+
+/// Writes the spherical-joint-blend centres of a skinned `draw` of `source` (a primitive of
+/// `asset`) unless some viewer of the upload did: its plan is built then, when a method first
+/// reads it, not while a page waits for the model's first frame.
+fn write_pivots_once(queue: &wgpu::Queue, asset: &Asset, draw: &DrawItem, source: &kloub_core::asset::Primitive) {
+    use std::sync::atomic::Ordering;
+    let (Some(buffer), Some(skin)) = (&draw.pivots, draw.skin.and_then(|s| asset.skins.get(s))) else {
+        return;
+    };
+    if draw.sjb_fallbacks.load(Ordering::Relaxed) != PIVOTS_UNWRITTEN {
+        return;
+    }
+    let parents: Vec<Option<u32>> = asset.nodes.iter().map(|n| n.parent).collect();
+    let plan = SjbPlan::build(skin, &parents, &source.joints, &source.weights);
+    write_pivots(queue, buffer, &plan, source.positions.len());
+    draw.sjb_fallbacks.store(plan.fallbacks, Ordering::Relaxed);
 }
 
 /// GPU resources of one asset.
@@ -251,7 +275,7 @@ struct GpuScene {
 struct Uploaded {
     primitives: Vec<Vec<Option<GpuPrimitive>>>,
     materials: Vec<wgpu::BindGroup>,
-    pivots: Vec<Option<(wgpu::Buffer, usize)>>,
+    pivots: Vec<Option<(wgpu::Buffer, std::sync::Arc<std::sync::atomic::AtomicUsize>)>>,
     morphs: MorphTexture,
 }
 
@@ -735,7 +759,6 @@ impl SceneRenderer {
         }
         let palette = PaletteTexture::new(device, joints)?;
 
-        let parents: Vec<Option<u32>> = asset.nodes.iter().map(|n| n.parent).collect();
         let mut draws = Vec::new();
         for node_index in asset.scene_nodes() {
             let Some(node) = asset.nodes.get(node_index as usize) else {
@@ -756,9 +779,9 @@ impl SceneRenderer {
                 let skin = node.skin.map(|s| s as usize).filter(|&s| s < asset.skins.len() && primitive.is_skinned());
                 let pivots = match uploaded.as_ref().map(|u| u.pivots.get(draws.len()).cloned().flatten()) {
                     Some(shared) => shared,
-                    None => skin.and_then(|s| asset.skins.get(s)).map(|s| {
-                        let plan = SjbPlan::build(s, &parents, &primitive.joints, &primitive.weights);
-                        (pivot_buffer(device, &plan, primitive.positions.len(), storage), plan.fallbacks)
+                    None => skin.filter(|&s| s < asset.skins.len()).map(|_| {
+                        let unwritten = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(PIVOTS_UNWRITTEN));
+                        (pivot_buffer(device, primitive.positions.len(), storage), unwritten)
                     }),
                 };
                 draws.push(DrawItem {
@@ -767,7 +790,7 @@ impl SceneRenderer {
                     primitive: p,
                     skin,
                     morph: None,
-                    sjb_fallbacks: pivots.as_ref().map_or(0, |p| p.1),
+                    sjb_fallbacks: pivots.as_ref().map_or_else(Default::default, |p| p.1.clone()),
                     pivots: pivots.map(|p| p.0),
                     material: material_index.unwrap_or(default_material),
                     blend: material.is_some_and(|m| m.alpha == AlphaMode::Blend),
@@ -796,7 +819,7 @@ impl SceneRenderer {
         let shared = Uploaded {
             primitives: primitives.clone(),
             materials: materials.clone(),
-            pivots: draws.iter().map(|d| d.pivots.clone().map(|p| (p, d.sjb_fallbacks))).collect(),
+            pivots: draws.iter().map(|d| d.pivots.clone().map(|p| (p, d.sjb_fallbacks.clone()))).collect(),
             morphs: morphs.clone(),
         };
         for draw in &mut draws {
@@ -845,7 +868,8 @@ impl SceneRenderer {
             .filter(|d| d.skin.is_some())
             .filter_map(|d| {
                 let gpu = scene.primitives.get(d.mesh)?.get(d.primitive)?.as_ref()?;
-                Some((d.mesh, gpu.vertex_count as usize, d.sjb_fallbacks))
+                let fallbacks = d.sjb_fallbacks.load(std::sync::atomic::Ordering::Relaxed);
+                Some((d.mesh, gpu.vertex_count as usize, if fallbacks == PIVOTS_UNWRITTEN { 0 } else { fallbacks }))
             })
             .collect()
     }
@@ -1528,6 +1552,9 @@ impl GpuScene {
                 && draw.skin.is_some()
                 && gpu.skin.is_some()
                 && draw.pivots.is_some();
+            if !draw.on_cpu && instances.iter().any(|i| i.skinning().uses_sjb_plan()) {
+                write_pivots_once(queue, asset, draw, source);
+            }
             if draw.deformed.len() < instances.len() {
                 draw.deformed.resize_with(instances.len(), || None);
             }
