@@ -10,7 +10,7 @@
 use std::path::PathBuf;
 use std::process::Command;
 
-use kloub_core::asset::{Primitive, Topology};
+use kloub_core::asset::{Primitive, TextureTransform, Topology};
 use kloub_core::import::tangents::{generate, mikktspace};
 use kloub_core::{ImportOptions, MapResolver};
 
@@ -130,7 +130,7 @@ fn a_mirrored_seam_splits_its_vertices_and_keeps_their_attributes() {
     let mut strip = mirrored_strip();
     let corners = mikktspace(&strip.positions, &strip.normals, &strip.uv0, &strip.indices);
     let before = strip.clone();
-    assert!(generate(&mut strip, 0));
+    assert!(generate(&mut strip, 0, &Default::default()));
     // The two shared middle vertices get a copy each for the mirrored half.
     assert_eq!(strip.positions.len(), 8);
     assert_eq!(strip.copied_from, [1, 4]);
@@ -154,8 +154,8 @@ fn a_mirrored_seam_splits_its_vertices_and_keeps_their_attributes() {
     // Not a triangle list, or no texture coordinates: left as it is.
     let mut lines = mirrored_strip();
     lines.topology = Topology::Lines;
-    assert!(!generate(&mut lines, 0) && lines.tangents.is_empty());
-    assert!(!generate(&mut mirrored_strip(), 1));
+    assert!(!generate(&mut lines, 0, &Default::default()) && lines.tangents.is_empty());
+    assert!(!generate(&mut mirrored_strip(), 1, &Default::default()));
 }
 
 /// Imported, a normal-mapped primitive without TANGENT takes MikkTSpace's tangents (those of
@@ -203,4 +203,48 @@ fn tangents_in_the_file_are_kept() {
         kloub_core::import(&kloub_tests::materials::to_glb(&asset), &MapResolver::default(), &ImportOptions::default())
             .expect("importing");
     assert_eq!(imported.asset.meshes[0].primitives[0].tangents, vec![[0.0, 1.0, 0.0, -1.0]; 4]);
+}
+
+#[test]
+fn a_texture_transform_turns_the_generated_frame_with_the_normal_map() {
+    // A unit quad in the xy plane facing +z, glTF's standard mapping (u = x, v = 1 − y). The
+    // normal map is sampled at M·uv (KHR_texture_transform): the tangent is ∂p/∂u' and the
+    // bitangent cross(n, t)·w points against ∂p/∂v' (up the image), for a rotation, a mirror
+    // and a non-uniform scale with an offset.
+    let quad = || Primitive {
+        positions: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]],
+        normals: vec![[0.0, 0.0, 1.0]; 4],
+        uv0: vec![[0.0, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]],
+        indices: vec![0, 1, 2, 0, 2, 3],
+        topology: Topology::Triangles,
+        vertex_count: 4,
+        ..Primitive::default()
+    };
+    let transforms = [
+        TextureTransform { rotation: 0.7, ..TextureTransform::default() },
+        TextureTransform { scale: [-1.0, 1.0], ..TextureTransform::default() },
+        TextureTransform { offset: [0.3, -2.0], rotation: 2.0, scale: [0.5, 3.0] },
+    ];
+    for transform in transforms {
+        let mut p = quad();
+        assert!(generate(&mut p, 0, &transform));
+        // ∂(u', v')/∂(x, y) = M₂ · diag(1, −1); its inverse's columns are ∂p/∂u' and ∂p/∂v'.
+        let m = transform.matrix();
+        let jacobian = glam::Mat2::from_cols(m.x_axis.truncate(), m.y_axis.truncate())
+            * glam::Mat2::from_diagonal(glam::Vec2::new(1.0, -1.0));
+        let inverse = jacobian.inverse();
+        let (du, dv) = (inverse.x_axis.normalize(), inverse.y_axis.normalize());
+        for (v, t) in p.tangents.iter().enumerate() {
+            let tangent = glam::Vec2::new(t[0], t[1]);
+            assert!(
+                (tangent - du).length() < 1e-5 && t[2].abs() < 1e-6,
+                "{transform:?}: vertex {v}: {t:?}, ∂p/∂u' {du}"
+            );
+            let bitangent = glam::Vec3::Z.cross(glam::Vec3::new(t[0], t[1], t[2])) * t[3];
+            assert!(
+                bitangent.truncate().dot(dv) < -0.1,
+                "{transform:?}: vertex {v}: bitangent {bitangent} along ∂p/∂v' {dv}"
+            );
+        }
+    }
 }

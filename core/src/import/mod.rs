@@ -20,7 +20,7 @@ mod scene;
 pub mod tangents;
 mod tree;
 
-use crate::asset::Asset;
+use crate::asset::{Asset, TextureTransform};
 use crate::error::{ImportError, Warning};
 use accessor::Accessors;
 use container::Budget;
@@ -225,7 +225,14 @@ pub fn import_with(
             let Some(texture) = normal_texture.filter(|_| primitive.tangents.is_empty()) else { continue };
             let ptr = format!("/meshes/{m}/primitives/{k}");
             // The scratch is freed once the tangents are made: checked against the budget, not taken.
-            let scratch = (primitive.indices.len() as u64).checked_mul(tangents::SCRATCH_BYTES_PER_INDEX);
+            let transformed = if texture.transform == TextureTransform::default() {
+                0
+            } else {
+                primitive.positions.len() as u64 * tangents::TRANSFORMED_BYTES_PER_VERTEX
+            };
+            let scratch = (primitive.indices.len() as u64)
+                .checked_mul(tangents::SCRATCH_BYTES_PER_INDEX)
+                .and_then(|b| b.checked_add(transformed));
             if scratch.is_none_or(|b| b > cx.budget.left()) {
                 return Err(ImportError::new(
                     ptr,
@@ -236,7 +243,7 @@ pub fn import_with(
                     ),
                 ));
             }
-            let Some(split) = tangents::plan(primitive, texture.tex_coord) else { continue };
+            let Some(split) = tangents::plan(primitive, texture.tex_coord, &texture.transform) else { continue };
             cx.budget.take(Some(split.kept_bytes(primitive)), &ptr, "the generated tangents")?;
             split.apply(primitive);
         }

@@ -29,7 +29,7 @@
 
 use std::collections::HashMap;
 
-use crate::asset::{Primitive, Topology};
+use crate::asset::{Primitive, TextureTransform, Topology};
 use crate::math::Vec3;
 
 const MARK_DEGENERATE: u8 = 1;
@@ -382,6 +382,9 @@ fn eval_space(
 /// table, triangles, edges, groups, spaces and the output), freed when it returns.
 pub const SCRATCH_BYTES_PER_INDEX: u64 = 256;
 
+/// Bytes per vertex [`plan`] takes besides, for the coordinates through a texture transform.
+pub const TRANSFORMED_BYTES_PER_VERTEX: u64 = 8;
+
 /// MikkTSpace's tangents for a primitive, and the vertices to split ([`plan`]).
 #[derive(Debug)]
 pub struct Split {
@@ -446,17 +449,28 @@ impl Split {
 }
 
 /// MikkTSpace's tangents for `primitive` from its positions, normals and texture coordinate
-/// set `tex_coord` (the normal texture's), with each vertex whose corners got different
-/// tangents split: the first tangent a vertex gets keeps it, each other one makes a copy.
-/// `None` for a primitive that is not a triangle list, or lacks normals or that set. Takes up
-/// to [`SCRATCH_BYTES_PER_INDEX`] per index while it runs; the importer checks that against
-/// its budget first, and charges [`Split::kept_bytes`] before applying.
-pub fn plan(primitive: &Primitive, tex_coord: u32) -> Option<Split> {
+/// set `tex_coord` (the normal texture's) through `transform` (its `KHR_texture_transform`: the
+/// frame follows the coordinates the normal map is sampled at, as the Khronos sample viewer's
+/// derivative frame does; a rotated or mirrored map turns it), with each vertex whose corners
+/// got different tangents split: the first tangent a vertex gets keeps it, each other one
+/// makes a copy. `None` for a primitive that is not a triangle list, or lacks normals or that
+/// set. Takes up to [`SCRATCH_BYTES_PER_INDEX`] per index (and [`TRANSFORMED_BYTES_PER_VERTEX`]
+/// per vertex with a transform) while it runs; the importer checks that against its budget
+/// first, and charges [`Split::kept_bytes`] before applying.
+pub fn plan(primitive: &Primitive, tex_coord: u32, transform: &TextureTransform) -> Option<Split> {
     let n = primitive.positions.len();
     let uvs = if tex_coord == 1 { &primitive.uv1 } else { &primitive.uv0 };
     if primitive.topology != Topology::Triangles || primitive.normals.len() != n || uvs.len() != n || n == 0 {
         return None;
     }
+    let transformed: Vec<[f32; 2]>;
+    let uvs = if *transform == TextureTransform::default() {
+        uvs
+    } else {
+        let m = transform.matrix();
+        transformed = uvs.iter().map(|&[u, v]| m.transform_point2(glam::Vec2::new(u, v)).to_array()).collect();
+        &transformed
+    };
     let corner_tangents = mikktspace(&primitive.positions, &primitive.normals, uvs, &primitive.indices);
     let mut indices = primitive.indices.clone();
     let mut tangents: Vec<Option<[f32; 4]>> = vec![None; n];
@@ -492,8 +506,8 @@ pub fn plan(primitive: &Primitive, tex_coord: u32) -> Option<Split> {
 }
 
 /// [`plan`] and [`Split::apply`] without a budget; whether the primitive took tangents.
-pub fn generate(primitive: &mut Primitive, tex_coord: u32) -> bool {
-    match plan(primitive, tex_coord) {
+pub fn generate(primitive: &mut Primitive, tex_coord: u32, transform: &TextureTransform) -> bool {
+    match plan(primitive, tex_coord, transform) {
         Some(split) => {
             split.apply(primitive);
             true

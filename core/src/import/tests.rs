@@ -1273,6 +1273,13 @@ fn every_core_texture_of_a_material_is_read_with_its_factors() {
     let uv1 = add_view(&mut doc, &mut bin, &f32s(&[0.0, 0.0, 1.0, 0.0, 0.0, 1.0]), None);
     let uv1 = add_accessor(&mut doc, json!({"bufferView": uv1, "componentType": 5126, "count": 3, "type": "VEC2"}));
     doc["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_1"] = json!(uv1);
+    let normals = add_view(&mut doc, &mut bin, &f32s(&[0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0]), None);
+    let normals =
+        add_accessor(&mut doc, json!({"bufferView": normals, "componentType": 5126, "count": 3, "type": "VEC3"}));
+    doc["meshes"][0]["primitives"][0]["attributes"]["NORMAL"] = json!(normals);
+    let uv0 = add_view(&mut doc, &mut bin, &f32s(&[0.0, 1.0, 1.0, 1.0, 0.0, 0.0]), None);
+    let uv0 = add_accessor(&mut doc, json!({"bufferView": uv0, "componentType": 5126, "count": 3, "type": "VEC2"}));
+    doc["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = json!(uv0);
     doc["meshes"][0]["primitives"][0]["material"] = json!(0);
     doc["images"] = json!([{"bufferView": view, "mimeType": "image/png"}]);
     doc["textures"] = json!([{"source": 0, "sampler": 0}]);
@@ -1292,6 +1299,17 @@ fn every_core_texture_of_a_material_is_read_with_its_factors() {
     assert_eq!((m.metallic, m.roughness), (0.25, 0.75));
     assert_eq!(m.metallic_roughness_texture.map(|t| (t.image, t.tex_coord)), Some((0, 1)));
     assert_eq!(m.normal_texture.map(|t| t.transform.rotation), Some(1.5));
+    // No TANGENT: MikkTSpace's, in the frame of the coordinates the normal map is sampled at
+    // (TEXCOORD_0 turned by its transform), not of the bare TEXCOORD_0.
+    let p = &imported.asset.meshes[0].primitives[0];
+    let mut bare = p.clone();
+    bare.tangents.clear();
+    let mut turned = bare.clone();
+    assert!(crate::import::tangents::generate(&mut bare, 0, &Default::default()));
+    let transform = m.normal_texture.map(|t| t.transform).unwrap_or_default();
+    assert!(crate::import::tangents::generate(&mut turned, 0, &transform));
+    assert_eq!(p.tangents, turned.tangents);
+    assert_ne!(p.tangents, bare.tangents);
     assert_eq!((m.normal_scale, m.occlusion_strength), (0.5, 0.25));
     assert_eq!(m.occlusion_texture.map(|t| t.tex_coord), Some(1));
     assert!(m.base_color_texture.is_some() && m.emissive_texture.is_some());
