@@ -194,6 +194,28 @@ fn viewers_sharing_a_device_share_one_upload_and_draw_the_same_pixels() {
     assert!(shots[0].pixels().any(|p| p.0 != shots[0].get_pixel(0, 0).0), "the model is drawn");
     assert!(shots[0] == shots[1] && shots[1] == shots[2], "shared and own uploads draw the same pixels");
 
+    // The SJB centres are written when a viewer first chooses SJB (not at upload, while the page
+    // waits for the first frame): the fallback counts read 0 before, the plan's after, in
+    // every viewer of the shared upload.
+    let plans: Vec<usize> = {
+        let parents: Vec<Option<u32>> = asset.nodes.iter().map(|n| n.parent).collect();
+        let mut counts = Vec::new();
+        for node in asset.scene_nodes() {
+            let n = &asset.nodes[node as usize];
+            let (Some(mesh), Some(skin)) = (n.mesh, n.skin) else { continue };
+            for p in asset.meshes[mesh as usize].primitives.iter().filter(|p| p.is_skinned()) {
+                let skin = &asset.skins[skin as usize];
+                counts.push(kloub_core::job::sjb::SjbPlan::build(skin, &parents, &p.joints, &p.weights).fallbacks);
+            }
+        }
+        counts
+    };
+    let counts = |r: &SceneRenderer| r.sjb_fallbacks().iter().map(|f| f.2).collect::<Vec<_>>();
+    assert!(plans.iter().any(|&f| f > 0), "RobotExpressive has vertices without a shared joint centre: {plans:?}");
+    assert_eq!(counts(&first), vec![0; plans.len()], "nothing written before SJB is chosen");
+    second.write_sjb_pivots(queue, &asset);
+    assert_eq!((counts(&first), counts(&second)), (plans.clone(), plans), "written once for the shared upload");
+
     assert_eq!(scene::live_uploads(), 1);
     drop((first, second, own, asset));
     scene::release_unused_uploads(None);

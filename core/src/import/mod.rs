@@ -226,13 +226,14 @@ pub fn import_with(
             let ptr = format!("/meshes/{m}/primitives/{k}");
             // The scratch is freed once the tangents are made: checked against the budget, not taken.
             let transformed = if texture.transform == TextureTransform::default() {
-                0
+                Some(0)
             } else {
-                primitive.positions.len() as u64 * tangents::TRANSFORMED_BYTES_PER_VERTEX
+                (primitive.positions.len() as u64).checked_mul(tangents::TRANSFORMED_BYTES_PER_VERTEX)
             };
             let scratch = (primitive.indices.len() as u64)
                 .checked_mul(tangents::SCRATCH_BYTES_PER_INDEX)
-                .and_then(|b| b.checked_add(transformed));
+                .zip(transformed)
+                .and_then(|(a, b)| a.checked_add(b));
             if scratch.is_none_or(|b| b > cx.budget.left()) {
                 return Err(ImportError::new(
                     ptr,

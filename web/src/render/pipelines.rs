@@ -910,8 +910,8 @@ pub fn forget_device(share: u32) {
     KITS.with(|kits| kits.borrow_mut().retain(|k| k.share != share));
 }
 
-/// How many named environments were prefiltered on this thread (tests: one per device and name,
-/// whatever the number of viewers).
+/// How many named environments were prefiltered on this thread (tests: one per pipeline kit —
+/// device, colour format and sample count — and name, whatever the number of viewers).
 pub fn environments_built() -> usize {
     ENVIRONMENTS_BUILT.with(std::cell::Cell::get)
 }

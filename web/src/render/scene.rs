@@ -856,6 +856,19 @@ impl SceneRenderer {
         Ok(shared)
     }
 
+    /// Writes the spherical-joint-blend centres of every skinned draw of the loaded asset
+    /// (`asset`) that no viewer of its upload has written yet: called when SJB or SJBBE is chosen,
+    /// so that [`SceneRenderer::sjb_fallbacks`] counts them from then on (the next frame would
+    /// write them anyway).
+    pub fn write_sjb_pivots(&self, queue: &wgpu::Queue, asset: &Asset) {
+        let Some(scene) = &self.scene else { return };
+        for draw in &scene.draws {
+            if let Some(source) = asset.meshes.get(draw.mesh).and_then(|m| m.primitives.get(draw.primitive)) {
+                write_pivots_once(queue, asset, draw, source);
+            }
+        }
+    }
+
     /// Per skinned draw of the loaded asset: `(mesh, vertices, vertices without a shared joint
     /// centre)`; the latter are skinned by dual quaternions under spherical joint blending.
     pub fn sjb_fallbacks(&self) -> Vec<(usize, usize, usize)> {
@@ -1552,7 +1565,7 @@ impl GpuScene {
                 && draw.skin.is_some()
                 && gpu.skin.is_some()
                 && draw.pivots.is_some();
-            if !draw.on_cpu && instances.iter().any(|i| i.skinning().uses_sjb_plan()) {
+            if instances.iter().any(|i| i.skinning().uses_sjb_plan()) {
                 write_pivots_once(queue, asset, draw, source);
             }
             if draw.deformed.len() < instances.len() {
