@@ -182,7 +182,10 @@ function prefetchModel(src, full = false) {
   // Registered before the viewer can read the body: the clone is made first.
   const images = response.then((r) => (r.ok ? decodeGlbImages(r.clone(), full) : null)).catch(() => null);
   response.catch(() => {});
-  const entry = { response, abort: () => controller.abort(), images };
+  // `decoded`: the bitmaps once settled, so a viewer whose module arrives after them shows the model in the frame
+  // that imports it (a promise would wait for another animation frame, which a busy GPU process delays).
+  const entry = { response, abort: () => controller.abort(), images, decoded: undefined };
+  images.then((bitmaps) => { entry.decoded = bitmaps; });
   prefetches.set(href, entry);
   // A zip needs the codecs module in the widget builds: fetched beside the model.
   if (!full && build !== 'full' && /\.zip$/i.test(new URL(href).pathname)) loadCodecs().catch(() => {});
@@ -199,9 +202,12 @@ function takePrefetch(url) {
   return takeFrom(url, 'response', (e) => ({ response: e.response, abort: e.abort }));
 }
 
-/** The bitmaps of a prefetched GLB's images, once: a promise of an array with a bitmap or `null` per image. */
+/**
+ * The bitmaps of a prefetched GLB's images, once: `{images, decoded}`, `images` a promise of an array with a bitmap or
+ * `null` per image (or of `null`), `decoded` what it resolved to if it has (else `undefined`).
+ */
 function takeImages(url) {
-  return takeFrom(url, 'images', (e) => e.images);
+  return takeFrom(url, 'images', (e) => ({ images: e.images, decoded: e.decoded }));
 }
 
 function takeFrom(url, field, pick) {

@@ -89,6 +89,8 @@ mod web {
     use kloub_core::{Asset, Warning};
     use wasm_bindgen::JsCast;
 
+    use crate::prefetch::EarlyImages;
+
     use crate::control::Wake;
     use crate::dom::js_error_text;
 
@@ -165,19 +167,32 @@ mod web {
                     });
                 });
                 let asset = asset.clone();
-                let early = url.and_then(crate::prefetch::take_images);
+                let early = match url.and_then(crate::prefetch::take_images) {
+                    // Every image decoded already, at the size asked for: ready in this frame.
+                    Some(EarlyImages::Decoded(mut early)) => {
+                        if let Some(bitmaps) = take_all(&asset, &mut early, max_size) {
+                            for bitmap in early.into_iter().flatten() {
+                                bitmap.close();
+                            }
+                            find(&asset, |entry| {
+                                entry.bitmaps = Some(bitmaps);
+                                entry.waiting.clear();
+                            });
+                            return true;
+                        }
+                        Some(EarlyImages::Decoded(early))
+                    }
+                    early => early,
+                };
                 wasm_bindgen_futures::spawn_local(async move {
-                    let early = match early {
-                        Some(promise) => wasm_bindgen_futures::JsFuture::from(promise)
+                    let mut early = match early {
+                        Some(EarlyImages::Decoded(early)) => early,
+                        Some(EarlyImages::Decoding(promise)) => wasm_bindgen_futures::JsFuture::from(promise)
                             .await
-                            .ok()
-                            .and_then(|v| v.dyn_into::<js_sys::Array>().ok())
-                            .map(|a| a.to_vec())
+                            .map(crate::prefetch::bitmaps)
                             .unwrap_or_default(),
                         None => Vec::new(),
                     };
-                    let mut early: Vec<Option<web_sys::ImageBitmap>> =
-                        early.into_iter().map(|b| b.dyn_into().ok()).collect();
                     // Every image handed to the browser first, so that they decode in parallel (or
                     // the bitmap decoded while the module loaded, where it has the size asked for).
                     let pending: Vec<_> = asset
@@ -242,6 +257,37 @@ mod web {
     /// The browser's bitmap of image `image` of `asset`, once decoded.
     pub fn bitmap(asset: &Asset, image: usize) -> Option<web_sys::ImageBitmap> {
         find(asset, |e| e.bitmaps.as_ref().and_then(|b| b.get(image).cloned().flatten())).flatten()
+    }
+
+    /// The bitmaps of `asset`'s images taken out of `early` (the element's, per image) if every
+    /// encoded image has one of the size asked for (`None`, nothing taken, if not).
+    fn take_all(
+        asset: &Asset,
+        early: &mut [Option<web_sys::ImageBitmap>],
+        max_size: u32,
+    ) -> Option<Vec<Option<web_sys::ImageBitmap>>> {
+        let fits = |i: usize, width: u32, height: u32| {
+            early
+                .get(i)
+                .and_then(Option::as_ref)
+                .is_some_and(|b| (b.width(), b.height()) == super::fit(width, height, max_size))
+        };
+        if !asset
+            .images
+            .iter()
+            .enumerate()
+            .all(|(i, image)| image.encoded.is_none() || fits(i, image.width, image.height))
+        {
+            return None;
+        }
+        let taken: Vec<_> = asset
+            .images
+            .iter()
+            .enumerate()
+            .map(|(i, image)| image.encoded.as_ref().and_then(|_| early.get_mut(i).and_then(Option::take)))
+            .collect();
+        PREDECODED.with(|n| n.set(n.get() + taken.iter().flatten().count()));
+        Some(taken)
     }
 
     /// An image on its way to a bitmap.

@@ -12,8 +12,9 @@ thread_local! {
     static HOOKS: RefCell<Option<(js_sys::Function, js_sys::Function)>> = const { RefCell::new(None) };
 }
 
-/// `take(url)` → `{response, abort}` or `undefined`; `images(url)` → a promise of an array (a
-/// bitmap or `null` per image of the GLB) or `undefined`. Each hands a URL's prefetch out once.
+/// `take(url)` → `{response, abort}` or `undefined`; `images(url)` → `{images, decoded}` (a
+/// promise of an array, a bitmap or `null` per image of the GLB, or of `null`; and what it
+/// resolved to, `undefined` while it has not) or `undefined`. Each hands a URL's prefetch out once.
 pub fn set_hooks(take: Option<js_sys::Function>, images: Option<js_sys::Function>) {
     HOOKS.with(|h| *h.borrow_mut() = take.zip(images));
 }
@@ -33,8 +34,26 @@ pub fn take_download(url: &str) -> Option<(js_sys::Promise, js_sys::Function)> {
     Some((response, abort))
 }
 
-/// The images of a GLB at `url` the browser decoded while the module loaded: a promise of an
-/// array (per image a bitmap, or `null` where the viewer decodes itself), or of `null`.
-pub fn take_images(url: &str) -> Option<js_sys::Promise> {
-    call(url, |h| &h.1)?.dyn_into().ok()
+/// The images of a GLB the browser decoded while the module loaded (per image a bitmap, or
+/// `None` where the viewer decodes itself).
+pub enum EarlyImages {
+    /// Decoded already: taken in the frame that asks.
+    Decoded(Vec<Option<web_sys::ImageBitmap>>),
+    /// Still decoding: the promise of the array (or of `null`).
+    Decoding(js_sys::Promise),
+}
+
+/// The array of bitmaps (`null` or anything else: none) as [`EarlyImages::Decoded`] holds it.
+pub fn bitmaps(value: JsValue) -> Vec<Option<web_sys::ImageBitmap>> {
+    value.dyn_into::<js_sys::Array>().map(|a| a.iter().map(|b| b.dyn_into().ok()).collect()).unwrap_or_default()
+}
+
+/// The images of a GLB at `url` the browser decoded while the module loaded.
+pub fn take_images(url: &str) -> Option<EarlyImages> {
+    let value = call(url, |h| &h.1)?;
+    let decoded = js_sys::Reflect::get(&value, &"decoded".into()).ok()?;
+    if !decoded.is_undefined() {
+        return Some(EarlyImages::Decoded(bitmaps(decoded)));
+    }
+    Some(EarlyImages::Decoding(js_sys::Reflect::get(&value, &"images".into()).ok()?.dyn_into().ok()?))
 }
