@@ -23,6 +23,14 @@ async function inMirrorClick(page, selector) {
   await page.evaluate((s) => document.querySelector('kloub-viewer').shadowRoot.querySelector(`.kloub-a11y ${s}`).click(), selector);
 }
 
+/** Waits until the open menu's item starting with `name` is laid out (the panels' mirror lists it), and a frame more. */
+async function openMenuItem(page, name) {
+  await page.waitForFunction((n) => [...(document.querySelector('kloub-viewer').shadowRoot
+    ?.querySelectorAll('.kloub-a11y [role="menuitem"]') ?? [])]
+    .some((e) => (e.getAttribute('aria-label') ?? e.textContent ?? '').trim().startsWith(n)), name, { timeout: 15000, polling: 50 });
+  await waitFrames(page, 2);
+}
+
 /** Column-major 4×4 product a · b. */
 function multiply(a, b) {
   const out = new Array(16).fill(0);
@@ -1180,9 +1188,9 @@ for (const backend of BACKENDS) {
     // The panel's header row: "Open" is the rightmost button, then its menu's first item below it.
     await page.mouse.click(panelRight - 28, 18);
     const chooser = page.waitForEvent('filechooser', { timeout: 10000 });
-    // The menu is laid out on the next frames (the default clip plays, so frames keep coming).
-    await waitFrames(page, 3);
-    await page.waitForTimeout(200);
+    // The menu is laid out on the next frames (the default clip plays, so frames keep coming): clicked once the
+    // panels' mirror lists its item, however busy the machine.
+    await openMenuItem(page, 'Files');
     await page.mouse.click(panelRight - 20, 46);
     const picker = await chooser.catch(async (e) => {
       savePng(await viewportShot(page, 'body'), `${backend}-open-menu.png`);
@@ -1325,8 +1333,7 @@ for (const backend of BACKENDS) {
     const panelRight = Number((await dataset(page)).viewport.split(',')[0]);
     await page.mouse.click(panelRight - 28, 18);
     const chooser = page.waitForEvent('filechooser', { timeout: 10000 });
-    await waitFrames(page, 3);
-    await page.waitForTimeout(200);
+    await openMenuItem(page, 'Folder');
     await page.mouse.click(panelRight - 20, 70);
     const picker = await chooser;
     // The folder holds the .gltf, its .bin and its texture: relative URIs resolve against the model's folder.

@@ -422,8 +422,14 @@ impl App {
 
         // Frames are painted on demand: a rate means something only while the model moves.
         let animating = self.stage.model.as_ref().is_some_and(Model::is_animating);
-        let sjb_fallbacks =
-            if self.stage.skinning.uses_sjb_plan() { self.stage.scene.sjb_fallbacks() } else { Vec::new() };
+        let sjb_fallbacks = match &self.stage.model {
+            Some(model) if self.stage.skinning.uses_sjb_plan() => {
+                // Written on the first frame that skins with SJB: counted from the moment it is chosen.
+                self.stage.scene.write_sjb_pivots(&self.stage.gpu.queue, &model.asset);
+                self.stage.scene.sjb_fallbacks()
+            }
+            _ => Vec::new(),
+        };
         let state = ui::PanelState {
             loading: self.stage.status == Status::Loading,
             backend: self.stage.backend,

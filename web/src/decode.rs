@@ -167,53 +167,37 @@ mod web {
                     });
                 });
                 let asset = asset.clone();
-                let early = match url.and_then(crate::prefetch::take_images) {
-                    // Every image decoded already, at the size asked for: ready in this frame.
-                    Some(EarlyImages::Decoded(mut early)) => {
-                        if let Some(bitmaps) = take_all(&asset, &mut early, max_size) {
-                            for bitmap in early.into_iter().flatten() {
-                                bitmap.close();
-                            }
-                            find(&asset, |entry| {
-                                entry.bitmaps = Some(bitmaps);
-                                entry.waiting.clear();
-                            });
-                            return true;
-                        }
-                        Some(EarlyImages::Decoded(early))
-                    }
-                    early => early,
+                let pending = match url.and_then(crate::prefetch::take_images) {
+                    Some(EarlyImages::Decoding(promise)) => Err(promise),
+                    Some(EarlyImages::Decoded(early)) => Ok(hand_over(&asset, early, max_size)),
+                    None => Ok(hand_over(&asset, Vec::new(), max_size)),
                 };
-                wasm_bindgen_futures::spawn_local(async move {
-                    let mut early = match early {
-                        Some(EarlyImages::Decoded(early)) => early,
-                        Some(EarlyImages::Decoding(promise)) => wasm_bindgen_futures::JsFuture::from(promise)
-                            .await
-                            .map(crate::prefetch::bitmaps)
-                            .unwrap_or_default(),
-                        None => Vec::new(),
-                    };
-                    // Every image handed to the browser first, so that they decode in parallel (or
-                    // the bitmap decoded while the module loaded, where it has the size asked for).
-                    let pending: Vec<_> = asset
-                        .images
+                // Every image decoded already (by the element, at the size asked for): ready in
+                // this frame.
+                if let Ok(pending) = &pending
+                    && pending.iter().flatten().all(|p| matches!(p, Pending::Decoded(_)))
+                {
+                    let bitmaps = pending
                         .iter()
-                        .enumerate()
-                        .map(|(i, image)| {
-                            let encoded = image.encoded.as_ref()?;
-                            let size = super::fit(image.width, image.height, max_size);
-                            let slot = early.get_mut(i);
-                            if let Some(bitmap) = slot.and_then(|b| b.take_if(|b| (b.width(), b.height()) == size)) {
-                                PREDECODED.with(|n| n.set(n.get() + 1));
-                                return Some(Pending::Decoded(bitmap));
-                            }
-                            Some(Pending::Decoding(start(encoded, image.width, image.height, max_size)))
+                        .map(|p| match p {
+                            Some(Pending::Decoded(bitmap)) => Some(bitmap.clone()),
+                            _ => None,
                         })
                         .collect();
-                    // The early bitmaps not taken.
-                    for bitmap in early.into_iter().flatten() {
-                        bitmap.close();
-                    }
+                    find(&asset, |entry| {
+                        entry.bitmaps = Some(bitmaps);
+                        entry.waiting.clear();
+                    });
+                    return true;
+                }
+                wasm_bindgen_futures::spawn_local(async move {
+                    let pending = match pending {
+                        Ok(pending) => pending,
+                        Err(promise) => {
+                            let early = wasm_bindgen_futures::JsFuture::from(promise).await;
+                            hand_over(&asset, early.map(crate::prefetch::bitmaps).unwrap_or_default(), max_size)
+                        }
+                    };
                     let mut bitmaps = Vec::with_capacity(asset.images.len());
                     let mut warnings = Vec::new();
                     for (i, pending) in pending.into_iter().enumerate() {
@@ -259,35 +243,30 @@ mod web {
         find(asset, |e| e.bitmaps.as_ref().and_then(|b| b.get(image).cloned().flatten())).flatten()
     }
 
-    /// The bitmaps of `asset`'s images taken out of `early` (the element's, per image) if every
-    /// encoded image has one of the size asked for (`None`, nothing taken, if not).
-    fn take_all(
-        asset: &Asset,
-        early: &mut [Option<web_sys::ImageBitmap>],
-        max_size: u32,
-    ) -> Option<Vec<Option<web_sys::ImageBitmap>>> {
-        let fits = |i: usize, width: u32, height: u32| {
-            early
-                .get(i)
-                .and_then(Option::as_ref)
-                .is_some_and(|b| (b.width(), b.height()) == super::fit(width, height, max_size))
-        };
-        if !asset
+    /// Each encoded image of `asset` on its way to a bitmap: the one the element decoded while the
+    /// module loaded (`early`, per image) where it has the size asked for, else handed to the
+    /// browser's decoder now (all first, so that they decode in parallel); the early bitmaps not
+    /// taken are closed.
+    fn hand_over(asset: &Asset, mut early: Vec<Option<web_sys::ImageBitmap>>, max_size: u32) -> Vec<Option<Pending>> {
+        let pending = asset
             .images
             .iter()
             .enumerate()
-            .all(|(i, image)| image.encoded.is_none() || fits(i, image.width, image.height))
-        {
-            return None;
-        }
-        let taken: Vec<_> = asset
-            .images
-            .iter()
-            .enumerate()
-            .map(|(i, image)| image.encoded.as_ref().and_then(|_| early.get_mut(i).and_then(Option::take)))
+            .map(|(i, image)| {
+                let encoded = image.encoded.as_ref()?;
+                let size = super::fit(image.width, image.height, max_size);
+                let slot = early.get_mut(i);
+                if let Some(bitmap) = slot.and_then(|b| b.take_if(|b| (b.width(), b.height()) == size)) {
+                    PREDECODED.with(|n| n.set(n.get() + 1));
+                    return Some(Pending::Decoded(bitmap));
+                }
+                Some(Pending::Decoding(start(encoded, image.width, image.height, max_size)))
+            })
             .collect();
-        PREDECODED.with(|n| n.set(n.get() + taken.iter().flatten().count()));
-        Some(taken)
+        for bitmap in early.into_iter().flatten() {
+            bitmap.close();
+        }
+        pending
     }
 
     /// An image on its way to a bitmap.

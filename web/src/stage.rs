@@ -430,16 +430,10 @@ impl Stage {
         self.screenshot = None;
         self.controls.set_supports_compute(self.scene.supports_compute());
         let result = match &self.model {
-            Some(model) => {
-                let result = self
-                    .scene
-                    .set_shared_asset(&self.gpu.device, &self.gpu.queue, &model.asset)
-                    .map_err(|e| format!("{}: {e}", model.name));
-                if result.is_ok() && self.skinning.uses_sjb_plan() {
-                    self.scene.write_sjb_pivots(&self.gpu.queue, &model.asset);
-                }
-                result
-            }
+            Some(model) => self
+                .scene
+                .set_shared_asset(&self.gpu.device, &self.gpu.queue, &model.asset)
+                .map_err(|e| format!("{}: {e}", model.name)),
             None => Ok(()),
         };
         if let Err(message) = &result {
@@ -740,9 +734,6 @@ impl Stage {
         self.scene
             .set_shared_asset(&self.gpu.device, &self.gpu.queue, &model.asset)
             .map_err(|e| format!("{}: {e}", model.name))?;
-        if self.skinning.uses_sjb_plan() {
-            self.scene.write_sjb_pivots(&self.gpu.queue, &model.asset);
-        }
         if let Some((min, max)) = model.grid_bounds() {
             self.camera.frame_to_fit_aspect(min, max, view_aspect(self.view_rect));
         }

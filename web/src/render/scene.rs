@@ -857,9 +857,8 @@ impl SceneRenderer {
     }
 
     /// Writes the spherical-joint-blend centres of every skinned draw of the loaded asset
-    /// (`asset`) that no viewer of its upload has written yet: called when SJB or SJBBE is chosen,
-    /// so that [`SceneRenderer::sjb_fallbacks`] counts them from then on (the next frame would
-    /// write them anyway).
+    /// (`asset`) that no viewer of its upload has written yet (each frame that skins with SJB or
+    /// SJBBE does too): what [`SceneRenderer::sjb_fallbacks`] counts.
     pub fn write_sjb_pivots(&self, queue: &wgpu::Queue, asset: &Asset) {
         let Some(scene) = &self.scene else { return };
         for draw in &scene.draws {

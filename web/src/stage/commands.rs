@@ -15,9 +15,6 @@ impl Stage {
                 if let Some(model) = &mut self.model {
                     model.instance.set_skinning(&model.asset, method);
                     model.sync_copies();
-                    if method.uses_sjb_plan() {
-                        self.scene.write_sjb_pivots(&self.gpu.queue, &model.asset);
-                    }
                 }
                 return Ok(());
             }
