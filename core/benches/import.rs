@@ -19,11 +19,12 @@ fn main() {
         filter.iter().all(|f| case.codec.contains(f.as_str()) || case.name.contains(f.as_str()))
     };
     for case in import_cases::decode_cases().iter().filter(|c| wanted(c)) {
-        let ms = import_cases::measure(case, &now);
-        let rate = case.decoded as f64 / (ms / 1000.0) / 1e6;
-        println!("decode native {} {} {} B: {rate:.1} MB/s", case.codec, case.name, case.decoded);
+        let rate = |ms: f64| case.decoded as f64 / (ms / 1000.0) / 1e6;
+        let (streams, imported) = (import_cases::measure_streams(case, &now), import_cases::measure(case, &now));
+        println!("decode native {} {} {} B: {:.1} MB/s", case.codec, case.name, case.decoded, rate(streams));
+        println!("imported native {} {} {} B: {:.1} MB/s", case.codec, case.name, case.decoded, rate(imported));
     }
-    for case in import_cases::import_cases().iter().filter(|c| wanted(c)) {
+    for case in import_cases::import_cases().iter().filter(|c| wanted(c) && std::env::var_os("DECODE_ONLY").is_none()) {
         let ms = import_cases::measure(case, &now);
         println!("import native {} {} {} B: {ms:.3} ms", case.codec, case.name, case.glb.len());
     }

@@ -1,10 +1,14 @@
 //! What `benches/import.rs` (native) and `tests/wasm_decode.rs` (wasm32 in Node) measure, and
 //! `scripts/bench-import.mjs` measures with the reference decoders and three.js in the same way:
 //! - **decoding**: the Draco and meshopt decoders on the compressed copies of `tests/optimized`,
-//!   through the importer. Each case is the file stripped to its compressed data (the buffers and
-//!   views, the compressed primitives and their accessors), so an import is a few hundred bytes
-//!   of JSON and the decoding. Speed is decoded bytes per second: the accessors' bytes for Draco
-//!   (in their component types, indices as 32-bit), the views' bytes for meshopt.
+//!   called on each compressed stream as the reference decoders are ([`measure_streams`]:
+//!   `kloub_core::import::decode_meshopt_view` per view into a new buffer, as meshoptimizer's
+//!   `decodeGltfBuffer`; the build's Draco decoder per primitive with its attributes converted,
+//!   as three.js's DRACOLoader), and through the importer ([`measure`]): each case is the file
+//!   stripped to its compressed data (the buffers and views, the compressed primitives and their
+//!   accessors), so an import is a few hundred bytes of JSON and the decoding. Speed is decoded
+//!   bytes per second: the accessors' bytes for Draco (in their component types, indices as
+//!   32-bit), the views' bytes for meshopt.
 //! - **import**: bytes → ready asset for each character and its optimized copies, without its
 //!   images (three.js's GLTFLoader cannot decode them in Node; Kloub's web builds leave them to
 //!   the browser too): `images`, `textures`, `samplers` and the materials' texture references
@@ -23,6 +27,16 @@ pub struct Case {
     pub glb: Vec<u8>,
     /// Bytes decoded per import (decoding cases).
     pub decoded: u64,
+    /// The compressed streams (decoding cases).
+    pub streams: Vec<Stream>,
+}
+
+/// One compressed stream of a decoding case, as its extension describes it.
+pub enum Stream {
+    /// A buffer view of `EXT_meshopt_compression` (`khr`: `KHR_meshopt_compression`).
+    Meshopt { mode: String, filter: String, count: usize, stride: usize, khr: bool, src: Vec<u8> },
+    /// A primitive's `KHR_draco_mesh_compression` stream and the attributes' unique ids.
+    Draco { stream: Vec<u8>, wanted: Vec<u32> },
 }
 
 /// The compressed copies whose decoding is measured (compiled in: wasm has no file system).
@@ -75,7 +89,7 @@ pub fn import_cases() -> Vec<Case> {
             strip_images(&mut doc);
             let glb = glb(&doc, bin);
             import(&glb, &NoResolver, &options()).unwrap_or_else(|e| panic!("{name}: {e}"));
-            Case { name, codec: variant, glb, decoded: 0 }
+            Case { name, codec: variant, glb, decoded: 0, streams: Vec::new() }
         })
         .collect()
 }
@@ -102,6 +116,7 @@ pub fn decode_cases() -> Vec<Case> {
         .map(|&(name, bytes)| {
             let (mut doc, bin) = split(bytes);
             let draco = name.contains("draco");
+            let streams = streams(&doc, bin);
             strip(&mut doc, draco);
             let glb = glb(&doc, bin);
             let imported = import(&glb, &NoResolver, &options()).unwrap_or_else(|e| panic!("{name}: {e}"));
@@ -112,9 +127,72 @@ pub fn decode_cases() -> Vec<Case> {
                 ext.compressed_views.iter().map(|c| c.decoded_bytes).sum()
             };
             assert!(decoded > 0, "{name}: nothing compressed");
-            Case { name, codec: if draco { "draco" } else { "meshopt" }, glb, decoded }
+            Case { name, codec: if draco { "draco" } else { "meshopt" }, glb, decoded, streams }
         })
         .collect()
+}
+
+/// The compressed streams of a GLB's JSON `doc` and BIN chunk `bin`.
+fn streams(doc: &Value, bin: &[u8]) -> Vec<Stream> {
+    let views = doc["bufferViews"].as_array().expect("views");
+    let range = |v: &Value, offset: &str| {
+        let at = v[offset].as_u64().unwrap_or(0) as usize;
+        bin[at..at + v["byteLength"].as_u64().expect("byteLength") as usize].to_vec()
+    };
+    let mut out = Vec::new();
+    for view in views {
+        for (name, khr) in [("KHR_meshopt_compression", true), ("EXT_meshopt_compression", false)] {
+            let x = &view["extensions"][name];
+            if x.is_object() {
+                out.push(Stream::Meshopt {
+                    mode: x["mode"].as_str().expect("mode").to_owned(),
+                    filter: x["filter"].as_str().unwrap_or("NONE").to_owned(),
+                    count: x["count"].as_u64().expect("count") as usize,
+                    stride: x["byteStride"].as_u64().expect("byteStride") as usize,
+                    khr,
+                    src: range(x, "byteOffset"),
+                });
+                break;
+            }
+        }
+    }
+    for mesh in doc["meshes"].as_array().into_iter().flatten() {
+        for p in mesh["primitives"].as_array().expect("primitives") {
+            let x = &p["extensions"]["KHR_draco_mesh_compression"];
+            if x.is_object() {
+                let view = &views[x["bufferView"].as_u64().expect("bufferView") as usize];
+                let wanted = x["attributes"].as_object().expect("attributes");
+                let wanted = wanted.values().map(|id| id.as_u64().expect("an id") as u32).collect();
+                out.push(Stream::Draco { stream: range(view, "byteOffset"), wanted });
+            }
+        }
+    }
+    out
+}
+
+/// Milliseconds to decode every stream of `case` (as [`measure`] times an import).
+pub fn measure_streams(case: &Case, now: &dyn Fn() -> f64) -> f64 {
+    let codecs = kloub_core::codecs::builtin();
+    let run = || {
+        let mut ok = true;
+        for stream in &case.streams {
+            match stream {
+                Stream::Meshopt { mode, filter, count, stride, khr, src } => {
+                    let mut out = vec![0u8; count * stride];
+                    let done =
+                        kloub_core::import::decode_meshopt_view(mode, filter, *count, *stride, src, *khr, &mut out);
+                    ok &= std::hint::black_box((done, out)).0.is_ok();
+                }
+                Stream::Draco { stream, wanted } => {
+                    ok &= std::hint::black_box(codecs.draco(std::hint::black_box(stream), wanted, u64::MAX)).is_ok();
+                }
+            }
+        }
+        ok
+    };
+    // A stream that fails would be timed as a quick no-op.
+    assert!(run(), "{}: a stream does not decode", case.name);
+    timed(&run, now)
 }
 
 /// The JSON and BIN chunks of a GLB.
@@ -172,6 +250,11 @@ fn glb(doc: &Value, bin: &[u8]) -> Vec<u8> {
 pub fn measure(case: &Case, now: &dyn Fn() -> f64) -> f64 {
     let options = options();
     let run = || std::hint::black_box(import(std::hint::black_box(&case.glb), &NoResolver, &options)).is_ok();
+    timed(&run, now)
+}
+
+/// Milliseconds per call of `run`: the median of 7 batches of about 150 ms, timed by `now`.
+fn timed(run: &dyn Fn() -> bool, now: &dyn Fn() -> f64) -> f64 {
     let start = now();
     let mut calibration = 0u32;
     while now() - start < 50.0 || calibration < 3 {

@@ -19,9 +19,11 @@ extern "C" {
 #[wasm_bindgen_test]
 fn decode_and_import_speed() {
     for case in import_cases::decode_cases() {
-        let ms = import_cases::measure(&case, &performance_now);
-        let rate = case.decoded as f64 / (ms / 1000.0) / 1e6;
-        console_log!("decode wasm {} {} {} B: {rate:.1} MB/s", case.codec, case.name, case.decoded);
+        let rate = |ms: f64| case.decoded as f64 / (ms / 1000.0) / 1e6;
+        let streams = import_cases::measure_streams(&case, &performance_now);
+        let imported = import_cases::measure(&case, &performance_now);
+        console_log!("decode wasm {} {} {} B: {:.1} MB/s", case.codec, case.name, case.decoded, rate(streams));
+        console_log!("imported wasm {} {} {} B: {:.1} MB/s", case.codec, case.name, case.decoded, rate(imported));
     }
     for case in import_cases::import_cases() {
         let ms = import_cases::measure(&case, &performance_now);

@@ -188,6 +188,29 @@ pub fn import(bytes: &[u8], resolver: &dyn Resolver, options: &ImportOptions) ->
     import_with(bytes, resolver, crate::codecs::builtin(), options)
 }
 
+/// Decodes one buffer view stored by `EXT_meshopt_compression` (or, with `khr`, its successor
+/// `KHR_meshopt_compression`) into `out`, as meshoptimizer's `decodeGltfBuffer` does: `mode`
+/// and `filter` are the extension's strings, `count` and `stride` its members, `src` the
+/// compressed bytes, and `out` holds `count × stride` bytes. The importer decodes every such
+/// view this way; a host can call it on its own (the benchmarks do, beside the reference).
+///
+/// # Errors
+/// An unknown mode or filter, sizes the extension does not allow, or malformed data.
+pub fn decode_meshopt_view(
+    mode: &str,
+    filter: &str,
+    count: usize,
+    stride: usize,
+    src: &[u8],
+    khr: bool,
+    out: &mut [u8],
+) -> Result<(), String> {
+    let m = meshopt::Mode::parse(mode).ok_or_else(|| format!("unknown mode '{mode}'"))?;
+    let f = meshopt::Filter::parse(filter).ok_or_else(|| format!("unknown filter '{filter}'"))?;
+    meshopt::check(m, f, count as u64, stride as u64, khr)?;
+    meshopt::decode(m, f, count, stride, src, out, khr)
+}
+
 /// [`import`] with the decoders `codecs` (a host that loads them on demand, such as the web
 /// widget).
 pub fn import_with(

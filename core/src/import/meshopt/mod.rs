@@ -5,6 +5,10 @@
 //! EXPONENTIAL, and KHR's COLOR). Every read is bounds-checked: a malformed stream is an error,
 //! never a panic, and the output is allocated by the caller after the budget allowed it.
 
+mod filters;
+mod lanes;
+mod vertex;
+
 /// The extensions' names: the KHR successor first (a view naming both is read by it).
 pub(crate) const EXTENSIONS: [&str; 2] = ["KHR_meshopt_compression", "EXT_meshopt_compression"];
 
@@ -106,19 +110,11 @@ pub(crate) fn decode(
         return Err("the output does not hold count × byteStride bytes".to_owned());
     }
     match mode {
-        Mode::Attributes => decode_vertices(out, count, stride, src, khr)?,
+        Mode::Attributes => vertex::decode_vertices(out, count, stride, src, khr, true)?,
         Mode::Triangles => decode_triangles(out, count, stride, src)?,
         Mode::Indices => decode_indices(out, count, stride, src)?,
     }
-    match filter {
-        Filter::None => {}
-        Filter::Octahedral if stride == 4 => out.chunks_exact_mut(4).for_each(octahedral8),
-        Filter::Octahedral => out.chunks_exact_mut(8).for_each(octahedral16),
-        Filter::Quaternion => out.chunks_exact_mut(8).for_each(quaternion),
-        Filter::Exponential => out.chunks_exact_mut(4).for_each(exponential),
-        Filter::Color if stride == 4 => out.chunks_exact_mut(4).for_each(color8),
-        Filter::Color => out.chunks_exact_mut(8).for_each(color16),
-    }
+    filters::apply(filter, stride, out);
     Ok(())
 }
 
@@ -166,153 +162,11 @@ fn unzigzag32(v: u32) -> u32 {
     if v & 1 != 0 { !(v >> 1) } else { v >> 1 }
 }
 
-/// Mode 0: per block of elements, per byte of the element, groups of 16 deltas. Version 0
-/// (header 0xa0, `EXT_meshopt_compression`) codes byte deltas only; version 1 (0xa1,
-/// `KHR_meshopt_compression`) adds a control mode per byte position (which bit widths its
-/// groups use, or all zero, or literal) and a channel mode per 4 bytes (byte deltas, 16-bit
-/// deltas, or a rotated 32-bit XOR), read from the tail.
-fn decode_vertices(out: &mut [u8], count: usize, stride: usize, src: &[u8], allow_v1: bool) -> Result<(), String> {
-    let v1 = match src.first() {
-        Some(0xa0) => false,
-        Some(0xa1) if allow_v1 => true,
-        Some(&h) if h & 0xf0 == 0xa0 => {
-            return Err(format!("attribute codec version {} is not supported by this extension", h & 0x0f));
-        }
-        _ => return Err("the ATTRIBUTES data does not start with 0xa0 or 0xa1".to_owned()),
-    };
-    // The tail: padding, the baseline element, and (version 1) a channel mode per 4 bytes.
-    let tail_block = if v1 { stride + stride / 4 } else { stride };
-    let tail = tail_block.max(if v1 { 24 } else { 32 });
-    if src.len() < 1 + tail {
-        return Err("the ATTRIBUTES data is shorter than its tail".to_owned());
-    }
-    let tail_start = src.len() - tail_block;
-    let mut last = [0u8; 256];
-    last[..stride].copy_from_slice(&src[tail_start..tail_start + stride]);
-    let channels = &src[tail_start + stride..];
-    for &mode in channels {
-        if mode & 15 > 2 || (mode & 15 < 2 && mode >> 4 != 0) {
-            return Err(format!("channel mode {mode:#04x} is not valid"));
-        }
-    }
-    let mut reader = Reader { data: &src[1..src.len() - tail], at: 0 };
-    let block_max = ((8192 / stride) & !15).min(256);
-    // The block's deltas, byte position by byte position.
-    let mut deltas = vec![0u8; stride * block_max.div_ceil(16) * 16];
-    let mut first = 0;
-    while first < count {
-        let block = block_max.min(count - first);
-        let groups = block.div_ceil(16);
-        let span = groups * 16;
-        let control = if v1 { reader.take(stride / 4)? } else { &[][..] };
-        for byte in 0..stride {
-            let stream = &mut deltas[byte * span..(byte + 1) * span];
-            let mode = control.get(byte / 4).map_or(0, |c| (c >> ((byte % 4) * 2)) & 3);
-            match (v1, mode) {
-                (true, 2) => stream.fill(0),
-                // Literal: the block's deltas as they are (not rounded up to whole groups).
-                (true, 3) => stream[..block].copy_from_slice(reader.take(block)?),
-                _ => {
-                    let header = reader.take(groups.div_ceil(4))?;
-                    for group in 0..groups {
-                        let bits = (header[group / 4] >> ((group % 4) * 2)) & 3;
-                        let width = match (v1, mode, bits) {
-                            (false, _, 0) | (true, 0, 0) => 0,
-                            (true, 0, 1) | (true, _, 0) => 1,
-                            (false, _, 1) | (true, 0, 2) | (true, _, 1) => 2,
-                            (false, _, 2) | (true, 0, 3) | (true, _, 2) => 4,
-                            _ => 8,
-                        };
-                        decode_group(&mut reader, width, &mut stream[group * 16..group * 16 + 16])?;
-                    }
-                }
-            }
-        }
-        // Each channel's running value, byte position by byte position (a prefix sum per
-        // position, written straight into the elements).
-        let elements = &mut out[first * stride..(first + block) * stride];
-        for channel in 0..stride.div_ceil(4) {
-            let at = channel * 4;
-            let mode = channels.get(channel).copied().unwrap_or(0);
-            match mode & 15 {
-                1 => {
-                    for half in [at, at + 2] {
-                        let (low, high) = (&deltas[half * span..][..block], &deltas[(half + 1) * span..][..block]);
-                        let mut value = u16::from_le_bytes([last[half], last[half + 1]]);
-                        for ((element, &l), &h) in elements.chunks_exact_mut(stride).zip(low).zip(high) {
-                            let d = u16::from_le_bytes([l, h]);
-                            value = value.wrapping_add(if d & 1 != 0 { !(d >> 1) } else { d >> 1 });
-                            element[half..half + 2].copy_from_slice(&value.to_le_bytes());
-                        }
-                        last[half..half + 2].copy_from_slice(&value.to_le_bytes());
-                    }
-                }
-                2 => {
-                    let rotate = u32::from(mode >> 4);
-                    let bytes: [&[u8]; 4] = std::array::from_fn(|k| &deltas[(at + k) * span..][..block]);
-                    let mut value = u32::from_le_bytes([last[at], last[at + 1], last[at + 2], last[at + 3]]);
-                    for (i, element) in elements.chunks_exact_mut(stride).enumerate() {
-                        let d = u32::from_le_bytes([bytes[0][i], bytes[1][i], bytes[2][i], bytes[3][i]]);
-                        value ^= d.rotate_right(rotate);
-                        element[at..at + 4].copy_from_slice(&value.to_le_bytes());
-                    }
-                    last[at..at + 4].copy_from_slice(&value.to_le_bytes());
-                }
-                _ => {
-                    for k in at..(at + 4).min(stride) {
-                        let mut value = last[k];
-                        for (element, &d) in elements.chunks_exact_mut(stride).zip(&deltas[k * span..][..block]) {
-                            value = value.wrapping_add(unzigzag8(d));
-                            element[k] = value;
-                        }
-                        last[k] = value;
-                    }
-                }
-            }
-        }
-        first += block;
-    }
-    if !reader.finished() {
-        return Err("bytes are left over after the ATTRIBUTES data".to_owned());
-    }
-    Ok(())
-}
-
-/// One group of 16 zigzag deltas of `width` bits (0: all zero; 8: whole bytes); a delta with
-/// every bit set (the sentinel) is a whole byte that follows the packed ones. 1-bit deltas are
-/// packed from the lowest bit, 2- and 4-bit ones from the highest.
-fn decode_group(reader: &mut Reader<'_>, width: u32, deltas: &mut [u8]) -> Result<(), String> {
-    match width {
-        0 => deltas.fill(0),
-        1 => unpack::<1>(reader, deltas)?,
-        2 => unpack::<2>(reader, deltas)?,
-        4 => unpack::<4>(reader, deltas)?,
-        _ => deltas.copy_from_slice(reader.take(16)?),
-    }
-    Ok(())
-}
-
-/// [`decode_group`] for `W` = 1, 2 or 4 bits.
-fn unpack<const W: u32>(reader: &mut Reader<'_>, deltas: &mut [u8]) -> Result<(), String> {
-    let per_byte = (8 / W) as usize;
-    let sentinel = ((1u32 << W) - 1) as u8;
-    let packed = reader.take(16 / per_byte)?;
-    for (i, delta) in deltas.iter_mut().enumerate() {
-        let slot = (i % per_byte) as u32;
-        let shift = if W == 1 { slot } else { 8 - W * (slot + 1) };
-        let v = (packed[i / per_byte] >> shift) & sentinel;
-        *delta = if v == sentinel { reader.byte()? } else { v };
-    }
-    Ok(())
-}
-
-fn write_index(out: &mut [u8], stride: usize, i: usize, value: u32) {
-    let at = i * stride;
-    if stride == 2 {
-        out[at..at + 2].copy_from_slice(&(value as u16).to_le_bytes());
-    } else {
-        out[at..at + 4].copy_from_slice(&value.to_le_bytes());
-    }
+/// `value`'s lowest `N` bytes (2 or 4), little-endian.
+#[inline(always)]
+fn index_bytes<const N: usize>(value: u32) -> [u8; N] {
+    let bytes = value.to_le_bytes();
+    std::array::from_fn(|i| bytes[i])
 }
 
 /// Mode 1 (header 0xe1): a code byte per triangle, extra data, a 16-byte table.
@@ -327,8 +181,28 @@ fn decode_triangles(out: &mut [u8], count: usize, stride: usize, src: &[u8]) -> 
     let codes = &src[1..1 + triangles];
     let aux = &src[src.len() - 16..];
     let mut data = Reader { data: &src[1 + triangles..src.len() - 16], at: 0 };
+    if stride == 2 {
+        triangles_into::<2>(out, codes, aux, &mut data)?;
+    } else {
+        triangles_into::<4>(out, codes, aux, &mut data)?;
+    }
+    if !data.finished() {
+        return Err("bytes are left over after the TRIANGLES data".to_owned());
+    }
+    Ok(())
+}
+
+/// [`decode_triangles`] into indices of `N` bytes (`out` holds one per code's corner).
+fn triangles_into<const N: usize>(
+    out: &mut [u8],
+    codes: &[u8],
+    aux: &[u8],
+    data: &mut Reader<'_>,
+) -> Result<(), String> {
     let mut s = Fifos { edges: [[0; 2]; 16], edge_at: 0, vertices: [0; 16], vertex_at: 0, next: 0, last: 0 };
-    for (t, &code) in codes.iter().enumerate() {
+    let (indices, _) = out.as_chunks_mut::<N>();
+    let (triangles, _) = indices.as_chunks_mut::<3>();
+    for (&code, triangle) in codes.iter().zip(triangles) {
         let (hi, lo) = (usize::from(code >> 4), usize::from(code & 15));
         let (a, b, c);
         if hi < 15 {
@@ -344,7 +218,7 @@ fn decode_triangles(out: &mut [u8], count: usize, stride: usize, src: &[u8]) -> 
                     s.last = s.last.wrapping_add(1);
                     s.last
                 }
-                15 => s.explicit(&mut data)?,
+                15 => s.explicit(data)?,
                 _ => s.vertex(lo),
             };
             s.push_edge(c, b);
@@ -360,9 +234,9 @@ fn decode_triangles(out: &mut [u8], count: usize, stride: usize, src: &[u8]) -> 
                 s.next = 0;
             }
             let (z, w) = (usize::from(zw >> 4), usize::from(zw & 15));
-            a = if lo == 15 { s.explicit(&mut data)? } else { s.take_next() };
-            b = s.third(z, explicit, &mut data)?;
-            c = s.third(w, explicit, &mut data)?;
+            a = if lo == 15 { s.explicit(data)? } else { s.take_next() };
+            b = s.third(z, explicit, data)?;
+            c = s.third(w, explicit, data)?;
             s.push_edge(b, a);
             s.push_edge(c, b);
             s.push_edge(a, c);
@@ -374,12 +248,7 @@ fn decode_triangles(out: &mut [u8], count: usize, stride: usize, src: &[u8]) -> 
                 s.push_vertex(c);
             }
         }
-        write_index(out, stride, t * 3, a);
-        write_index(out, stride, t * 3 + 1, b);
-        write_index(out, stride, t * 3 + 2, c);
-    }
-    if !data.finished() {
-        return Err("bytes are left over after the TRIANGLES data".to_owned());
+        *triangle = [index_bytes(a), index_bytes(b), index_bytes(c)];
     }
     Ok(())
 }
@@ -455,110 +324,17 @@ fn decode_indices(out: &mut [u8], count: usize, stride: usize, src: &[u8]) -> Re
         let baseline = (v & 1) as usize;
         let delta = if v & 2 != 0 { !(v >> 2) } else { v >> 2 };
         last[baseline] = last[baseline].wrapping_add(delta);
-        write_index(out, stride, i, last[baseline]);
+        let at = i * stride;
+        if stride == 2 {
+            out[at..at + 2].copy_from_slice(&index_bytes::<2>(last[baseline]));
+        } else {
+            out[at..at + 4].copy_from_slice(&index_bytes::<4>(last[baseline]));
+        }
     }
     if !data.finished() {
         return Err("bytes are left over after the INDICES data".to_owned());
     }
     Ok(())
-}
-
-/// Rounds to the nearest integer (halves away from zero) and saturates, as the filters' `round`.
-fn round_i16(x: f32) -> i16 {
-    round(x).clamp(-32768, 32767) as i16
-}
-
-/// `x` rounded half away from zero (saturating, NaN → 0), as `f32::round` but without its libm
-/// call where the target has no rounding instruction (x86-64's baseline): the `as` cast truncates.
-fn round(x: f32) -> i32 {
-    (x + 0.5f32.copysign(x)) as i32
-}
-
-/// Filter 1 on four signed bytes: octahedral x, y, the K-bit 1.0, and a byte passed through.
-fn octahedral8(e: &mut [u8]) {
-    let [x, y, z] = octahedral(f32::from(e[0] as i8), f32::from(e[1] as i8), f32::from(e[2] as i8));
-    e[0] = round(x * 127.0).clamp(-128, 127) as i8 as u8;
-    e[1] = round(y * 127.0).clamp(-128, 127) as i8 as u8;
-    e[2] = round(z * 127.0).clamp(-128, 127) as i8 as u8;
-}
-
-/// Filter 1 on four signed 16-bit components.
-fn octahedral16(e: &mut [u8]) {
-    let read = |i: usize| f32::from(i16::from_le_bytes([e[2 * i], e[2 * i + 1]]));
-    let [x, y, z] = octahedral(read(0), read(1), read(2));
-    for (i, v) in [x, y, z].into_iter().enumerate() {
-        e[2 * i..2 * i + 2].copy_from_slice(&round_i16(v * 32767.0).to_le_bytes());
-    }
-}
-
-/// The unit vector of octahedral coordinates `x`, `y` in units of `one`.
-fn octahedral(x: f32, y: f32, one: f32) -> [f32; 3] {
-    let (mut x, mut y) = (x / one, y / one);
-    let z = 1.0 - x.abs() - y.abs();
-    let t = z.min(0.0);
-    x -= t.copysign(x);
-    y -= t.copysign(y);
-    let len = (x * x + y * y + z * z).sqrt();
-    [x / len, y / len, z / len]
-}
-
-/// Filter 2: three components scaled by √2 and the index of the omitted largest one.
-fn quaternion(e: &mut [u8]) {
-    let read = |i: usize| i16::from_le_bytes([e[2 * i], e[2 * i + 1]]);
-    let range = std::f32::consts::FRAC_1_SQRT_2;
-    let one = f32::from(read(3) | 3);
-    let x = f32::from(read(0)) / one * range;
-    let y = f32::from(read(1)) / one * range;
-    let z = f32::from(read(2)) / one * range;
-    let w = (1.0 - x * x - y * y - z * z).max(0.0).sqrt();
-    let max = u32::from(read(3) as u16 & 3);
-    // x, y, z, w as 16-bit lanes 0..3, rotated so that w lands in lane `max` and x, y, z follow it.
-    let lane = |v: f32| u64::from(round_i16(v * 32767.0) as u16);
-    let q = lane(x) | lane(y) << 16 | lane(z) << 32 | lane(w) << 48;
-    e.copy_from_slice(&q.rotate_left((max + 1) * 16).to_le_bytes());
-}
-
-/// Filter 3: a signed 8-bit exponent over a signed 24-bit mantissa, to a float.
-fn exponential(e: &mut [u8]) {
-    let v = i32::from_le_bytes([e[0], e[1], e[2], e[3]]);
-    let exponent = v >> 24;
-    let mantissa = (v << 8) >> 8;
-    // 2^exponent from the bits of powers of two (powi is a libm call on x86-64): exact, as the
-    // exponent (-128..=127) splits into two normal ones.
-    let power = |e: i32| f32::from_bits(((e + 127) as u32) << 23);
-    let scale = if exponent >= -126 { power(exponent) } else { power(-126) * power(exponent + 126) };
-    let value = scale * mantissa as f32;
-    e.copy_from_slice(&value.to_le_bytes());
-}
-
-/// Filter 4 on four 8-bit components: Y, Co, Cg and an alpha whose highest set bit gives K.
-fn color8(e: &mut [u8]) {
-    let rgba = ycocg(i32::from(e[0]), i32::from(e[1] as i8), i32::from(e[2] as i8), u32::from(e[3]), 255.0);
-    for (out, v) in e.iter_mut().zip(rgba) {
-        *out = round(v).clamp(0, 255) as u8;
-    }
-}
-
-/// Filter 4 on four 16-bit components.
-fn color16(e: &mut [u8]) {
-    let read = |i: usize| [e[2 * i], e[2 * i + 1]];
-    let y = i32::from(u16::from_le_bytes(read(0)));
-    let co = i32::from(i16::from_le_bytes(read(1)));
-    let cg = i32::from(i16::from_le_bytes(read(2)));
-    let rgba = ycocg(y, co, cg, u32::from(u16::from_le_bytes(read(3))), 65535.0);
-    for (i, v) in rgba.into_iter().enumerate() {
-        e[2 * i..2 * i + 2].copy_from_slice(&(round(v).clamp(0, 65535) as u16).to_le_bytes());
-    }
-}
-
-/// YCoCg with K-bit components (K from the alpha's highest set bit) to RGBA scaled to `max`
-/// (rounded and saturated by the caller's cast).
-fn ycocg(y: i32, co: i32, cg: i32, alpha: u32, max: f32) -> [f32; 4] {
-    let scale = if alpha == 0 { 0 } else { (1u32 << (32 - alpha.leading_zeros())) - 1 };
-    let a = alpha & (scale >> 1);
-    let a = (a << 1) | (a & 1);
-    let ss = if scale == 0 { 0.0 } else { max / scale as f32 };
-    [(y + co - cg) as f32 * ss, (y + cg) as f32 * ss, (y - co - cg) as f32 * ss, a as f32 * ss]
 }
 
 #[cfg(test)]
@@ -571,7 +347,7 @@ mod tests {
         let bytes = [0x17, 0x5f, 0xf0, 0xbc, 0x77, 0xa9, 0x21, 0x00, 0x34, 0xb5];
         let mut reader = Reader { data: &bytes, at: 0 };
         let mut deltas = [0u8; 16];
-        decode_group(&mut reader, 4, &mut deltas).expect("decodes");
+        vertex::decode_group(&mut reader, 4, &mut deltas).expect("decodes");
         assert!(reader.finished());
         let signed: Vec<i8> = deltas.iter().map(|&d| unzigzag8(d) as i8).collect();
         assert_eq!(signed, [-1, -4, -3, 26, -91, 0, -6, 6, -4, -4, 5, -5, 1, -1, 0, 0]);
@@ -660,22 +436,76 @@ mod tests {
         assert!(decode(Mode::Triangles, Filter::None, 6, 2, &src[..10], &mut out, false).is_err());
     }
 
+    /// Every 8-bit octahedral input (1.0 = 127) and a spread of 16-bit quaternions against the
+    /// formulas in f64: within one unit in the last place (the rounding of f32 arithmetic).
+    #[cfg_attr(not(target_arch = "wasm32"), test)]
+    #[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+    fn filters_agree_with_the_formulas_in_double_precision() {
+        let mut bytes = Vec::new();
+        for x in -128i32..128 {
+            for y in -128i32..128 {
+                bytes.extend([x as u8, y as u8, 127, 7]);
+            }
+        }
+        let mut out = bytes.clone();
+        filters::apply(Filter::Octahedral, 4, &mut out);
+        for (e, o) in bytes.chunks_exact(4).zip(out.chunks_exact(4)) {
+            let (x, y) = (f64::from(e[0] as i8) / 127.0, f64::from(e[1] as i8) / 127.0);
+            let z = 1.0 - x.abs() - y.abs();
+            let t = z.min(0.0);
+            let (x, y) = (x - t.copysign(x), y - t.copysign(y));
+            let len = (x * x + y * y + z * z).sqrt();
+            for (got, want) in o[..3].iter().zip([x, y, z]) {
+                let want = (want / len * 127.0).round();
+                assert!((f64::from(*got as i8) - want).abs() <= 1.0, "{e:?} → {o:?}");
+            }
+            assert_eq!(o[3], 7);
+        }
+        let mut bytes = Vec::new();
+        let mut r = 0x2545_f491_4f6c_dd1du64;
+        for i in 0..20000u32 {
+            r ^= r << 13;
+            r ^= r >> 7;
+            r ^= r << 17;
+            let one = (1i32 << (4 + i % 13)) - 1; // K = 4..16 bits
+            let c = |s: u32| ((r >> s) as i32 % (one + 1)) as i16;
+            let w = (one as i16 & !3) | (i % 4) as i16;
+            for v in [c(0), c(16), c(32), w] {
+                bytes.extend(v.to_le_bytes());
+            }
+        }
+        let mut out = bytes.clone();
+        filters::apply(Filter::Quaternion, 8, &mut out);
+        let read = |b: &[u8], i: usize| i16::from_le_bytes([b[2 * i], b[2 * i + 1]]);
+        for (e, o) in bytes.chunks_exact(8).zip(out.chunks_exact(8)) {
+            let one = f64::from(read(e, 3) | 3);
+            let [x, y, z] = [0, 1, 2].map(|i| f64::from(read(e, i)) / one * std::f64::consts::FRAC_1_SQRT_2);
+            let w = (1.0 - x * x - y * y - z * z).max(0.0).sqrt();
+            let max = (read(e, 3) & 3) as usize;
+            for (k, want) in [x, y, z, w].into_iter().enumerate() {
+                let want = (want * 32767.0).round().clamp(-32768.0, 32767.0);
+                let got = f64::from(read(o, (max + 1 + k) % 4));
+                assert!((got - want).abs() <= 1.0, "{e:?} → {o:?}: component {k} {got} against {want}");
+            }
+        }
+    }
+
     #[cfg_attr(not(target_arch = "wasm32"), test)]
     #[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
     fn filters_decode_unit_vectors_quaternions_and_floats() {
         // Octahedral (0, 0) with 1.0 = 127: +Z.
         let mut e = [0u8, 0, 127, 9];
-        octahedral8(&mut e);
+        filters::apply(Filter::Octahedral, 4, &mut e);
         assert_eq!(e, [0, 0, 127, 9]);
         // Quaternion: largest component w (index 3), the others 0, 1.0 = 32767 → identity.
         let mut q = [0u8; 8];
         q[6..8].copy_from_slice(&(32767i16 & !3 | 3).to_le_bytes());
-        quaternion(&mut q);
+        filters::apply(Filter::Quaternion, 8, &mut q);
         let got: Vec<i16> = q.chunks(2).map(|c| i16::from_le_bytes([c[0], c[1]])).collect();
         assert_eq!(got, [0, 0, 0, 32767]);
         // Exponential: 3 × 2^-1.
         let mut f = ((-1i32 << 24) | 3).to_le_bytes();
-        exponential(&mut f);
+        filters::apply(Filter::Exponential, 4, &mut f);
         assert_eq!(f32::from_le_bytes(f), 1.5);
         assert!(check(Mode::Attributes, Filter::Quaternion, 4, 4, false).is_err());
         assert!(check(Mode::Triangles, Filter::None, 4, 2, false).is_err());
@@ -684,11 +514,11 @@ mod tests {
         assert!(check(Mode::Attributes, Filter::Octahedral, 4, 8, false).is_ok());
         // Colour: grey Y = 128 without chroma, alpha 127 in 7 bits with bit 8 set (K = 8) → 255.
         let mut c = [128u8, 0, 0, 0xff];
-        color8(&mut c);
+        filters::apply(Filter::Color, 4, &mut c);
         assert_eq!(c, [128, 128, 128, 255]);
         // Co = 10, Cg = -5: r = y + co - cg, g = y + cg, b = y - co - cg.
         let mut c = [100u8, 10, (-5i8) as u8, 0xff];
-        color8(&mut c);
+        filters::apply(Filter::Color, 4, &mut c);
         assert_eq!(c, [115, 95, 95, 255]);
     }
 }
