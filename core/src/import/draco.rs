@@ -174,12 +174,9 @@ fn decode_primitive(
             .ok_or_else(|| ImportError::new(&ptr, "the decoded attribute exceeds the import budget"))?;
         // The f32 values draco-core hands out and the accessor's bytes.
         budget.take(size.checked_add(points * components as u64 * 4), &ptr, &format!("decoded {name}"))?;
-        let mut bytes = Vec::with_capacity(size as usize);
-        for &v in &attribute.values {
-            push(&mut bytes, component, v).ok_or_else(|| {
-                ImportError::new(&ptr, format!("the Draco value {v} does not fit accessor {index}'s component type"))
-            })?;
-        }
+        let bytes = convert(&attribute.values, component).map_err(|v| {
+            ImportError::new(&ptr, format!("the Draco value {v} does not fit accessor {index}'s component type"))
+        })?;
         count_warning(&mut state.warnings, index, accessor.count, points, "points");
         accessors.replace(index, bytes, points, component);
         decoded_bytes += size;
@@ -191,15 +188,16 @@ fn decode_primitive(
         // Written as 32-bit: a stream may decode to more points than its file declared.
         let size = count * 4;
         budget.take(Some(size), &child(pptr, "indices"), "decoded indices")?;
-        let mut bytes = Vec::with_capacity(size as usize);
-        for &corner in &mesh.indices[..count as usize] {
-            if u64::from(corner) >= points {
-                return Err(ImportError::new(
-                    child(xptr, "bufferView"),
-                    format!("the Draco stream has a triangle corner {corner} outside its {points} points"),
-                ));
-            }
-            bytes.extend_from_slice(&corner.to_le_bytes());
+        let corners = &mesh.indices[..count as usize];
+        if let Some(&corner) = corners.iter().max().filter(|&&c| u64::from(c) >= points) {
+            return Err(ImportError::new(
+                child(xptr, "bufferView"),
+                format!("the Draco stream has a triangle corner {corner} outside its {points} points"),
+            ));
+        }
+        let mut bytes = vec![0u8; size as usize];
+        for (out, corner) in bytes.chunks_exact_mut(4).zip(corners) {
+            out.copy_from_slice(&corner.to_le_bytes());
         }
         accessors.replace(indices, bytes, count, Component::U32);
         decoded_bytes += size;
@@ -234,16 +232,25 @@ fn claim(filled: &mut [Option<Source>], index: u32, source: Source, ptr: &str) -
     }
 }
 
-/// Appends `v` as one component of type `c` (integers must be whole and in range).
-fn push(bytes: &mut Vec<u8>, c: Component, v: f32) -> Option<()> {
-    let int = |lo: f32, hi: f32| (v.fract() == 0.0 && v >= lo && v <= hi).then_some(v);
-    match c {
-        Component::F32 => bytes.extend_from_slice(&v.to_le_bytes()),
-        Component::I8 => bytes.push(int(-128.0, 127.0)? as i8 as u8),
-        Component::U8 => bytes.push(int(0.0, 255.0)? as u8),
-        Component::I16 => bytes.extend_from_slice(&(int(-32768.0, 32767.0)? as i16).to_le_bytes()),
-        Component::U16 => bytes.extend_from_slice(&(int(0.0, 65535.0)? as u16).to_le_bytes()),
-        Component::U32 => bytes.extend_from_slice(&(int(0.0, 16_777_216.0)? as u32).to_le_bytes()),
+/// `values` as components of type `c`, little-endian (integers must be whole and in range):
+/// the bytes, or the first value that does not fit. One pass per type, into a buffer of the
+/// final size.
+fn convert(values: &[f32], c: Component) -> Result<Vec<u8>, f32> {
+    fn each<const N: usize>(values: &[f32], write: impl Fn(f32) -> Option<[u8; N]>) -> Result<Vec<u8>, f32> {
+        let mut bytes = vec![0u8; values.len() * N];
+        for (out, &v) in bytes.chunks_exact_mut(N).zip(values) {
+            out.copy_from_slice(&write(v).ok_or(v)?);
+        }
+        Ok(bytes)
     }
-    Some(())
+    // Whole and within `lo..=hi` (NaN is neither).
+    let int = |v: f32, lo: f32, hi: f32| (v.fract() == 0.0 && v >= lo && v <= hi).then_some(v);
+    match c {
+        Component::F32 => each(values, |v| Some(v.to_le_bytes())),
+        Component::I8 => each(values, |v| Some([int(v, -128.0, 127.0)? as i8 as u8])),
+        Component::U8 => each(values, |v| Some([int(v, 0.0, 255.0)? as u8])),
+        Component::I16 => each(values, |v| Some((int(v, -32768.0, 32767.0)? as i16).to_le_bytes())),
+        Component::U16 => each(values, |v| Some((int(v, 0.0, 65535.0)? as u16).to_le_bytes())),
+        Component::U32 => each(values, |v| Some((int(v, 0.0, 16_777_216.0)? as u32).to_le_bytes())),
+    }
 }
