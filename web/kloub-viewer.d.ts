@@ -262,7 +262,7 @@ export declare class KloubViewer extends HTMLElement {
   setSkinning(method: SkinningMethod): void;
   /** How clip changes crossfade; keys left out stay as they are. */
   setTransition(options: { duration?: number; easing?: 'smoothstep' | 'linear'; outgoing?: 'freeze' | 'keep' | 'sync' }): void;
-  /** `compute` throws on WebGL2. */
+  /** `compute` throws on WebGL2. Until called: `gpu`, or `cpu` on a CPU adapter (SwiftShader, llvmpipe). */
   setSkinningPath(path: SkinningPath): void;
   /** Colours vertices by their distance from linear blend skinning's result. */
   setHeatmap(on: boolean): void;

@@ -226,6 +226,16 @@ for (const backend of BACKENDS) {
     await control(page, 'loadSample', 'candy-wrapper');
     // The sample starts still (posed by its sliders): it paints only on change, so no frame wait here.
     await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.model === 'Candy wrapper', 'the candy-wrapper sample');
+    // SwiftShader is a CPU adapter: a viewer skins on the CPU there until told otherwise. The shots below are the
+    // vertex shader's, compared with the other paths at the end.
+    assert((await dataset(page)).skinningPath === 'cpu', `the default path on a CPU adapter: ${(await dataset(page)).skinningPath}`);
+    // The heatmap is the vertex shader's: it takes the unchosen default there and back.
+    await control(page, 'setHeatmap', true);
+    await waitForDataset(page, () => { const d = document.querySelector('kloub-viewer').dataset; return d.heatmap === 'true' && d.skinningPath === 'gpu'; }, 'the heatmap on the vertex-shader path');
+    await control(page, 'setHeatmap', false);
+    await waitForDataset(page, () => { const d = document.querySelector('kloub-viewer').dataset; return d.heatmap === 'false' && d.skinningPath === 'cpu'; }, 'the CPU path again');
+    await control(page, 'setSkinningPath', 'gpu');
+    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.skinningPath === 'gpu', 'the vertex-shader path');
     await control(page, 'setCandyPose', 150, 0);
     const shots = {};
     for (const method of ['lbs', 'dqs', 'sjb']) {
@@ -413,6 +423,8 @@ for (const backend of BACKENDS) {
       { name: 'CesiumMan.kloub.json', bytes: Buffer.from(JSON.stringify(sidecar)) },
     ]);
     await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.model === 'CesiumMan.gltf' && document.querySelector('kloub-viewer').dataset.status === 'ready', 'CesiumMan with its sidecar');
+    // The vertex shader's SJBBE, compared with the CPU's at the end (SwiftShader's default is the CPU).
+    await control(page, 'setSkinningPath', 'gpu');
     await page.evaluate(() => { const v = document.querySelector('kloub-viewer'); v.pause(); v.currentTime = 0.6; });
     const shot = async (method) => {
       await control(page, 'setSkinning', method);

@@ -439,6 +439,7 @@ impl App {
             skinning_path: self.stage.scene.skinning_path(),
             compute: self.stage.scene.supports_compute(),
             heatmap: self.stage.scene.heatmap(),
+            heatmap_available: self.stage.scene.heatmap_available(),
             sjb_fallbacks: &sjb_fallbacks,
             library: self.stage.library.as_ref().map_or(&[], |l| l.models.as_slice()),
             grid: self.stage.scene.grid(),

@@ -863,7 +863,7 @@ impl Viewer {
 
     /// Where vertices are deformed: `"gpu"` (vertex shader), `"compute"` (a compute pass;
     /// WebGPU only) or `"cpu"` (kloub_core's reference, uploaded every frame). Kept across
-    /// models.
+    /// models. Until called: the adapter's default ([`crate::render::default_skinning_path`]).
     #[wasm_bindgen(js_name = setSkinningPath)]
     pub fn set_skinning_path(&self, path: &str) -> Result<(), JsValue> {
         let path = SkinningPath::from_name(path).map_err(range_error)?;

@@ -18,7 +18,7 @@ use crate::control::{Command, Controls, Wake};
 use crate::dom::{Dataset, Key};
 use crate::load::{self, Inbox, LoadedModel};
 use crate::model::{LayerDraft, Model};
-use crate::render::{Camera, SceneRenderer, display_msaa, scene_format};
+use crate::render::{Camera, SceneRenderer, default_skinning_path, display_msaa, scene_format};
 
 mod commands;
 mod dataset;
@@ -413,9 +413,11 @@ impl Stage {
         scene.set_environment_image(self.scene.environment_image());
         scene.set_ibl_supported(crate::render::environment::supports_ibl(&gpu.adapter));
         scene.set_ground(self.scene.ground());
-        // Compute skinning is only there on WebGPU; another backend falls back to the vertex shader.
-        if scene.set_skinning_path(self.scene.skinning_path()).is_err() {
-            log::warn!("kloub: the new device has no compute shaders: skinning in the vertex shader");
+        // Compute skinning is only there on WebGPU; another backend falls back to its default.
+        if let Some(path) = self.scene.chosen_skinning_path()
+            && scene.set_skinning_path(path).is_err()
+        {
+            log::warn!("kloub: the new device has no compute shaders: skinning where its adapter does by default");
         }
         self.scene = scene;
         self.gpu = gpu;
@@ -1129,16 +1131,19 @@ pub(crate) fn view_aspect(rect: Rect) -> f32 {
     if rect.width() > 0.0 && rect.height() > 0.0 { rect.width() / rect.height() } else { 1.0 }
 }
 
-/// A scene renderer for the view on `gpu`: its multisampling and the colour format its canvas
-/// is drawn in (both rebuilt the same way when the device is replaced).
+/// A scene renderer for the view on `gpu`: its multisampling, the colour format its canvas
+/// is drawn in and its default skinning path (all rebuilt the same way when the device is
+/// replaced).
 fn new_scene(gpu: &Graphics, share: Option<u32>) -> SceneRenderer {
-    SceneRenderer::shared(
+    let mut scene = SceneRenderer::shared(
         &gpu.device,
         &gpu.queue,
         display_msaa(&gpu.adapter),
         scene_format(gpu.adapter.get_info().backend),
         share,
-    )
+    );
+    scene.set_default_skinning_path(default_skinning_path(&gpu.adapter));
+    scene
 }
 
 #[cfg(test)]

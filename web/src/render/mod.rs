@@ -59,5 +59,8 @@ pub mod texture;
 pub mod uniforms;
 
 pub use camera::Camera;
-pub use scene::{RenderTimes, SceneRenderer, SculptMesh, SkinningPath, display_msaa, msaa_samples, scene_format};
+pub use scene::{
+    RenderTimes, SceneRenderer, SculptMesh, SkinningPath, default_skinning_path, display_msaa, msaa_samples,
+    scene_format,
+};
 pub use uniforms::Ground;

@@ -94,6 +94,20 @@ pub fn display_msaa(adapter: &wgpu::Adapter) -> u32 {
     }
 }
 
+/// Where a viewer deforms skinned vertices until its user chooses: on the CPU
+/// ([`SkinningPath::Cpu`]) on a CPU adapter in the browser (SwiftShader, llvmpipe: the browser's
+/// fallback where the GPU is blocklisted or absent), where vertex shaders run on the CPU anyway,
+/// one core's worth, and the vertex-shader path would skin every vertex twice a frame (for the
+/// ground shadow's map, then for the colour pass) while the page's main thread, another core,
+/// waits; the GPU's vertex shader everywhere else. Measured in BENCHMARKS.md, "Frame cost".
+pub fn default_skinning_path(adapter: &wgpu::Adapter) -> SkinningPath {
+    if cfg!(target_arch = "wasm32") && adapter.get_info().device_type == wgpu::DeviceType::Cpu {
+        SkinningPath::Cpu
+    } else {
+        SkinningPath::Gpu
+    }
+}
+
 /// The colour format a viewer's scene draws into on a device whose canvas surfaces are in
 /// `surface_format` on `backend`: `Rgba8Unorm` (shaders encode sRGB) where the browser's
 /// WebGL2 canvas is drawn into, since wgpu presents an sRGB WebGL2 surface through an extra
@@ -388,7 +402,11 @@ pub struct SceneRenderer {
     direct: Option<Attachments>,
     /// Copies prepared by the last [`SceneRenderer::prepare_copies`].
     prepared_copies: usize,
-    skinning: SkinningPath,
+    /// The path chosen with [`SceneRenderer::set_skinning_path`]; `None` until then (the
+    /// path is then [`SceneRenderer::skinning_path`]'s default for the adapter).
+    skinning: Option<SkinningPath>,
+    /// The default path when none was chosen ([`default_skinning_path`]).
+    default_skinning: SkinningPath,
     ground: Ground,
     scratch: Scratch,
     times: RenderTimes,
@@ -570,7 +588,8 @@ impl SceneRenderer {
             target_version: 0,
             direct: None,
             prepared_copies: 1,
-            skinning: SkinningPath::Gpu,
+            skinning: None,
+            default_skinning: SkinningPath::Gpu,
             ground: Ground::default(),
             scratch: Scratch::default(),
             times: RenderTimes::default(),
@@ -901,8 +920,26 @@ impl SceneRenderer {
         if path == SkinningPath::Compute && self.compute.is_none() {
             return Err("compute skinning needs WebGPU or a native GPU: this backend has no compute shaders".into());
         }
-        self.skinning = path;
+        self.skinning = Some(path);
         Ok(())
+    }
+
+    /// The path used until one is chosen with [`SceneRenderer::set_skinning_path`]
+    /// ([`default_skinning_path`] of the adapter; [`SkinningPath::Gpu`] until said).
+    pub fn set_default_skinning_path(&mut self, path: SkinningPath) {
+        self.default_skinning =
+            if path == SkinningPath::Compute && self.compute.is_none() { SkinningPath::Gpu } else { path };
+    }
+
+    /// The path chosen with [`SceneRenderer::set_skinning_path`], if one was.
+    pub fn chosen_skinning_path(&self) -> Option<SkinningPath> {
+        self.skinning
+    }
+
+    /// Whether the deviation heatmap can show: it is drawn by the vertex-shader path, which
+    /// the viewer is on or goes to when the heatmap is turned on without a chosen path.
+    pub fn heatmap_available(&self) -> bool {
+        self.skinning.is_none_or(|p| p == SkinningPath::Gpu)
     }
 
     /// Colours skinned vertices by how far they are from linear blend skinning's result (from
@@ -949,9 +986,15 @@ impl SceneRenderer {
         self.compute.is_some()
     }
 
-    /// Where skinned vertices are deformed.
+    /// Where skinned vertices are deformed: the chosen path, else the adapter's default,
+    /// except that the deviation heatmap (drawn by the vertex shader) takes an unchosen
+    /// default to [`SkinningPath::Gpu`].
     pub fn skinning_path(&self) -> SkinningPath {
-        self.skinning
+        match self.skinning {
+            Some(path) => path,
+            None if self.heatmap.is_some() => SkinningPath::Gpu,
+            None => self.default_skinning,
+        }
     }
 
     /// The ground the grid is drawn on (under the rest pose of the loaded asset).
@@ -1073,6 +1116,7 @@ impl SceneRenderer {
 
         let copies = instances.len();
         self.prepared_copies = copies;
+        let path = self.skinning_path();
         if let Some(scene) = self.scene.as_mut() {
             scene.reserve(
                 device,
@@ -1089,7 +1133,7 @@ impl SceneRenderer {
                 instances,
                 offsets,
                 camera,
-                self.skinning,
+                path,
                 self.compute.as_ref(),
                 self.heatmap,
                 self.draw_stride,
