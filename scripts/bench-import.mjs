@@ -105,7 +105,7 @@ function meshoptCase({ json, bin }) {
     const x = v.extensions?.EXT_meshopt_compression ?? v.extensions?.KHR_meshopt_compression;
     if (!x) continue;
     const source = new Uint8Array(bin.buffer, bin.byteOffset + (x.byteOffset ?? 0), x.byteLength);
-    views.push({ source, count: x.count, stride: x.byteStride, mode: x.mode, filter: x.filter ?? 'NONE' });
+    views.push({ i: views.length, source, count: x.count, stride: x.byteStride, mode: x.mode, filter: x.filter ?? 'NONE' });
   }
   const decoded = views.reduce((sum, v) => sum + v.count * v.stride, 0);
   const run = () => {
@@ -114,7 +114,7 @@ function meshoptCase({ json, bin }) {
       MeshoptDecoder.decodeGltfBuffer(target, v.count, v.stride, v.source, v.mode, v.filter);
     }
   };
-  return { decoded, run };
+  return { decoded, run, views };
 }
 
 for (const name of FILES) {
@@ -123,6 +123,13 @@ for (const name of FILES) {
   const { decoded, run } = isDraco ? dracoCase(file) : meshoptCase(file);
   const rate = decoded / ((await measure(run)) / 1000) / 1e6;
   console.log(`decode reference ${isDraco ? 'draco' : 'meshopt'} ${name} ${decoded} B: ${rate.toFixed(1)} MB/s`);
+  // KLOUB_BENCH_VIEWS=1: each meshopt view on its own, as core/benches/import_cases.rs's measure_views.
+  if (process.env.KLOUB_BENCH_VIEWS && !isDraco) {
+    for (const v of meshoptCase(file).views) {
+      const ms = await measure(() => MeshoptDecoder.decodeGltfBuffer(new Uint8Array(v.count * v.stride), v.count, v.stride, v.source, v.mode, v.filter));
+      console.log(`view reference ${name} ${v.i}:${v.mode}:${v.filter}:${v.count}x${v.stride}: ${(ms * 1000).toFixed(2)} us`);
+    }
+  }
 }
 
 /** DRACOLoader's decodeDracoFile on the calling thread: its worker's decodeGeometry and its _createGeometry. */

@@ -9,6 +9,7 @@
 #
 #   bash scripts/bench-import.sh
 #   KLOUB_BENCH_ROUNDS=1 bash scripts/bench-import.sh   # quicker, noisier
+#   KLOUB_BENCH_VIEWS=1 bash scripts/bench-import.sh    # also each meshopt view alone (µs per decode, best round)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 log=$(mktemp)
@@ -20,7 +21,26 @@ for _ in $(seq "${KLOUB_BENCH_ROUNDS:-3}"); do
     cargo test --release -p kloub-core --target wasm32-unknown-unknown --test wasm_decode -- --nocapture 2>/dev/null \
     | grep -oE '(decode|imported|import) wasm .*' >>"$log"
   node scripts/bench-import.mjs >>"$log"
+  if [ -n "${KLOUB_BENCH_VIEWS:-}" ]; then
+    CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUSTFLAGS="${CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUSTFLAGS:--C target-feature=+simd128}" \
+      CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUNNER="${CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUNNER:-wasm-bindgen-test-runner}" \
+      cargo test --release -p kloub-core --target wasm32-unknown-unknown --test wasm_decode -- --include-ignored \
+      decode_speed_per_view --nocapture 2>/dev/null | grep -oE 'view wasm .*' >>"$log"
+  fi
 done
+if [ -n "${KLOUB_BENCH_VIEWS:-}" ]; then
+  # "view SIDE FILE VIEW: VALUE us" → one row per view: Kloub wasm, the reference, and their ratio (best rounds).
+  echo "Each meshopt view alone (µs per decode; view: index, mode, filter, count × stride):"
+  echo
+  echo "| file | view | Kloub wasm | reference | reference / Kloub wasm |"
+  echo "|---|---|---:|---:|---:|"
+  awk '$1 == "view" { key = $3 " " $4; x = $5 + 0
+      if (!((key, $2) in v) || x < v[key, $2]) v[key, $2] = x
+      if (!(key in seen)) { seen[key] = 1; order[++n] = key } }
+    END { for (i = 1; i <= n; i++) { split(order[i], k, " "); sub(/:$/, "", k[2])
+      printf "| %s | %s | %.2f | %.2f | %.2f× |\n", k[1], k[2], v[order[i], "wasm"], v[order[i], "reference"], v[order[i], "reference"] / v[order[i], "wasm"] } }' "$log"
+  echo
+fi
 # "KIND SIDE CODEC FILE BYTES B: VALUE UNIT" → one row per file and kind.
 awk '
   { kind = $1; side = $3 == "" ? "" : $2; file = $4; x = $(NF - 1) + 0; codec[file] = $3

@@ -24,6 +24,13 @@ fn main() {
         println!("decode native {} {} {} B: {:.1} MB/s", case.codec, case.name, case.decoded, rate(streams));
         println!("imported native {} {} {} B: {:.1} MB/s", case.codec, case.name, case.decoded, rate(imported));
     }
+    if std::env::var_os("KLOUB_BENCH_VIEWS").is_some() {
+        for case in import_cases::decode_cases().iter().filter(|c| c.codec == "meshopt" && wanted(c)) {
+            for (view, ms) in import_cases::measure_views(case, &now) {
+                println!("view native {} {view}: {:.2} us", case.name, ms * 1000.0);
+            }
+        }
+    }
     for case in import_cases::import_cases().iter().filter(|c| wanted(c) && std::env::var_os("DECODE_ONLY").is_none()) {
         let ms = import_cases::measure(case, &now);
         println!("import native {} {} {} B: {ms:.3} ms", case.codec, case.name, case.glb.len());

@@ -173,26 +173,39 @@ fn streams(doc: &Value, bin: &[u8]) -> Vec<Stream> {
 /// Milliseconds to decode every stream of `case` (as [`measure`] times an import).
 pub fn measure_streams(case: &Case, now: &dyn Fn() -> f64) -> f64 {
     let codecs = kloub_core::codecs::builtin();
-    let run = || {
-        let mut ok = true;
-        for stream in &case.streams {
-            match stream {
-                Stream::Meshopt { mode, filter, count, stride, khr, src } => {
-                    let mut out = vec![0u8; count * stride];
-                    let done =
-                        kloub_core::import::decode_meshopt_view(mode, filter, *count, *stride, src, *khr, &mut out);
-                    ok &= std::hint::black_box((done, out)).0.is_ok();
-                }
-                Stream::Draco { stream, wanted } => {
-                    ok &= std::hint::black_box(codecs.draco(std::hint::black_box(stream), wanted, u64::MAX)).is_ok();
-                }
-            }
-        }
-        ok
-    };
+    let run = || case.streams.iter().all(|stream| decode_stream(stream, codecs));
     // A stream that fails would be timed as a quick no-op.
     assert!(run(), "{}: a stream does not decode", case.name);
     timed(&run, now)
+}
+
+/// Each meshopt view of `case` on its own (`KLOUB_BENCH_VIEWS=1 bash scripts/bench-import.sh`):
+/// its mode, filter, count and stride, and the milliseconds per decode.
+pub fn measure_views(case: &Case, now: &dyn Fn() -> f64) -> Vec<(String, f64)> {
+    let codecs = kloub_core::codecs::builtin();
+    let mut out = Vec::new();
+    for (i, stream) in case.streams.iter().enumerate() {
+        if let Stream::Meshopt { mode, filter, count, stride, .. } = stream {
+            let run = || decode_stream(stream, codecs);
+            assert!(run(), "{}: view {i} does not decode", case.name);
+            out.push((format!("{i}:{mode}:{filter}:{count}x{stride}"), timed(&run, now)));
+        }
+    }
+    out
+}
+
+/// Decodes one stream as the reference decoders are called: whether it decoded.
+fn decode_stream(stream: &Stream, codecs: &dyn kloub_core::codecs::Codecs) -> bool {
+    match stream {
+        Stream::Meshopt { mode, filter, count, stride, khr, src } => {
+            let mut out = vec![0u8; count * stride];
+            let done = kloub_core::import::decode_meshopt_view(mode, filter, *count, *stride, src, *khr, &mut out);
+            std::hint::black_box((done, out)).0.is_ok()
+        }
+        Stream::Draco { stream, wanted } => {
+            std::hint::black_box(codecs.draco(std::hint::black_box(stream), wanted, u64::MAX)).is_ok()
+        }
+    }
 }
 
 /// The JSON and BIN chunks of a GLB.

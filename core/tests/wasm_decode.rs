@@ -30,3 +30,15 @@ fn decode_and_import_speed() {
         console_log!("import wasm {} {} {} B: {ms:.3} ms", case.codec, case.name, case.glb.len());
     }
 }
+
+/// Each meshopt view on its own (`KLOUB_BENCH_VIEWS=1 bash scripts/bench-import.sh`; ignored
+/// otherwise).
+#[wasm_bindgen_test]
+#[ignore]
+fn decode_speed_per_view() {
+    for case in import_cases::decode_cases().iter().filter(|c| c.codec == "meshopt") {
+        for (view, ms) in import_cases::measure_views(case, &performance_now) {
+            console_log!("view wasm {} {view}: {:.2} us", case.name, ms * 1000.0);
+        }
+    }
+}

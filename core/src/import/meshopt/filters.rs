@@ -35,11 +35,14 @@ fn by_four<const N: usize>(out: &mut [u8], f: impl Fn(&mut [u8; N])) {
     }
 }
 
-/// Rounded half away from zero and saturated to signed 32-bit lanes (NaN → 0): the filters'
-/// `round` (no libm call).
+/// Rounded to the nearest whole number (ties to even), in the low bits of each 32-bit lane:
+/// adding 1.5 · 2²³ leaves the sum's mantissa holding `v` in two's complement (exact for
+/// |v| < 2²¹: every valid filtered value, at most 32767 in magnitude; anything else is garbage
+/// in, garbage out, and never undefined). The filters keep the low 8 or 16 bits; meshoptimizer's
+/// SIMD filters round the same way.
 #[inline(always)]
-fn round(v: Vec4) -> V {
-    V::trunc_sat(v + Vec4::splat(0.5).copysign(v))
+fn snap(v: Vec4) -> V {
+    V::f32_bits(v + Vec4::splat(12_582_912.0))
 }
 
 /// The signed byte of each 32-bit lane that a left shift by `UP` brings to the top, as floats.
@@ -81,7 +84,7 @@ fn low16(v: V) -> Vec4 {
 fn octahedral8(b: &mut [u8; 16]) {
     let v = V::load(b);
     let [x, y, z] = octahedral(byte_of::<24>(v), byte_of::<16>(v), byte_of::<8>(v), 127.0);
-    let byte = |c: Vec4| round(c).clamp32(-128, 127).and(V::splat32(0xff));
+    let byte = |c: Vec4| snap(c).and(V::splat32(0xff));
     let out = byte(x).or(byte(y).shl32::<8>()).or(byte(z).shl32::<16>()).or(v.and(V::splat32(0xff00_0000)));
     out.store(b);
 }
@@ -90,7 +93,7 @@ fn octahedral8(b: &mut [u8; 16]) {
 fn octahedral16(b: &mut [u8; 32]) {
     let (xy, zw) = pairs(b);
     let [x, y, z] = octahedral(low16(xy), xy.sar32::<16>().to_f32(), low16(zw), 32767.0);
-    let half = |c: Vec4| round(c).clamp32(-32768, 32767).and(V::splat32(0xffff));
+    let half = |c: Vec4| snap(c).and(V::splat32(0xffff));
     unpairs(b, half(x).or(half(y).shl32::<16>()), half(z).or(zw.and(V::splat32(0xffff_0000))));
 }
 
@@ -119,15 +122,14 @@ fn quaternion(b: &mut [u8; 32]) {
     let ww = (one * one + one * one) - (x * x + (y * y + z * z));
     let ww = ww.max(Vec4::ZERO).sqrt();
     let scale = Vec4::splat(32767.0 * std::f32::consts::FRAC_1_SQRT_2) / one;
-    let half = |c: Vec4| round(c * scale).clamp32(-32768, 32767).and(V::splat32(0xffff));
+    let half = |c: Vec4| snap(c * scale).and(V::splat32(0xffff));
     let (xy, zw) = (half(x).or(half(y).shl32::<16>()), half(z).or(half(ww).shl32::<16>()));
-    let [a, b2, c, d] = V::unpack_lo32(xy, zw).lanes32();
-    let [e, f, g, h] = V::unpack_hi32(xy, zw).lanes32();
+    // Each element's x, y, z, w as the 16-bit lanes 0..3 of a 64-bit lane.
+    let [q0, q1] = V::unpack_lo32(xy, zw).lanes64();
+    let [q2, q3] = V::unpack_hi32(xy, zw).lanes64();
     let max = w.and(V::splat32(3)).lanes32();
-    for (i, (element, (low, high))) in b.chunks_exact_mut(8).zip([(a, b2), (c, d), (e, f), (g, h)]).enumerate() {
-        // x, y, z, w as 16-bit lanes 0..3, rotated so that w lands in lane `max` and x, y, z
-        // follow it.
-        let q = u64::from(low) | u64::from(high) << 32;
+    for (i, (element, q)) in b.chunks_exact_mut(8).zip([q0, q1, q2, q3]).enumerate() {
+        // Rotated so that w lands in lane `max` and x, y, z follow it.
         element.copy_from_slice(&q.rotate_left((max[i] + 1) * 16).to_le_bytes());
     }
 }

@@ -192,12 +192,6 @@ mod wasm {
             Self(w::i32x4_shr(self.0, N))
         }
 
-        /// Each signed 32-bit lane clamped to `lo..=hi`.
-        #[inline(always)]
-        pub(in super::super) fn clamp32(self, lo: i32, hi: i32) -> Self {
-            Self(w::i32x4_min(w::i32x4_max(self.0, w::i32x4_splat(lo)), w::i32x4_splat(hi)))
-        }
-
         #[inline(always)]
         pub(in super::super) fn add32(self, o: Self) -> Self {
             Self(w::i32x4_add(self.0, o.0))
@@ -217,12 +211,6 @@ mod wasm {
         #[inline(always)]
         pub(in super::super) fn to_f32(self) -> glam::Vec4 {
             glam::Vec4::from(w::f32x4_convert_i32x4(self.0))
-        }
-
-        /// Floats truncated to signed 32-bit lanes, saturating (NaN → 0).
-        #[inline(always)]
-        pub(in super::super) fn trunc_sat(v: glam::Vec4) -> Self {
-            Self(w::i32x4_trunc_sat_f32x4(w::v128::from(v)))
         }
 
         /// The lanes' bits as floats.
@@ -245,6 +233,12 @@ mod wasm {
                 w::u32x4_extract_lane::<2>(self.0),
                 w::u32x4_extract_lane::<3>(self.0),
             ]
+        }
+
+        /// The two 64-bit lanes.
+        #[inline(always)]
+        pub(in super::super) fn lanes64(self) -> [u64; 2] {
+            [w::u64x2_extract_lane::<0>(self.0), w::u64x2_extract_lane::<1>(self.0)]
         }
     }
 }
@@ -468,12 +462,6 @@ mod array {
             Self::from_i32(self.lanes_i32().map(|v| v >> N))
         }
 
-        /// Each signed 32-bit lane clamped to `lo..=hi`.
-        #[inline(always)]
-        pub(in super::super) fn clamp32(self, lo: i32, hi: i32) -> Self {
-            Self::from_i32(self.lanes_i32().map(|v| v.max(lo).min(hi)))
-        }
-
         #[inline(always)]
         pub(in super::super) fn add32(self, o: Self) -> Self {
             let (a, b) = (self.lanes_i32(), o.lanes_i32());
@@ -498,12 +486,6 @@ mod array {
             glam::Vec4::from_array(self.lanes_i32().map(|v| v as f32))
         }
 
-        /// Floats truncated to signed 32-bit lanes, saturating (NaN → 0).
-        #[inline(always)]
-        pub(in super::super) fn trunc_sat(v: glam::Vec4) -> Self {
-            Self::from_i32(v.to_array().map(|f| f as i32))
-        }
-
         /// The lanes' bits as floats.
         #[inline(always)]
         pub(in super::super) fn bits_to_f32(self) -> glam::Vec4 {
@@ -521,6 +503,13 @@ mod array {
             std::array::from_fn(|i| {
                 u32::from_le_bytes([self.0[4 * i], self.0[4 * i + 1], self.0[4 * i + 2], self.0[4 * i + 3]])
             })
+        }
+
+        /// The two 64-bit lanes.
+        #[inline(always)]
+        pub(in super::super) fn lanes64(self) -> [u64; 2] {
+            let (halves, _) = self.0.as_chunks::<8>();
+            std::array::from_fn(|i| halves.get(i).copied().map_or(0, u64::from_le_bytes))
         }
     }
 }

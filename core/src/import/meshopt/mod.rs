@@ -208,24 +208,25 @@ fn triangles_into<const N: usize>(
         if hi < 15 {
             // A recent edge and a third vertex.
             [a, b] = s.edge(hi);
-            c = match lo {
-                0 => s.take_next(),
-                13 => {
-                    s.last = s.last.wrapping_sub(1);
-                    s.last
-                }
-                14 => {
-                    s.last = s.last.wrapping_add(1);
-                    s.last
-                }
-                15 => s.explicit(data)?,
-                _ => s.vertex(lo),
-            };
-            s.push_edge(c, b);
-            s.push_edge(a, c);
-            if lo == 0 || lo >= 13 {
+            if lo < 13 {
+                // The most common case, without a branch on `lo` (they are not predictable): a
+                // new vertex (0, then pushed) or a recent one (1..=12).
+                let new = lo == 0;
+                c = if new { s.next } else { s.vertex(lo) };
+                s.next = s.next.wrapping_add(u32::from(new));
+                s.vertices[s.vertex_at & 15] = c;
+                s.vertex_at = (s.vertex_at + usize::from(new)) & 15;
+            } else {
+                c = match lo {
+                    13 => s.last.wrapping_sub(1),
+                    14 => s.last.wrapping_add(1),
+                    _ => s.explicit(data)?,
+                };
+                s.last = c;
                 s.push_vertex(c);
             }
+            s.push_edge(c, b);
+            s.push_edge(a, c);
         } else {
             // Three vertices: by the table (0xf0..0xfd) or the data (0xfe, 0xff).
             let explicit = lo >= 14;
@@ -276,12 +277,12 @@ impl Fifos {
     }
 
     fn push_edge(&mut self, a: u32, b: u32) {
-        self.edges[self.edge_at] = [a, b];
+        self.edges[self.edge_at & 15] = [a, b];
         self.edge_at = (self.edge_at + 1) & 15;
     }
 
     fn push_vertex(&mut self, v: u32) {
-        self.vertices[self.vertex_at] = v;
+        self.vertices[self.vertex_at & 15] = v;
         self.vertex_at = (self.vertex_at + 1) & 15;
     }
 
@@ -467,7 +468,9 @@ mod tests {
             r ^= r << 13;
             r ^= r >> 7;
             r ^= r << 17;
-            let one = (1i32 << (4 + i % 13)) - 1; // K = 4..16 bits
+            // 1.0 in K = 4..=16 bits, as the encoder writes it (2^(K-1) - 1: at most 32767; a
+            // larger one does not fit the 16-bit component and decodes to garbage).
+            let one = (1i32 << (3 + i % 13)) - 1;
             let c = |s: u32| ((r >> s) as i32 % (one + 1)) as i16;
             let w = (one as i16 & !3) | (i % 4) as i16;
             for v in [c(0), c(16), c(32), w] {
