@@ -112,7 +112,7 @@ pub(crate) fn decode(
     match mode {
         Mode::Attributes => vertex::decode_vertices(out, count, stride, src, khr, true)?,
         Mode::Triangles => decode_triangles(out, count, stride, src)?,
-        Mode::Indices => decode_indices(out, count, stride, src)?,
+        Mode::Indices => decode_indices(out, stride, src)?,
     }
     filters::apply(filter, stride, out);
     Ok(())
@@ -311,7 +311,7 @@ impl Fifos {
 }
 
 /// Mode 2 (header 0xd1): a varint per index, a delta from one of two baselines; a 4-byte tail.
-fn decode_indices(out: &mut [u8], count: usize, stride: usize, src: &[u8]) -> Result<(), String> {
+fn decode_indices(out: &mut [u8], stride: usize, src: &[u8]) -> Result<(), String> {
     if src.first() != Some(&0xd1) {
         return Err("the INDICES data does not start with 0xd1".to_owned());
     }
@@ -319,21 +319,26 @@ fn decode_indices(out: &mut [u8], count: usize, stride: usize, src: &[u8]) -> Re
         return Err("the INDICES data is shorter than its tail".to_owned());
     }
     let mut data = Reader { data: &src[1..src.len() - 4], at: 0 };
+    if stride == 2 {
+        indices_into::<2>(out, &mut data)?;
+    } else {
+        indices_into::<4>(out, &mut data)?;
+    }
+    if !data.finished() {
+        return Err("bytes are left over after the INDICES data".to_owned());
+    }
+    Ok(())
+}
+
+/// [`decode_indices`] into indices of `N` bytes (`out` holds the view's count of them).
+fn indices_into<const N: usize>(out: &mut [u8], data: &mut Reader<'_>) -> Result<(), String> {
     let mut last = [0u32; 2];
-    for i in 0..count {
+    for index in out.as_chunks_mut::<N>().0 {
         let v = data.varint()?;
         let baseline = (v & 1) as usize;
         let delta = if v & 2 != 0 { !(v >> 2) } else { v >> 2 };
         last[baseline] = last[baseline].wrapping_add(delta);
-        let at = i * stride;
-        if stride == 2 {
-            out[at..at + 2].copy_from_slice(&index_bytes::<2>(last[baseline]));
-        } else {
-            out[at..at + 4].copy_from_slice(&index_bytes::<4>(last[baseline]));
-        }
-    }
-    if !data.finished() {
-        return Err("bytes are left over after the INDICES data".to_owned());
+        *index = index_bytes(last[baseline]);
     }
     Ok(())
 }
@@ -421,6 +426,13 @@ mod tests {
         decode(Mode::Indices, Filter::None, 4, 2, &src, &mut out, false).expect("decodes");
         let got: Vec<u16> = out.chunks(2).map(|c| u16::from_le_bytes([c[0], c[1]])).collect();
         assert_eq!(got, [5, 3, 6, 3]);
+        // The same as 32-bit indices; a view cut short is an error.
+        let mut out = vec![0u8; 16];
+        decode(Mode::Indices, Filter::None, 4, 4, &src, &mut out, false).expect("decodes");
+        let got: Vec<u32> = out.chunks(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+        assert_eq!(got, [5, 3, 6, 3]);
+        let mut out = vec![0u8; 10];
+        assert!(decode(Mode::Indices, Filter::None, 5, 2, &src, &mut out, false).is_err());
     }
 
     #[cfg_attr(not(target_arch = "wasm32"), test)]

@@ -292,7 +292,9 @@ fn sums_lanes(
     let mut running = V::splat32(u32::from_le_bytes(*value));
     let (one8, one16) = (V::splat(1), V::splat16(1));
     let mut done = 0;
-    for group in 0..block.div_ceil(16) {
+    // Stops where the rows or the elements end (neither does for a well-formed block): the
+    // scalar steps go on from `done` and the running value.
+    'groups: for group in 0..block.div_ceil(16) {
         let (Some(r0), Some(r1), Some(r2), Some(r3)) =
             (rows[0].get(group), rows[1].get(group), rows[2].get(group), rows[3].get(group))
         else {
@@ -304,7 +306,7 @@ fn sums_lanes(
         let quads = [V::unpack_lo16(t0, t2), V::unpack_hi16(t0, t2), V::unpack_lo16(t1, t3), V::unpack_hi16(t1, t3)];
         for quad in quads {
             if done >= block {
-                break;
+                break 'groups;
             }
             let sums = match kind {
                 // Unzigzag: v >> 1, all bits flipped where v is odd; then sums lane by lane.
@@ -328,8 +330,7 @@ fn sums_lanes(
             let n = (block - done).min(4);
             if stride == 4 && n == 4 {
                 let Some(out) = elements.get_mut(first..first + 16).and_then(|s| s.first_chunk_mut::<16>()) else {
-                    *value = running.lanes32()[0].to_le_bytes();
-                    return done;
+                    break 'groups;
                 };
                 sums.store(out);
                 running = sums.splat_last32();
@@ -337,8 +338,7 @@ fn sums_lanes(
                 let lanes = sums.lanes32();
                 for (e, v) in lanes.into_iter().take(n).enumerate() {
                     let Some(out) = elements.get_mut(first + e * stride + at..first + e * stride + at + 4) else {
-                        *value = running.lanes32()[0].to_le_bytes();
-                        return done;
+                        break 'groups;
                     };
                     out.copy_from_slice(&v.to_le_bytes());
                 }
