@@ -76,5 +76,5 @@ new MutationObserver(() => {
     setTimeout(writeHash, HASH_INTERVAL_MS);
   }
 }).observe(viewer, { attributes: true, attributeFilter: ['data-clip', 'data-time', 'data-playing', 'data-speed', 'data-layer', 'data-skinning', 'data-camera', 'data-model', 'data-src', 'data-status', 'data-loop', 'data-overlays', 'data-background',
-  'data-lighting', 'data-grid', 'data-heatmap', 'data-copies', 'data-skinning-path', 'data-transition', 'data-blend',
+  'data-lighting', 'data-grid', 'data-heatmap', 'data-copies', 'data-skinning-path', 'data-skinning-path-chosen', 'data-transition', 'data-blend',
   'data-ik-goals', 'data-morphs', 'data-pose', 'data-obstacles'] });

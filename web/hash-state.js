@@ -53,7 +53,10 @@ export function viewToHash(state, src) {
   if (state.speed && Number(state.speed) !== 1) p.set('speed', state.speed);
   if (state.layer) p.set('layer', state.layer);
   if (state.skinning && state.skinning !== 'lbs') p.set('skinning', state.skinning);
-  if (state.skinningPath && state.skinningPath !== 'gpu') p.set('path', state.skinningPath);
+  // Only a chosen path: the default is the adapter's (the CPU on a CPU adapter), and the heatmap's is the vertex shader.
+  if (state.skinningPath && (state.skinningPathChosen === undefined ? state.skinningPath !== 'gpu' : state.skinningPathChosen === 'true')) {
+    p.set('path', state.skinningPath);
+  }
   if (state.camera) p.set('camera', state.camera);
   if (state.loop && state.loop !== 'repeat') p.set('loop', state.loop);
   if (state.overlays) p.set('overlays', state.overlays);

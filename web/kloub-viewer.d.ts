@@ -125,6 +125,8 @@ export interface KloubViewerState {
   layer?: string;
   skinning?: SkinningMethod;
   skinningPath?: SkinningPath;
+  /** `true` once a path was chosen; `false` while the adapter's default (or the heatmap's vertex shader) is used. */
+  skinningPathChosen?: 'true' | 'false';
   heatmap?: 'true' | 'false';
   grid?: 'true' | 'false';
   /** Comma-separated: skeleton, bounds, wireframe, normals. */

@@ -228,14 +228,15 @@ for (const backend of BACKENDS) {
     await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.model === 'Candy wrapper', 'the candy-wrapper sample');
     // SwiftShader is a CPU adapter: a viewer skins on the CPU there until told otherwise. The shots below are the
     // vertex shader's, compared with the other paths at the end.
-    assert((await dataset(page)).skinningPath === 'cpu', `the default path on a CPU adapter: ${(await dataset(page)).skinningPath}`);
+    const unchosen = await dataset(page);
+    assert(unchosen.skinningPath === 'cpu' && unchosen.skinningPathChosen === 'false', `the default path on a CPU adapter: ${unchosen.skinningPath}, chosen ${unchosen.skinningPathChosen}`);
     // The heatmap is the vertex shader's: it takes the unchosen default there and back.
     await control(page, 'setHeatmap', true);
     await waitForDataset(page, () => { const d = document.querySelector('kloub-viewer').dataset; return d.heatmap === 'true' && d.skinningPath === 'gpu'; }, 'the heatmap on the vertex-shader path');
     await control(page, 'setHeatmap', false);
     await waitForDataset(page, () => { const d = document.querySelector('kloub-viewer').dataset; return d.heatmap === 'false' && d.skinningPath === 'cpu'; }, 'the CPU path again');
     await control(page, 'setSkinningPath', 'gpu');
-    await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.skinningPath === 'gpu', 'the vertex-shader path');
+    await waitForDataset(page, () => { const d = document.querySelector('kloub-viewer').dataset; return d.skinningPath === 'gpu' && d.skinningPathChosen === 'true'; }, 'the vertex-shader path, chosen');
     await control(page, 'setCandyPose', 150, 0);
     const shots = {};
     for (const method of ['lbs', 'dqs', 'sjb']) {
@@ -1888,14 +1889,20 @@ for (const backend of BACKENDS) test(`${backend}: <kloub-viewer>: camera-orbit a
   assert((await page.evaluate(() => window.__changes)).includes('user-interaction'), `camera-change sources after a drag: ${await page.evaluate(() => window.__changes)}`);
   // auto-rotate: turns at rotation-per-second once the delay is over; a user drag holds it for the delay again.
   await page.evaluate(() => { const v = document.querySelector('kloub-viewer'); v.setAttribute('rotation-per-second', '90deg'); v.setAttribute('auto-rotate-delay', '3000'); v.setAttribute('auto-rotate', ''); });
+  // Turned by more than `by` since yaw `y`: the yaw wraps into [0, 2π), so the difference is taken around the circle
+  // (a plain `>` never held once `y + by` passed 2π, which the time a drag takes under load decided).
+  const turnedBy = ([y, by]) => {
+    const d = (((document.querySelector('kloub-viewer').camera[0] - y) % (2 * Math.PI)) + 2 * Math.PI) % (2 * Math.PI);
+    return d > by && d < Math.PI;
+  };
   const y0 = (await camera())[0];
-  await page.waitForFunction((y) => document.querySelector('kloub-viewer').camera[0] > y + 0.3, y0, { timeout: 30000, polling: 100 });
+  await page.waitForFunction(turnedBy, [y0, 0.3], { timeout: 30000, polling: 100 });
   await drag();
   const held = (await camera())[0];
   await sleep(1000);
   const still = (await camera())[0];
   assert(near(still, held, 1e-6), `auto-rotate kept turning within its delay after a drag: ${held} → ${still}`);
-  await page.waitForFunction((y) => document.querySelector('kloub-viewer').camera[0] > y + 0.1, still, { timeout: 30000, polling: 100 });
+  await page.waitForFunction(turnedBy, [still, 0.1], { timeout: 30000, polling: 100 });
   // min/max-camera-orbit hold every change, camera-orbit's included.
   await page.evaluate(() => {
     const v = document.querySelector('kloub-viewer');
@@ -2224,6 +2231,9 @@ test('hash-state.js: a view round-trips through the hash; malformed keys are dro
   const want = { src: '/assets/Fox.glb', clip: 'Run', time: 0.3, paused: true, speed: 1.5, layer: { clip: 'Survey', root: 'b_Neck_04', weight: 0.6 }, skinning: 'dqs', camera: [0.9, 0.35, 260, 5, 40, -10] };
   assert(JSON.stringify(view) === JSON.stringify(want), `round trip: ${JSON.stringify(view)}`);
   assert(viewToHash({ playing: 'true', speed: '1.000', skinning: 'lbs' }, null) === '', 'defaults make no hash');
+  // Only a chosen skinning path goes into the link (a CPU adapter's default, or the heatmap's, does not).
+  assert(viewToHash({ skinningPath: 'cpu', skinningPathChosen: 'false' }, null) === '', 'an unchosen path makes no hash');
+  assert(viewToHash({ skinningPath: 'gpu', skinningPathChosen: 'true' }, null) === '#v=1&path=gpu', `a chosen path: ${viewToHash({ skinningPath: 'gpu', skinningPathChosen: 'true' }, null)}`);
   const warnings = [];
   const bad = hashToView('#t=abc&speed=&camera=1,2,3&layer=nothing&clip=&loop=sideways&overlays=skeleton,x&bg=red&grid=2&copies=1000&future=1', (w) => warnings.push(w));
   assert(JSON.stringify(bad) === '{}', `malformed keys kept: ${JSON.stringify(bad)}`);

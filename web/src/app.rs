@@ -437,6 +437,7 @@ impl App {
             stages: self.stage.stages,
             skinning: self.stage.skinning,
             skinning_path: self.stage.scene.skinning_path(),
+            skinning_path_chosen: self.stage.scene.chosen_skinning_path().is_some(),
             compute: self.stage.scene.supports_compute(),
             heatmap: self.stage.scene.heatmap(),
             heatmap_available: self.stage.scene.heatmap_available(),

@@ -38,6 +38,9 @@ pub enum Key {
     Skinning,
     /// Where vertices are deformed: `"gpu"` | `"compute"` | `"cpu"`.
     SkinningPath,
+    /// `"true"` once a path was chosen (`setSkinningPath`, the panel), `"false"` while the
+    /// adapter's default is used (what a link keeps: only a chosen path).
+    SkinningPathChosen,
     /// The candy-wrapper sample's quality under the current method, `"RADIUS,VOLUME"` (radius
     /// kept at the joint and volume ratio to rest, three decimals); `""` for other models.
     Quality,
@@ -113,7 +116,7 @@ pub enum Key {
 
 impl Key {
     /// Every key, in a fixed order.
-    pub const ALL: [Key; 46] = [
+    pub const ALL: [Key; 47] = [
         Key::Backend,
         Key::Status,
         Key::Model,
@@ -129,6 +132,7 @@ impl Key {
         Key::Layer,
         Key::Skinning,
         Key::SkinningPath,
+        Key::SkinningPathChosen,
         Key::Quality,
         Key::Heatmap,
         Key::Ik,
@@ -181,6 +185,7 @@ impl Key {
             Key::Layer => "layer",
             Key::Skinning => "skinning",
             Key::SkinningPath => "skinningPath",
+            Key::SkinningPathChosen => "skinningPathChosen",
             Key::Quality => "quality",
             Key::Copies => "copies",
             Key::Heatmap => "heatmap",

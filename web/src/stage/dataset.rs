@@ -23,6 +23,7 @@ impl Stage {
         d.set(Key::Layer, &model.map_or(String::new(), Model::layer_summary));
         d.set(Key::Skinning, self.skinning.name());
         d.set(Key::SkinningPath, self.scene.skinning_path().name());
+        d.set(Key::SkinningPathChosen, if self.scene.chosen_skinning_path().is_some() { "true" } else { "false" });
         d.set(Key::Heatmap, if self.scene.heatmap() { "true" } else { "false" });
         d.set(Key::Grid, if self.scene.grid() { "true" } else { "false" });
         d.set(Key::Overlays, &overlay_names(self.overlays));

@@ -39,6 +39,8 @@ pub struct PanelState<'a> {
     pub skinning: SkinningMethod,
     /// Where vertices are deformed.
     pub skinning_path: SkinningPath,
+    /// Whether the user chose it (else it is the adapter's default, or the heatmap's).
+    pub skinning_path_chosen: bool,
     /// Whether the compute path exists here (not on WebGL2).
     pub compute: bool,
     /// Whether the deviation heatmap is on.

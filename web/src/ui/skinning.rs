@@ -24,7 +24,10 @@ pub(super) fn skinning_panel(ui: &mut egui::Ui, state: &PanelState<'_>, actions:
     super::named_combo(&shown, "Skinning method");
     super::radio_row(ui, "Skinning path", |ui| {
         for path in SkinningPath::ALL.into_iter().filter(|&p| p != SkinningPath::Compute || state.compute) {
-            if ui.radio(state.skinning_path == path, path.label()).clicked() && state.skinning_path != path {
+            // A click on the path in use makes it the chosen one (it may be the default's or the heatmap's).
+            if ui.radio(state.skinning_path == path, path.label()).clicked()
+                && (state.skinning_path != path || !state.skinning_path_chosen)
+            {
                 actions.commands.push(Command::SetSkinningPath(path));
             }
         }
