@@ -18,14 +18,15 @@ for _ in $(seq "${KLOUB_BENCH_ROUNDS:-3}"); do
   cargo bench -q -p kloub-core --bench import 2>/dev/null | grep -E '^(decode|imported|import) ' >>"$log"
   CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUSTFLAGS="${CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUSTFLAGS:--C target-feature=+simd128}" \
     CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUNNER="${CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUNNER:-wasm-bindgen-test-runner}" \
-    cargo test --release -p kloub-core --target wasm32-unknown-unknown --test wasm_decode -- --nocapture 2>/dev/null \
+    cargo test --release -p kloub-core --target wasm32-unknown-unknown --test wasm_decode -- decode_and_import_speed \
+    --nocapture 2>/dev/null \
     | grep -oE '(decode|imported|import) wasm .*' >>"$log"
   node scripts/bench-import.mjs >>"$log"
   if [ -n "${KLOUB_BENCH_VIEWS:-}" ]; then
     CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUSTFLAGS="${CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUSTFLAGS:--C target-feature=+simd128}" \
       CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUNNER="${CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUNNER:-wasm-bindgen-test-runner}" \
-      cargo test --release -p kloub-core --target wasm32-unknown-unknown --test wasm_decode -- --include-ignored \
-      decode_speed_per_view --nocapture 2>/dev/null | grep -oE 'view wasm .*' >>"$log"
+      cargo test --release -p kloub-core --target wasm32-unknown-unknown --test wasm_decode -- decode_speed_per_view \
+      --nocapture 2>/dev/null | grep -oE 'view wasm .*' >>"$log"
   fi
 done
 if [ -n "${KLOUB_BENCH_VIEWS:-}" ]; then

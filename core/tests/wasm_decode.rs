@@ -31,10 +31,9 @@ fn decode_and_import_speed() {
     }
 }
 
-/// Each meshopt view on its own (`KLOUB_BENCH_VIEWS=1 bash scripts/bench-import.sh`; ignored
-/// otherwise).
+/// Each meshopt view on its own (`KLOUB_BENCH_VIEWS=1 bash scripts/bench-import.sh`, which
+/// names each of this file's two benchmarks when it runs them).
 #[wasm_bindgen_test]
-#[ignore]
 fn decode_speed_per_view() {
     for case in import_cases::decode_cases().iter().filter(|c| c.codec == "meshopt") {
         for (view, ms) in import_cases::measure_views(case, &performance_now) {

@@ -440,7 +440,6 @@ impl App {
             skinning_path_chosen: self.stage.scene.chosen_skinning_path().is_some(),
             compute: self.stage.scene.supports_compute(),
             heatmap: self.stage.scene.heatmap(),
-            heatmap_available: self.stage.scene.heatmap_available(),
             sjb_fallbacks: &sjb_fallbacks,
             library: self.stage.library.as_ref().map_or(&[], |l| l.models.as_slice()),
             grid: self.stage.scene.grid(),

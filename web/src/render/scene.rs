@@ -99,7 +99,8 @@ pub fn display_msaa(adapter: &wgpu::Adapter) -> u32 {
 /// fallback where the GPU is blocklisted or absent), where vertex shaders run on the CPU anyway,
 /// one core's worth, and the vertex-shader path would skin every vertex twice a frame (for the
 /// ground shadow's map, then for the colour pass) while the page's main thread, another core,
-/// waits; the GPU's vertex shader everywhere else. Measured in BENCHMARKS.md, "Frame cost".
+/// waits; the GPU's vertex shader everywhere else (never the compute pass, which not every
+/// device has). Measured in BENCHMARKS.md, "Frame cost".
 pub fn default_skinning_path(adapter: &wgpu::Adapter) -> SkinningPath {
     if cfg!(target_arch = "wasm32") && adapter.get_info().device_type == wgpu::DeviceType::Cpu {
         SkinningPath::Cpu
@@ -925,21 +926,15 @@ impl SceneRenderer {
     }
 
     /// The path used until one is chosen with [`SceneRenderer::set_skinning_path`]
-    /// ([`default_skinning_path`] of the adapter; [`SkinningPath::Gpu`] until said).
+    /// ([`default_skinning_path`] of the adapter, which every device has; [`SkinningPath::Gpu`]
+    /// until said).
     pub fn set_default_skinning_path(&mut self, path: SkinningPath) {
-        self.default_skinning =
-            if path == SkinningPath::Compute && self.compute.is_none() { SkinningPath::Gpu } else { path };
+        self.default_skinning = path;
     }
 
     /// The path chosen with [`SceneRenderer::set_skinning_path`], if one was.
     pub fn chosen_skinning_path(&self) -> Option<SkinningPath> {
         self.skinning
-    }
-
-    /// Whether the deviation heatmap can show: it is drawn by the vertex-shader path, which
-    /// the viewer is on or goes to when the heatmap is turned on without a chosen path.
-    pub fn heatmap_available(&self) -> bool {
-        self.skinning.is_none_or(|p| p == SkinningPath::Gpu)
     }
 
     /// Colours skinned vertices by how far they are from linear blend skinning's result (from

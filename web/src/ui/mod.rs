@@ -45,8 +45,6 @@ pub struct PanelState<'a> {
     pub compute: bool,
     /// Whether the deviation heatmap is on.
     pub heatmap: bool,
-    /// Whether it can be (the vertex-shader path, or no path chosen yet).
-    pub heatmap_available: bool,
     /// Under spherical joint blending: `(mesh, vertices, vertices falling back to DQS)` per
     /// skinned draw.
     pub sjb_fallbacks: &'a [(usize, usize, usize)],

@@ -35,7 +35,11 @@ pub(super) fn skinning_panel(ui: &mut egui::Ui, state: &PanelState<'_>, actions:
     let mut heatmap = state.heatmap;
     let reference = if state.skinning == SkinningMethod::Linear { "DQS" } else { "LBS" };
     let toggle = ui
-        .add_enabled(state.heatmap_available, egui::Checkbox::new(&mut heatmap, "Deviation heatmap"))
+        // The vertex shader draws it: the path chosen, or no path chosen (the heatmap then takes the viewer there).
+        .add_enabled(
+            !state.skinning_path_chosen || state.skinning_path == SkinningPath::Gpu,
+            egui::Checkbox::new(&mut heatmap, "Deviation heatmap"),
+        )
         .on_hover_text(format!(
             "Colours each vertex by its distance from {reference}'s result: blue none, red 2% of the model's size \
              (vertex-shader path)"
