@@ -17,7 +17,8 @@ mkdir -p "$DIST"
 # Three builds of kloub-web (see web/Cargo.toml's features), each bindgen'd under its own name:
 #   kloub_web        the full app: panels, ragdoll, WebGPU and WebGL2 (the element loads it for `controls`)
 #   kloub_widget     the light widget: the 3D view and the element's API, WebGPU only (the default)
-#   kloub_widget_gl  the light widget with WebGL2 (browsers without WebGPU)
+#   kloub_widget_gl  the light widget on WebGL2 (browsers without WebGPU), through Kloub's own WebGL2 backend
+#                    (web/src/gl: its shaders translated to GLSL at build time; no wgpu GL layer or naga in it)
 # Cargo keeps each feature set's artifacts, so switching between them rebuilds only what changed.
 # The scripts a page loads before its first frame (the element, each build's wasm-bindgen glue) go out minified by
 # esbuild (npm dev dependency; ES module syntax kept, names of exports and properties untouched): −23 KB gzip of
@@ -49,8 +50,8 @@ build_one() { # name, cargo feature flags... (KLOUB_PACKAGE: the crate, default 
   minify "target/wasm-bindgen/$name.js" "$DIST/$name.js"
 }
 build_one kloub_web
-build_one kloub_widget --no-default-features
-build_one kloub_widget_gl --no-default-features --features webgl
+build_one kloub_widget --no-default-features --features webgpu
+build_one kloub_widget_gl --no-default-features --features gl
 #   kloub_codecs     the Draco decoder and the zip reader (web/codecs), fetched by the widgets when a file needs them
 KLOUB_PACKAGE=kloub-codecs build_one kloub_codecs
 rm -f "$DIST/.wasm-opt-input"

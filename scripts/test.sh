@@ -20,8 +20,8 @@ trap 'rm -f "$log"' EXIT
 
 step "clippy"
 cargo clippy --workspace --all-targets --quiet -- -D warnings
-# The light widget builds (web/Cargo.toml's features) as the page gets them: wasm32, without and with WebGL2.
-for features in "" "--features webgl"; do
+# The light widget builds (web/Cargo.toml's features) as the page gets them: wasm32, on WebGPU and on WebGL2.
+for features in "--features webgpu" "--features gl"; do
   # shellcheck disable=SC2086
   CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUSTFLAGS="-C target-feature=+simd128" \
     cargo clippy --target wasm32-unknown-unknown -p kloub-web --lib --no-default-features $features --quiet -- -D warnings

@@ -25,6 +25,8 @@ pub mod decode;
 pub mod dom;
 #[cfg(target_arch = "wasm32")]
 mod entry;
+#[cfg(all(target_arch = "wasm32", feature = "gl"))]
+pub mod gl;
 pub mod ik;
 pub mod load;
 pub mod model;

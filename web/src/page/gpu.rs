@@ -256,24 +256,32 @@ fn device_descriptor(adapter: &wgpu::Adapter) -> wgpu::DeviceDescriptor<'static>
 }
 
 async fn make(kind: GpuKind) -> Result<Gpu, String> {
-    #[cfg(not(feature = "webgl"))]
+    #[cfg(not(any(feature = "webgl", feature = "gl")))]
     if kind == GpuKind::Gl {
         return Err("this build of Kloub has no WebGL2 (the element loads the one that has)".into());
+    }
+    #[cfg(not(feature = "webgpu"))]
+    if kind == GpuKind::WebGpu {
+        return Err("this build of Kloub has no WebGPU (the element loads the one that has)".into());
     }
     let generation = GENERATION.with(|g| {
         g.set(g.get() + 1);
         g.get()
     });
-    let backends = match kind {
-        GpuKind::WebGpu => wgpu::Backends::BROWSER_WEBGPU,
-        GpuKind::Gl => wgpu::Backends::GL,
+    // The browser's WebGPU or wgpu's GL layer; Kloub's own WebGL2 backend makes its instance on
+    // its canvas (below).
+    let plain = || {
+        let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle();
+        descriptor.backends = match kind {
+            GpuKind::WebGpu => wgpu::Backends::BROWSER_WEBGPU,
+            GpuKind::Gl => wgpu::Backends::GL,
+        };
+        wgpu::Instance::new(descriptor)
     };
-    let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle();
-    descriptor.backends = backends;
-    let instance = wgpu::Instance::new(descriptor);
     let lost = Arc::new(AtomicBool::new(false));
-    let (adapter, gl) = match kind {
+    let (instance, adapter, gl) = match kind {
         GpuKind::WebGpu => {
+            let instance = plain();
             let has_gpu = web_sys::window()
                 .and_then(|w| js_sys::Reflect::get(&w.navigator(), &"gpu".into()).ok())
                 .is_some_and(|gpu| !gpu.is_undefined());
@@ -284,7 +292,7 @@ async fn make(kind: GpuKind) -> Result<Gpu, String> {
                 .request_adapter(&wgpu::RequestAdapterOptions::default())
                 .await
                 .map_err(|e| format!("no WebGPU adapter: {e}"))?;
-            (adapter, None)
+            (instance, adapter, None)
         }
         GpuKind::Gl => {
             let document = web_sys::window().and_then(|w| w.document()).ok_or("no document")?;
@@ -302,11 +310,24 @@ async fn make(kind: GpuKind) -> Result<Gpu, String> {
             let _ = canvas.style().set_property("pointer-events", "none");
             // No depth or stencil in the canvas's own buffer (wgpu draws into textures of its own)
             // and no antialiasing; these attributes hold for the context wgpu then asks for.
+            // Kloub's own backend (`crate::gl`) draws into the canvas itself: with its depth
+            // buffer where the scene is not multisampled (a framebuffer is the canvas's or a
+            // texture's, never colour of one and depth of the other).
             let attributes = js_sys::Object::new();
-            for (key, value) in [("antialias", false), ("depth", false), ("stencil", false)] {
+            let depth = cfg!(feature = "gl");
+            for (key, value) in [("antialias", false), ("depth", depth), ("stencil", false)] {
                 let _ = js_sys::Reflect::set(&attributes, &key.into(), &value.into());
             }
-            let _ = canvas.get_context_with_context_options("webgl2", &attributes);
+            #[cfg(feature = "gl")]
+            let instance = {
+                let _ = plain;
+                crate::gl::instance(&canvas, &attributes)?
+            };
+            #[cfg(not(feature = "gl"))]
+            let instance = {
+                let _ = canvas.get_context_with_context_options("webgl2", &attributes);
+                plain()
+            };
             let flag = lost.clone();
             let on_lost = Closure::<dyn FnMut(web_sys::Event)>::new(move |event: web_sys::Event| {
                 event.prevent_default();
@@ -338,6 +359,7 @@ async fn make(kind: GpuKind) -> Result<Gpu, String> {
                 color_space: wgpu::SurfaceColorSpace::Auto,
             };
             (
+                instance,
                 adapter,
                 Some(GlCanvas {
                     canvas,
