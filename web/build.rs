@@ -221,6 +221,20 @@ mod glsl {
                 .map_err(|e| format!("{e}"))?;
         let reflection = writer.write().map_err(|e| format!("{e}"))?;
         drop(writer);
+        // The clip-space flip (naga's `ADJUST_COORDINATE_SPACE`) by a uniform the backend sets per
+        // pass: -1 into textures (their rows as WebGPU's), +1 into the canvas (`crate::gl`).
+        if stage == naga::ShaderStage::Vertex {
+            const FLIP: &str = "gl_Position.yz = vec2(-gl_Position.y,";
+            const PRECISION: &str = "precision highp int;\n";
+            if !glsl.contains(FLIP) || !glsl.contains(PRECISION) {
+                return Err("naga's clip-space flip or precision lines are not where the build expects them".into());
+            }
+            glsl = glsl.replace(FLIP, "gl_Position.yz = vec2(_kloub_flip * gl_Position.y,").replacen(
+                PRECISION,
+                "precision highp int;\nuniform float _kloub_flip;\n",
+                1,
+            );
+        }
         let binding = |h: naga::Handle<naga::GlobalVariable>| {
             let b = module.global_variables[h].binding.as_ref().expect("a bound resource");
             (b.group, b.binding)

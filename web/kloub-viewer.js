@@ -321,6 +321,9 @@ function tick(now) {
 function adapt(now) {
   const dt = now - loop.last;
   loop.last = now;
+  // The first second of frames holds one-time work (shaders compiled, environments prefiltered, textures
+  // uploaded): it sets no resolution (on WebGL2 a resize waits for that work to finish).
+  if (loop.changed === 0) loop.changed = now;
   if (dt <= 0 || dt > 500) return;
   loop.interval = loop.interval * 0.9 + dt * 0.1;
   if (now - loop.changed < 1000) return;

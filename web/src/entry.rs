@@ -1008,12 +1008,13 @@ fn range_error(message: impl AsRef<str>) -> JsValue {
 }
 
 /// Which build of the module this is: `"full"` (panels, ragdoll, WebGPU and WebGL2), `"widget"`
-/// (the light build: no panels or ragdoll, WebGPU only) or `"widget-gl"` (the light build with WebGL2).
+/// (the light build: no panels or ragdoll, WebGPU only) or `"widget-gl"` (the light build on WebGL2,
+/// through Kloub's own WebGL2 backend, `crate::gl`).
 #[wasm_bindgen(js_name = buildName)]
 pub fn build_name() -> String {
     if cfg!(feature = "full") {
         "full"
-    } else if cfg!(feature = "webgl") {
+    } else if cfg!(any(feature = "webgl", feature = "gl")) {
         "widget-gl"
     } else {
         "widget"

@@ -189,6 +189,10 @@ impl CommandEncoderInterface for CommandEncoder {
     }
 
     fn begin_render_pass(&self, desc: &wgpu::RenderPassDescriptor<'_>) -> DispatchRenderPass {
+        let last = desc.color_attachments.iter().rposition(Option::is_some).map_or(0, |i| i + 1);
+        if desc.color_attachments.iter().take(last).any(Option::is_none) {
+            self.errors.report(&format!("render pass {:?}: gaps between colour attachments", desc.label));
+        }
         let colors = desc
             .color_attachments
             .iter()
@@ -542,7 +546,7 @@ pub(super) fn execute(ctx: u32, commands: Vec<Command>, errors: &Errors) {
                 }
                 Command::Scissor([x, y, w, h]) => {
                     if let Some(p) = &pass {
-                        let y = if p.canvas { p.size[1].saturating_sub(y + h) } else { y };
+                        let y = if p.canvas { p.size[1].saturating_sub(y.saturating_add(h)) } else { y };
                         c.gl.enable(Gl::SCISSOR_TEST);
                         c.gl.scissor(x as i32, y as i32, w as i32, h as i32);
                     }
@@ -606,7 +610,7 @@ pub(super) fn execute(ctx: u32, commands: Vec<Command>, errors: &Errors) {
 
 fn begin(c: &mut Context, colors: Vec<ColorAttachment>, depth: Option<DepthAttachment>) -> Option<Pass> {
     let canvas = colors.iter().any(|a| a.view.texture.surface || a.resolve.as_ref().is_some_and(|r| r.texture.surface));
-    let size = colors.first().map(|a| a.view.size()).or_else(|| depth.as_ref().map(|d| d.view.size()))?;
+    let mut size = colors.first().map(|a| a.view.size()).or_else(|| depth.as_ref().map(|d| d.view.size()))?;
     // Straight into the canvas, its own depth buffer standing for the depth attachment (a GL
     // framebuffer is the canvas's or made of textures, never both; the renderer's depth
     // attachments are sized to the canvas and cleared by the pass that uses them).
@@ -621,8 +625,14 @@ fn begin(c: &mut Context, colors: Vec<ColorAttachment>, depth: Option<DepthAttac
         Some(framebuffer(c, key)?)
     };
     let gl = &c.gl;
+    if to_canvas {
+        // What the browser gave the canvas (it may cap a huge one).
+        size = [gl.drawing_buffer_width().max(1) as u32, gl.drawing_buffer_height().max(1) as u32];
+    }
     gl.bind_framebuffer(Gl::FRAMEBUFFER, framebuffer.as_ref());
     gl.viewport(0, 0, size[0] as i32, size[1] as i32);
+    // WebGPU starts every pass with a zero blend constant.
+    gl.blend_color(0.0, 0.0, 0.0, 0.0);
     gl.depth_range(0.0, 1.0);
     // Clears are masked and scissored as draws are: open both.
     gl.disable(Gl::SCISSOR_TEST);
@@ -743,26 +753,21 @@ fn set_pipeline(c: &mut Context, pass: &mut Pass, pipeline: Arc<PipelineInner>, 
         pass.pipeline = None;
         return;
     }
-    let orientation = usize::from(pass.canvas);
-    let linked = pipeline.programs.lock().ok().and_then(|p| p[orientation]);
-    let program = match linked {
-        Some(id) => Some(id),
-        None => match super::shaders::link(c, pipeline.vertex, pipeline.fragment, !pass.canvas) {
-            Ok(id) => {
-                if let Ok(mut p) = pipeline.programs.lock() {
-                    p[orientation] = Some(id);
-                }
-                Some(id)
-            }
-            Err(e) => {
-                errors.report(&format!("a WebGL2 program: {e}"));
-                None
-            }
-        },
-    };
+    let program = pipeline.program.filter(|&id| match super::shaders::check(c, id) {
+        Ok(()) => c.programs.get(id).is_some_and(|p| !p.failed),
+        Err(e) => {
+            errors.report(&format!("a WebGL2 program: {e}"));
+            false
+        }
+    });
     let gl = &c.gl;
-    if let Some(p) = program.and_then(|id| c.programs.get(id)) {
+    if let Some(p) = program.and_then(|id| c.programs.get_mut(id)) {
         gl.use_program(Some(&p.program));
+        let flip = if pass.canvas { 1.0 } else { -1.0 };
+        if p.flipped != flip {
+            gl.uniform1f(p.flip.as_ref(), flip);
+            p.flipped = flip;
+        }
     }
     // State: faces (the flip reverses the winding), depth, blending, colour writes.
     let primitive = &pipeline.primitive;
@@ -822,10 +827,11 @@ fn set_pipeline(c: &mut Context, pass: &mut Pass, pipeline: Arc<PipelineInner>, 
     pass.dirty = true;
 }
 
-/// The vertex format's GL components, type, normalisation and whether it is read as integers.
-fn vertex_format(f: wgpu::VertexFormat) -> (i32, u32, bool, bool) {
+/// The vertex format's GL components, type, normalisation and whether it is read as integers
+/// (`None`: one this backend does not read; a pipeline with it is refused when made).
+pub(super) fn vertex_format(f: wgpu::VertexFormat) -> Option<(i32, u32, bool, bool)> {
     use wgpu::VertexFormat as V;
-    match f {
+    Some(match f {
         V::Float32 => (1, Gl::FLOAT, false, false),
         V::Float32x2 => (2, Gl::FLOAT, false, false),
         V::Float32x3 => (3, Gl::FLOAT, false, false),
@@ -844,8 +850,8 @@ fn vertex_format(f: wgpu::VertexFormat) -> (i32, u32, bool, bool) {
         V::Unorm8x4 => (4, Gl::UNSIGNED_BYTE, true, false),
         V::Uint8x2 => (2, Gl::UNSIGNED_BYTE, false, true),
         V::Unorm8x2 => (2, Gl::UNSIGNED_BYTE, true, false),
-        _ => (4, Gl::FLOAT, false, false),
-    }
+        _ => return None,
+    })
 }
 
 /// Binds what the next draw reads: the groups' buffers and textures where the program reads
@@ -908,7 +914,7 @@ fn prepare_draw(c: &mut Context, pass: &mut Pass, base_vertex: i32, first_instan
         let shift = if layout.instance { i64::from(first_instance) } else { i64::from(base_vertex) };
         let start = *offset as i64 + shift * layout.stride as i64;
         for a in &layout.attributes {
-            let (count, kind, normalized, integer) = vertex_format(a.format);
+            let Some((count, kind, normalized, integer)) = vertex_format(a.format) else { continue };
             let at = (start + a.offset as i64).max(0);
             if integer {
                 gl.vertex_attrib_i_pointer_with_f64(a.shader_location, count, kind, layout.stride as i32, at as f64);
@@ -981,6 +987,10 @@ fn read_pixels(
         return;
     };
     let row = layout.bytes_per_row.unwrap_or(w * texel);
+    if row < w * texel {
+        errors.report("copy_texture_to_buffer: rows shorter than the copy");
+        return;
+    }
     let fb = if src.texture.surface {
         None
     } else {
@@ -992,10 +1002,11 @@ fn read_pixels(
     gl.read_buffer(if fb.is_some() { Gl::COLOR_ATTACHMENT0 } else { Gl::BACK });
     gl.pixel_storei(Gl::PACK_ROW_LENGTH, (row / texel) as i32);
     // The canvas's row 0 is the bottom of the picture: read from the bottom up, then turn.
-    let y = if src.texture.surface { src.texture.size[1].saturating_sub(origin[1] + h) } else { origin[1] };
+    let height = if src.texture.surface { gl.drawing_buffer_height().max(0) as u32 } else { src.texture.size[1] };
+    let y = if src.texture.surface { height.saturating_sub(origin[1].saturating_add(h)) } else { origin[1] };
     if let Ok(mut memory) = dst.memory.lock() {
         let start = layout.offset as usize;
-        let len = (row * h.saturating_sub(1) + w * texel) as usize;
+        let len = (u64::from(row) * u64::from(h.saturating_sub(1)) + u64::from(w * texel)) as usize;
         if let Some(out) = memory.get_mut(start..start + len) {
             if kind == Gl::UNSIGNED_BYTE {
                 let _ = gl.read_pixels_with_opt_u8_array(

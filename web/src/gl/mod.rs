@@ -420,6 +420,17 @@ impl DeviceInterface for Device {
             .as_ref()
             .map(|f| stage(f.module, f.entry_point, shaders::GlStageKind::Fragment, f.compilation_options.constants))
             .transpose();
+        let unreadable = desc
+            .vertex
+            .buffers
+            .iter()
+            .flatten()
+            .flat_map(|b| b.attributes)
+            .find(|a| commands::vertex_format(a.format).is_none());
+        let vertex = match unreadable {
+            Some(a) => Err(format!("vertex format {:?}", a.format)),
+            None => vertex,
+        };
         let (vertex, fragment) = match (vertex, fragment) {
             (Ok(v), Ok(f)) => (v, f),
             (Err(e), _) | (_, Err(e)) => {
@@ -431,9 +442,7 @@ impl DeviceInterface for Device {
                             state::retain(ctx);
                             ctx
                         },
-                        vertex: &shaders::GL_STAGES[0],
-                        fragment: None,
-                        programs: Mutex::new([None, None]),
+                        program: None,
                         buffers: Vec::new(),
                         primitive: desc.primitive,
                         depth: None,
@@ -447,12 +456,12 @@ impl DeviceInterface for Device {
         let groups =
             desc.layout.and_then(|l| l.as_custom::<PipelineLayout>()).map(|l| l.groups.clone()).unwrap_or_default();
         state::retain(ctx);
+        // Linked now, checked at its first draw: the browser compiles it meanwhile.
+        let program = state::with(ctx, |c| shaders::link(c, vertex, fragment)).flatten();
         DispatchRenderPipeline::custom(RenderPipeline {
             inner: Arc::new(PipelineInner {
                 ctx,
-                vertex,
-                fragment,
-                programs: Mutex::new([None, None]),
+                program,
                 buffers: desc
                     .vertex
                     .buffers
@@ -495,7 +504,7 @@ impl DeviceInterface for Device {
             Ok(t) => DispatchTexture::custom(t),
             Err(e) => {
                 self.errors.report(&format!("texture {:?}: {e}", desc.label));
-                DispatchTexture::custom(Texture::surface(self.ctx.0, desc.format, [0, 0]))
+                DispatchTexture::custom(Texture::invalid(self.ctx.0, desc.format))
             }
         }
     }
@@ -663,9 +672,10 @@ impl QueueInterface for Queue {
             let gl = &c.gl;
             gl.bind_texture(Gl::TEXTURE_2D, Some(gl_texture));
             let row = layout.bytes_per_row.unwrap_or(size.width * texel);
+            let rows =
+                (u64::from(row) * u64::from(size.height.saturating_sub(1)) + u64::from(size.width * texel)) as usize;
+            let Some(data) = data.get(..rows).filter(|_| row >= size.width * texel) else { return };
             gl.pixel_storei(Gl::UNPACK_ROW_LENGTH, (row / texel) as i32);
-            let rows = (row * size.height.saturating_sub(1) + size.width * texel) as usize;
-            let Some(data) = data.get(..rows) else { return };
             let result = if kind == Gl::UNSIGNED_BYTE {
                 gl.tex_sub_image_2d_with_i32_and_i32_and_u32_and_type_and_opt_u8_array(
                     Gl::TEXTURE_2D,

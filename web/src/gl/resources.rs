@@ -12,7 +12,6 @@ use wgpu::custom::{
     TextureViewInterface,
 };
 
-use super::shaders::GlStage;
 use super::state::{self, Image};
 
 /// A GL buffer, or for a `MAP_READ` buffer (copies read back) bytes in memory.
@@ -254,6 +253,9 @@ impl Texture {
         if desc.dimension != wgpu::TextureDimension::D2 || desc.size.depth_or_array_layers != 1 {
             return Err(format!("a {:?} texture of {} layers", desc.dimension, desc.size.depth_or_array_layers));
         }
+        if desc.mip_level_count == 0 || desc.size.width == 0 || desc.size.height == 0 {
+            return Err("an empty texture".into());
+        }
         let (w, h) = (desc.size.width as i32, desc.size.height as i32);
         state::retain(ctx);
         let id = state::with(ctx, |c| {
@@ -285,6 +287,12 @@ impl Texture {
         })
     }
 
+    /// A texture that could not be made (reported): nothing is drawn into or read from it.
+    pub fn invalid(ctx: u32, format: wgpu::TextureFormat) -> Self {
+        state::retain(ctx);
+        Self { inner: Arc::new(TextureInner { ctx, id: None, surface: false, format, size: [1, 1], mips: 1 }) }
+    }
+
     /// The canvas's framebuffer as a texture of `format` and `size`.
     pub fn surface(ctx: u32, format: wgpu::TextureFormat, size: [u32; 2]) -> Self {
         state::retain(ctx);
@@ -294,8 +302,9 @@ impl Texture {
 
 impl TextureInterface for Texture {
     fn create_view(&self, desc: &wgpu::TextureViewDescriptor<'_>) -> DispatchTextureView {
-        let base = desc.base_mip_level.min(self.inner.mips.saturating_sub(1));
-        let count = desc.mip_level_count.unwrap_or(self.inner.mips - base).clamp(1, self.inner.mips - base);
+        let mips = self.inner.mips.max(1);
+        let base = desc.base_mip_level.min(mips - 1);
+        let count = desc.mip_level_count.unwrap_or(mips - base).clamp(1, mips - base);
         DispatchTextureView::custom(TextureView {
             texture: self.inner.clone(),
             levels: (base, base + count - 1),
@@ -319,7 +328,8 @@ impl TextureView {
     /// The size of the view's first level.
     pub fn size(&self) -> [u32; 2] {
         let [w, h] = self.texture.size;
-        [(w >> self.levels.0).max(1), (h >> self.levels.0).max(1)]
+        let level = |n: u32| n.checked_shr(self.levels.0).unwrap_or(0).max(1);
+        [level(w), level(h)]
     }
 }
 
@@ -474,14 +484,13 @@ pub(super) struct VertexBuffer {
     pub attributes: Vec<wgpu::VertexAttribute>,
 }
 
-/// A render pipeline: its stages, linked per orientation on first use, and its fixed state.
+/// A render pipeline: its program (linked when made, checked at its first draw) and its fixed
+/// state.
 #[derive(Debug)]
 pub(super) struct PipelineInner {
     pub ctx: u32,
-    pub vertex: &'static GlStage,
-    pub fragment: Option<&'static GlStage>,
-    /// Programs drawing flipped (into textures) and unflipped (into the canvas), once linked.
-    pub programs: Mutex<[Option<u32>; 2]>,
+    /// Its program (`None`: the context was lost).
+    pub program: Option<u32>,
     /// Vertex buffer layouts by slot.
     pub buffers: Vec<Option<VertexBuffer>>,
     pub primitive: wgpu::PrimitiveState,
@@ -494,14 +503,13 @@ pub(super) struct PipelineInner {
 
 impl Drop for PipelineInner {
     fn drop(&mut self) {
-        let programs = self.programs.lock().map(|p| *p).unwrap_or([None, None]);
-        state::with_or_later(self.ctx, move |c| {
-            for id in programs.into_iter().flatten() {
+        if let Some(id) = self.program {
+            state::with_or_later(self.ctx, move |c| {
                 if let Some(p) = c.programs.remove(id) {
                     c.gl.delete_program(Some(&p.program));
                 }
-            }
-        });
+            });
+        }
         state::release(self.ctx);
     }
 }

@@ -1,12 +1,14 @@
 //! The GLSL the build translated (`web/build.rs`), found by module, entry point and override
 //! constants, and linked into programs whose resources are bound where the backend binds them.
 //!
-//! Each program exists in two orientations. The translation flips clip-space Y (naga's
-//! `ADJUST_COORDINATE_SPACE`), so that whatever is drawn into a texture lies in memory as
-//! WebGPU lays it out (row 0 at the top) and reads back and samples the same; what is drawn
-//! for the canvas's own framebuffer, whose row 0 is at the bottom of the screen, is drawn
-//! unflipped instead (the same text without the sign), so that nothing has to be copied over
-//! with a flip to present it.
+//! Orientation: the build keeps the clip-space Y flip of naga's `ADJUST_COORDINATE_SPACE` as a
+//! uniform, `_kloub_flip`. Into textures it is −1, so that whatever is drawn lies in memory as
+//! WebGPU lays it out (row 0 at the top) and reads back and samples the same; into the canvas's
+//! own framebuffer, whose row 0 is at the bottom of the screen, it is +1, so that nothing has to
+//! be copied over with a flip to present it. One program serves both.
+//!
+//! Programs are linked when their pipeline is made and checked when first drawn with: the
+//! browser compiles them meanwhile (each question about a program waits for it).
 
 use web_sys::WebGl2RenderingContext as Gl;
 
@@ -98,8 +100,8 @@ pub(super) fn stage(
     entry.variants.get(index).and_then(|&s| GL_STAGES.get(s)).ok_or_else(|| format!("{}: no variant {index}", m.name))
 }
 
-/// The GLSL text of `stage`; unflipped (see the module's doc) when `flip` is false.
-fn text(stage: &GlStage, flip: bool) -> String {
+/// The GLSL text of `stage`.
+fn text(stage: &GlStage) -> String {
     let mut out = String::new();
     let Some(&(start, end)) = GL_TEXTS.get(stage.text) else { return out };
     for &line in GL_TEXT_LINES.get(start as usize..end as usize).unwrap_or(&[]) {
@@ -109,60 +111,78 @@ fn text(stage: &GlStage, flip: bool) -> String {
         out.push_str(GL_LINES.get(from..to).unwrap_or(""));
         out.push('\n');
     }
-    if !flip {
-        // naga's only use of the sign: `gl_Position.yz = vec2(-gl_Position.y, …)`.
-        out = out.replace("vec2(-gl_Position.y,", "vec2(gl_Position.y,");
-    }
     out
 }
 
-fn compile(gl: &Gl, kind: u32, source: &str) -> Result<web_sys::WebGlShader, String> {
-    let shader = gl.create_shader(kind).ok_or("the context is lost")?;
+/// Starts compiling `source` (its status is asked only if the program does not link).
+fn compile(gl: &Gl, kind: u32, source: &str) -> Option<web_sys::WebGlShader> {
+    let shader = gl.create_shader(kind)?;
     gl.shader_source(&shader, source);
     gl.compile_shader(&shader);
-    if gl.get_shader_parameter(&shader, Gl::COMPILE_STATUS).as_bool() == Some(true) || gl.is_context_lost() {
-        Ok(shader)
-    } else {
-        let log = gl.get_shader_info_log(&shader).unwrap_or_default();
-        gl.delete_shader(Some(&shader));
-        Err(log)
-    }
+    Some(shader)
 }
 
-/// Links `vertex` and `fragment` (a fragment shader that writes nothing without one) into a
-/// program of `c`, its uniform blocks and samplers bound to the points the returned
-/// [`Program`] lists.
-pub(super) fn link(c: &mut Context, vertex: &GlStage, fragment: Option<&GlStage>, flip: bool) -> Result<u32, String> {
+/// What went wrong with `shader`, if it did not compile.
+fn compile_log(gl: &Gl, shader: &web_sys::WebGlShader) -> Option<String> {
+    (gl.get_shader_parameter(shader, Gl::COMPILE_STATUS).as_bool() != Some(true))
+        .then(|| gl.get_shader_info_log(shader).unwrap_or_default())
+}
+
+/// Starts linking `vertex` and `fragment` (a fragment shader that writes nothing without one)
+/// into a program of `c`: its number, checked by [`check`] before its first draw. `None` when
+/// the context is lost.
+pub(super) fn link(c: &mut Context, vertex: &'static GlStage, fragment: Option<&'static GlStage>) -> Option<u32> {
     let gl = &c.gl;
-    let vs = compile(gl, Gl::VERTEX_SHADER, &text(vertex, flip)).map_err(|e| format!("vertex shader: {e}"))?;
+    let vs = compile(gl, Gl::VERTEX_SHADER, &text(vertex))?;
     let fs_text = match fragment {
-        Some(f) => text(f, flip),
+        Some(f) => text(f),
         None => "#version 300 es\nvoid main() {}\n".to_owned(),
     };
-    let fs = match compile(gl, Gl::FRAGMENT_SHADER, &fs_text) {
-        Ok(fs) => fs,
-        Err(e) => {
-            gl.delete_shader(Some(&vs));
-            return Err(format!("fragment shader: {e}"));
-        }
-    };
-    let program = gl.create_program().ok_or("the context is lost")?;
+    let fs = compile(gl, Gl::FRAGMENT_SHADER, &fs_text)?;
+    let program = gl.create_program()?;
     gl.attach_shader(&program, &vs);
     gl.attach_shader(&program, &fs);
     for &(name, location) in vertex.varyings {
         gl.bind_attrib_location(&program, location, name);
     }
     gl.link_program(&program);
+    Some(c.programs.insert(Program {
+        program,
+        pending: Some((vs, fs, vertex, fragment)),
+        flip: None,
+        flipped: 0.0,
+        failed: false,
+        uniforms: Vec::new(),
+        textures: Vec::new(),
+    }))
+}
+
+/// Checks program `id` once linked and binds its uniform blocks and samplers to the points its
+/// [`Program`] then lists (at its first draw: each question waits for the link).
+///
+/// # Errors
+/// The compiler's or linker's message.
+pub(super) fn check(c: &mut Context, id: u32) -> Result<(), String> {
+    let gl = &c.gl;
+    let Some(p) = c.programs.get_mut(id) else { return Err("the context is lost".into()) };
+    let Some((vs, fs, vertex, fragment)) = p.pending.take() else { return Ok(()) };
+    let program = &p.program;
+    let linked = gl.get_program_parameter(program, Gl::LINK_STATUS).as_bool() == Some(true) || gl.is_context_lost();
+    let failure = (!linked).then(|| {
+        let stage = |name, shader| compile_log(gl, shader).map(|log| format!("{name} shader: {log}"));
+        stage("vertex", &vs)
+            .or_else(|| stage("fragment", &fs))
+            .unwrap_or_else(|| format!("link: {}", gl.get_program_info_log(program).unwrap_or_default()))
+    });
     gl.delete_shader(Some(&vs));
     gl.delete_shader(Some(&fs));
-    if gl.get_program_parameter(&program, Gl::LINK_STATUS).as_bool() != Some(true) && !gl.is_context_lost() {
-        let log = gl.get_program_info_log(&program).unwrap_or_default();
-        gl.delete_program(Some(&program));
-        return Err(format!("link: {log}"));
+    if let Some(failure) = failure {
+        p.failed = true;
+        return Err(failure);
     }
     let mut uniforms: Vec<Binding> = Vec::new();
     let mut textures: Vec<(Binding, Option<Binding>)> = Vec::new();
-    gl.use_program(Some(&program));
+    gl.use_program(Some(program));
     for stage in std::iter::once(vertex).chain(fragment) {
         for &(name, group, binding) in stage.uniforms {
             let slot = match uniforms.iter().position(|&u| u == (group, binding)) {
@@ -172,9 +192,9 @@ pub(super) fn link(c: &mut Context, vertex: &GlStage, fragment: Option<&GlStage>
                     uniforms.len() - 1
                 }
             };
-            let index = gl.get_uniform_block_index(&program, name);
+            let index = gl.get_uniform_block_index(program, name);
             if index != Gl::INVALID_INDEX {
-                gl.uniform_block_binding(&program, index, slot as u32);
+                gl.uniform_block_binding(program, index, slot as u32);
             }
         }
         for &(name, texture, sampler) in stage.textures {
@@ -185,10 +205,13 @@ pub(super) fn link(c: &mut Context, vertex: &GlStage, fragment: Option<&GlStage>
                     textures.len() - 1
                 }
             };
-            if let Some(location) = gl.get_uniform_location(&program, name) {
+            if let Some(location) = gl.get_uniform_location(program, name) {
                 gl.uniform1i(Some(&location), unit as i32);
             }
         }
     }
-    Ok(c.programs.insert(Program { program, uniforms, textures }))
+    p.flip = gl.get_uniform_location(program, "_kloub_flip");
+    p.uniforms = uniforms;
+    p.textures = textures;
+    Ok(())
 }

@@ -11,8 +11,10 @@ use std::collections::HashMap;
 
 use web_sys::{
     WebGl2RenderingContext as Gl, WebGlBuffer, WebGlFramebuffer, WebGlProgram, WebGlRenderbuffer, WebGlSampler,
-    WebGlTexture,
+    WebGlShader, WebGlTexture, WebGlUniformLocation,
 };
+
+use super::shaders::GlStage;
 
 /// A slab of GL objects: handles are indices, freed ones reused.
 pub(super) struct Slab<T> {
@@ -73,6 +75,15 @@ pub(super) type Binding = (u32, u32);
 /// A linked program and where its resources go (see `shaders`).
 pub(super) struct Program {
     pub program: WebGlProgram,
+    /// Until checked (`shaders::check`): its shaders and stages.
+    #[allow(clippy::type_complexity, reason = "held for one check")]
+    pub pending: Option<(WebGlShader, WebGlShader, &'static GlStage, Option<&'static GlStage>)>,
+    /// `_kloub_flip`, the clip-space Y flip (−1 into textures, +1 into the canvas).
+    pub flip: Option<WebGlUniformLocation>,
+    /// The flip it was last drawn with (0: not yet).
+    pub flipped: f32,
+    /// It did not compile or link (reported once): it draws nothing.
+    pub failed: bool,
     /// Uniform blocks: (group, binding) → the block's binding point (its index here).
     pub uniforms: Vec<Binding>,
     /// Texture units: the texture's (group, binding), its sampler's (`None`: `texelFetch` only).
@@ -160,21 +171,19 @@ pub(super) fn with_or_later(ctx: u32, f: impl FnOnce(&mut Context) + 'static) {
 
 fn run_deferred() {
     loop {
-        let Some((ctx, f)) =
-            DEFERRED.with(|d| d.try_borrow_mut().ok().and_then(|mut d| (!d.is_empty()).then(|| d.remove(0))))
-        else {
-            return;
-        };
-        let done = CONTEXTS.with(|c| {
-            let Ok(mut c) = c.try_borrow_mut() else { return false };
-            if let Some(context) = c.get_mut(ctx as usize).and_then(Option::as_mut) {
-                f(context);
-            }
-            true
-        });
-        if !done {
+        // In use (a drop inside `with`): the outer `with` runs the queue when it ends.
+        if CONTEXTS.with(|c| c.try_borrow_mut().is_err()) {
             return;
         }
+        let next = DEFERRED.with(|d| d.try_borrow_mut().ok().and_then(|mut d| (!d.is_empty()).then(|| d.remove(0))));
+        let Some((ctx, f)) = next else { return };
+        CONTEXTS.with(|c| {
+            if let Ok(mut c) = c.try_borrow_mut()
+                && let Some(context) = c.get_mut(ctx as usize).and_then(Option::as_mut)
+            {
+                f(context);
+            }
+        });
         drop_unused(ctx);
     }
 }

@@ -317,6 +317,7 @@ impl View {
         if self.canvas.height() != height {
             self.canvas.set_height(height);
         }
+        self.fit_gl_canvas([width, height]);
         self.frame_at(now, [width, height], ppp)
     }
 
@@ -448,26 +449,7 @@ impl View {
                 }
             }
             Output::Copy { .. } => gpu.gl.as_ref().and_then(|gl| {
-                // The only WebGL2 viewer shows the page's canvas itself, sized to it; several
-                // share it, grown to the largest, each copied out of its top-left corner.
-                let alone = super::gpu::gl_views() == 1;
-                let shown_here = gl.canvas.parent_node().is_some_and(|p| Some(p) == self.canvas.parent_node());
-                if alone && !shown_here {
-                    let _ = self.canvas.after_with_node_1(&gl.canvas);
-                } else if !alone && shown_here {
-                    gl.canvas.remove();
-                }
-                let mut config = gl.config.borrow_mut();
-                let fits = if alone {
-                    config.width == size[0] && config.height == size[1]
-                } else {
-                    config.width >= size[0] && config.height >= size[1]
-                };
-                if !fits {
-                    config.width = if alone { size[0] } else { config.width.max(size[0]) };
-                    config.height = if alone { size[1] } else { config.height.max(size[1]) };
-                    gl.surface.configure(&gpu.device, &config);
-                }
+                self.fit_gl_canvas(size);
                 match gl.surface.get_current_texture() {
                     wgpu::CurrentSurfaceTexture::Success(f) | wgpu::CurrentSurfaceTexture::Suboptimal(f) => Some(f),
                     other => {
@@ -581,6 +563,32 @@ impl View {
 }
 
 impl View {
+    /// Places and sizes the page's WebGL2 canvas for this viewer's frame of `size`: the only
+    /// WebGL2 viewer shows that canvas itself, sized to it; several share it, grown to the
+    /// largest, each copied out of its top-left corner. Done before the frame's GPU work: a
+    /// WebGL2 canvas resized after it waits for that work to finish.
+    fn fit_gl_canvas(&self, size: [u32; 2]) {
+        let (Output::Copy { .. }, Some(gl)) = (&self.output, &self.gpu.gl) else { return };
+        let alone = super::gpu::gl_views() == 1;
+        let shown_here = gl.canvas.parent_node().is_some_and(|p| Some(p) == self.canvas.parent_node());
+        if alone && !shown_here {
+            let _ = self.canvas.after_with_node_1(&gl.canvas);
+        } else if !alone && shown_here {
+            gl.canvas.remove();
+        }
+        let mut config = gl.config.borrow_mut();
+        let fits = if alone {
+            config.width == size[0] && config.height == size[1]
+        } else {
+            config.width >= size[0] && config.height >= size[1]
+        };
+        if !fits {
+            config.width = if alone { size[0] } else { config.width.max(size[0]) };
+            config.height = if alone { size[1] } else { config.height.max(size[1]) };
+            gl.surface.configure(&self.gpu.device, &config);
+        }
+    }
+
     /// Stops drawing through the page's WebGL2 canvas (the viewer goes away or moves to a new
     /// device): takes that canvas out of this viewer if it is shown here, and uncounts it.
     fn release_gl(&mut self) {
