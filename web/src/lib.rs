@@ -25,7 +25,7 @@ pub mod decode;
 pub mod dom;
 #[cfg(target_arch = "wasm32")]
 mod entry;
-#[cfg(all(target_arch = "wasm32", feature = "gl"))]
+#[cfg(feature = "gl")]
 pub mod gl;
 pub mod ik;
 pub mod load;

@@ -14,7 +14,8 @@ use web_sys::{
     WebGlShader, WebGlTexture, WebGlUniformLocation,
 };
 
-use super::shaders::GlStage;
+pub(super) use super::table::Binding;
+use super::table::GlStage;
 
 /// A slab of GL objects: handles are indices, freed ones reused.
 pub(super) struct Slab<T> {
@@ -68,9 +69,6 @@ pub(super) enum Image {
     },
     Renderbuffer(WebGlRenderbuffer),
 }
-
-/// A resource's group and binding.
-pub(super) type Binding = (u32, u32);
 
 /// A linked program and where its resources go (see `shaders`).
 pub(super) struct Program {

@@ -1,0 +1,180 @@
+//! The GLSL that `web/build.rs` translated, found by module, entry point and override
+//! constants (platform-free: a native test checks that every pipeline the renderer can ask for
+//! on WebGL2 is here).
+
+/// A resource's group and binding.
+pub(super) type Binding = (u32, u32);
+
+/// Whether a stage is a vertex or fragment shader.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum GlStageKind {
+    Vertex,
+    Fragment,
+}
+
+/// A WGSL module the renderer compiles: its source's hash and override constants (name,
+/// default, number of values), and its entry points.
+pub(super) struct GlModule {
+    pub name: &'static str,
+    pub hash: u64,
+    pub overrides: &'static [(&'static str, u32, u32)],
+    pub entries: &'static [GlEntry],
+}
+
+/// An entry point: its stage for every combination of the module's override constants (the
+/// first constant varies fastest).
+pub(super) struct GlEntry {
+    pub name: &'static str,
+    pub stage: GlStageKind,
+    pub variants: &'static [usize],
+}
+
+/// One translated stage: its text (an index into `GL_TEXTS`) and its resources by GLSL name.
+#[derive(Debug)]
+pub(super) struct GlStage {
+    pub text: usize,
+    /// Uniform blocks: name, group, binding.
+    pub uniforms: &'static [(&'static str, u32, u32)],
+    /// Samplers: name, the texture's (group, binding), the sampler's.
+    pub textures: &'static [(&'static str, Binding, Option<Binding>)],
+    /// Vertex inputs or fragment outputs: name, location.
+    pub varyings: &'static [(&'static str, u32)],
+}
+
+include!(concat!(env!("OUT_DIR"), "/gl_shaders.rs"));
+
+/// Every distinct line of the translated GLSL, one after the other (`GL_LINE_ENDS`).
+static GL_LINES: &str = include_str!(concat!(env!("OUT_DIR"), "/gl_lines.txt"));
+
+/// The module whose WGSL is `source`, if the build translated it.
+pub(super) fn module_for(source: &str) -> Option<usize> {
+    let hash = super::hash::source_hash(source);
+    GL_MODULES.iter().position(|m| m.hash == hash)
+}
+
+/// The stage of `entry` in module `module` specialised with `constants` (the others at their
+/// defaults).
+pub(super) fn stage(
+    module: usize,
+    entry: Option<&str>,
+    kind: GlStageKind,
+    constants: &[(&str, f64)],
+) -> Result<&'static GlStage, String> {
+    let m = GL_MODULES.get(module).ok_or("no such shader module")?;
+    let entry = match entry {
+        Some(name) => m.entries.iter().find(|e| e.name == name && e.stage == kind),
+        None => {
+            let mut of_kind = m.entries.iter().filter(|e| e.stage == kind);
+            match (of_kind.next(), of_kind.next()) {
+                (Some(only), None) => Some(only),
+                _ => None,
+            }
+        }
+    }
+    .ok_or_else(|| format!("{}: no {kind:?} entry point {entry:?}", m.name))?;
+    for (name, _) in constants {
+        if !m.overrides.iter().any(|(o, _, _)| o == name) {
+            return Err(format!("{}: no override constant {name}", m.name));
+        }
+    }
+    let mut index = 0usize;
+    let mut scale = 1usize;
+    for &(name, default, count) in m.overrides {
+        let value = match constants.iter().find(|(n, _)| *n == name) {
+            Some(&(_, v)) if v >= 0.0 && v < f64::from(count) && v.fract() == 0.0 => v as usize,
+            Some(&(_, v)) => return Err(format!("{}: {name} = {v} was not translated (0 to {})", m.name, count - 1)),
+            None => default as usize,
+        };
+        index += value * scale;
+        scale *= count as usize;
+    }
+    entry.variants.get(index).and_then(|&s| GL_STAGES.get(s)).ok_or_else(|| format!("{}: no variant {index}", m.name))
+}
+
+/// The GLSL text of `stage`.
+pub(super) fn text(stage: &GlStage) -> String {
+    let mut out = String::new();
+    let Some(&(start, end)) = GL_TEXTS.get(stage.text) else { return out };
+    for &line in GL_TEXT_LINES.get(start as usize..end as usize).unwrap_or(&[]) {
+        let line = usize::from(line);
+        let from = if line == 0 { 0 } else { GL_LINE_ENDS.get(line - 1).copied().unwrap_or(0) as usize };
+        let to = GL_LINE_ENDS.get(line).copied().unwrap_or(0) as usize;
+        out.push_str(GL_LINES.get(from..to).unwrap_or(""));
+        out.push('\n');
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::pipelines::{SHADER_MODULES, SKIN_FROM_DRAW};
+
+    /// The values the renderer gives each override constant (`render::pipelines`): a skinning
+    /// method up to "read it from the draw", and flags.
+    fn values(name: &str) -> Vec<f64> {
+        match name {
+            "SKIN_METHOD" => (0..=SKIN_FROM_DRAW).map(f64::from).collect(),
+            "HEATMAP" | "TANGENTS" | "SRGB_ENCODE" => vec![0.0, 1.0],
+            other => panic!("override {other}: the renderer's values are not known to this test (nor to web/build.rs)"),
+        }
+    }
+
+    #[test]
+    fn every_pipeline_the_renderer_builds_on_webgl2_was_translated() {
+        for (name, source, webgl) in SHADER_MODULES {
+            if !webgl {
+                continue;
+            }
+            let index = module_for(source).unwrap_or_else(|| panic!("{name}: not translated by web/build.rs"));
+            let module = naga::front::wgsl::parse_str(source).expect("the renderer's WGSL parses");
+            let overrides: Vec<String> = module.overrides.iter().filter_map(|(_, o)| o.name.clone()).collect();
+            for ep in &module.entry_points {
+                let kind = match ep.stage {
+                    naga::ShaderStage::Vertex => GlStageKind::Vertex,
+                    naga::ShaderStage::Fragment => GlStageKind::Fragment,
+                    _ => continue,
+                };
+                // Every combination of the values the renderer may set, each constant also left out.
+                let mut combos: Vec<Vec<(&str, f64)>> = vec![Vec::new()];
+                for o in &overrides {
+                    let mut next = Vec::new();
+                    for c in &combos {
+                        next.push(c.clone());
+                        for v in values(o) {
+                            let mut c = c.clone();
+                            c.push((o.as_str(), v));
+                            next.push(c);
+                        }
+                    }
+                    combos = next;
+                }
+                for constants in &combos {
+                    let stage = stage(index, Some(&ep.name), kind, constants)
+                        .unwrap_or_else(|e| panic!("{name} {} {constants:?}: {e}", ep.name));
+                    let glsl = text(stage);
+                    assert!(glsl.starts_with("#version 300 es\n"), "{name} {}", ep.name);
+                    if kind == GlStageKind::Vertex {
+                        assert!(glsl.contains("uniform float _kloub_flip;"), "{name} {}: no flip uniform", ep.name);
+                        assert!(glsl.contains("vec2(_kloub_flip * gl_Position.y,"), "{name} {}", ep.name);
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_stage_outside_the_translations_is_an_error() {
+        let mesh = GL_MODULES.iter().position(|m| m.name == "mesh").expect("the mesh module");
+        assert!(stage(mesh, Some("vs_skinned"), GlStageKind::Vertex, &[("SKIN_METHOD", 9.0)]).is_err());
+        assert!(stage(mesh, Some("vs_skinned"), GlStageKind::Vertex, &[("SKIN_METHOD", 0.5)]).is_err());
+        assert!(stage(mesh, Some("vs_skinned"), GlStageKind::Vertex, &[("NO_SUCH", 0.0)]).is_err());
+        assert!(stage(mesh, Some("no_such_entry"), GlStageKind::Vertex, &[]).is_err());
+        assert!(stage(mesh, Some("fs_main"), GlStageKind::Vertex, &[]).is_err());
+        assert!(stage(GL_MODULES.len(), None, GlStageKind::Vertex, &[]).is_err());
+        assert!(module_for("fn nothing() {}").is_none());
+        // A module with one entry point of a kind takes `None` for it.
+        let mip = GL_MODULES.iter().position(|m| m.name == "mip").expect("the mip module");
+        assert!(stage(mip, None, GlStageKind::Fragment, &[]).is_ok());
+    }
+}
