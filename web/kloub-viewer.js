@@ -292,7 +292,7 @@ function onPanic(message) {
 }
 
 /** The frame loop: one requestAnimationFrame for the page, drawing only the viewers in view that asked for a frame. */
-const loop = { raf: 0, timer: 0, last: 0, interval: 16.7, scale: 1, changed: 0 };
+const loop = { raf: 0, timer: 0, last: 0, interval: 16.7, scale: 1, changed: 0, started: 0 };
 function requestFrame() {
   if (loop.raf) return;
   if (loop.timer) {
@@ -321,10 +321,10 @@ function tick(now) {
 function adapt(now) {
   const dt = now - loop.last;
   loop.last = now;
-  // The first second of frames holds one-time work (shaders compiled, environments prefiltered, textures
-  // uploaded): it sets no resolution (on WebGL2 a resize waits for that work to finish).
-  if (loop.changed === 0) loop.changed = now;
-  if (dt <= 0 || dt > 500) return;
+  // The page's first second of frames holds one-time work (shaders compiled, environments prefiltered, textures
+  // uploaded): it neither counts towards the average nor sets a resolution (on WebGL2 a resize waits for that work).
+  if (loop.started === 0) loop.started = now;
+  if (dt <= 0 || dt > 500 || now - loop.started < 1000) return;
   loop.interval = loop.interval * 0.9 + dt * 0.1;
   if (now - loop.changed < 1000) return;
   if (loop.interval > 1000 / 30 && loop.scale > 0.25) {

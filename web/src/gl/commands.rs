@@ -986,11 +986,17 @@ fn read_pixels(
         errors.report(&format!("reading back {:?}", src.format));
         return;
     };
-    let row = layout.bytes_per_row.unwrap_or(w * texel);
-    if row < w * texel {
-        errors.report("copy_texture_to_buffer: rows shorter than the copy");
+    let (row, len) = match super::resources::copy_extent(w, h, texel, layout.bytes_per_row) {
+        Ok(extent) => extent,
+        Err(e) => {
+            errors.report(&format!("copy_texture_to_buffer: {e}"));
+            return;
+        }
+    };
+    let Some(end) = (layout.offset as usize).checked_add(len) else {
+        errors.report("copy_texture_to_buffer: beyond the buffer");
         return;
-    }
+    };
     let fb = if src.texture.surface {
         None
     } else {
@@ -1004,46 +1010,47 @@ fn read_pixels(
     // The canvas's row 0 is the bottom of the picture: read from the bottom up, then turn.
     let height = if src.texture.surface { gl.drawing_buffer_height().max(0) as u32 } else { src.texture.size[1] };
     let y = if src.texture.surface { height.saturating_sub(origin[1].saturating_add(h)) } else { origin[1] };
-    if let Ok(mut memory) = dst.memory.lock() {
-        let start = layout.offset as usize;
-        let len = (u64::from(row) * u64::from(h.saturating_sub(1)) + u64::from(w * texel)) as usize;
-        if let Some(out) = memory.get_mut(start..start + len) {
-            if kind == Gl::UNSIGNED_BYTE {
-                let _ = gl.read_pixels_with_opt_u8_array(
-                    origin[0] as i32,
-                    y as i32,
-                    w as i32,
-                    h as i32,
-                    format,
-                    kind,
-                    Some(out),
-                );
-            } else {
-                // WebGL2 reads float and integer texels only into the matching typed array.
-                let array = super::resources::texel_array(kind, out);
-                let _ = gl.read_pixels_with_opt_array_buffer_view(
-                    origin[0] as i32,
-                    y as i32,
-                    w as i32,
-                    h as i32,
-                    format,
-                    kind,
-                    Some(&array),
-                );
-                if let Some(view) = array.dyn_ref::<js_sys::Float32Array>() {
-                    js_sys::Uint8Array::new(&view.buffer()).copy_to(out);
-                } else if let Some(view) = array.dyn_ref::<js_sys::Uint32Array>() {
-                    js_sys::Uint8Array::new(&view.buffer()).copy_to(out);
-                } else if let Some(view) = array.dyn_ref::<js_sys::Uint16Array>() {
-                    js_sys::Uint8Array::new(&view.buffer()).copy_to(out);
-                }
+    if let Ok(mut memory) = dst.memory.lock()
+        && let Some(out) = memory.get_mut(layout.offset as usize..end)
+    {
+        if kind == Gl::UNSIGNED_BYTE {
+            let _ = gl.read_pixels_with_opt_u8_array(
+                origin[0] as i32,
+                y as i32,
+                w as i32,
+                h as i32,
+                format,
+                kind,
+                Some(out),
+            );
+        } else {
+            // WebGL2 reads float and integer texels only into the matching typed array.
+            let array = super::resources::texel_array(kind, out);
+            let _ = gl.read_pixels_with_opt_array_buffer_view(
+                origin[0] as i32,
+                y as i32,
+                w as i32,
+                h as i32,
+                format,
+                kind,
+                Some(&array),
+            );
+            if let Some(view) = array.dyn_ref::<js_sys::Float32Array>() {
+                js_sys::Uint8Array::new(&view.buffer()).copy_to(out);
+            } else if let Some(view) = array.dyn_ref::<js_sys::Uint32Array>() {
+                js_sys::Uint8Array::new(&view.buffer()).copy_to(out);
+            } else if let Some(view) = array.dyn_ref::<js_sys::Uint16Array>() {
+                js_sys::Uint8Array::new(&view.buffer()).copy_to(out);
             }
-            if src.texture.surface {
-                let row = row as usize;
-                for i in 0..(h as usize / 2) {
-                    let j = h as usize - 1 - i;
-                    let (top, bottom) = out.split_at_mut(j * row);
-                    top[i * row..i * row + (w * texel) as usize].swap_with_slice(&mut bottom[..(w * texel) as usize]);
+        }
+        if src.texture.surface {
+            // Rows as WebGPU's (the top first): swap them end for end.
+            let (row, tight) = (row as usize, w as usize * texel as usize);
+            for i in 0..(h as usize / 2) {
+                let j = h as usize - 1 - i;
+                let (top, bottom) = out.split_at_mut(j * row);
+                if let (Some(a), Some(b)) = (top.get_mut(i * row..i * row + tight), bottom.get_mut(..tight)) {
+                    a.swap_with_slice(b);
                 }
             }
         }

@@ -200,6 +200,24 @@ pub(super) fn format(format: wgpu::TextureFormat) -> Option<(u32, u32, u32, u32)
     })
 }
 
+/// The row pitch and byte length of a copy of `w` × `h` texels of `texel` bytes laid out in rows
+/// of `bytes_per_row` (tightly packed without): `Err` for rows shorter than the copy or a length
+/// beyond memory.
+pub(super) fn copy_extent(
+    w: u32,
+    h: u32,
+    texel: u32,
+    bytes_per_row: Option<u32>,
+) -> Result<(u32, usize), &'static str> {
+    let tight = u64::from(w) * u64::from(texel);
+    let row = u64::from(bytes_per_row.unwrap_or(u32::try_from(tight).map_err(|_| "rows too long")?));
+    if row < tight {
+        return Err("rows shorter than the copy");
+    }
+    let len = row * u64::from(h.saturating_sub(1)) + tight;
+    Ok((row as u32, usize::try_from(len).map_err(|_| "a copy beyond memory")?))
+}
+
 /// `bytes` as the typed array WebGL2 takes for texels of type `kind` (it refuses bytes for
 /// float, half-float and 32-bit integer texels): a copy in JavaScript's memory.
 pub(super) fn texel_array(kind: u32, bytes: &[u8]) -> js_sys::Object {
@@ -506,6 +524,11 @@ impl Drop for PipelineInner {
         if let Some(id) = self.program {
             state::with_or_later(self.ctx, move |c| {
                 if let Some(p) = c.programs.remove(id) {
+                    // Never drawn with: its shaders wait for the check that deletes them.
+                    if let Some((vs, fs, _, _)) = &p.pending {
+                        c.gl.delete_shader(Some(vs));
+                        c.gl.delete_shader(Some(fs));
+                    }
                     c.gl.delete_program(Some(&p.program));
                 }
             });

@@ -659,10 +659,15 @@ impl QueueInterface for Queue {
             let Some(state::Image::Texture { texture: gl_texture, .. }) = c.images.get(id) else { return };
             let gl = &c.gl;
             gl.bind_texture(Gl::TEXTURE_2D, Some(gl_texture));
-            let row = layout.bytes_per_row.unwrap_or(size.width * texel);
-            let rows =
-                (u64::from(row) * u64::from(size.height.saturating_sub(1)) + u64::from(size.width * texel)) as usize;
-            let Some(data) = data.get(..rows).filter(|_| row >= size.width * texel) else { return };
+            let extent = resources::copy_extent(size.width, size.height, texel, layout.bytes_per_row);
+            let (row, data) =
+                match extent.and_then(|(row, len)| Ok((row, data.get(..len).ok_or("data shorter than the copy")?))) {
+                    Ok(copy) => copy,
+                    Err(e) => {
+                        self.errors.report(&format!("write_texture: {e}"));
+                        return;
+                    }
+                };
             gl.pixel_storei(Gl::UNPACK_ROW_LENGTH, (row / texel) as i32);
             let result = if kind == Gl::UNSIGNED_BYTE {
                 gl.tex_sub_image_2d_with_i32_and_i32_and_u32_and_type_and_opt_u8_array(
