@@ -35,15 +35,6 @@ set -e
 read -r rust_pass rust_fail < <(results "$log")
 if [ "$cargo_rc" != 0 ] && [ "$rust_fail" = 0 ]; then rust_fail=1; fi  # a build failure counts as a failure
 
-step "cargo test (native, the WebGL2 widget's shader table: web/src/gl with --features gl)"
-set +e
-cargo test -p kloub-web --features gl --lib gl:: 2>&1 | tee "$log"
-gl_rc=${PIPESTATUS[0]}
-set -e
-read -r gl_pass gl_fail < <(results "$log")
-if [ "$gl_rc" != 0 ] && [ "$gl_fail" = 0 ]; then gl_fail=1; fi
-rust_pass=$((rust_pass + gl_pass)) rust_fail=$((rust_fail + gl_fail))
-
 step "cargo test (wasm32 under Node: the core's import suite)"
 set +e
 bash scripts/test-wasm.sh 2>&1 | tee "$log"

@@ -1014,7 +1014,7 @@ fn range_error(message: impl AsRef<str>) -> JsValue {
 pub fn build_name() -> String {
     if cfg!(feature = "full") {
         "full"
-    } else if cfg!(any(feature = "webgl", feature = "gl")) {
+    } else if cfg!(feature = "gl") {
         "widget-gl"
     } else {
         "widget"

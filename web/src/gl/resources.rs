@@ -122,6 +122,8 @@ impl BufferInterface for Buffer {
             buffer: self.inner.clone(),
             offset: sub_range.start,
             bytes,
+            #[cfg(feature = "webgpu")]
+            js: std::sync::OnceLock::new(),
         }))
     }
 
@@ -137,7 +139,24 @@ pub(super) struct MappedRange {
     buffer: Arc<BufferInner>,
     offset: u64,
     bytes: Vec<u8>,
+    /// The bytes as a JavaScript array, made when asked for (`BufferView::as_uint8array`, which
+    /// wgpu has where its WebGPU backend is built in too).
+    #[cfg(feature = "webgpu")]
+    js: std::sync::OnceLock<JsBytes>,
 }
+
+/// A JavaScript array in a `Send + Sync` handle, as wgpu's `fragile-send-sync-non-atomic-wasm`
+/// makes its own JavaScript objects: the module runs on one thread (it is built without atomics).
+#[cfg(feature = "webgpu")]
+#[derive(Debug)]
+pub(super) struct JsBytes(js_sys::Uint8Array);
+
+#[cfg(all(feature = "webgpu", not(target_feature = "atomics")))]
+#[allow(unsafe_code, reason = "wasm32 without atomics has one thread: no other thread can see it")]
+unsafe impl Send for JsBytes {}
+#[cfg(all(feature = "webgpu", not(target_feature = "atomics")))]
+#[allow(unsafe_code, reason = "wasm32 without atomics has one thread: no other thread can see it")]
+unsafe impl Sync for JsBytes {}
 
 impl Drop for MappedRange {
     fn drop(&mut self) {
@@ -159,6 +178,13 @@ impl BufferMappedRangeInterface for MappedRange {
 
     unsafe fn write_slice(&mut self) -> wgpu::WriteOnly<'_, [u8]> {
         wgpu::WriteOnly::from(&mut self.bytes[..])
+    }
+
+    /// A copy of the mapped bytes in JavaScript's memory (what was read back; writes to it do not
+    /// reach the buffer).
+    #[cfg(feature = "webgpu")]
+    fn as_uint8array(&self) -> &js_sys::Uint8Array {
+        &self.js.get_or_init(|| JsBytes(js_sys::Uint8Array::from(&self.bytes[..]))).0
     }
 }
 

@@ -163,6 +163,42 @@ mod tests {
         }
     }
 
+    /// egui-wgpu's shader as the full app's panels hand it to the device: the copy web/build.rs
+    /// translated (web/vendor/egui-wgpu) is byte for byte the one in the egui-wgpu crate built.
+    #[test]
+    fn egui_wgpus_shader_is_translated_from_the_crate_in_use() {
+        let vendored = include_str!("../../vendor/egui-wgpu/egui.wgsl");
+        let egui = module_for(vendored).expect("web/build.rs translated web/vendor/egui-wgpu/egui.wgsl");
+        for (entry, kind) in [
+            ("vs_main", GlStageKind::Vertex),
+            ("fs_main_linear_framebuffer", GlStageKind::Fragment),
+            ("fs_main_gamma_framebuffer", GlStageKind::Fragment),
+        ] {
+            let glsl = text(stage(egui, Some(entry), kind, &[]).expect("egui's entry points"));
+            assert!(glsl.starts_with("#version 300 es\n"), "{entry}");
+        }
+        // The egui-wgpu crate cargo resolved for this workspace, found through `cargo metadata`.
+        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+        let output = std::process::Command::new(cargo)
+            .args(["metadata", "--format-version", "1", "--offline", "--filter-platform", env!("KLOUB_BUILD_TARGET")])
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .output()
+            .expect("cargo metadata runs");
+        let metadata: serde_json::Value = serde_json::from_slice(&output.stdout).expect("cargo metadata's JSON");
+        let manifest = metadata["packages"]
+            .as_array()
+            .and_then(|p| p.iter().find(|p| p["name"] == "egui-wgpu"))
+            .and_then(|p| p["manifest_path"].as_str())
+            .expect("egui-wgpu among the packages");
+        let crate_source = std::path::Path::new(manifest).with_file_name("src/egui.wgsl");
+        let original = std::fs::read_to_string(&crate_source).expect("egui-wgpu's src/egui.wgsl");
+        assert!(
+            original == vendored,
+            "web/vendor/egui-wgpu/egui.wgsl differs from {}: copy it again",
+            crate_source.display()
+        );
+    }
+
     #[test]
     fn a_stage_outside_the_translations_is_an_error() {
         let mesh = GL_MODULES.iter().position(|m| m.name == "mesh").expect("the mesh module");

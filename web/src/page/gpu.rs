@@ -256,10 +256,6 @@ fn device_descriptor(adapter: &wgpu::Adapter) -> wgpu::DeviceDescriptor<'static>
 }
 
 async fn make(kind: GpuKind) -> Result<Gpu, String> {
-    #[cfg(not(any(feature = "webgl", feature = "gl")))]
-    if kind == GpuKind::Gl {
-        return Err("this build of Kloub has no WebGL2 (the element loads the one that has)".into());
-    }
     #[cfg(not(feature = "webgpu"))]
     if kind == GpuKind::WebGpu {
         return Err("this build of Kloub has no WebGPU (the element loads the one that has)".into());
@@ -268,20 +264,12 @@ async fn make(kind: GpuKind) -> Result<Gpu, String> {
         g.set(g.get() + 1);
         g.get()
     });
-    // The browser's WebGPU or wgpu's GL layer; Kloub's own WebGL2 backend makes its instance on
-    // its canvas (below).
-    let plain = || {
-        let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle();
-        descriptor.backends = match kind {
-            GpuKind::WebGpu => wgpu::Backends::BROWSER_WEBGPU,
-            GpuKind::Gl => wgpu::Backends::GL,
-        };
-        wgpu::Instance::new(descriptor)
-    };
     let lost = Arc::new(AtomicBool::new(false));
     let (instance, adapter, gl) = match kind {
         GpuKind::WebGpu => {
-            let instance = plain();
+            let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle();
+            descriptor.backends = wgpu::Backends::BROWSER_WEBGPU;
+            let instance = wgpu::Instance::new(descriptor);
             let has_gpu = web_sys::window()
                 .and_then(|w| js_sys::Reflect::get(&w.navigator(), &"gpu".into()).ok())
                 .is_some_and(|gpu| !gpu.is_undefined());
@@ -294,82 +282,7 @@ async fn make(kind: GpuKind) -> Result<Gpu, String> {
                 .map_err(|e| format!("no WebGPU adapter: {e}"))?;
             (instance, adapter, None)
         }
-        GpuKind::Gl => {
-            let document = web_sys::window().and_then(|w| w.document()).ok_or("no document")?;
-            let canvas: web_sys::HtmlCanvasElement = document
-                .create_element("canvas")
-                .map_err(|_| "cannot create a canvas")?
-                .dyn_into()
-                .map_err(|_| "cannot create a canvas")?;
-            canvas.set_width(1);
-            canvas.set_height(1);
-            // Shown inside a viewer while it is the page's only WebGL2 viewer: over its own canvas,
-            // which keeps receiving the input.
-            let _ = canvas.style().set_property("position", "absolute");
-            let _ = canvas.style().set_property("inset", "0");
-            let _ = canvas.style().set_property("pointer-events", "none");
-            // No depth or stencil in the canvas's own buffer (wgpu draws into textures of its own)
-            // and no antialiasing; these attributes hold for the context wgpu then asks for.
-            // Kloub's own backend (`crate::gl`) draws into the canvas itself: with its depth
-            // buffer where the scene is not multisampled (a framebuffer is the canvas's or a
-            // texture's, never colour of one and depth of the other).
-            let attributes = js_sys::Object::new();
-            let depth = cfg!(feature = "gl");
-            for (key, value) in [("antialias", false), ("depth", depth), ("stencil", false)] {
-                let _ = js_sys::Reflect::set(&attributes, &key.into(), &value.into());
-            }
-            #[cfg(feature = "gl")]
-            let instance = {
-                let _ = plain;
-                crate::gl::instance(&canvas, &attributes)?
-            };
-            #[cfg(not(feature = "gl"))]
-            let instance = {
-                let _ = canvas.get_context_with_context_options("webgl2", &attributes);
-                plain()
-            };
-            let flag = lost.clone();
-            let on_lost = Closure::<dyn FnMut(web_sys::Event)>::new(move |event: web_sys::Event| {
-                event.prevent_default();
-                Gpu::mark_lost(&flag, GpuKind::Gl, "webglcontextlost");
-            });
-            canvas
-                .add_event_listener_with_callback("webglcontextlost", on_lost.as_ref().unchecked_ref())
-                .map_err(|_| "cannot listen for context loss")?;
-            let surface = instance
-                .create_surface(wgpu::SurfaceTarget::Canvas(canvas.clone()))
-                .map_err(|e| format!("no WebGL2 context: {e}"))?;
-            let adapter = instance
-                .request_adapter(&wgpu::RequestAdapterOptions {
-                    compatible_surface: Some(&surface),
-                    ..Default::default()
-                })
-                .await
-                .map_err(|e| format!("no WebGL2 adapter: {e}"))?;
-            let format = pick_format(&surface, &adapter)?;
-            let config = wgpu::SurfaceConfiguration {
-                usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
-                format,
-                width: 1,
-                height: 1,
-                present_mode: wgpu::PresentMode::Fifo,
-                desired_maximum_frame_latency: 2,
-                alpha_mode: wgpu::CompositeAlphaMode::Auto,
-                view_formats: vec![],
-                color_space: wgpu::SurfaceColorSpace::Auto,
-            };
-            (
-                instance,
-                adapter,
-                Some(GlCanvas {
-                    canvas,
-                    surface,
-                    config: RefCell::new(config),
-                    attachments: RefCell::new(None),
-                    _lost: on_lost,
-                }),
-            )
-        }
+        GpuKind::Gl => make_gl(&lost).await?,
     };
     let (device, queue) =
         adapter.request_device(&device_descriptor(&adapter)).await.map_err(|e| format!("no device: {e}"))?;
@@ -413,6 +326,77 @@ async fn make(kind: GpuKind) -> Result<Gpu, String> {
         #[cfg(feature = "full")]
         render,
     })
+}
+
+/// The page's WebGL2 canvas (not in the document), a context on it through Kloub's own WebGL2
+/// backend (`crate::gl`), and its surface and adapter.
+#[cfg(feature = "gl")]
+async fn make_gl(lost: &Arc<AtomicBool>) -> Result<(wgpu::Instance, wgpu::Adapter, Option<GlCanvas>), String> {
+    let document = web_sys::window().and_then(|w| w.document()).ok_or("no document")?;
+    let canvas: web_sys::HtmlCanvasElement = document
+        .create_element("canvas")
+        .map_err(|_| "cannot create a canvas")?
+        .dyn_into()
+        .map_err(|_| "cannot create a canvas")?;
+    canvas.set_width(1);
+    canvas.set_height(1);
+    // Shown inside a viewer while it is the page's only WebGL2 viewer: over its own canvas,
+    // which keeps receiving the input.
+    let _ = canvas.style().set_property("position", "absolute");
+    let _ = canvas.style().set_property("inset", "0");
+    let _ = canvas.style().set_property("pointer-events", "none");
+    // No stencil and no antialiasing (the scene multisamples into attachments of its own);
+    // a depth buffer, which Kloub's backend (`crate::gl`) draws the scene into where it is
+    // not multisampled (a framebuffer is the canvas's or a texture's, never colour of one
+    // and depth of the other).
+    let attributes = js_sys::Object::new();
+    for (key, value) in [("antialias", false), ("depth", true), ("stencil", false)] {
+        let _ = js_sys::Reflect::set(&attributes, &key.into(), &value.into());
+    }
+    let instance = crate::gl::instance(&canvas, &attributes)?;
+    let flag = lost.clone();
+    let on_lost = Closure::<dyn FnMut(web_sys::Event)>::new(move |event: web_sys::Event| {
+        event.prevent_default();
+        Gpu::mark_lost(&flag, GpuKind::Gl, "webglcontextlost");
+    });
+    canvas
+        .add_event_listener_with_callback("webglcontextlost", on_lost.as_ref().unchecked_ref())
+        .map_err(|_| "cannot listen for context loss")?;
+    let surface = instance
+        .create_surface(wgpu::SurfaceTarget::Canvas(canvas.clone()))
+        .map_err(|e| format!("no WebGL2 context: {e}"))?;
+    let adapter = instance
+        .request_adapter(&wgpu::RequestAdapterOptions { compatible_surface: Some(&surface), ..Default::default() })
+        .await
+        .map_err(|e| format!("no WebGL2 adapter: {e}"))?;
+    let format = pick_format(&surface, &adapter)?;
+    let config = wgpu::SurfaceConfiguration {
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+        format,
+        width: 1,
+        height: 1,
+        present_mode: wgpu::PresentMode::Fifo,
+        desired_maximum_frame_latency: 2,
+        alpha_mode: wgpu::CompositeAlphaMode::Auto,
+        view_formats: vec![],
+        color_space: wgpu::SurfaceColorSpace::Auto,
+    };
+    Ok((
+        instance,
+        adapter,
+        Some(GlCanvas {
+            canvas,
+            surface,
+            config: RefCell::new(config),
+            attachments: RefCell::new(None),
+            _lost: on_lost,
+        }),
+    ))
+}
+
+#[cfg(not(feature = "gl"))]
+async fn make_gl(_lost: &Arc<AtomicBool>) -> Result<(wgpu::Instance, wgpu::Adapter, Option<GlCanvas>), String> {
+    Err("this build of Kloub has no WebGL2 (the element loads the one that has)".into())
 }
 
 /// The WebGL2 surface's format: plain `Rgba8Unorm`, which the scene draws into straight with
