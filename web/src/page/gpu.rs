@@ -403,6 +403,7 @@ async fn make_gl(_lost: &Arc<AtomicBool>) -> Result<(wgpu::Instance, wgpu::Adapt
 /// its shaders encoding sRGB (`render::scene_format`). wgpu presents that with a blit, where an
 /// sRGB surface takes a full-screen shader pass more per frame; WebGL2 has no sRGB views of a
 /// plain texture. egui, like the browser, blends in gamma space on such a target.
+#[cfg(feature = "gl")]
 fn pick_format(surface: &wgpu::Surface<'_>, adapter: &wgpu::Adapter) -> Result<wgpu::TextureFormat, String> {
     let format = crate::render::scene_format(wgpu::Backend::Gl);
     if surface.get_capabilities(adapter).formats.contains(&format) {
