@@ -140,7 +140,8 @@ pub(super) struct MappedRange {
     offset: u64,
     bytes: Vec<u8>,
     /// The bytes as a JavaScript array, made when asked for (`BufferView::as_uint8array`, which
-    /// wgpu has where its WebGPU backend is built in too).
+    /// wgpu has where its WebGPU backend is built in too: wgpu's `cfg(webgpu)`, which Kloub cannot
+    /// name; its `webgpu` feature is what turns wgpu's on, and nothing else does in these builds).
     #[cfg(feature = "webgpu")]
     js: std::sync::OnceLock<JsBytes>,
 }

@@ -165,6 +165,7 @@ mod tests {
 
     /// egui-wgpu's shader as the full app's panels hand it to the device: the copy web/build.rs
     /// translated (web/vendor/egui-wgpu) is byte for byte the one in the egui-wgpu crate built.
+    #[cfg(feature = "full")]
     #[test]
     fn egui_wgpus_shader_is_translated_from_the_crate_in_use() {
         let vendored = include_str!("../../vendor/egui-wgpu/egui.wgsl");
@@ -176,6 +177,7 @@ mod tests {
         ] {
             let glsl = text(stage(egui, Some(entry), kind, &[]).expect("egui's entry points"));
             assert!(glsl.starts_with("#version 300 es\n"), "{entry}");
+            assert!(kind == GlStageKind::Fragment || glsl.contains("uniform float _kloub_flip;"), "{entry}: no flip");
         }
         // The egui-wgpu crate cargo resolved for this workspace, found through `cargo metadata`.
         let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
@@ -184,6 +186,7 @@ mod tests {
             .current_dir(env!("CARGO_MANIFEST_DIR"))
             .output()
             .expect("cargo metadata runs");
+        assert!(output.status.success(), "cargo metadata: {}", String::from_utf8_lossy(&output.stderr));
         let metadata: serde_json::Value = serde_json::from_slice(&output.stdout).expect("cargo metadata's JSON");
         let manifest = metadata["packages"]
             .as_array()
