@@ -4,7 +4,6 @@
 
 use std::sync::{Arc, Mutex};
 
-use wasm_bindgen::JsCast;
 use web_sys::WebGl2RenderingContext as Gl;
 use wgpu::custom::{
     CommandBufferInterface, CommandEncoderInterface, DispatchBindGroup, DispatchBuffer, DispatchCommandBuffer,
@@ -442,21 +441,21 @@ impl RenderPassInterface for RenderPass {
     }
 }
 
-/// The state of the pass being run.
-struct Pass {
+/// The state of the pass being run: what it binds, borrowed from the commands.
+struct Pass<'a> {
     /// Drawing unflipped, into the canvas (or an attachment resolved into it).
     canvas: bool,
     /// The attachments' size.
     size: [u32; 2],
     /// The framebuffer (`None`: the canvas's).
     framebuffer: Option<web_sys::WebGlFramebuffer>,
-    colors: Vec<ColorAttachment>,
-    depth: Option<DepthAttachment>,
-    pipeline: Option<Arc<PipelineInner>>,
+    colors: &'a [ColorAttachment],
+    depth: Option<&'a DepthAttachment>,
+    pipeline: Option<&'a PipelineInner>,
     program: Option<u32>,
-    groups: [Option<(Arc<BindGroupInner>, Vec<u32>)>; 4],
-    vertex: [Option<(Arc<BufferInner>, u64)>; 8],
-    index: Option<(Arc<BufferInner>, wgpu::IndexFormat, u64)>,
+    groups: [Option<(&'a BindGroupInner, &'a [u32])>; 4],
+    vertex: [Option<(&'a BufferInner, u64)>; 8],
+    index: Option<(&'a BufferInner, wgpu::IndexFormat, u64)>,
     /// Bindings changed since the last draw.
     dirty: bool,
 }
@@ -499,13 +498,14 @@ fn attachment_key(view: &TextureView) -> Option<(u32, u32)> {
     view.texture.id.map(|id| (id, view.levels.0))
 }
 
-/// Runs `commands` on their context.
-pub(super) fn execute(ctx: u32, commands: Vec<Command>, errors: &Errors) {
+/// Runs `commands` on their context. They stay the caller's, so that the resources only they
+/// held are released after, not while the context's table is in use.
+pub(super) fn execute(ctx: u32, commands: &[Command], errors: &Errors) {
     state::with(ctx, |c| {
-        let mut pass: Option<Pass> = None;
+        let mut pass: Option<Pass<'_>> = None;
         for command in commands {
             match command {
-                Command::BeginPass { colors, depth } => pass = begin(c, colors, depth),
+                Command::BeginPass { colors, depth } => pass = begin(c, colors, depth.as_ref()),
                 Command::EndPass => {
                     if let Some(p) = pass.take() {
                         end(c, p);
@@ -518,33 +518,33 @@ pub(super) fn execute(ctx: u32, commands: Vec<Command>, errors: &Errors) {
                 }
                 Command::SetBindGroup { index, group, offsets } => {
                     if let Some(p) = &mut pass
-                        && let Some(slot) = p.groups.get_mut(index as usize)
+                        && let Some(slot) = p.groups.get_mut(*index as usize)
                     {
-                        *slot = group.map(|g| (g, offsets));
+                        *slot = group.as_deref().map(|g| (g, offsets.as_slice()));
                         p.dirty = true;
                     }
                 }
                 Command::SetVertexBuffer { slot, buffer, offset } => {
                     if let Some(p) = &mut pass
-                        && let Some(s) = p.vertex.get_mut(slot as usize)
+                        && let Some(s) = p.vertex.get_mut(*slot as usize)
                     {
-                        *s = buffer.map(|b| (b, offset));
+                        *s = buffer.as_deref().map(|b| (b, *offset));
                         p.dirty = true;
                     }
                 }
                 Command::SetIndexBuffer { buffer, format, offset } => {
                     if let Some(p) = &mut pass {
-                        p.index = Some((buffer, format, offset));
+                        p.index = Some((buffer, *format, *offset));
                     }
                 }
-                Command::Viewport([x, y, w, h, near, far]) => {
+                &Command::Viewport([x, y, w, h, near, far]) => {
                     if let Some(p) = &pass {
                         let y = if p.canvas { p.size[1] as f32 - y - h } else { y };
                         c.gl.viewport(x as i32, y as i32, w as i32, h as i32);
                         c.gl.depth_range(near, far);
                     }
                 }
-                Command::Scissor([x, y, w, h]) => {
+                &Command::Scissor([x, y, w, h]) => {
                     if let Some(p) = &pass {
                         let y = if p.canvas { p.size[1].saturating_sub(y.saturating_add(h)) } else { y };
                         c.gl.enable(Gl::SCISSOR_TEST);
@@ -555,7 +555,7 @@ pub(super) fn execute(ctx: u32, commands: Vec<Command>, errors: &Errors) {
                 Command::Draw { vertices, instances } => {
                     if let Some(p) = &mut pass
                         && prepare_draw(c, p, 0, instances.start)
-                        && let Some(mode) = p.pipeline.as_ref().map(|pl| topology(pl.primitive.topology))
+                        && let Some(mode) = p.pipeline.map(|pl| topology(pl.primitive.topology))
                     {
                         c.gl.draw_arrays_instanced(
                             mode,
@@ -567,9 +567,9 @@ pub(super) fn execute(ctx: u32, commands: Vec<Command>, errors: &Errors) {
                 }
                 Command::DrawIndexed { indices, base_vertex, instances } => {
                     if let Some(p) = &mut pass
-                        && prepare_draw(c, p, base_vertex, instances.start)
-                        && let Some(mode) = p.pipeline.as_ref().map(|pl| topology(pl.primitive.topology))
-                        && let Some((buffer, format, offset)) = &p.index
+                        && prepare_draw(c, p, *base_vertex, instances.start)
+                        && let Some(mode) = p.pipeline.map(|pl| topology(pl.primitive.topology))
+                        && let Some((buffer, format, offset)) = p.index
                         && let Some(b) = buffer.id.and_then(|id| c.buffers.get(id))
                     {
                         let (kind, size) = match format {
@@ -581,23 +581,23 @@ pub(super) fn execute(ctx: u32, commands: Vec<Command>, errors: &Errors) {
                             mode,
                             indices.len() as i32,
                             kind,
-                            (*offset + u64::from(indices.start) * size) as f64,
+                            (offset + u64::from(indices.start) * size) as f64,
                             instances.len() as i32,
                         );
                     }
                 }
                 Command::CopyBufferToBuffer { src, src_offset, dst, dst_offset, size } => {
-                    copy_buffer(c, &src, src_offset, &dst, dst_offset, size);
+                    copy_buffer(c, src, *src_offset, dst, *dst_offset, *size);
                 }
                 Command::CopyTextureToBuffer { src, origin, dst, layout, size } => {
-                    read_pixels(c, &src, origin, &dst, layout, size, errors);
+                    read_pixels(c, src, *origin, dst, *layout, *size, errors);
                 }
                 Command::ClearBuffer { buffer, offset, size } => {
-                    let size = size.unwrap_or(buffer.size.saturating_sub(offset));
+                    let size = size.unwrap_or(buffer.size.saturating_sub(*offset));
                     if let Some(b) = buffer.id.and_then(|id| c.buffers.get(id)) {
                         let target = buffer.target();
                         c.gl.bind_buffer(target, Some(b));
-                        c.gl.buffer_sub_data_with_f64_and_u8_array(target, offset as f64, &vec![0; size as usize]);
+                        c.gl.buffer_sub_data_with_f64_and_u8_array(target, *offset as f64, &vec![0; size as usize]);
                     }
                 }
             }
@@ -608,7 +608,7 @@ pub(super) fn execute(ctx: u32, commands: Vec<Command>, errors: &Errors) {
     });
 }
 
-fn begin(c: &mut Context, colors: Vec<ColorAttachment>, depth: Option<DepthAttachment>) -> Option<Pass> {
+fn begin<'a>(c: &mut Context, colors: &'a [ColorAttachment], depth: Option<&'a DepthAttachment>) -> Option<Pass<'a>> {
     let canvas = colors.iter().any(|a| a.view.texture.surface || a.resolve.as_ref().is_some_and(|r| r.texture.surface));
     let mut size = colors.first().map(|a| a.view.size()).or_else(|| depth.as_ref().map(|d| d.view.size()))?;
     // Straight into the canvas, its own depth buffer standing for the depth attachment (a GL
@@ -669,7 +669,7 @@ fn begin(c: &mut Context, colors: Vec<ColorAttachment>, depth: Option<DepthAttac
     })
 }
 
-fn end(c: &mut Context, pass: Pass) {
+fn end(c: &mut Context, pass: Pass<'_>) {
     let gl = &c.gl;
     gl.disable(Gl::SCISSOR_TEST);
     for (i, a) in pass.colors.iter().enumerate() {
@@ -746,13 +746,9 @@ fn topology(t: wgpu::PrimitiveTopology) -> u32 {
     }
 }
 
-fn set_pipeline(c: &mut Context, pass: &mut Pass, pipeline: Arc<PipelineInner>, errors: &Errors) {
-    if pipeline.failed {
-        // Reported when it was made: it draws nothing.
-        pass.program = None;
-        pass.pipeline = None;
-        return;
-    }
+fn set_pipeline<'a>(c: &mut Context, pass: &mut Pass<'a>, pipeline: &'a PipelineInner, errors: &Errors) {
+    // No program (its stages were not translated, reported when it was made; or the context is
+    // lost), or one that did not link: the pipeline draws nothing.
     let program = pipeline.program.filter(|&id| match super::shaders::check(c, id) {
         Ok(()) => c.programs.get(id).is_some_and(|p| !p.failed),
         Err(e) => {
@@ -858,25 +854,26 @@ pub(super) fn vertex_format(f: wgpu::VertexFormat) -> Option<(i32, u32, bool, bo
 /// them, and the vertex attributes (their first vertex and instance moved to `base_vertex` and
 /// `first_instance`, which WebGL2 draws cannot take). `false` when there is nothing to draw
 /// with.
-fn prepare_draw(c: &mut Context, pass: &mut Pass, base_vertex: i32, first_instance: u32) -> bool {
-    let (Some(pipeline), Some(program)) = (pass.pipeline.clone(), pass.program) else { return false };
+fn prepare_draw(c: &mut Context, pass: &mut Pass<'_>, base_vertex: i32, first_instance: u32) -> bool {
+    let (Some(pipeline), Some(program)) = (pass.pipeline, pass.program) else { return false };
     let rebase = base_vertex != 0 || first_instance != 0;
     if !pass.dirty && !rebase {
         return true;
     }
     pass.dirty = rebase;
-    let Some(p) = c.programs.get(program) else { return false };
-    let (uniforms, textures) = (p.uniforms.clone(), p.textures.clone());
-    let gl = &c.gl;
-    let resource = |(group, binding): (u32, u32)| -> Option<(Resource, u64)> {
-        let (g, offsets) = pass.groups.get(group as usize)?.as_ref()?;
-        let r = g.get(binding)?.clone();
+    // The table's parts apart: the program's lists are read while the images' levels change.
+    let Context { gl, buffers, images, samplers, programs, nearest, enabled_attributes, .. } = c;
+    let gl = &*gl;
+    let Some(p) = programs.get(program) else { return false };
+    let groups = &pass.groups;
+    let resource = |(group, binding): (u32, u32)| -> Option<(&Resource, u64)> {
+        let (g, offsets) = groups.get(group as usize)?.as_ref()?;
         let dynamic = g.dynamic.iter().position(|&b| b == binding).and_then(|i| offsets.get(i)).copied().unwrap_or(0);
-        Some((r, u64::from(dynamic)))
+        Some((g.get(binding)?, u64::from(dynamic)))
     };
-    for (slot, &gb) in uniforms.iter().enumerate() {
-        if let Some((Resource::Buffer { buffer, offset, size }, dynamic)) = resource(gb)
-            && let Some(b) = buffer.id.and_then(|id| c.buffers.get(id))
+    for (slot, &gb) in p.uniforms.iter().enumerate() {
+        if let Some((&Resource::Buffer { ref buffer, offset, size }, dynamic)) = resource(gb)
+            && let Some(b) = buffer.id.and_then(|id| buffers.get(id))
         {
             gl.bind_buffer_range_with_f64_and_f64(
                 Gl::UNIFORM_BUFFER,
@@ -887,11 +884,11 @@ fn prepare_draw(c: &mut Context, pass: &mut Pass, base_vertex: i32, first_instan
             );
         }
     }
-    for (unit, &(t, s)) in textures.iter().enumerate() {
+    for (unit, &(t, s)) in p.textures.iter().enumerate() {
         gl.active_texture(Gl::TEXTURE0 + unit as u32);
         let Some((Resource::View(view), _)) = resource(t) else { continue };
         let Some(id) = view.texture.id else { continue };
-        if let Some(Image::Texture { texture, levels }) = c.images.get_mut(id) {
+        if let Some(Image::Texture { texture, levels }) = images.get_mut(id) {
             gl.bind_texture(Gl::TEXTURE_2D, Some(texture));
             if *levels != view.levels {
                 gl.tex_parameteri(Gl::TEXTURE_2D, Gl::TEXTURE_BASE_LEVEL, view.levels.0 as i32);
@@ -900,8 +897,8 @@ fn prepare_draw(c: &mut Context, pass: &mut Pass, base_vertex: i32, first_instan
             }
         }
         let sampler = match s.and_then(&resource) {
-            Some((Resource::Sampler(sampler), _)) => sampler.id.and_then(|id| c.samplers.get(id)),
-            _ => c.nearest.as_ref(),
+            Some((Resource::Sampler(sampler), _)) => sampler.id.and_then(|id| samplers.get(id)),
+            _ => nearest.as_ref(),
         };
         gl.bind_sampler(unit as u32, sampler);
     }
@@ -909,7 +906,7 @@ fn prepare_draw(c: &mut Context, pass: &mut Pass, base_vertex: i32, first_instan
     for (slot, layout) in pipeline.buffers.iter().enumerate() {
         let Some(layout) = layout else { continue };
         let Some(Some((buffer, offset))) = pass.vertex.get(slot) else { continue };
-        let Some(b) = buffer.id.and_then(|id| c.buffers.get(id)) else { continue };
+        let Some(b) = buffer.id.and_then(|id| buffers.get(id)) else { continue };
         gl.bind_buffer(Gl::ARRAY_BUFFER, Some(b));
         let shift = if layout.instance { i64::from(first_instance) } else { i64::from(base_vertex) };
         let start = *offset as i64 + shift * layout.stride as i64;
@@ -932,7 +929,7 @@ fn prepare_draw(c: &mut Context, pass: &mut Pass, base_vertex: i32, first_instan
             enabled |= 1 << a.shader_location.min(31);
         }
     }
-    let changed = enabled ^ c.enabled_attributes;
+    let changed = enabled ^ *enabled_attributes;
     for location in 0..32 {
         if changed & (1 << location) != 0 {
             if enabled & (1 << location) != 0 {
@@ -942,7 +939,7 @@ fn prepare_draw(c: &mut Context, pass: &mut Pass, base_vertex: i32, first_instan
             }
         }
     }
-    c.enabled_attributes = enabled;
+    *enabled_attributes = enabled;
     true
 }
 
@@ -1025,7 +1022,7 @@ fn read_pixels(
             );
         } else {
             // WebGL2 reads float and integer texels only into the matching typed array.
-            let array = super::resources::texel_array(kind, out);
+            let (array, bytes) = super::resources::texel_array(kind, out);
             let _ = gl.read_pixels_with_opt_array_buffer_view(
                 origin[0] as i32,
                 y as i32,
@@ -1035,13 +1032,7 @@ fn read_pixels(
                 kind,
                 Some(&array),
             );
-            if let Some(view) = array.dyn_ref::<js_sys::Float32Array>() {
-                js_sys::Uint8Array::new(&view.buffer()).copy_to(out);
-            } else if let Some(view) = array.dyn_ref::<js_sys::Uint32Array>() {
-                js_sys::Uint8Array::new(&view.buffer()).copy_to(out);
-            } else if let Some(view) = array.dyn_ref::<js_sys::Uint16Array>() {
-                js_sys::Uint8Array::new(&view.buffer()).copy_to(out);
-            }
+            bytes.copy_to(out);
         }
         if src.texture.surface {
             // Rows as WebGPU's (the top first): swap them end for end.

@@ -246,21 +246,20 @@ pub(super) fn copy_extent(
 }
 
 /// `bytes` as the typed array WebGL2 takes for texels of type `kind` (it refuses bytes for
-/// float, half-float and 32-bit integer texels): a copy in JavaScript's memory.
-pub(super) fn texel_array(kind: u32, bytes: &[u8]) -> js_sys::Object {
+/// float, half-float and 32-bit integer texels): a copy in JavaScript's memory, and the same
+/// memory as bytes (to copy a read back into).
+pub(super) fn texel_array(kind: u32, bytes: &[u8]) -> (js_sys::Object, js_sys::Uint8Array) {
     let copy = js_sys::Uint8Array::new_with_length(bytes.len() as u32);
     copy.copy_from(bytes);
     let buffer = copy.buffer();
-    match kind {
-        Gl::FLOAT => js_sys::Float32Array::new_with_byte_offset_and_length(&buffer, 0, bytes.len() as u32 / 4).into(),
-        Gl::HALF_FLOAT => {
-            js_sys::Uint16Array::new_with_byte_offset_and_length(&buffer, 0, bytes.len() as u32 / 2).into()
-        }
-        Gl::UNSIGNED_INT => {
-            js_sys::Uint32Array::new_with_byte_offset_and_length(&buffer, 0, bytes.len() as u32 / 4).into()
-        }
-        _ => copy.into(),
-    }
+    let len = bytes.len() as u32;
+    let typed: js_sys::Object = match kind {
+        Gl::FLOAT => js_sys::Float32Array::new_with_byte_offset_and_length(&buffer, 0, len / 4).into(),
+        Gl::HALF_FLOAT => js_sys::Uint16Array::new_with_byte_offset_and_length(&buffer, 0, len / 2).into(),
+        Gl::UNSIGNED_INT => js_sys::Uint32Array::new_with_byte_offset_and_length(&buffer, 0, len / 4).into(),
+        _ => copy.clone().into(),
+    };
+    (typed, copy)
 }
 
 /// A texture's GL image (`None` for the canvas's own framebuffer).
@@ -534,7 +533,8 @@ pub(super) struct VertexBuffer {
 #[derive(Debug)]
 pub(super) struct PipelineInner {
     pub ctx: u32,
-    /// Its program (`None`: the context was lost).
+    /// Its program (`None`: its stages were not translated, reported when it was made, or the
+    /// context was lost: it draws nothing).
     pub program: Option<u32>,
     /// Vertex buffer layouts by slot.
     pub buffers: Vec<Option<VertexBuffer>>,
@@ -542,8 +542,6 @@ pub(super) struct PipelineInner {
     pub depth: Option<wgpu::DepthStencilState>,
     pub targets: Vec<Option<wgpu::ColorTargetState>>,
     pub groups: Vec<Option<Arc<Vec<wgpu::BindGroupLayoutEntry>>>>,
-    /// Its stages could not be found (reported when it was made): it draws nothing.
-    pub failed: bool,
 }
 
 impl Drop for PipelineInner {

@@ -86,26 +86,14 @@ pub(super) fn check(c: &mut Context, id: u32) -> Result<(), String> {
     gl.use_program(Some(program));
     for stage in std::iter::once(vertex).chain(fragment) {
         for &(name, group, binding) in stage.uniforms {
-            let slot = match uniforms.iter().position(|&u| u == (group, binding)) {
-                Some(i) => i,
-                None => {
-                    uniforms.push((group, binding));
-                    uniforms.len() - 1
-                }
-            };
+            let slot = slot_of(&mut uniforms, (group, binding));
             let index = gl.get_uniform_block_index(program, name);
             if index != Gl::INVALID_INDEX {
                 gl.uniform_block_binding(program, index, slot as u32);
             }
         }
         for &(name, texture, sampler) in stage.textures {
-            let unit = match textures.iter().position(|&t| t == (texture, sampler)) {
-                Some(i) => i,
-                None => {
-                    textures.push((texture, sampler));
-                    textures.len() - 1
-                }
-            };
+            let unit = slot_of(&mut textures, (texture, sampler));
             if let Some(location) = gl.get_uniform_location(program, name) {
                 gl.uniform1i(Some(&location), unit as i32);
             }
@@ -115,4 +103,16 @@ pub(super) fn check(c: &mut Context, id: u32) -> Result<(), String> {
     p.uniforms = uniforms;
     p.textures = textures;
     Ok(())
+}
+
+/// The index of `item` in `slots`, added at the end if new: a resource both stages read gets one
+/// binding point (one uniform block binding, one texture unit).
+fn slot_of<T: PartialEq>(slots: &mut Vec<T>, item: T) -> usize {
+    match slots.iter().position(|s| *s == item) {
+        Some(i) => i,
+        None => {
+            slots.push(item);
+            slots.len() - 1
+        }
+    }
 }

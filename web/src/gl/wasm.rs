@@ -436,7 +436,6 @@ impl DeviceInterface for Device {
                         depth: None,
                         targets: Vec::new(),
                         groups: Vec::new(),
-                        failed: true,
                     }),
                 });
             }
@@ -466,7 +465,6 @@ impl DeviceInterface for Device {
                 depth: desc.depth_stencil.clone(),
                 targets: desc.fragment.as_ref().map(|f| f.targets.to_vec()).unwrap_or_default(),
                 groups,
-                failed: false,
             }),
         })
     }
@@ -691,7 +689,7 @@ impl QueueInterface for Queue {
                     size.height as i32,
                     format,
                     kind,
-                    Some(&resources::texel_array(kind, data)),
+                    Some(&resources::texel_array(kind, data).0),
                 )
             };
             let _ = result;
@@ -745,7 +743,7 @@ impl QueueInterface for Queue {
         for buffer in command_buffers {
             if let Some(b) = buffer.as_custom::<commands::CommandBuffer>() {
                 let list = b.commands.lock().map(|mut c| std::mem::take(&mut *c)).unwrap_or_default();
-                commands::execute(self.ctx.0, list, &self.errors);
+                commands::execute(self.ctx.0, &list, &self.errors);
             }
         }
         self.submissions

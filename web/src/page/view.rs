@@ -448,14 +448,12 @@ impl View {
                     }
                 }
             }
-            Output::Copy { .. } => gpu.gl.as_ref().and_then(|gl| {
-                self.fit_gl_canvas(size);
-                match gl.surface.get_current_texture() {
-                    wgpu::CurrentSurfaceTexture::Success(f) | wgpu::CurrentSurfaceTexture::Suboptimal(f) => Some(f),
-                    other => {
-                        log::warn!("kloub: no WebGL2 surface texture this frame ({other:?})");
-                        None
-                    }
+            // The page's WebGL2 canvas was placed and sized for this frame (`fit_gl_canvas`).
+            Output::Copy { .. } => gpu.gl.as_ref().and_then(|gl| match gl.surface.get_current_texture() {
+                wgpu::CurrentSurfaceTexture::Success(f) | wgpu::CurrentSurfaceTexture::Suboptimal(f) => Some(f),
+                other => {
+                    log::warn!("kloub: no WebGL2 surface texture this frame ({other:?})");
+                    None
                 }
             }),
         };
