@@ -1928,12 +1928,20 @@ for (const backend of BACKENDS) test(`${backend}: <kloub-viewer>: camera-orbit a
   const wheel = async () => {
     const d = (await camera())[2];
     await page.mouse.move(200, 150);
-    // The element has seen the wheel (its canvas's listener ran before this one): the next frame applies it.
-    const seen = page.evaluate(() => new Promise((r) => document.querySelector('kloub-viewer').addEventListener('wheel', () => r(), { once: true })));
+    // The element has seen the wheel (its canvas's listener ran before this one): the next frame applies it. The
+    // frame count is taken inside the listener, before any frame could draw it (read afterwards, a frame drawn for
+    // the wheel itself could already be counted, and nothing would ask for another: a timeout under load).
+    const seen = page.evaluate(() => new Promise((r) => {
+      const v = document.querySelector('kloub-viewer');
+      v.addEventListener('wheel', () => {
+        const f = Number(v.dataset.frames);
+        // A real change (the same value again asks for nothing), so a frame comes after the wheel whatever it did.
+        v.setAttribute('grid', v.getAttribute('grid') === 'false' ? 'true' : 'false');
+        r(f);
+      }, { once: true });
+    }));
     await page.mouse.wheel(0, -400);
-    await seen;
-    const f = await page.evaluate(() => Number(document.querySelector('kloub-viewer').dataset.frames));
-    await page.evaluate(() => document.querySelector('kloub-viewer').setAttribute('grid', 'false'));
+    const f = await seen;
     await page.waitForFunction((f) => Number(document.querySelector('kloub-viewer').dataset.frames) > f, f, { timeout: 30000 });
     return [d, (await camera())[2]];
   };
