@@ -64,6 +64,13 @@ const MATERIAL_METALLIC_ROUGHNESS_TEXTURE: u32 = 8u;
 const MATERIAL_NORMAL_TEXTURE: u32 = 16u;
 const MATERIAL_OCCLUSION_TEXTURE: u32 = 32u;
 const MATERIAL_EMISSIVE_TEXTURE: u32 = 64u;
+// Pipeline-overridable specialisation of fs_main (a CPU rasterizer such as SwiftShader runs
+// every branch of a shader, taken or not): TEXTURES holds the optional textures compiled in
+// (the material flags above shifted down by 3: metallic-roughness 1, normal 2, occlusion 4,
+// emissive 8), ENVIRONMENT which ambient light is (1: the prefiltered environment, 0: the
+// hemisphere). The defaults compile everything and read the material's flags and the frame.
+override TEXTURES: u32 = 15u;
+override ENVIRONMENT: u32 = 2u;
 // Texture slots (the index of each one's transform, the bit of its texCoord set).
 const TEX_BASE: u32 = 0u;
 const TEX_METALLIC_ROUGHNESS: u32 = 1u;
@@ -349,23 +356,24 @@ fn fs_main(in: VsOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f
     let flags = material.flags.x;
     let texel = textureSample(base_texture, base_sampler, texture_uv(TEX_BASE, in));
     var metallic_roughness = vec4<f32>(1.0);
-    if (flags & MATERIAL_METALLIC_ROUGHNESS_TEXTURE) != 0u {
+    if (TEXTURES & (MATERIAL_METALLIC_ROUGHNESS_TEXTURE >> 3u)) != 0u && (flags & MATERIAL_METALLIC_ROUGHNESS_TEXTURE) != 0u {
         metallic_roughness = textureSample(metallic_roughness_texture, metallic_roughness_sampler, texture_uv(TEX_METALLIC_ROUGHNESS, in));
     }
     let normal_uv = texture_uv(TEX_NORMAL, in);
     let duvx = dpdx(normal_uv);
     let duvy = dpdy(normal_uv);
     var normal_texel = vec4<f32>(0.5, 0.5, 1.0, 1.0);
-    if (flags & MATERIAL_NORMAL_TEXTURE) != 0u {
+    let normal_mapped = (TEXTURES & (MATERIAL_NORMAL_TEXTURE >> 3u)) != 0u && (flags & MATERIAL_NORMAL_TEXTURE) != 0u;
+    if normal_mapped {
         normal_texel = textureSample(normal_texture, normal_sampler, normal_uv);
     }
     var occlusion = 1.0;
-    if (flags & MATERIAL_OCCLUSION_TEXTURE) != 0u {
+    if (TEXTURES & (MATERIAL_OCCLUSION_TEXTURE >> 3u)) != 0u && (flags & MATERIAL_OCCLUSION_TEXTURE) != 0u {
         let ao = textureSample(occlusion_texture, occlusion_sampler, texture_uv(TEX_OCCLUSION, in)).r;
         occlusion = 1.0 + material.pbr.w * (ao - 1.0);
     }
     var emissive = material.emissive.rgb;
-    if (flags & MATERIAL_EMISSIVE_TEXTURE) != 0u {
+    if (TEXTURES & (MATERIAL_EMISSIVE_TEXTURE >> 3u)) != 0u && (flags & MATERIAL_EMISSIVE_TEXTURE) != 0u {
         emissive *= textureSample(emissive_texture, emissive_sampler, texture_uv(TEX_EMISSIVE, in)).rgb;
     }
 
@@ -374,7 +382,7 @@ fn fs_main(in: VsOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f
     // A perfectly smooth surface's highlight would be a point no pixel hits (and GGX divides by
     // zero there): roughness stays at or above MIN_ROUGHNESS, as three.js and Filament keep it.
     var roughness = clamp(material.pbr.y * metallic_roughness.g, MIN_ROUGHNESS, 1.0);
-    let heatmap = (draw.params.y & DRAW_HEATMAP) != 0u;
+    let heatmap = HEATMAP != 0u && (draw.params.y & DRAW_HEATMAP) != 0u;
     if heatmap {
         color = vec4<f32>(in.color.rgb, 1.0);
         metallic = 0.0;
@@ -418,7 +426,7 @@ fn fs_main(in: VsOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f
     if (flags & MATERIAL_UNLIT) != 0u {
         return scene_output(vec4<f32>(tone_map(color.rgb), color.a));
     }
-    if (flags & MATERIAL_NORMAL_TEXTURE) != 0u && !heatmap {
+    if normal_mapped && !heatmap {
         let t = normal_texel.xyz * 2.0 - 1.0;
         let scaled = vec3<f32>(t.xy * material.pbr.z, t.z);
         // The vertex's tangent frame where the primitive has tangents (and normals: glTF ignores
@@ -447,7 +455,7 @@ fn fs_main(in: VsOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f
     let alpha = roughness * roughness;
     let radiance = frame.light_color.rgb * frame.light_dir.w;
     var rgb = direct_light(n, v, frame.light_dir.xyz, c_diff, f0, alpha, radiance);
-    if frame.environment.z > 0.0 {
+    if ENVIRONMENT == 1u || (ENVIRONMENT == 2u && frame.environment.z > 0.0) {
         rgb += environment_light(n, v, color.rgb, metallic, roughness) * occlusion;
     } else {
         // Without an environment (a device that cannot prefilter one), the hemisphere: diffuse

@@ -16,7 +16,8 @@
 //! pitch. `"examples"` gives example poses for `"skinning": "sjbbe"`: `"procedural"` (the candy
 //! wrapper's own) or a sidecar file in the case's folder; they are drawn as the viewer draws
 //! them (morph targets weighted by α). `"rotate": {"JOINT": [x, y, z, w]}` holds joints' local
-//! rotations after the clip. On failure `tests/out/<case>/actual.png` and `diff.png` are written. A missing
+//! rotations after the clip. `"ibl": false` draws as on a device that cannot prefilter an
+//! environment (the hemisphere lights the meshes instead). On failure `tests/out/<case>/actual.png` and `diff.png` are written. A missing
 //! `expected.png` is written and the test fails; `KLOUB_BLESS=1` rewrites every
 //! `expected.png` and passes.
 
@@ -31,7 +32,7 @@ use kloub_web::render::offscreen::Offscreen;
 use kloub_web::render::{Camera, SkinningPath};
 
 /// Cases that must exist (so deleting a folder cannot make the suite pass).
-const REQUIRED_CASES: [&str; 10] = [
+const REQUIRED_CASES: [&str; 11] = [
     "cesiumman_t0.5",
     "riggedsimple_t1.0",
     "texture_transform",
@@ -42,6 +43,7 @@ const REQUIRED_CASES: [&str; 10] = [
     "candy_sjbbe_bend90",
     "candy_sjbbe_bend45",
     "cesiumman_sjbbe_elbow",
+    "pbr_sphere_grid_hemisphere",
 ];
 
 /// `"model"` of the procedural candy-wrapper rig ([`CandyWrapper`]).
@@ -210,6 +212,9 @@ fn run_case(offscreen: &Offscreen, dir: &Path, bless: bool) -> Option<String> {
         t.write_weights(&mut instance, method == SkinningMethod::SphericalJointBlendByExample).expect("α");
     }
     let mut renderer = offscreen.scene_renderer(&asset).unwrap_or_else(|e| panic!("{name}: uploading: {e}"));
+    if manifest.get("ibl").and_then(|v| v.as_bool()) == Some(false) {
+        renderer.set_ibl_supported(false);
+    }
     let actual = offscreen
         .render(&mut renderer, &asset, &mut instance, &camera, width, height)
         .unwrap_or_else(|e| panic!("{name}: rendering: {e}"));

@@ -77,7 +77,8 @@ mod glsl {
 
     /// Every override constant the shaders declare and how many values it takes (0 to n − 1):
     /// the renderer specialises its pipelines with these (`render::pipelines`).
-    const OVERRIDES: [(&str, u32); 4] = [("SRGB_ENCODE", 2), ("SKIN_METHOD", 5), ("HEATMAP", 2), ("TANGENTS", 2)];
+    const OVERRIDES: [(&str, u32); 6] =
+        [("SRGB_ENCODE", 2), ("SKIN_METHOD", 5), ("HEATMAP", 2), ("TANGENTS", 2), ("TEXTURES", 16), ("ENVIRONMENT", 3)];
 
     /// A group and binding.
     type Binding = (u32, u32);
@@ -129,7 +130,6 @@ mod glsl {
                     (oname, default, count)
                 })
                 .collect();
-            let combos: u32 = overrides.iter().map(|o| o.2).product();
             let _ =
                 write!(modules, "    GlModule {{ name: {name:?}, hash: 0x{:016x}, overrides: &[", source_hash(&source));
             for (oname, default, count) in &overrides {
@@ -142,16 +142,38 @@ mod glsl {
                     naga::ShaderStage::Fragment => "Fragment",
                     _ => continue,
                 };
+                // The constants this entry point depends on: those whose value changes its GLSL (an
+                // entry is translated for every combination of its own constants only: fs_main's
+                // material textures do not multiply the vertex shaders).
+                let at = |values: &[u32]| {
+                    let mut constants = naga::back::PipelineConstants::default();
+                    for ((oname, _, _), value) in overrides.iter().zip(values) {
+                        constants.insert(oname.clone(), f64::from(*value));
+                    }
+                    translate(&module, &info, ep.stage, &ep.name, &constants)
+                        .unwrap_or_else(|e| panic!("{name} {}: {e}", ep.name))
+                };
+                let defaults: Vec<u32> = overrides.iter().map(|o| o.1).collect();
+                let plain = at(&defaults);
+                let used: Vec<usize> = (0..overrides.len())
+                    .filter(|&i| {
+                        (0..overrides[i].2).filter(|&v| v != defaults[i]).any(|v| {
+                            let mut values = defaults.clone();
+                            values[i] = v;
+                            at(&values).glsl != plain.glsl
+                        })
+                    })
+                    .collect();
+                let combos: u32 = used.iter().map(|&i| overrides[i].2).product();
                 let mut variants = Vec::new();
                 for combo in 0..combos {
-                    let mut constants = naga::back::PipelineConstants::default();
+                    let mut values = defaults.clone();
                     let mut rest = combo;
-                    for (oname, _, count) in &overrides {
-                        constants.insert(oname.clone(), f64::from(rest % count));
-                        rest /= count;
+                    for &i in &used {
+                        values[i] = rest % overrides[i].2;
+                        rest /= overrides[i].2;
                     }
-                    let stage_entry = translate(&module, &info, ep.stage, &ep.name, &constants, &mut texts)
-                        .unwrap_or_else(|e| panic!("{name} {}: {e}", ep.name));
+                    let stage_entry = intern(at(&values), &mut texts);
                     let index = match stages.iter().position(|s| *s == stage_entry) {
                         Some(i) => i,
                         None => {
@@ -163,7 +185,7 @@ mod glsl {
                 }
                 let _ = writeln!(
                     modules,
-                    "        GlEntry {{ name: {:?}, stage: GlStageKind::{stage}, variants: &{variants:?} }},",
+                    "        GlEntry {{ name: {:?}, stage: GlStageKind::{stage}, overrides: &{used:?}, variants: &{variants:?} }},",
                     ep.name
                 );
             }
@@ -212,14 +234,34 @@ mod glsl {
         std::fs::write(path, rust).expect("writing gl_shaders.rs");
     }
 
+    /// A stage as translated: its GLSL and resources.
+    struct Translated {
+        glsl: String,
+        uniforms: Vec<(String, u32, u32)>,
+        textures: Vec<(String, Binding, Option<Binding>)>,
+        varyings: Vec<(String, u32)>,
+    }
+
+    /// `translated` with its text stored once in `texts`.
+    fn intern(translated: Translated, texts: &mut Vec<String>) -> Stage {
+        let Translated { glsl, uniforms, textures, varyings } = translated;
+        let text = match texts.iter().position(|t| *t == glsl) {
+            Some(i) => i,
+            None => {
+                texts.push(glsl);
+                texts.len() - 1
+            }
+        };
+        Stage { text, uniforms, textures, varyings }
+    }
+
     fn translate(
         module: &naga::Module,
         info: &naga::valid::ModuleInfo,
         stage: naga::ShaderStage,
         entry: &str,
         constants: &naga::back::PipelineConstants,
-        texts: &mut Vec<String>,
-    ) -> Result<Stage, String> {
+    ) -> Result<Translated, String> {
         let (module, info) =
             naga::back::pipeline_constants::process_overrides(module, info, Some((stage, entry)), constants)
                 .map_err(|e| format!("{e:?}"))?;
@@ -273,13 +315,6 @@ mod glsl {
         textures.sort();
         let mut varyings: Vec<_> = reflection.varying.iter().map(|(n, l)| (n.clone(), l.location)).collect();
         varyings.sort();
-        let text = match texts.iter().position(|t| *t == glsl) {
-            Some(i) => i,
-            None => {
-                texts.push(glsl);
-                texts.len() - 1
-            }
-        };
-        Ok(Stage { text, uniforms, textures, varyings })
+        Ok(Translated { glsl, uniforms, textures, varyings })
     }
 }

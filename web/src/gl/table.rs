@@ -21,11 +21,13 @@ pub(super) struct GlModule {
     pub entries: &'static [GlEntry],
 }
 
-/// An entry point: its stage for every combination of the module's override constants (the
-/// first constant varies fastest).
+/// An entry point: the module's override constants it depends on (indices into
+/// [`GlModule::overrides`]; the others leave its GLSL unchanged), and its stage for every
+/// combination of them (the first varies fastest).
 pub(super) struct GlEntry {
     pub name: &'static str,
     pub stage: GlStageKind,
+    pub overrides: &'static [usize],
     pub variants: &'static [usize],
 }
 
@@ -72,17 +74,22 @@ pub(super) fn stage(
         }
     }
     .ok_or_else(|| format!("{}: no {kind:?} entry point {entry:?}", m.name))?;
-    for (name, _) in constants {
-        if !m.overrides.iter().any(|(o, _, _)| o == name) {
+    // Every constant given must be one the module declares, with a value the build translated
+    // (also those this entry point does not depend on).
+    for &(name, v) in constants {
+        let Some(&(_, _, count)) = m.overrides.iter().find(|(o, _, _)| *o == name) else {
             return Err(format!("{}: no override constant {name}", m.name));
+        };
+        if !(v >= 0.0 && v < f64::from(count) && v.fract() == 0.0) {
+            return Err(format!("{}: {name} = {v} was not translated (0 to {})", m.name, count - 1));
         }
     }
     let mut index = 0usize;
     let mut scale = 1usize;
-    for &(name, default, count) in m.overrides {
+    for &o in entry.overrides {
+        let &(name, default, count) = m.overrides.get(o).ok_or("no such override constant")?;
         let value = match constants.iter().find(|(n, _)| *n == name) {
-            Some(&(_, v)) if v >= 0.0 && v < f64::from(count) && v.fract() == 0.0 => v as usize,
-            Some(&(_, v)) => return Err(format!("{}: {name} = {v} was not translated (0 to {})", m.name, count - 1)),
+            Some(&(_, v)) => v as usize,
             None => default as usize,
         };
         index += value * scale;
@@ -115,7 +122,8 @@ mod tests {
     fn values(name: &str) -> Vec<f64> {
         match name {
             "SKIN_METHOD" => (0..=SKIN_FROM_DRAW).map(f64::from).collect(),
-            "HEATMAP" | "TANGENTS" | "SRGB_ENCODE" => vec![0.0, 1.0],
+            "HEATMAP" | "TANGENTS" | "SRGB_ENCODE" | "ENVIRONMENT" => vec![0.0, 1.0],
+            "TEXTURES" => (0..16).map(f64::from).collect(),
             other => panic!("override {other}: the renderer's values are not known to this test (nor to web/build.rs)"),
         }
     }
@@ -149,9 +157,13 @@ mod tests {
                     }
                     combos = next;
                 }
+                let mut checked = std::collections::HashSet::new();
                 for constants in &combos {
                     let stage = stage(index, Some(&ep.name), kind, constants)
                         .unwrap_or_else(|e| panic!("{name} {} {constants:?}: {e}", ep.name));
+                    if !checked.insert(stage.text) {
+                        continue;
+                    }
                     let glsl = text(stage);
                     assert!(glsl.starts_with("#version 300 es\n"), "{name} {}", ep.name);
                     if kind == GlStageKind::Vertex {

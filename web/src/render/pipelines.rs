@@ -261,6 +261,18 @@ pub struct PipelineKey {
     /// The tangent stream compiled in (`TANGENTS` in skinning.wgsl): a normal-mapped primitive
     /// with tangents. Without, the vertex shader neither fetches nor transforms them.
     pub tangents: bool,
+    /// The material's optional textures compiled into the fragment shader (`TEXTURES` in
+    /// mesh.wgsl: metallic-roughness 1, normal 2, occlusion 4, emissive 8; [`texture_bits`]).
+    pub textures: u8,
+    /// The ambient light compiled in (`ENVIRONMENT` in mesh.wgsl): the prefiltered environment,
+    /// or the hemisphere where the frame has none.
+    pub ibl: bool,
+}
+
+/// [`PipelineKey::textures`] of a material's uniform flags (`MATERIAL_*_TEXTURE` in mesh.wgsl,
+/// from bit 3).
+pub fn texture_bits(material_flags: u32) -> u8 {
+    ((material_flags >> 3) & 15) as u8
 }
 
 impl PipelineKey {
@@ -274,6 +286,8 @@ impl PipelineKey {
             caster: true,
             mask,
             tangents: false,
+            textures: 0,
+            ibl: false,
             ..self
         })
     }
@@ -643,7 +657,15 @@ impl Pipelines {
         };
         let vertex =
             wgpu::VertexState { module: &self.mesh_module, entry_point: Some(entry), compilation_options, buffers };
-        let output = output_constants(self.format);
+        // The fragment shader compiles only the material's textures and the frame's kind of
+        // ambient light (`TEXTURES`, `ENVIRONMENT` in mesh.wgsl), and the heatmap where drawn.
+        let [srgb] = output_constants(self.format);
+        let fragment_constants = [
+            srgb,
+            ("TEXTURES", f64::from(key.textures & 15)),
+            ("ENVIRONMENT", f64::from(u8::from(key.ibl))),
+            ("HEATMAP", f64::from(u8::from(key.heatmap))),
+        ];
         let targets = color_target(self.format, key.blend);
         let descriptor = if key.caster {
             wgpu::RenderPipelineDescriptor {
@@ -685,7 +707,10 @@ impl Pipelines {
                 fragment: Some(wgpu::FragmentState {
                     module: &self.mesh_module,
                     entry_point: Some("fs_main"),
-                    compilation_options: wgpu::PipelineCompilationOptions { constants: &output, ..Default::default() },
+                    compilation_options: wgpu::PipelineCompilationOptions {
+                        constants: &fragment_constants,
+                        ..Default::default()
+                    },
                     targets: &targets,
                 }),
                 multiview_mask: None,

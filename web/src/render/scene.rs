@@ -211,6 +211,8 @@ struct DrawItem {
     double_sided: bool,
     /// The material has a normal texture (only then are tangents read).
     normal_mapped: bool,
+    /// The material's optional textures ([`super::pipelines::texture_bits`]).
+    textures: u8,
     morphed: bool,
     /// Where the morph targets are on the GPU (`None`: not morphed, or morphed on the CPU).
     morph: Option<MorphSlot>,
@@ -817,6 +819,9 @@ impl SceneRenderer {
                     mask: material.is_some_and(|m| matches!(m.alpha, AlphaMode::Mask(_))),
                     double_sided: material.is_some_and(|m| m.double_sided),
                     normal_mapped: material.is_some_and(|m| m.normal_texture.is_some()),
+                    textures: material.map_or(0, |m| {
+                        super::pipelines::texture_bits(super::uniforms::MaterialUniform::new(m).flags[0])
+                    }),
                     morphed: !primitive.targets.is_empty(),
                     deformed: Vec::new(),
                     deformed_tangents: Vec::new(),
@@ -1131,6 +1136,9 @@ impl SceneRenderer {
                 path,
                 self.compute.as_ref(),
                 self.heatmap,
+                // The frame's ambient light, as the frame uniform says it (its intensity 0: the
+                // hemisphere): the draws' pipelines compile that one only.
+                environment.intensity > 0.0,
                 self.draw_stride,
                 &mut self.scratch,
             )?;
@@ -1552,6 +1560,7 @@ impl GpuScene {
         path: SkinningPath,
         kit: Option<&ComputeKit>,
         heatmap: Option<f32>,
+        ibl: bool,
         stride: u64,
         scratch: &mut Scratch,
     ) -> Result<(), String> {
@@ -1757,6 +1766,8 @@ impl GpuScene {
                     caster: false,
                     mask: false,
                     tangents: gpu.has_tangents && draw.normal_mapped,
+                    textures: draw.textures,
+                    ibl,
                 });
                 if draw.blend {
                     let (min, max) = source.bounds;

@@ -75,6 +75,8 @@ impl SceneRenderer {
             SkinningPath::Compute,
             Some(kit),
             None,
+            // No colour is drawn: the draws' pipeline keys are made again by the next frame.
+            false,
             self.draw_stride,
             &mut self.scratch,
         )?;
@@ -128,6 +130,8 @@ impl SceneRenderer {
             SkinningPath::Gpu,
             None,
             None,
+            // No colour is drawn: the draws' pipeline keys are made again by the next frame.
+            false,
             self.draw_stride,
             &mut self.scratch,
         )?;
