@@ -345,6 +345,10 @@ impl Stage {
         log::info!("kloub: rendering with {backend} ({:?})", gpu.adapter.get_info().name);
         let mut scene = new_scene(&gpu, config.share);
         scene.set_ibl_supported(crate::render::environment::supports_ibl(&gpu.adapter));
+        if config.model_url.is_some() {
+            // Compiled while the model downloads or imports (shared by the page's viewers).
+            scene.warm_pipelines(&gpu.device);
+        }
         let mut stage = Self {
             gpu,
             backend,

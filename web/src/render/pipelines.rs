@@ -564,6 +564,19 @@ impl Pipelines {
         Some(env)
     }
 
+    /// Builds now the fixed pipelines a viewer's first frame draws with by default: the
+    /// prefiltering kit (`supported` as for [`Pipelines::ibl`]), the ground shadow's mask and
+    /// quad, and the colour textures' mip maker. The browser then compiles them while the page
+    /// imports and uploads its first model, instead of when the frame first draws with each (on
+    /// WebGL2 the first draw of a program waits for its compile). What a default viewer does
+    /// not draw (background, grid, data textures' mips) stays built on first use.
+    pub fn warm(&self, device: &wgpu::Device, supported: bool) {
+        let _ = self.ibl(device, supported);
+        let _ = self.shadow_mask(device);
+        let _ = self.ground_shadow(device);
+        let _ = self.mip_maker(device, true);
+    }
+
     /// The ground shadow's pipeline (blended quad, no depth writes), built on first use.
     pub fn ground_shadow(&self, device: &wgpu::Device) -> &wgpu::RenderPipeline {
         self.first_use.shadow.get_or_init(|| {

@@ -981,6 +981,12 @@ impl SceneRenderer {
         self.look
     }
 
+    /// Builds the fixed pipelines a first frame draws with ([`Pipelines::warm`]), for a viewer
+    /// about to load its first model.
+    pub fn warm_pipelines(&self, device: &wgpu::Device) {
+        self.pipelines.warm(device, self.ibl_supported);
+    }
+
     /// Whether [`SkinningPath::Compute`] is available on this device.
     pub fn supports_compute(&self) -> bool {
         self.compute.is_some()
