@@ -174,6 +174,12 @@ fn fs_shadow(in: GridOut) -> @location(0) vec4<f32> {
     return scene_output(vec4<f32>(0.0, 0.0, 0.0, alpha));
 }
 
+/// One tap of the shadow map: 0 where the map's depth at `uv + offset` is nearer the light than
+/// `depth`, 1 where not (a hardware 2×2 comparison).
+fn shadow_tap(uv: vec2<f32>, offset: vec2<f32>, depth: f32) -> f32 {
+    return textureSampleCompareLevel(shadow_map, shadow_sampler, uv + offset, depth);
+}
+
 /// How much of the key light is blocked at a texel of the mask (0..1), faded out at the rim.
 @fragment
 fn fs_shadow_mask(in: GridOut) -> @location(0) vec4<f32> {
@@ -182,36 +188,28 @@ fn fs_shadow_mask(in: GridOut) -> @location(0) vec4<f32> {
     // The ground itself casts nothing: what is above it in the map is a little nearer the light.
     let depth = light.z - 0.002;
     // A Poisson disc of 16 taps, each a hardware 2×2 comparison; the first four lie near its edge,
-    // one each way.
-    var taps = array<vec2<f32>, 16>(
-        vec2<f32>(-0.94201624, -0.39906216),
-        vec2<f32>(0.94558609, -0.76890725),
-        vec2<f32>(-0.24188840, 0.99706507),
-        vec2<f32>(0.44323325, -0.97511554),
-        vec2<f32>(-0.91588581, 0.45771432),
-        vec2<f32>(-0.81544232, -0.87912464),
-        vec2<f32>(-0.38277543, 0.27676845),
-        vec2<f32>(0.97484398, 0.75648379),
-        vec2<f32>(-0.09418410, -0.92938870),
-        vec2<f32>(0.53742981, -0.47373420),
-        vec2<f32>(-0.26496911, -0.41893023),
-        vec2<f32>(0.79197514, 0.19090188),
-        vec2<f32>(0.34495938, 0.29387760),
-        vec2<f32>(-0.81409955, 0.91437590),
-        vec2<f32>(0.19984126, 0.78641367),
-        vec2<f32>(0.14383161, -0.14100790),
-    );
-    let radius = shadow.params.y * shadow.params.z;
+    // one each way. Written out tap by tap: a local array indexed in a loop is built per pixel
+    // and read by a gather on a CPU rasterizer (SwiftShader), which cost more than the taps.
+    let r = shadow.params.y * shadow.params.z;
     // Four taps at the disc's edge first: where they agree (most of the quad: wholly lit or
     // wholly shadowed) the other twelve would too.
-    var lit = 0.0;
-    for (var i = 0u; i < 4u; i += 1u) {
-        lit += textureSampleCompareLevel(shadow_map, shadow_sampler, uv + taps[i] * radius, depth);
-    }
+    var lit = shadow_tap(uv, vec2<f32>(-0.94201624, -0.39906216) * r, depth)
+        + shadow_tap(uv, vec2<f32>(0.94558609, -0.76890725) * r, depth)
+        + shadow_tap(uv, vec2<f32>(-0.24188840, 0.99706507) * r, depth)
+        + shadow_tap(uv, vec2<f32>(0.44323325, -0.97511554) * r, depth);
     if lit > 0.0 && lit < 4.0 {
-        for (var i = 4u; i < 16u; i += 1u) {
-            lit += textureSampleCompareLevel(shadow_map, shadow_sampler, uv + taps[i] * radius, depth);
-        }
+        lit += shadow_tap(uv, vec2<f32>(-0.91588581, 0.45771432) * r, depth)
+            + shadow_tap(uv, vec2<f32>(-0.81544232, -0.87912464) * r, depth)
+            + shadow_tap(uv, vec2<f32>(-0.38277543, 0.27676845) * r, depth)
+            + shadow_tap(uv, vec2<f32>(0.97484398, 0.75648379) * r, depth)
+            + shadow_tap(uv, vec2<f32>(-0.09418410, -0.92938870) * r, depth)
+            + shadow_tap(uv, vec2<f32>(0.53742981, -0.47373420) * r, depth)
+            + shadow_tap(uv, vec2<f32>(-0.26496911, -0.41893023) * r, depth)
+            + shadow_tap(uv, vec2<f32>(0.79197514, 0.19090188) * r, depth)
+            + shadow_tap(uv, vec2<f32>(0.34495938, 0.29387760) * r, depth)
+            + shadow_tap(uv, vec2<f32>(-0.81409955, 0.91437590) * r, depth)
+            + shadow_tap(uv, vec2<f32>(0.19984126, 0.78641367) * r, depth)
+            + shadow_tap(uv, vec2<f32>(0.14383161, -0.14100790) * r, depth);
         lit /= 16.0;
     } else {
         lit /= 4.0;
