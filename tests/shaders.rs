@@ -41,8 +41,10 @@ fn translate_for_webgl2(module: &naga::Module, info: &ModuleInfo) -> Result<(), 
     };
     // Every specialisation the renderer builds: the overrides' defaults, each skinning method
     // with and without the heatmap and the tangent stream (`PipelineKey` in
-    // web/src/render/pipelines.rs), and the
-    // fragment shaders encoding sRGB themselves (`SRGB_ENCODE`, the WebGL2 canvas).
+    // web/src/render/pipelines.rs), the
+    // fragment shaders encoding sRGB themselves (`SRGB_ENCODE`, the WebGL2 canvas), and the mesh
+    // fragment shader for each set of optional textures and each kind of ambient light
+    // (`TEXTURES`, `ENVIRONMENT`).
     let has = |name: &str| module.overrides.iter().any(|(_, o)| o.name.as_deref() == Some(name));
     let specialised = has("SKIN_METHOD");
     let mut variants = vec![naga::back::PipelineConstants::default()];
@@ -50,6 +52,17 @@ fn translate_for_webgl2(module: &naga::Module, info: &ModuleInfo) -> Result<(), 
         let mut constants = naga::back::PipelineConstants::default();
         constants.insert("SRGB_ENCODE".to_owned(), 1.0);
         variants.push(constants);
+    }
+    if has("TEXTURES") {
+        for textures in 0..16 {
+            for environment in 0..2 {
+                let mut constants = naga::back::PipelineConstants::default();
+                constants.insert("TEXTURES".to_owned(), f64::from(textures));
+                constants.insert("ENVIRONMENT".to_owned(), f64::from(environment));
+                constants.insert("HEATMAP".to_owned(), 0.0);
+                variants.push(constants);
+            }
+        }
     }
     if specialised {
         for method in 0..5 {

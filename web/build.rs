@@ -142,9 +142,9 @@ mod glsl {
                     naga::ShaderStage::Fragment => "Fragment",
                     _ => continue,
                 };
-                // The constants this entry point depends on: those whose value changes its GLSL (an
-                // entry is translated for every combination of its own constants only: fs_main's
-                // material textures do not multiply the vertex shaders).
+                // The constants this entry point depends on: those its code, or a function it calls,
+                // refers to (an entry is translated for every combination of its own constants only:
+                // fs_main's material textures do not multiply the vertex shaders).
                 let at = |values: &[u32]| {
                     let mut constants = naga::back::PipelineConstants::default();
                     for ((oname, _, _), value) in overrides.iter().zip(values) {
@@ -154,15 +154,13 @@ mod glsl {
                         .unwrap_or_else(|e| panic!("{name} {}: {e}", ep.name))
                 };
                 let defaults: Vec<u32> = overrides.iter().map(|o| o.1).collect();
-                let plain = at(&defaults);
-                let used: Vec<usize> = (0..overrides.len())
-                    .filter(|&i| {
-                        (0..overrides[i].2).filter(|&v| v != defaults[i]).any(|v| {
-                            let mut values = defaults.clone();
-                            values[i] = v;
-                            at(&values).glsl != plain.glsl
-                        })
-                    })
+                let read = overrides_read(&module, ep);
+                let used: Vec<usize> = module
+                    .overrides
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, (handle, _))| read.contains(handle))
+                    .map(|(i, _)| i)
                     .collect();
                 let combos: u32 = used.iter().map(|&i| overrides[i].2).product();
                 let mut variants = Vec::new();
@@ -232,6 +230,56 @@ mod glsl {
         rust.push_str("];\n");
         let _ = writeln!(rust, "pub static GL_MODULES: [GlModule; {count}] = [\n{modules}];");
         std::fs::write(path, rust).expect("writing gl_shaders.rs");
+    }
+
+    /// The override constants entry point `ep` refers to, in its own code or in a function it
+    /// calls (directly or not). Only these can change its GLSL.
+    fn overrides_read(
+        module: &naga::Module,
+        ep: &naga::EntryPoint,
+    ) -> std::collections::HashSet<naga::Handle<naga::Override>> {
+        let mut read = std::collections::HashSet::new();
+        let mut seen = std::collections::HashSet::new();
+        let mut stack = vec![&ep.function];
+        while let Some(function) = stack.pop() {
+            let mut calls = Vec::new();
+            for (_, expression) in function.expressions.iter() {
+                match *expression {
+                    naga::Expression::Override(o) => {
+                        read.insert(o);
+                    }
+                    naga::Expression::CallResult(f) => calls.push(f),
+                    _ => {}
+                }
+            }
+            calls_in(&function.body, &mut calls);
+            for f in calls {
+                if seen.insert(f) {
+                    stack.push(&module.functions[f]);
+                }
+            }
+        }
+        read
+    }
+
+    /// Every function `block` calls (nested blocks included).
+    fn calls_in(block: &naga::Block, calls: &mut Vec<naga::Handle<naga::Function>>) {
+        for statement in block.iter() {
+            match statement {
+                naga::Statement::Block(b) => calls_in(b, calls),
+                naga::Statement::If { accept, reject, .. } => {
+                    calls_in(accept, calls);
+                    calls_in(reject, calls);
+                }
+                naga::Statement::Switch { cases, .. } => cases.iter().for_each(|c| calls_in(&c.body, calls)),
+                naga::Statement::Loop { body, continuing, .. } => {
+                    calls_in(body, calls);
+                    calls_in(continuing, calls);
+                }
+                naga::Statement::Call { function, .. } => calls.push(*function),
+                _ => {}
+            }
+        }
     }
 
     /// A stage as translated: its GLSL and resources.
