@@ -1010,28 +1010,13 @@ fn read_pixels(
     if let Ok(mut memory) = dst.memory.lock()
         && let Some(out) = memory.get_mut(layout.offset as usize..end)
     {
+        let (x, y, width, height) = (origin[0] as i32, y as i32, w as i32, h as i32);
         if kind == Gl::UNSIGNED_BYTE {
-            let _ = gl.read_pixels_with_opt_u8_array(
-                origin[0] as i32,
-                y as i32,
-                w as i32,
-                h as i32,
-                format,
-                kind,
-                Some(out),
-            );
+            let _ = gl.read_pixels_with_opt_u8_array(x, y, width, height, format, kind, Some(out));
         } else {
             // WebGL2 reads float and integer texels only into the matching typed array.
             let (array, bytes) = super::resources::texel_array(kind, out);
-            let _ = gl.read_pixels_with_opt_array_buffer_view(
-                origin[0] as i32,
-                y as i32,
-                w as i32,
-                h as i32,
-                format,
-                kind,
-                Some(&array),
-            );
+            let _ = gl.read_pixels_with_opt_array_buffer_view(x, y, width, height, format, kind, Some(&array));
             bytes.copy_to(out);
         }
         if src.texture.surface {

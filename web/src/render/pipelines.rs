@@ -262,17 +262,11 @@ pub struct PipelineKey {
     /// with tangents. Without, the vertex shader neither fetches nor transforms them.
     pub tangents: bool,
     /// The material's optional textures compiled into the fragment shader (`TEXTURES` in
-    /// mesh.wgsl: metallic-roughness 1, normal 2, occlusion 4, emissive 8; [`texture_bits`]).
+    /// mesh.wgsl; [`super::uniforms::optional_textures`]).
     pub textures: u8,
     /// The ambient light compiled in (`ENVIRONMENT` in mesh.wgsl): the prefiltered environment,
     /// or the hemisphere where the frame has none.
     pub ibl: bool,
-}
-
-/// [`PipelineKey::textures`] of a material's uniform flags (`MATERIAL_*_TEXTURE` in mesh.wgsl,
-/// from bit 3).
-pub fn texture_bits(material_flags: u32) -> u8 {
-    ((material_flags >> 3) & 15) as u8
 }
 
 impl PipelineKey {

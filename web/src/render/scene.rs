@@ -211,7 +211,7 @@ struct DrawItem {
     double_sided: bool,
     /// The material has a normal texture (only then are tangents read).
     normal_mapped: bool,
-    /// The material's optional textures ([`super::pipelines::texture_bits`]).
+    /// The material's optional textures ([`super::uniforms::optional_textures`]).
     textures: u8,
     morphed: bool,
     /// Where the morph targets are on the GPU (`None`: not morphed, or morphed on the CPU).
@@ -819,9 +819,7 @@ impl SceneRenderer {
                     mask: material.is_some_and(|m| matches!(m.alpha, AlphaMode::Mask(_))),
                     double_sided: material.is_some_and(|m| m.double_sided),
                     normal_mapped: material.is_some_and(|m| m.normal_texture.is_some()),
-                    textures: material.map_or(0, |m| {
-                        super::pipelines::texture_bits(super::uniforms::MaterialUniform::new(m).flags[0])
-                    }),
+                    textures: material.map_or(0, super::uniforms::optional_textures),
                     morphed: !primitive.targets.is_empty(),
                     deformed: Vec::new(),
                     deformed_tangents: Vec::new(),

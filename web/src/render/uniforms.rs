@@ -474,6 +474,14 @@ const MATERIAL_ALPHA_BLEND: u32 = 4;
 /// textures' flags follow it (one bit per texture slot after the base colour's).
 const MATERIAL_METALLIC_ROUGHNESS_TEXTURE: u32 = 8;
 
+/// Which optional textures `material` has, a bit each after the base colour's: metallic-roughness
+/// 1, normal 2, occlusion 4, emissive 8. Shifted up by 3 they are its uniform's
+/// `MATERIAL_*_TEXTURE` flags; as they are, the textures its pipelines compile in (`TEXTURES` in
+/// mesh.wgsl, [`super::pipelines::PipelineKey::textures`]).
+pub fn optional_textures(material: &Material) -> u8 {
+    material.textures().iter().skip(1).enumerate().fold(0, |bits, (i, t)| bits | (u8::from(t.is_some()) << i))
+}
+
 impl MaterialUniform {
     /// The uniform of a glTF material.
     pub fn new(material: &Material) -> Self {
@@ -491,15 +499,11 @@ impl MaterialUniform {
             let m = texture.map(|t| t.transform.matrix()).unwrap_or(glam::Mat3::IDENTITY);
             uv[2 * slot] = [m.x_axis.x, m.x_axis.y, m.y_axis.x, m.y_axis.y];
             uv[2 * slot + 1] = [m.z_axis.x, m.z_axis.y, 0.0, 0.0];
-            if let Some(t) = texture {
-                if slot > 0 {
-                    flags |= MATERIAL_METALLIC_ROUGHNESS_TEXTURE << (slot - 1);
-                }
-                if t.tex_coord == 1 {
-                    sets |= 1 << slot;
-                }
+            if texture.is_some_and(|t| t.tex_coord == 1) {
+                sets |= 1 << slot;
             }
         }
+        flags |= u32::from(optional_textures(material)) * MATERIAL_METALLIC_ROUGHNESS_TEXTURE;
         let e = material.emissive.map(|c| c * material.emissive_strength);
         Self {
             base_color: material.base_color,
