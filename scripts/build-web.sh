@@ -68,6 +68,11 @@ validator=node_modules/gltf-validator
 cmp -s "$validator/gltf_validator.dart.js" "$DIST/gltf-validator.js" || cp "$validator/gltf_validator.dart.js" "$DIST/gltf-validator.js"
 cmp -s "$validator/LICENSE" "$DIST/gltf-validator.LICENSE.txt" || cp "$validator/LICENSE" "$DIST/gltf-validator.LICENSE.txt"
 cmp -s "$validator/NOTICES" "$DIST/gltf-validator.NOTICES.txt" || cp "$validator/NOTICES" "$DIST/gltf-validator.NOTICES.txt"
+# The environment photographs (web/environments, CC0), fetched beside the module when a viewer first lights with one.
+mkdir -p "$DIST/environments"
+for f in web/environments/studio.hdr web/environments/outdoor.hdr web/environments/LICENSE.md; do
+  install_if_changed "$f" "$DIST/environments"
+done
 rm -f "$DIST/boot.js" "$DIST"/boot.js.*
 # web/dist is an npm-ready package: `npm pack web/dist` (or `npm run pack`) gives kloub-viewer-<version>.tgz.
 version=$(node -p "require('./package.json').version")
@@ -82,7 +87,7 @@ cat > "$DIST/package.json.new" <<JSON
   "module": "./kloub-viewer.js",
   "types": "./kloub-viewer.d.ts",
   "exports": { ".": { "types": "./kloub-viewer.d.ts", "default": "./kloub-viewer.js" }, "./kloub_web_bg.wasm": "./kloub_web_bg.wasm", "./kloub_widget_bg.wasm": "./kloub_widget_bg.wasm", "./kloub_widget_gl_bg.wasm": "./kloub_widget_gl_bg.wasm", "./kloub_codecs_bg.wasm": "./kloub_codecs_bg.wasm" },
-  "files": ["kloub-viewer.js", "kloub-viewer.d.ts", "hash-state.js", "accessibility.js", "validator-worker.js", "gltf-validator.js", "gltf-validator.LICENSE.txt", "gltf-validator.NOTICES.txt", "kloub_web.js", "kloub_web_bg.wasm", "kloub_widget.js", "kloub_widget_bg.wasm", "kloub_widget_gl.js", "kloub_widget_gl_bg.wasm", "kloub_codecs.js", "kloub_codecs_bg.wasm"],
+  "files": ["kloub-viewer.js", "kloub-viewer.d.ts", "hash-state.js", "accessibility.js", "validator-worker.js", "gltf-validator.js", "gltf-validator.LICENSE.txt", "gltf-validator.NOTICES.txt", "kloub_web.js", "kloub_web_bg.wasm", "kloub_widget.js", "kloub_widget_bg.wasm", "kloub_widget_gl.js", "kloub_widget_gl_bg.wasm", "kloub_codecs.js", "kloub_codecs_bg.wasm", "environments/studio.hdr", "environments/outdoor.hdr", "environments/LICENSE.md"],
   "sideEffects": ["./kloub-viewer.js"]
 }
 JSON
@@ -95,7 +100,7 @@ import { join } from 'node:path';
 import zlib from 'node:zlib';
 const [dist, quality] = process.argv.slice(2);
 const C = zlib.constants;
-for (const name of ['index.html', 'app.js', 'hash-state.js', 'accessibility.js', 'validator-worker.js', 'gltf-validator.js', 'kloub-viewer.js', 'embed.html', 'embed.js', 'style.css', 'kloub_web.js', 'kloub_web_bg.wasm', 'kloub_widget.js', 'kloub_widget_bg.wasm', 'kloub_widget_gl.js', 'kloub_widget_gl_bg.wasm', 'kloub_codecs.js', 'kloub_codecs_bg.wasm']) {
+for (const name of ['index.html', 'app.js', 'hash-state.js', 'accessibility.js', 'validator-worker.js', 'gltf-validator.js', 'kloub-viewer.js', 'embed.html', 'embed.js', 'style.css', 'kloub_web.js', 'kloub_web_bg.wasm', 'kloub_widget.js', 'kloub_widget_bg.wasm', 'kloub_widget_gl.js', 'kloub_widget_gl_bg.wasm', 'kloub_codecs.js', 'kloub_codecs_bg.wasm', 'environments/studio.hdr', 'environments/outdoor.hdr']) {
   const file = join(dist, name);
   if (!existsSync(file)) continue;
   const mtime = statSync(file).mtimeMs;

@@ -17,7 +17,8 @@
 //! wrapper's own) or a sidecar file in the case's folder; they are drawn as the viewer draws
 //! them (morph targets weighted by α). `"rotate": {"JOINT": [x, y, z, w]}` holds joints' local
 //! rotations after the clip. `"ibl": false` draws as on a device that cannot prefilter an
-//! environment (the hemisphere lights the meshes instead). On failure `tests/out/<case>/actual.png` and `diff.png` are written. A missing
+//! environment (the hemisphere lights the meshes instead); `"environment"` names the one that
+//! lights them (`environment-image`'s names; absent: the lighting preset's own). On failure `tests/out/<case>/actual.png` and `diff.png` are written. A missing
 //! `expected.png` is written and the test fails; `KLOUB_BLESS=1` rewrites every
 //! `expected.png` and passes.
 
@@ -32,8 +33,9 @@ use kloub_web::render::offscreen::Offscreen;
 use kloub_web::render::{Camera, SkinningPath};
 
 /// Cases that must exist (so deleting a folder cannot make the suite pass).
-const REQUIRED_CASES: [&str; 11] = [
+const REQUIRED_CASES: [&str; 12] = [
     "cesiumman_t0.5",
+    "pbr_sphere_grid_studio_photo",
     "riggedsimple_t1.0",
     "texture_transform",
     "candy_rigid_twist150",
@@ -214,6 +216,12 @@ fn run_case(offscreen: &Offscreen, dir: &Path, bless: bool) -> Option<String> {
     let mut renderer = offscreen.scene_renderer(&asset).unwrap_or_else(|e| panic!("{name}: uploading: {e}"));
     if manifest.get("ibl").and_then(|v| v.as_bool()) == Some(false) {
         renderer.set_ibl_supported(false);
+    }
+    if let Some(environment) = manifest.get("environment").and_then(|v| v.as_str()) {
+        use kloub_web::render::environment::EnvironmentName;
+        use kloub_web::render::uniforms::{EnvironmentChoice, Look};
+        let name = EnvironmentName::from_name(environment).unwrap_or_else(|e| panic!("{name}: {e}"));
+        renderer.set_look(Look { environment: EnvironmentChoice::Named(name), ..renderer.look() });
     }
     let actual = offscreen
         .render(&mut renderer, &asset, &mut instance, &camera, width, height)

@@ -20,7 +20,7 @@ use std::path::{Path, PathBuf};
 use image::RgbaImage;
 use kloub_core::import::NoResolver;
 use kloub_core::{Asset, ImportOptions, Instance};
-use kloub_web::render::environment::EnvironmentName;
+use kloub_web::render::environment::Procedural;
 use kloub_web::render::offscreen::Offscreen;
 use kloub_web::render::uniforms::{Background, EnvironmentLight, FrameUniform, Ground, Look};
 use kloub_web::render::{Camera, SceneRenderer};
@@ -154,7 +154,7 @@ fn check_or_write(path: &Path, bytes: &[u8], bless: bool, stale: &mut Vec<String
 /// The studio environment as a file three.js reads the way Kloub reads an `.hdr` (its u = 0.5
 /// looks along +X where Kloub's looks along −Z: `HdrImage::to_three_layout`).
 fn environment_for_three() -> Vec<u8> {
-    let image = EnvironmentName::Studio.image().to_three_layout();
+    let image = Procedural::Studio.image().to_three_layout();
     kloub_tests::write_hdr(image.width, image.height, &image.rgb)
 }
 

@@ -201,9 +201,10 @@ export declare class KloubViewer extends HTMLElement {
   grid: boolean;
   /** Attribute `exposure` (model-viewer's): 0 to 64, 1 when absent or invalid. */
   exposure: number;
-  /** Attribute `environment-image` (model-viewer's): `neutral`, `studio`, `outdoor` or the URL of a Radiance .hdr
-   *  image (up to 2048×1024 pixels); `''` for the lighting preset's own. A file that cannot be read is an `error`
-   *  event and the light before it stays. */
+  /** Attribute `environment-image` (model-viewer's): `neutral` (made in code), `studio` or `outdoor` (photographs
+   *  fetched from `environments/` beside the module when first used), or the URL of a Radiance .hdr image (up to
+   *  2048×1024 pixels); `''` for the lighting preset's own. A file that cannot be fetched or read is an `error` event
+   *  and the light before it stays. */
   environmentImage: string;
   /** Attribute `shadow-intensity` (model-viewer's): the ground shadow's darkness, 0 (none) to 1; 0.6 when absent. */
   shadowIntensity: number;

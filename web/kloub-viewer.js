@@ -72,10 +72,23 @@ function loadRuntime() {
     const [module, glue] = await Promise.all([compileBuild(build), GLUE[build](instance)]);
     await glue.default({ module_or_path: module });
     glue.setPanicHandler(onPanic);
-    glue.setPrefetch(takePrefetch, takeImages, loadCodecs);
+    glue.setPrefetch(takePrefetch, takeImages, loadCodecs, loadEnvironment);
     return glue;
   })();
   return runtime;
+}
+
+/**
+ * An environment photograph (`environment-image="studio"` or `"outdoor"`: web/environments), fetched from beside
+ * this module when a viewer first lights with it; the module keeps it for the page's other viewers.
+ */
+async function loadEnvironment(file) {
+  const url = new URL(`./environments/${file}`, import.meta.url);
+  const response = await fetch(url).catch((e) => { throw new Error(`${url}: ${e instanceof Error ? e.message : e}`); });
+  if (!response.ok) throw new Error(`${url}: HTTP ${response.status}`);
+  const bytes = new Uint8Array(await response.arrayBuffer());
+  if (bytes.length > MAX_HDR_BYTES) throw new Error(`${url}: ${bytes.length} bytes: at most ${MAX_HDR_BYTES} are read`);
+  return bytes;
 }
 
 let codecs = null;
@@ -443,7 +456,7 @@ function unitAttribute(value, fallback) {
   const x = value === null || value.trim() === '' ? NaN : Number(value);
   return Number.isFinite(x) && x >= 0 && x <= 1 ? x : fallback;
 }
-/** The environments made in code (`environment-image` names); anything else is the URL of an .hdr image. */
+/** The environments Kloub ships (`environment-image` names); anything else is the URL of an .hdr image. */
 const ENVIRONMENTS = ['neutral', 'studio', 'outdoor'];
 /** The largest .hdr file fetched for `environment-image` (2048×1024 pixels uncompressed is 8 MiB). */
 const MAX_HDR_BYTES = 16 << 20;
@@ -1525,6 +1538,8 @@ class KloubViewer extends HTMLElement {
       viewer.setEnvironment(value);
       return;
     }
+    // A photograph still on its way is no longer wanted: the light stays as it is until this image is in.
+    viewer.dropPendingEnvironment();
     const report = (message) => {
       const text = `environment-image: ${value}: ${message}`;
       console.warn(`kloub: ${text}`);
@@ -1753,7 +1768,12 @@ class KloubViewer extends HTMLElement {
     const viewer = this.#require();
     const done = new Promise((resolve, reject) => {
       const ok = (e) => { off(); resolve(e.detail.name); };
-      const bad = (e) => { off(); reject(new Error(e.detail.message)); };
+      const bad = (e) => {
+        // An environment that could not be had is not the model's error: the load goes on.
+        if (String(e.detail?.message).startsWith('environment-image:')) return;
+        off();
+        reject(new Error(e.detail.message));
+      };
       const off = () => { this.removeEventListener('load', ok); this.removeEventListener('error', bad); };
       this.addEventListener('load', ok);
       this.addEventListener('error', bad);

@@ -446,6 +446,7 @@ impl App {
             overlays: self.stage.overlays,
             look: self.stage.scene.look(),
             has_environment_image: self.stage.scene.has_environment_image(),
+            environment_loading: self.stage.environment_wanted,
             library_shown: self.stage.library.as_ref().and_then(|l| l.shown),
             samples: &self.stage.samples,
             shown_sample: self

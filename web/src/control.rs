@@ -148,6 +148,9 @@ pub enum Command {
         crate::render::uniforms::EnvironmentChoice,
         Option<std::sync::Arc<crate::render::environment::HdrImage>>,
     ),
+    /// Forgets an environment photograph still being fetched (the page fetches an image
+    /// instead); the light stays as it is.
+    DropPendingEnvironment,
     /// The environment's turn about +Y, radians (kept across models).
     SetEnvironmentRotation(f32),
     /// The ground shadow's intensity and softness, 0 to 1 each (kept across models).
@@ -300,6 +303,11 @@ impl Wake {
     pub fn egui(ctx: &egui::Context) -> Self {
         let ctx = ctx.clone();
         Self::new(move || ctx.request_repaint())
+    }
+
+    /// Whether `other` is this very waker (a clone of it).
+    pub fn same(&self, other: &Wake) -> bool {
+        Rc::ptr_eq(&self.0, &other.0)
     }
 
     /// Asks for a frame.

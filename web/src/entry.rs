@@ -605,15 +605,19 @@ impl Viewer {
         Ok(())
     }
 
+    /// Forgets an environment photograph the viewer is still waiting for (the page fetches an
+    /// image instead): the light stays as it is.
+    #[wasm_bindgen(js_name = dropPendingEnvironment)]
+    pub fn drop_pending_environment(&self) {
+        self.controls.send_global(Command::DropPendingEnvironment);
+    }
+
     /// Lights the meshes with a Radiance `.hdr` file's equirectangular image (up to 2048 × 1024
     /// pixels; larger ones are refused).
     #[wasm_bindgen(js_name = setEnvironmentImage)]
     pub fn set_environment_image(&self, bytes: &[u8]) -> Result<(), JsValue> {
-        let image = crate::render::environment::parse_hdr(bytes, crate::render::environment::MAX_HDR_PIXELS)
-            .and_then(|image| image.check_equirectangular().map(|()| image))
-            .map_err(|e| range_error(format!("environment image: {e}")))?
-            .from_three_layout()
-            .fitted();
+        let image = crate::render::environment::read_environment(bytes)
+            .map_err(|e| range_error(format!("environment image: {e}")))?;
         let choice = crate::render::uniforms::EnvironmentChoice::Image;
         self.controls.send_global(Command::SetEnvironment(choice, Some(std::sync::Arc::new(image))));
         Ok(())
@@ -1033,21 +1037,26 @@ pub fn set_panic_handler(handler: Option<js_sys::Function>) {
 /// Hands the element's prefetches to the module: `take(url)` gives a download started before the
 /// module was ready, `images(url)` the images of a GLB the browser decoded meanwhile
 /// ([`crate::prefetch`]); `codecs()` a promise of the codecs module, which the widget builds
-/// load when a file needs a Draco decoder or a zip reader ([`crate::codecs`]).
+/// load when a file needs a Draco decoder or a zip reader ([`crate::codecs`]);
+/// `environment(file)` a promise of the bytes of an environment photograph beside the module
+/// ([`crate::photos`]).
 #[wasm_bindgen(js_name = setPrefetch)]
 pub fn set_prefetch(
     take: Option<js_sys::Function>,
     images: Option<js_sys::Function>,
     codecs: Option<js_sys::Function>,
+    environment: Option<js_sys::Function>,
 ) {
     crate::prefetch::set_hooks(take, images);
     crate::codecs::set_loader(codecs);
+    crate::photos::set_loader(environment);
 }
 
 /// For tests: panics inside the module (as a bug would), so recovery can be checked.
 /// Test hook: what the page's viewers share, as JSON: per model URL the downloads started and
 /// the imports done, the assets uploaded to a GPU, the pipeline kits and named environments built, the decoded
-/// models still shown, and the images decoded while the module loaded.
+/// models still shown, the images decoded while the module loaded, the codecs module's loads and the
+/// environment photographs' fetches (studio, outdoor).
 #[wasm_bindgen(js_name = _testCounters)]
 pub fn test_counters() -> String {
     let models: serde_json::Map<String, serde_json::Value> = crate::shared::counts()
@@ -1063,6 +1072,7 @@ pub fn test_counters() -> String {
         "liveUploads": crate::render::scene::live_uploads(),
         "predecoded": crate::decode::predecoded(),
         "codecLoads": crate::codecs::loads(),
+        "environmentFetches": crate::photos::fetches(),
     })
     .to_string()
 }

@@ -33,6 +33,7 @@ pub mod model;
 #[cfg(feature = "full")]
 pub mod overlay;
 pub mod page;
+pub mod photos;
 #[cfg(feature = "full")]
 pub mod pose;
 #[cfg(target_arch = "wasm32")]

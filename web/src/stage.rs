@@ -286,6 +286,9 @@ pub struct Stage {
     pub(crate) exposure_text: String,
     /// `data-shadow`, written when the shadow changes.
     pub(crate) shadow_text: String,
+    /// A photograph chosen to light with ([`crate::photos`]) whose file is still on its way:
+    /// the light stays as it was (and `data-environment` says so) until it is in.
+    pub(crate) environment_wanted: Option<crate::render::environment::EnvironmentName>,
 }
 
 /// `data-shadow`'s text: `intensity,softness`.
@@ -389,6 +392,7 @@ impl Stage {
             reported_progress: -1.0,
             exposure_text: exposure_name(1.0),
             shadow_text: shadow_name(crate::render::uniforms::DEFAULT_SHADOW_INTENSITY, 1.0),
+            environment_wanted: None,
         };
         stage.controls.set_repaint(wake.clone());
         stage.controls.set_supports_compute(stage.scene.supports_compute());
@@ -542,8 +546,10 @@ impl Stage {
         self.transition
     }
 
-    /// Imports and installs every delivery that arrived since the last frame.
+    /// Imports and installs every delivery that arrived since the last frame (and lights with a
+    /// photograph that came).
     pub(crate) fn receive(&mut self) {
+        self.receive_environment();
         // A large delivery is held for one frame so the "Parsing…" bar is painted before the
         // import blocks the frame; small ones are imported at once.
         // Models whose images the browser has decoded since, in the order they came.
@@ -857,6 +863,39 @@ impl Stage {
             model.evaluate()?;
         }
         Ok(())
+    }
+
+    /// Lights with the photograph [`Stage::environment_wanted`] names once it is in; reports
+    /// why not if its fetch failed (the light before it stays).
+    fn receive_environment(&mut self) {
+        use crate::render::environment::Builtin;
+        let Some(name) = self.environment_wanted else {
+            return;
+        };
+        let Builtin::Photo(photo) = name.builtin() else {
+            return;
+        };
+        match crate::photos::poll(photo, self.controls.waker()) {
+            Ok(false) => {}
+            Ok(true) => {
+                self.environment_wanted = None;
+                let environment = crate::render::uniforms::EnvironmentChoice::Named(name);
+                self.scene.set_look(crate::render::uniforms::Look { environment, ..self.scene.look() });
+                self.controls.wake();
+            }
+            Err(message) => {
+                self.environment_wanted = None;
+                self.environment_failed(name, &message);
+            }
+        }
+    }
+
+    /// A photograph that could not be had: an `error` event (the model, its status and the
+    /// light stay as they were).
+    pub(crate) fn environment_failed(&mut self, name: crate::render::environment::EnvironmentName, message: &str) {
+        let message = format!("environment-image: {}: {message}", name.name());
+        log::warn!("kloub: {message}");
+        self.dataset.host().emit("error", &message);
     }
 
     pub(crate) fn fail(&mut self, message: String) {

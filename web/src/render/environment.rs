@@ -47,9 +47,114 @@ pub struct HdrImage {
     pub rgb: Vec<[f32; 3]>,
 }
 
-/// The environments made in code (`environment-image`'s names).
+/// The environments a page names (`environment-image`, model-viewer's attribute): `neutral` is
+/// made in code, `studio` and `outdoor` are photographs ([`Photo`]) the page fetches when one is
+/// first chosen.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum EnvironmentName {
+    /// A light grey room with soft ceiling panels ([`Procedural::Neutral`]).
+    #[default]
+    Neutral,
+    /// A photographer's studio ([`Photo::Studio`]).
+    Studio,
+    /// A city square under an overcast sky ([`Photo::Outdoor`]).
+    Outdoor,
+}
+
+impl EnvironmentName {
+    /// The names a page may use, in menu order.
+    pub const ALL: [EnvironmentName; 3] = [EnvironmentName::Neutral, EnvironmentName::Studio, EnvironmentName::Outdoor];
+
+    /// The page name: `neutral`, `studio`, `outdoor`.
+    pub fn name(self) -> &'static str {
+        match self {
+            EnvironmentName::Neutral => "neutral",
+            EnvironmentName::Studio => "studio",
+            EnvironmentName::Outdoor => "outdoor",
+        }
+    }
+
+    /// The environment named `name`.
+    ///
+    /// # Errors
+    /// A message naming the accepted names.
+    pub fn from_name(name: &str) -> Result<Self, String> {
+        Self::ALL.into_iter().find(|e| e.name() == name).ok_or_else(|| {
+            format!("environment {name:?}: expected \"neutral\", \"studio\", \"outdoor\" or the URL of an .hdr image")
+        })
+    }
+
+    /// What it is made from.
+    pub fn builtin(self) -> Builtin {
+        match self {
+            EnvironmentName::Neutral => Builtin::Procedural(Procedural::Neutral),
+            EnvironmentName::Studio => Builtin::Photo(Photo::Studio),
+            EnvironmentName::Outdoor => Builtin::Photo(Photo::Outdoor),
+        }
+    }
+}
+
+/// An environment the viewer ships: made in code, or a photograph.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Builtin {
+    /// Made in code ([`Procedural::image`]).
+    Procedural(Procedural),
+    /// A photograph (`web/environments/`: [`crate::photos`]).
+    Photo(Photo),
+}
+
+impl Builtin {
+    /// A name for messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            Builtin::Procedural(p) => p.name(),
+            Builtin::Photo(p) => p.name(),
+        }
+    }
+}
+
+/// The photographs the viewer ships (`web/environments/`, Poly Haven, CC0): small Radiance files
+/// (256 × 128) the page fetches from beside its module when a viewer first lights with one, and
+/// the native build embeds ([`crate::photos`]). Read like any `.hdr` the page gives
+/// ([`HdrImage::from_three_layout`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Photo {
+    /// Poly Haven's "Studio Small 03": a white studio, softboxes either side.
+    Studio,
+    /// Poly Haven's "Potsdamer Platz": a city square under an overcast sky.
+    Outdoor,
+}
+
+impl Photo {
+    /// Every photograph.
+    pub const ALL: [Photo; 2] = [Photo::Studio, Photo::Outdoor];
+
+    /// The page name (as [`EnvironmentName::name`]).
+    pub fn name(self) -> &'static str {
+        match self {
+            Photo::Studio => "studio",
+            Photo::Outdoor => "outdoor",
+        }
+    }
+
+    /// The file, in `web/environments/` (and `environments/` beside the page's module).
+    pub fn file(self) -> &'static str {
+        match self {
+            Photo::Studio => "studio.hdr",
+            Photo::Outdoor => "outdoor.hdr",
+        }
+    }
+
+    /// Its index in [`Photo::ALL`].
+    pub fn index(self) -> usize {
+        self as usize
+    }
+}
+
+/// The environments made in code: the lighting presets' own ([`super::uniforms::Lighting`]),
+/// and `neutral`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Procedural {
     /// A light grey room with soft ceiling panels: even light from everywhere, mild
     /// reflections (model-viewer's default look).
     #[default]
@@ -63,28 +168,18 @@ pub enum EnvironmentName {
     Flat,
 }
 
-impl EnvironmentName {
-    /// The names a page may use, in menu order.
-    pub const ALL: [EnvironmentName; 3] = [EnvironmentName::Neutral, EnvironmentName::Studio, EnvironmentName::Outdoor];
+impl Procedural {
+    /// Every one (the tests go over them).
+    pub const ALL: [Procedural; 4] = [Procedural::Neutral, Procedural::Studio, Procedural::Outdoor, Procedural::Flat];
 
-    /// The page name: `neutral`, `studio`, `outdoor` (`flat` is the lighting preset's own).
+    /// A name for messages and tests.
     pub fn name(self) -> &'static str {
         match self {
-            EnvironmentName::Neutral => "neutral",
-            EnvironmentName::Studio => "studio",
-            EnvironmentName::Outdoor => "outdoor",
-            EnvironmentName::Flat => "flat",
+            Procedural::Neutral => "neutral",
+            Procedural::Studio => "studio (made in code)",
+            Procedural::Outdoor => "outdoor (made in code)",
+            Procedural::Flat => "flat",
         }
-    }
-
-    /// The environment named `name`.
-    ///
-    /// # Errors
-    /// A message naming the accepted names.
-    pub fn from_name(name: &str) -> Result<Self, String> {
-        Self::ALL.into_iter().find(|e| e.name() == name).ok_or_else(|| {
-            format!("environment {name:?}: expected \"neutral\", \"studio\", \"outdoor\" or the URL of an .hdr image")
-        })
     }
 
     /// The environment as an image ([`PROCEDURAL_WIDTH`] × half). Made while a page waits for its
@@ -105,7 +200,7 @@ impl EnvironmentName {
             let (st, ct) = (theta.sin(), theta.cos());
             // Away from the lights (and the outdoor sun's glow) a row is one colour: the gradient
             // depends on the height alone, and every light adds exactly 0 there.
-            if self != EnvironmentName::Outdoor && !lights.iter().any(|l| l.reaches_row(st, ct)) {
+            if self != Procedural::Outdoor && !lights.iter().any(|l| l.reaches_row(st, ct)) {
                 let (sp, cp) = columns.first().copied().unwrap_or((0.0, 1.0));
                 let c = self.radiance([st * sp, ct, -st * cp], &lights);
                 rgb.extend(std::iter::repeat_n(c, columns.len()));
@@ -122,29 +217,27 @@ impl EnvironmentName {
     fn soft_boxes(self) -> Vec<SoftBox> {
         let lights: &[([f32; 3], f32)] = match self {
             // Softboxes: key (upper left of the default view), fill (right), rim (behind, above).
-            EnvironmentName::Studio => {
-                &[([-0.45, 0.75, 0.5], 0.22), ([0.85, 0.3, 0.45], 0.25), ([0.25, 0.55, -0.8], 0.18)]
-            }
-            EnvironmentName::Neutral => &[([-0.5, 0.85, 0.2], 0.2), ([0.5, 0.85, -0.2], 0.2), ([0.0, 0.5, 0.86], 0.2)],
-            EnvironmentName::Outdoor | EnvironmentName::Flat => &[],
+            Procedural::Studio => &[([-0.45, 0.75, 0.5], 0.22), ([0.85, 0.3, 0.45], 0.25), ([0.25, 0.55, -0.8], 0.18)],
+            Procedural::Neutral => &[([-0.5, 0.85, 0.2], 0.2), ([0.5, 0.85, -0.2], 0.2), ([0.0, 0.5, 0.86], 0.2)],
+            Procedural::Outdoor | Procedural::Flat => &[],
         };
         lights.iter().map(|&(toward, radius)| SoftBox::new(toward, radius)).collect()
     }
 
-    /// Radiance arriving from direction `d` (unit); `lights`: [`EnvironmentName::soft_boxes`].
+    /// Radiance arriving from direction `d` (unit); `lights`: [`Procedural::soft_boxes`].
     fn radiance(self, d: [f32; 3], lights: &[SoftBox]) -> [f32; 3] {
         let up = d[1] * 0.5 + 0.5;
         let mix = |a: [f32; 3], b: [f32; 3], t: f32| [0, 1, 2].map(|k| a[k] + (b[k] - a[k]) * t);
         let add = |a: [f32; 3], b: [f32; 3], s: f32| [0, 1, 2].map(|k| a[k] + b[k] * s);
         let light = |i: usize| lights.get(i).map_or(0.0, |l| l.at(d));
         match self {
-            EnvironmentName::Studio => {
+            Procedural::Studio => {
                 let mut c = mix([0.15, 0.14, 0.13], [0.3, 0.32, 0.35], smooth(0.35, 0.75, up));
                 c = add(c, [1.0, 0.97, 0.92], 4.0 * light(0));
                 c = add(c, [0.9, 0.95, 1.0], 1.6 * light(1));
                 add(c, [1.0, 1.0, 1.0], 3.0 * light(2))
             }
-            EnvironmentName::Outdoor => {
+            Procedural::Outdoor => {
                 let sky = mix([0.62, 0.68, 0.75], [0.22, 0.36, 0.66], smooth(0.5, 1.0, up));
                 let ground = [0.2, 0.16, 0.11];
                 let mut c = mix(ground, sky, smooth(0.48, 0.52, up));
@@ -154,14 +247,14 @@ impl EnvironmentName {
                 c = add(c, [1.0, 0.9, 0.75], 0.8 * toward.powi(24));
                 c
             }
-            EnvironmentName::Neutral => {
+            Procedural::Neutral => {
                 let mut c = mix([0.3, 0.3, 0.3], [0.55, 0.55, 0.55], smooth(0.3, 0.8, up));
                 for i in 0..3 {
                     c = add(c, [1.0, 1.0, 1.0], 1.5 * light(i));
                 }
                 c
             }
-            EnvironmentName::Flat => mix([0.8; 3], [0.95; 3], up),
+            Procedural::Flat => mix([0.8; 3], [0.95; 3], up),
         }
     }
 }
@@ -453,6 +546,18 @@ pub fn f32_to_f16(x: f32) -> u16 {
     (half + round).min(0x7bff) as u16
 }
 
+/// Reads an environment file as the page's `.hdr` images and the shipped photographs are read:
+/// parsed, checked to be a whole sphere, turned from the usual layout into Kloub's
+/// ([`HdrImage::from_three_layout`]) and averaged down where wide ([`HdrImage::fitted`]).
+///
+/// # Errors
+/// The file is not an equirectangular Radiance image within [`MAX_HDR_PIXELS`].
+pub fn read_environment(bytes: &[u8]) -> Result<HdrImage, String> {
+    let image = parse_hdr(bytes, MAX_HDR_PIXELS)?;
+    image.check_equirectangular()?;
+    Ok(image.from_three_layout().fitted())
+}
+
 /// Reads a Radiance RGBE (`.hdr`) file: the `#?RADIANCE`/`#?RGBE` header, `FORMAT=32-bit_rle_rgbe`,
 /// the `-Y h +X w` resolution line, then flat or run-length-encoded scanlines. The size is
 /// checked against `max_pixels` before anything is allocated.
@@ -557,8 +662,17 @@ mod tests {
     use super::*;
 
     #[test]
+    fn a_file_that_is_not_an_environment_is_refused() {
+        assert!(read_environment(b"not an image").expect_err("refused").contains("Radiance"));
+        // A Radiance file, but square: not a whole sphere.
+        let mut square = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 8 +X 8\n".to_vec();
+        square.extend(std::iter::repeat_n([128u8, 128, 128, 129], 64).flatten());
+        assert!(read_environment(&square).expect_err("refused").contains("twice as wide"));
+    }
+
+    #[test]
     fn procedural_images_are_exactly_the_per_pixel_formula() {
-        for name in EnvironmentName::ALL.into_iter().chain([EnvironmentName::Flat]) {
+        for name in Procedural::ALL {
             let image = name.image();
             let (w, h) = (image.width, image.height);
             let lights = name.soft_boxes();
@@ -592,11 +706,11 @@ mod tests {
         // Runs of equal pixels are converted once: the same halves as pixel by pixel, for the
         // environments made in code (mostly such runs) and an image whose neighbours differ,
         // including -0.0 beside 0.0 and NaNs.
-        let mut mixed = EnvironmentName::Studio.image();
+        let mut mixed = Procedural::Studio.image();
         for (i, p) in mixed.rgb.iter_mut().enumerate().step_by(7) {
             *p = [[0.0, -0.0, f32::NAN], [1e-6, 70000.0, 0.3], [0.0; 3]][i % 3];
         }
-        for image in EnvironmentName::ALL.into_iter().map(EnvironmentName::image).chain([mixed]) {
+        for image in Procedural::ALL.into_iter().map(Procedural::image).chain([mixed]) {
             let each: Vec<u16> =
                 image.rgb.iter().flat_map(|p| [f32_to_f16(p[0]), f32_to_f16(p[1]), f32_to_f16(p[2]), 0x3c00]).collect();
             assert_eq!(image.rgba16f(), each);
@@ -633,7 +747,7 @@ mod tests {
             }
         }
         let mut failures = Vec::new();
-        let images = EnvironmentName::ALL.into_iter().chain([EnvironmentName::Flat]).map(|n| (n.name(), n.image()));
+        let images = Procedural::ALL.into_iter().map(|n| (n.name(), n.image()));
         for (name, image) in images.chain([("bright patch", patch)]) {
             let sh = image.irradiance_sh();
             let mut worst = 0.0f32;
@@ -677,10 +791,10 @@ mod tests {
         let luma = |c: [f32; 3]| 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
         let mut failures = Vec::new();
         for (name, up, down) in [
-            (EnvironmentName::Studio, 0.45, 0.14),
-            (EnvironmentName::Outdoor, 0.45, 0.2),
-            (EnvironmentName::Neutral, 0.62, 0.32),
-            (EnvironmentName::Flat, 0.92, 0.83),
+            (Procedural::Studio, 0.45, 0.14),
+            (Procedural::Outdoor, 0.45, 0.2),
+            (Procedural::Neutral, 0.62, 0.32),
+            (Procedural::Flat, 0.92, 0.83),
         ] {
             let image = name.image();
             let (u, d) = (luma(image.irradiance([0.0, 1.0, 0.0])), luma(image.irradiance([0.0, -1.0, 0.0])));
@@ -744,7 +858,7 @@ mod tests {
 
     #[test]
     fn environments_are_equirectangular_and_turn_to_three_js_layout_and_back() {
-        let image = EnvironmentName::Studio.image();
+        let image = Procedural::Studio.image();
         assert!(image.check_equirectangular().is_ok());
         assert_eq!(image.to_three_layout().from_three_layout(), image);
         // three.js's u = 0.5 looks along +X: Kloub's u = 0.75.

@@ -331,8 +331,9 @@ struct FirstUse {
     mips: [std::sync::OnceLock<super::texture::MipMaker>; 2],
     /// Prefiltering environments (`None` inside: the device cannot).
     ibl: std::sync::OnceLock<Option<super::environment::IblKit>>,
-    /// The environments made in code, prefiltered (each once per device).
-    environments: std::sync::Mutex<HashMap<super::environment::EnvironmentName, super::environment::GpuEnvironment>>,
+    /// The environments Kloub ships (made in code, or photographs), prefiltered (each once per
+    /// device).
+    environments: std::sync::Mutex<HashMap<super::environment::Builtin, super::environment::GpuEnvironment>>,
 }
 
 fn depth_state(compare: wgpu::CompareFunction, write: bool) -> Option<wgpu::DepthStencilState> {
@@ -534,26 +535,29 @@ impl Pipelines {
         self.first_use.ibl.get_or_init(|| super::environment::IblKit::new(device, supported)).as_ref()
     }
 
-    /// The environment `name` prefiltered for this device (made on first use, then shared by
-    /// every viewer of the device); `None` without an [`super::environment::IblKit`].
+    /// The environment `builtin` prefiltered for this device (made on first use, then shared by
+    /// every viewer of the device); `None` without an [`super::environment::IblKit`], or for a
+    /// photograph the page has not fetched yet ([`crate::photos::image`]).
     pub fn named_environment(
         &self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         layout: &wgpu::BindGroupLayout,
         supported: bool,
-        name: super::environment::EnvironmentName,
+        builtin: super::environment::Builtin,
     ) -> Option<super::environment::GpuEnvironment> {
+        use super::environment::Builtin;
         let kit = self.ibl(device, supported)?;
         let mut cache = self.first_use.environments.lock().ok()?;
-        if let Some(env) = cache.get(&name) {
+        if let Some(env) = cache.get(&builtin) {
             return Some(env.clone());
         }
-        let env = kit
-            .environment(device, queue, layout, &name.image())
-            .map_err(|e| log::warn!("kloub: environment {}: {e}", name.name()))
-            .ok()?;
-        cache.insert(name, env.clone());
+        let made = match builtin {
+            Builtin::Procedural(p) => kit.environment(device, queue, layout, &p.image()),
+            Builtin::Photo(p) => kit.environment(device, queue, layout, &*crate::photos::image(p)?),
+        };
+        let env = made.map_err(|e| log::warn!("kloub: environment {}: {e}", builtin.name())).ok()?;
+        cache.insert(builtin, env.clone());
         ENVIRONMENTS_BUILT.with(|n| n.set(n.get() + 1));
         Some(env)
     }

@@ -9,7 +9,7 @@ use kloub_core::asset::{AlphaMode, Asset, Material};
 use super::camera::Camera;
 use kloub_core::job::sjb::SjbPlan;
 
-use super::environment::{EnvironmentName, GpuEnvironment, HdrImage, fallback_environment};
+use super::environment::{Builtin, GpuEnvironment, HdrImage, fallback_environment};
 use super::mesh::{
     GeometryVertex, GpuPrimitive, TANGENT_STRIDE, interleave, pivot_buffer, sanitize_tangent, write_pivots,
 };
@@ -519,7 +519,7 @@ impl ShadowMap {
 /// What an environment on the GPU was made from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum EnvironmentKey {
-    Named(EnvironmentName),
+    Named(Builtin),
     Image(u64),
 }
 
@@ -656,9 +656,9 @@ impl SceneRenderer {
         let (key, intensity) = match self.look.environment {
             EnvironmentChoice::Preset => {
                 let (name, intensity) = self.look.lighting.environment();
-                (Some(EnvironmentKey::Named(name)), intensity)
+                (Some(EnvironmentKey::Named(Builtin::Procedural(name))), intensity)
             }
-            EnvironmentChoice::Named(name) => (Some(EnvironmentKey::Named(name)), 1.0),
+            EnvironmentChoice::Named(name) => (Some(EnvironmentKey::Named(name.builtin())), 1.0),
             EnvironmentChoice::Image => {
                 (self.environment_image.as_ref().map(|(id, _)| EnvironmentKey::Image(*id)), 1.0)
             }

@@ -134,14 +134,14 @@ impl Lighting {
     }
 
     /// The environment this preset lights with, and its intensity.
-    pub fn environment(self) -> (super::environment::EnvironmentName, f32) {
-        use super::environment::EnvironmentName;
+    pub fn environment(self) -> (super::environment::Procedural, f32) {
+        use super::environment::Procedural;
         match self {
-            Lighting::Studio => (EnvironmentName::Studio, 1.0),
-            Lighting::Outdoor => (EnvironmentName::Outdoor, 1.0),
-            Lighting::Flat => (EnvironmentName::Flat, 1.0),
+            Lighting::Studio => (Procedural::Studio, 1.0),
+            Lighting::Outdoor => (Procedural::Outdoor, 1.0),
+            Lighting::Flat => (Procedural::Flat, 1.0),
             // The studio, dimmed to the rim preset's dark hemisphere.
-            Lighting::Rim => (EnvironmentName::Studio, 0.38),
+            Lighting::Rim => (Procedural::Studio, 0.38),
         }
     }
 
@@ -273,7 +273,7 @@ pub enum EnvironmentChoice {
     /// The lighting preset's own ([`Lighting::environment`]).
     #[default]
     Preset,
-    /// One made in code, at intensity 1.
+    /// One of the page's names (made in code, or a photograph), at intensity 1.
     Named(super::environment::EnvironmentName),
     /// The image given to the renderer ([`super::scene::SceneRenderer::set_environment_image`]),
     /// at intensity 1.

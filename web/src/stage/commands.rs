@@ -83,6 +83,23 @@ impl Stage {
                 if image.is_some() {
                     self.scene.set_environment_image(image);
                 }
+                self.environment_wanted = None;
+                // A photograph is fetched on first use: the light changes when it is in.
+                if let crate::render::uniforms::EnvironmentChoice::Named(name) = environment
+                    && let crate::render::environment::Builtin::Photo(photo) = name.builtin()
+                {
+                    match crate::photos::request(photo, self.controls.waker()) {
+                        Ok(true) => {}
+                        Ok(false) => {
+                            self.environment_wanted = Some(name);
+                            return Ok(());
+                        }
+                        Err(message) => {
+                            self.environment_failed(name, &message);
+                            return Ok(());
+                        }
+                    }
+                }
                 self.scene.set_look(crate::render::uniforms::Look { environment, ..self.scene.look() });
                 return Ok(());
             }
@@ -95,6 +112,10 @@ impl Stage {
                     ..self.scene.look()
                 });
                 self.shadow_text = shadow_name(shadow_intensity, shadow_softness);
+                return Ok(());
+            }
+            Command::DropPendingEnvironment => {
+                self.environment_wanted = None;
                 return Ok(());
             }
             Command::SetEnvironmentRotation(angle) => {
@@ -199,6 +220,7 @@ impl Stage {
             | Command::SetExposure(_)
             | Command::SetToneMapping(_)
             | Command::SetEnvironment(..)
+            | Command::DropPendingEnvironment
             | Command::SetEnvironmentRotation(_)
             | Command::SetShadow(..)
             | Command::ShowModel(_) => {}

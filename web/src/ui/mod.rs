@@ -60,6 +60,8 @@ pub struct PanelState<'a> {
     pub look: crate::render::uniforms::Look,
     /// Whether an environment image was given (the environment menu offers it).
     pub has_environment_image: bool,
+    /// The environment photograph being fetched to light with (the light changes when it is in).
+    pub environment_loading: Option<crate::render::environment::EnvironmentName>,
     /// The sample library of the Samples menu.
     pub samples: &'a [crate::samples::SampleEntry],
     /// Which of [`PanelState::samples`] is shown (its credit is drawn under the model's name).

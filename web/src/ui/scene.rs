@@ -212,7 +212,9 @@ pub(super) fn view_panel(ui: &mut egui::Ui, state: &PanelState<'_>, actions: &mu
                 EnvironmentChoice::Named(n) => n.name(),
                 EnvironmentChoice::Image => "image (.hdr)",
             };
-            let mut environment = state.look.environment;
+            // A photograph on its way shows as chosen: choosing what lights the model now cancels it.
+            let current = state.environment_loading.map_or(state.look.environment, EnvironmentChoice::Named);
+            let mut environment = current;
             let shown =
                 egui::ComboBox::from_id_salt("environment").selected_text(label(environment)).show_ui(ui, |ui| {
                     let choices = std::iter::once(EnvironmentChoice::Preset)
@@ -223,8 +225,11 @@ pub(super) fn view_panel(ui: &mut egui::Ui, state: &PanelState<'_>, actions: &mu
                     }
                 });
             super::named_combo(&shown, "Environment");
-            ui.label("environment");
-            if environment != state.look.environment {
+            match state.environment_loading {
+                Some(name) => ui.label(format!("environment (loading {}…)", name.name())),
+                None => ui.label("environment"),
+            };
+            if environment != current {
                 actions.commands.push(Command::SetEnvironment(environment, None));
             }
         });
