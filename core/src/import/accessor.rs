@@ -566,6 +566,16 @@ impl<'a> Accessors<'a> {
         }
         let normalized = a.normalized;
         let mut out = self.allocate::<[f32; N]>(index, a.count, budget)?;
+        let float = |b: &[u8]| f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+        if a.component == Component::F32 && self.dense_elements(a, 4, float, &mut out)? {
+            if finite && let Some((i, e)) = out.iter().enumerate().find(|(_, e)| !e.iter().all(|x| x.is_finite())) {
+                return Err(ImportError::new(
+                    format!("/accessors/{index}"),
+                    format!("element {i} is not finite: {e:?}"),
+                ));
+            }
+            return Ok(out);
+        }
         self.visit(
             index,
             |c, b| c.to_f32(b, normalized),
@@ -583,6 +593,55 @@ impl<'a> Accessors<'a> {
             },
         )?;
         Ok(out)
+    }
+
+    /// The common case of [`Accessors::read_f32`] and [`Accessors::read_u32`] in one go: data in
+    /// a buffer view, not sparse, every element inside the view (checked once, for the last), so
+    /// `out` is filled without a bounds check or a closure call per element (positions, normals,
+    /// UVs, keyframes, indices, joints: the same values [`Accessors::visit`] reads element by
+    /// element). `size`: the component's bytes, which `read` converts. `false`, `out` untouched,
+    /// for anything else (that path then gives the right error where there is one).
+    fn dense_elements<const N: usize, T: Copy + Default>(
+        &self,
+        a: &Accessor,
+        size: usize,
+        read: impl Fn(&[u8]) -> T,
+        out: &mut Vec<[T; N]>,
+    ) -> Result<bool, ImportError> {
+        let (Some(view), None, 1) = (a.view, &a.sparse, a.cols) else {
+            return Ok(false);
+        };
+        if a.components() != N || a.count == 0 || size == 0 {
+            return Ok(false);
+        }
+        let data = self.view_bytes(view)?;
+        let element = size * N;
+        // The bytes from the first element's start to the last one's end.
+        let span = (a.count - 1).checked_mul(a.stride).and_then(|s| s.checked_add(element as u64));
+        let region = span
+            .and_then(|span| a.offset.checked_add(span).map(|end| (a.offset, end)))
+            .and_then(|(start, end)| Some((usize::try_from(start).ok()?, usize::try_from(end).ok()?)))
+            .and_then(|(start, end)| data.get(start..end));
+        let (Some(region), Ok(stride)) = (region, usize::try_from(a.stride)) else {
+            return Ok(false);
+        };
+        if stride < element {
+            return Ok(false);
+        }
+        let convert = |bytes: &[u8]| {
+            let mut e = [T::default(); N];
+            for (v, b) in e.iter_mut().zip(bytes.chunks_exact(size)) {
+                *v = read(b);
+            }
+            e
+        };
+        if stride == element {
+            out.extend(region.chunks_exact(element).map(convert));
+        } else {
+            // Interleaved: each chunk starts an element (the last may stop at its end).
+            out.extend(region.chunks(stride).filter_map(|c| c.get(..element)).map(convert));
+        }
+        Ok(true)
     }
 
     /// Reads any accessor as a flat float array (`count × components`), non-finite values included.
@@ -619,6 +678,15 @@ impl<'a> Accessors<'a> {
             ));
         }
         let mut out = self.allocate::<[u32; N]>(index, a.count, budget)?;
+        let dense = match a.component {
+            Component::U8 => self.dense_elements(a, 1, |b| u32::from(b[0]), &mut out)?,
+            Component::U16 => self.dense_elements(a, 2, |b| u32::from(u16::from_le_bytes([b[0], b[1]])), &mut out)?,
+            Component::U32 => self.dense_elements(a, 4, |b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]), &mut out)?,
+            _ => false,
+        };
+        if dense {
+            return Ok(out);
+        }
         self.visit(
             index,
             |c, b| c.to_u32(b),

@@ -217,6 +217,10 @@ type Influences = (Vec<[u16; 8]>, Vec<[f32; 8]>, Option<u16>);
 fn influences(cx: &mut Cx<'_>, attributes: &Obj, aptr: &str, vertex_count: usize) -> Result<Influences, ImportError> {
     let mut joints: Vec<[u16; 8]> = Vec::new();
     let mut weights: Vec<[f32; 8]> = Vec::new();
+    // The slots the file fills: 4 per set (the others stay 0 and are left alone below, with the
+    // same result as going over all 8: a zero weight adds nothing, divides to zero and points at
+    // joint 0 already).
+    let mut used = 0usize;
     for set in 0..2 {
         let (jname, wname) = (format!("JOINTS_{set}"), format!("WEIGHTS_{set}"));
         let j = opt_index(attributes, &jname, aptr, cx.accessors.len(), "accessor")?;
@@ -240,6 +244,7 @@ fn influences(cx: &mut Cx<'_>, attributes: &Obj, aptr: &str, vertex_count: usize
         let js = cx.accessors.read_u32::<4>(j, &jptr, &["VEC4"], &mut cx.budget)?;
         let ws = cx.accessors.read_f32::<4>(w, &wptr, &["VEC4"], false, &mut cx.budget)?;
         let slots = set * 4..set * 4 + 4;
+        used = slots.end;
         for (v, (jv, wv)) in js.iter().zip(&ws).enumerate() {
             for (k, slot) in slots.clone().enumerate() {
                 // JOINTS are 8 or 16 bits (checked above), so they fit u16.
@@ -251,6 +256,8 @@ fn influences(cx: &mut Cx<'_>, attributes: &Obj, aptr: &str, vertex_count: usize
     let mut repaired = 0usize;
     let mut max_joint: Option<u16> = None;
     for (j, w) in joints.iter_mut().zip(weights.iter_mut()) {
+        let all = w.len();
+        let (j, w) = (&mut j[..used.min(all)], &mut w[..used.min(all)]);
         let mut defect = false;
         for x in w.iter_mut() {
             if !x.is_finite() || *x < 0.0 {
@@ -260,7 +267,10 @@ fn influences(cx: &mut Cx<'_>, attributes: &Obj, aptr: &str, vertex_count: usize
         }
         let sum: f32 = w.iter().sum();
         if sum <= 0.0 || !sum.is_finite() {
-            *w = [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+            w.fill(0.0);
+            if let Some(first) = w.first_mut() {
+                *first = 1.0;
+            }
             defect = true;
         } else {
             defect |= (sum - 1.0).abs() > WEIGHT_SUM_TOLERANCE;

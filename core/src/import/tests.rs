@@ -494,7 +494,14 @@ fn byte_length_bombs_are_refused_before_allocating() {
     let small = ImportOptions { budget_bytes: 32 << 20, ..ImportOptions::default() };
     let e = import(tiny_values.as_bytes(), &NoResolver, &small).expect_err("JSON bomb");
     assert!(e.message.contains("parsed JSON document"), "{e}");
+    // The separators and openers outside strings, plus one; escaped quotes stay inside their string;
+    // long runs outside strings (counted in chunks) and an unterminated string.
     assert_eq!(json_tree_estimate(br#"{"a":"x,[{:"}"#), 13 + 3 * JSON_VALUE_BYTES);
+    assert_eq!(json_tree_estimate(br#"{"a\\":"x\",[{:","b":[1,2]}"#), 27 + 7 * JSON_VALUE_BYTES);
+    assert_eq!(json_tree_estimate(b"{}"), 2 + 2 * JSON_VALUE_BYTES);
+    let long = format!("[{}]", "1,".repeat(1000) + "1");
+    assert_eq!(json_tree_estimate(long.as_bytes()), long.len() as u64 + 1002 * JSON_VALUE_BYTES);
+    assert_eq!(json_tree_estimate(br#"[1,"a,b"#), 7 + 3 * JSON_VALUE_BYTES);
     // A small budget refuses the JSON itself.
     let tiny = ImportOptions { budget_bytes: 1000, ..ImportOptions::default() };
     assert!(import(&glb_of(&doc, &bin), &NoResolver, &tiny).is_err());
