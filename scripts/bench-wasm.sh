@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The per-frame animation benchmark compiled to wasm32 (release) and run in Node through
+# The per-frame animation benchmark compiled to wasm32 with the web build's profile (wasm-release: what ships) and run in Node through
 # wasm-bindgen-test-runner: core/tests/wasm_frame.rs (µs per character per frame) and
 # core/tests/wasm_skin.rs (CPU skinning vertices/s per method). Prints Markdown tables.
 # Needs tests/assets (compiled in) and the runner from scripts/setup.sh.
@@ -7,4 +7,4 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUSTFLAGS="${CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUSTFLAGS:--C target-feature=+simd128}" \
   CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUNNER="${CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUNNER:-wasm-bindgen-test-runner}" \
-  cargo test --release -p kloub-core --target wasm32-unknown-unknown --test wasm_frame --test wasm_skin -- --nocapture
+  cargo test --profile wasm-release -p kloub-core --target wasm32-unknown-unknown --test wasm_frame --test wasm_skin -- --nocapture

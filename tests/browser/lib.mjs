@@ -189,6 +189,23 @@ export async function viewportShot(page, selector = 'kloub-viewer') {
   return PNG.sync.read(await page.screenshot({ clip }));
 }
 
+/** The frame of the viewer matched by `selector` as its `toDataURL()` gives it (drawn after the last change), decoded. */
+export async function dataUrlShot(page, selector = 'kloub-viewer') {
+  const url = await page.evaluate((s) => document.querySelector(s).toDataURL(), selector);
+  return PNG.sync.read(Buffer.from(url.replace(/^data:image\/png;base64,/, ''), 'base64'));
+}
+
+/** Mean red, green and blue over the opaque pixels of `img` (a model's, over a transparent background). */
+export function opaqueMeanRgb(img) {
+  const sum = [0, 0, 0]; let n = 0;
+  for (let i = 0; i < img.data.length; i += 4) {
+    if (img.data[i + 3] !== 255) continue;
+    for (let k = 0; k < 3; k++) sum[k] += img.data[i + k];
+    n++;
+  }
+  return sum.map((v) => v / Math.max(n, 1));
+}
+
 /**
  * Fraction of pixels whose largest channel difference exceeds `threshold`, over the rows from
  * fraction `top` to fraction `bottom` of the image (default: all of it).

@@ -6,7 +6,7 @@ import { tmpdir } from 'node:os';
 import { PNG } from 'pngjs';
 import { basename, join } from 'node:path';
 import {
-  ROOT, SHARED, control, openApp, dataset, diffFraction, dropFiles, makeZip, nonBackgroundFraction, saturatedFraction, openBrowser, pageUrl, recordEvents,
+  ROOT, SHARED, control, openApp, dataset, dataUrlShot, diffFraction, dropFiles, makeZip, nonBackgroundFraction, saturatedFraction, opaqueMeanRgb, openBrowser, pageUrl, recordEvents,
   savePng, startServer, startStatic, viewerEvents, viewersPage, viewportShot, waitForDataset, waitFrames,
 } from './lib.mjs';
 import { registerAccessibilityTests } from './accessibility.mjs';
@@ -906,10 +906,7 @@ for (const backend of BACKENDS) {
     let ds = await dataset(page);
     assert(ds.exposure === '1' && ds.toneMapping === 'neutral', `defaults: exposure ${ds.exposure}, tone mapping ${ds.toneMapping}`);
     // The frame as toDataURL gives it (drawn after the change): the model's pixels only (the rest is transparent).
-    const shot = async () => {
-      const url = await page.evaluate(() => document.querySelector('kloub-viewer').toDataURL());
-      return PNG.sync.read(Buffer.from(url.replace(/^data:image\/png;base64,/, ''), 'base64'));
-    };
+    const shot = () => dataUrlShot(page);
     const stats = (img) => {
       let sum = 0; let n = 0;
       for (let i = 0; i < img.data.length; i += 4) {
@@ -980,20 +977,8 @@ for (const backend of BACKENDS) {
     await viewersPage(page, ctx.url, [{ attrs: { backend, src: '/assets/Fox.glb', 'min-pixel-ratio': '1' }, style: 'width:320px;height:240px' }]);
     await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.status === 'ready' && Number(document.querySelector('kloub-viewer').dataset.frames) > 0, 'the viewer');
     assert((await dataset(page)).environment === '', 'the lighting preset\'s environment by default');
-    const shot = async () => {
-      const url = await page.evaluate(() => document.querySelector('kloub-viewer').toDataURL());
-      return PNG.sync.read(Buffer.from(url.replace(/^data:image\/png;base64,/, ''), 'base64'));
-    };
-    // Mean red, green and blue over the model's pixels.
-    const mean = (img) => {
-      const sum = [0, 0, 0]; let n = 0;
-      for (let i = 0; i < img.data.length; i += 4) {
-        if (img.data[i + 3] !== 255) continue;
-        for (let k = 0; k < 3; k++) sum[k] += img.data[i + k];
-        n++;
-      }
-      return sum.map((v) => v / Math.max(n, 1));
-    };
+    const shot = () => dataUrlShot(page);
+    const mean = opaqueMeanRgb; // over the model's pixels
     const studio = mean(await shot());
     await page.evaluate(() => document.querySelector('kloub-viewer').setAttribute('environment-image', 'outdoor'));
     await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.environment === 'outdoor', 'environment-image="outdoor"');
@@ -1045,20 +1030,8 @@ for (const backend of BACKENDS) {
     page.on('request', (r) => { if (r.url().includes('/environments/')) fetched.push(new URL(r.url()).pathname); });
     await viewersPage(page, ctx.url, [0, 1].map((i) => ({ id: `v${i}`, attrs: { backend, src: '/assets/Fox.glb', 'min-pixel-ratio': '1' }, style: 'width:240px;height:180px;display:inline-block' })));
     await waitForDataset(page, () => [...document.querySelectorAll('kloub-viewer')].every((v) => v.dataset.status === 'ready' && Number(v.dataset.frames) > 0), 'both viewers');
-    const shot = async (id) => {
-      const url = await page.evaluate((id) => document.getElementById(id).toDataURL(), id);
-      return PNG.sync.read(Buffer.from(url.replace(/^data:image\/png;base64,/, ''), 'base64'));
-    };
-    // Mean red, green and blue over the model's pixels.
-    const mean = (img) => {
-      const sum = [0, 0, 0]; let n = 0;
-      for (let i = 0; i < img.data.length; i += 4) {
-        if (img.data[i + 3] !== 255) continue;
-        for (let k = 0; k < 3; k++) sum[k] += img.data[i + k];
-        n++;
-      }
-      return sum.map((v) => v / Math.max(n, 1));
-    };
+    const shot = (id) => dataUrlShot(page, `#${id}`);
+    const mean = opaqueMeanRgb; // over the model's pixels
     // The room made in code: nothing to fetch.
     await page.evaluate(() => document.getElementById('v0').setAttribute('environment-image', 'neutral'));
     await waitForDataset(page, () => document.getElementById('v0').dataset.environment === 'neutral', 'environment-image="neutral"');
@@ -1138,10 +1111,7 @@ for (const backend of BACKENDS) {
     await viewersPage(page, ctx.url, [{ attrs: { backend, src: '/assets/Fox.glb', 'min-pixel-ratio': '1' }, style: 'width:320px;height:240px' }]);
     await waitForDataset(page, () => document.querySelector('kloub-viewer').dataset.status === 'ready' && Number(document.querySelector('kloub-viewer').dataset.frames) > 0, 'the viewer');
     assert((await dataset(page)).shadow === '0.6,1', `the default shadow: ${(await dataset(page)).shadow}`);
-    const shot = async () => {
-      const url = await page.evaluate(() => document.querySelector('kloub-viewer').toDataURL());
-      return PNG.sync.read(Buffer.from(url.replace(/^data:image\/png;base64,/, ''), 'base64'));
-    };
+    const shot = () => dataUrlShot(page);
     // The shadow over a transparent background: dark pixels that are not transparent (the model has some of its
     // own, so the counts are compared with the shadow off).
     const shaded = (img) => {
@@ -2284,8 +2254,7 @@ test('WebGPU and WebGL2 show the same materials: the reference scenes (metal/rou
         const data = Uint8Array.from(atob(b64), (c) => c.charCodeAt(0));
         await document.querySelector('kloub-viewer').load([new File([data], 'scene.glb')]);
       }, bytes.toString('base64'));
-      const url = await page.evaluate(() => document.querySelector('kloub-viewer').toDataURL());
-      shots[`${name}/${backend}`] = PNG.sync.read(Buffer.from(url.replace(/^data:image\/png;base64,/, ''), 'base64'));
+      shots[`${name}/${backend}`] = await dataUrlShot(page);
     }
     if (BACKENDS.length < 2) continue;
     const [a, b] = BACKENDS.map((backend) => shots[`${name}/${backend}`]);
