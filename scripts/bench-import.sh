@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Decoding speed and import time, in one run (core/benches/import_cases.rs says what is measured):
-# Kloub natively (cargo bench --bench import) and as wasm in Node (core/tests/wasm_decode.rs through
+# Kloub natively (cargo bench --bench import) and as wasm in Node (core/wasm-bench/tests/wasm_decode.rs through
 # wasm-bindgen-test-runner, with the web build's profile (wasm-release: what ships) and simd128), the reference decoders from npm (draco3dgltf, meshoptimizer)
 # and three.js r187's GLTFLoader.parse in Node (scripts/bench-import.mjs). Prints two Markdown tables.
 # The three run one after the other KLOUB_BENCH_ROUNDS times (default 3) and each cell keeps its best round
@@ -18,14 +18,14 @@ for _ in $(seq "${KLOUB_BENCH_ROUNDS:-3}"); do
   cargo bench -q -p kloub-core --bench import 2>/dev/null | grep -E '^(decode|imported|import) ' >>"$log"
   CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUSTFLAGS="${CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUSTFLAGS:--C target-feature=+simd128}" \
     CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUNNER="${CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUNNER:-wasm-bindgen-test-runner}" \
-    cargo test --profile wasm-release -p kloub-core --target wasm32-unknown-unknown --test wasm_decode -- decode_and_import_speed \
+    cargo test --profile wasm-release -p kloub-wasm-bench --target wasm32-unknown-unknown --test wasm_decode -- decode_and_import_speed \
     --nocapture 2>/dev/null \
     | grep -oE '(decode|imported|import) wasm .*' >>"$log"
   node scripts/bench-import.mjs >>"$log"
   if [ -n "${KLOUB_BENCH_VIEWS:-}" ]; then
     CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUSTFLAGS="${CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUSTFLAGS:--C target-feature=+simd128}" \
       CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUNNER="${CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUNNER:-wasm-bindgen-test-runner}" \
-      cargo test --profile wasm-release -p kloub-core --target wasm32-unknown-unknown --test wasm_decode -- decode_speed_per_view \
+      cargo test --profile wasm-release -p kloub-wasm-bench --target wasm32-unknown-unknown --test wasm_decode -- decode_speed_per_view \
       --nocapture 2>/dev/null | grep -oE 'view wasm .*' >>"$log"
   fi
 done

@@ -1,4 +1,4 @@
-//! What `benches/import.rs` (native) and `tests/wasm_decode.rs` (wasm32 in Node) measure, and
+//! What `benches/import.rs` (native) and `wasm-bench/tests/wasm_decode.rs` (wasm32 in Node) measure, and
 //! `scripts/bench-import.mjs` measures with the reference decoders and three.js in the same way:
 //! - **decoding**: the Draco and meshopt decoders on the compressed copies of `tests/optimized`,
 //!   called on each compressed stream as the reference decoders are ([`measure_streams`]:

@@ -6,7 +6,7 @@
 //! ```
 //! Criterion prints `thrpt` in elements (vertices) per second. The workload is CesiumMan
 //! posed mid-walk, repeated to 2^20 vertices (see `skin_workload.rs`, shared with the wasm
-//! run in `tests/wasm_skin.rs`).
+//! run in `wasm-bench/tests/wasm_skin.rs`).
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use kloub_core::NoResolver;

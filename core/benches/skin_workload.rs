@@ -1,5 +1,5 @@
 //! The CPU skinning workload shared by `benches/skin.rs` (native, criterion) and
-//! `tests/wasm_skin.rs` (wasm32 in Node): CesiumMan's skinned mesh posed mid-walk, its vertex
+//! `wasm-bench/tests/wasm_skin.rs` (wasm32 in Node): CesiumMan's skinned mesh posed mid-walk, its vertex
 //! streams repeated to [`VERTICES`] vertices so they do not fit any cache, skinned by every
 //! method (`sjbbe` with one example pose on the left elbow, at its rotation in this pose so that
 //! its offsets all apply); plus a `stream` kernel that reads and writes the same bytes with almost no

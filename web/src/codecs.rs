@@ -152,14 +152,8 @@ mod bridge {
     fn load() {
         LOADS.with(|n| n.set(n.get() + 1));
         let fresh = JsValue::from_bool(FRESH.with(|f| f.replace(false)));
-        let promise = LOADER.with(|l| l.borrow().as_ref().map(|f| f.call1(&JsValue::NULL, &fresh)));
-        let promise = match promise {
-            Some(Ok(p)) => {
-                p.dyn_into::<js_sys::Promise>().map_err(|_| "the element's codecs() gave no promise".to_owned())
-            }
-            Some(Err(e)) => Err(crate::dom::js_error_text(&e)),
-            None => Err("this page's element does not provide them".to_owned()),
-        };
+        let promise = LOADER
+            .with(|l| crate::dom::loader_promise(l, &fresh, "codecs()", "this page's element does not provide them"));
         let promise = match promise {
             Ok(p) => p,
             Err(message) => return settle(State::Failed(message)),

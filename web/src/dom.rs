@@ -518,6 +518,26 @@ pub fn js_error_text(value: &wasm_bindgen::JsValue) -> String {
     value.as_string().unwrap_or_else(|| format!("{value:?}"))
 }
 
+/// Calls the element's loader `loader` (a function the page handed over, if any) with `arg` and
+/// gives the promise it returns, or why there is none: the loader threw, gave something else
+/// (`"the element's {what} gave no promise"`) or was never handed over (`missing`).
+#[cfg(target_arch = "wasm32")]
+pub fn loader_promise(
+    loader: &std::cell::RefCell<Option<js_sys::Function>>,
+    arg: &wasm_bindgen::JsValue,
+    what: &str,
+    missing: &str,
+) -> Result<js_sys::Promise, String> {
+    use wasm_bindgen::JsCast;
+    // The borrow ends with the call: nothing below holds it.
+    let called = loader.borrow().as_ref().map(|f| f.call1(&wasm_bindgen::JsValue::NULL, arg));
+    match called {
+        Some(Ok(p)) => p.dyn_into::<js_sys::Promise>().map_err(|_| format!("the element's {what} gave no promise")),
+        Some(Err(e)) => Err(js_error_text(&e)),
+        None => Err(missing.to_owned()),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -95,7 +95,7 @@ mod web {
     use std::cell::{Cell, RefCell};
     use std::sync::Arc;
 
-    use wasm_bindgen::{JsCast, JsValue};
+    use wasm_bindgen::JsCast;
 
     use super::{HdrImage, Photo};
     use crate::control::Wake;
@@ -189,14 +189,10 @@ mod web {
             }
             n.set(all);
         });
-        let promise = LOADER.with(|l| l.borrow().as_ref().map(|f| f.call1(&JsValue::NULL, &photo.file().into())));
-        let promise = match promise {
-            Some(Ok(p)) => {
-                p.dyn_into::<js_sys::Promise>().map_err(|_| "the element's loader gave no promise".to_owned())
-            }
-            Some(Err(e)) => Err(crate::dom::js_error_text(&e)),
-            None => Err("this page's element does not fetch environments".to_owned()),
-        };
+        let promise = LOADER.with(|l| {
+            let missing = "this page's element does not fetch environments";
+            crate::dom::loader_promise(l, &photo.file().into(), "loader", missing)
+        });
         let promise = match promise {
             Ok(p) => p,
             Err(message) => return settle(photo, State::Failed(message)),

@@ -566,8 +566,7 @@ impl<'a> Accessors<'a> {
         }
         let normalized = a.normalized;
         let mut out = self.allocate::<[f32; N]>(index, a.count, budget)?;
-        let float = |b: &[u8]| f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
-        if a.component == Component::F32 && self.dense_elements(a, 4, float, &mut out)? {
+        if a.component == Component::F32 && self.dense_elements::<N, 4, _>(a, f32::from_le_bytes, &mut out)? {
             if finite && let Some((i, e)) = out.iter().enumerate().find(|(_, e)| !e.iter().all(|x| x.is_finite())) {
                 return Err(ImportError::new(
                     format!("/accessors/{index}"),
@@ -599,23 +598,22 @@ impl<'a> Accessors<'a> {
     /// a buffer view, not sparse, every element inside the view (checked once, for the last), so
     /// `out` is filled without a bounds check or a closure call per element (positions, normals,
     /// UVs, keyframes, indices, joints: the same values [`Accessors::visit`] reads element by
-    /// element). `size`: the component's bytes, which `read` converts. `false`, `out` untouched,
+    /// element). `S`: the component's bytes, which `read` converts. `false`, `out` untouched,
     /// for anything else (that path then gives the right error where there is one).
-    fn dense_elements<const N: usize, T: Copy + Default>(
+    fn dense_elements<const N: usize, const S: usize, T: Copy + Default>(
         &self,
         a: &Accessor,
-        size: usize,
-        read: impl Fn(&[u8]) -> T,
+        read: impl Fn([u8; S]) -> T,
         out: &mut Vec<[T; N]>,
     ) -> Result<bool, ImportError> {
         let (Some(view), None, 1) = (a.view, &a.sparse, a.cols) else {
             return Ok(false);
         };
-        if a.components() != N || a.count == 0 || size == 0 {
+        if a.components() != N || a.count == 0 || S == 0 {
             return Ok(false);
         }
         let data = self.view_bytes(view)?;
-        let element = size * N;
+        let element = S * N;
         // The bytes from the first element's start to the last one's end.
         let span = (a.count - 1).checked_mul(a.stride).and_then(|s| s.checked_add(element as u64));
         let region = span
@@ -628,9 +626,10 @@ impl<'a> Accessors<'a> {
         if stride < element {
             return Ok(false);
         }
+        // Each chunk below is one element's `S · N` bytes.
         let convert = |bytes: &[u8]| {
             let mut e = [T::default(); N];
-            for (v, b) in e.iter_mut().zip(bytes.chunks_exact(size)) {
+            for (v, &b) in e.iter_mut().zip(bytes.as_chunks::<S>().0) {
                 *v = read(b);
             }
             e
@@ -679,9 +678,9 @@ impl<'a> Accessors<'a> {
         }
         let mut out = self.allocate::<[u32; N]>(index, a.count, budget)?;
         let dense = match a.component {
-            Component::U8 => self.dense_elements(a, 1, |b| u32::from(b[0]), &mut out)?,
-            Component::U16 => self.dense_elements(a, 2, |b| u32::from(u16::from_le_bytes([b[0], b[1]])), &mut out)?,
-            Component::U32 => self.dense_elements(a, 4, |b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]), &mut out)?,
+            Component::U8 => self.dense_elements::<N, 1, _>(a, |[b]| u32::from(b), &mut out)?,
+            Component::U16 => self.dense_elements::<N, 2, _>(a, |b| u32::from(u16::from_le_bytes(b)), &mut out)?,
+            Component::U32 => self.dense_elements::<N, 4, _>(a, u32::from_le_bytes, &mut out)?,
             _ => false,
         };
         if dense {

@@ -35,9 +35,19 @@ pub(crate) struct Map<'j>(Vec<(Cow<'j, str>, Value<'j>)>);
 
 /// Parses `bytes` as one JSON value.
 pub(crate) fn parse(bytes: &[u8]) -> Result<Value<'_>, serde_json::Error> {
+    // Valid UTF-8 as a whole (checked in one vectorized pass): the parser need not check each
+    // string again. Anything else goes through the byte reader, which says where it fails.
+    match std::str::from_utf8(bytes) {
+        Ok(text) => parse_with(&mut serde_json::Deserializer::from_str(text)),
+        Err(_) => parse_with(&mut serde_json::Deserializer::from_slice(bytes)),
+    }
+}
+
+fn parse_with<'j, R: serde_json::de::Read<'j>>(
+    deserializer: &mut serde_json::Deserializer<R>,
+) -> Result<Value<'j>, serde_json::Error> {
     let mut scratch = Scratch::default();
-    let mut deserializer = serde_json::Deserializer::from_slice(bytes);
-    let value = Seed(&mut scratch).deserialize(&mut deserializer)?;
+    let value = Seed(&mut scratch).deserialize(&mut *deserializer)?;
     deserializer.end()?;
     Ok(value)
 }

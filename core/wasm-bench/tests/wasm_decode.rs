@@ -3,7 +3,7 @@
 //! this file is empty.
 #![cfg(target_arch = "wasm32")]
 
-#[path = "../benches/import_cases.rs"]
+#[path = "../../benches/import_cases.rs"]
 mod import_cases;
 
 use wasm_bindgen::prelude::wasm_bindgen;

@@ -31,7 +31,7 @@ type Character = (&'static str, &'static [u8], &'static str, &'static str, &'sta
 const CHARACTERS: [Character; 4] = [
     (
         "Fox",
-        include_bytes!("../../tests/assets/khronos/Fox/glTF-Binary/Fox.glb"),
+        include_bytes!("../../../tests/assets/khronos/Fox/glTF-Binary/Fox.glb"),
         "Walk",
         "Run",
         "Survey",
@@ -39,7 +39,7 @@ const CHARACTERS: [Character; 4] = [
     ),
     (
         "CesiumMan",
-        include_bytes!("../../tests/assets/khronos/CesiumMan/glTF-Binary/CesiumMan.glb"),
+        include_bytes!("../../../tests/assets/khronos/CesiumMan/glTF-Binary/CesiumMan.glb"),
         "0",
         "0",
         "0",
@@ -47,7 +47,7 @@ const CHARACTERS: [Character; 4] = [
     ),
     (
         "RobotExpressive",
-        include_bytes!("../../tests/assets/threejs/RobotExpressive/RobotExpressive.glb"),
+        include_bytes!("../../../tests/assets/threejs/RobotExpressive/RobotExpressive.glb"),
         "Walking",
         "Running",
         "Wave",
@@ -55,7 +55,7 @@ const CHARACTERS: [Character; 4] = [
     ),
     (
         "Knight",
-        include_bytes!("../../tests/assets/kaykit/Knight/Knight.glb"),
+        include_bytes!("../../../tests/assets/kaykit/Knight/Knight.glb"),
         "Walking_A",
         "Running_A",
         "Cheer",

@@ -12,7 +12,7 @@ use kloub_core::job::dqs::SkinningMethod;
 use wasm_bindgen::prelude::wasm_bindgen;
 use wasm_bindgen_test::{console_log, wasm_bindgen_test};
 
-#[path = "../benches/skin_workload.rs"]
+#[path = "../../benches/skin_workload.rs"]
 #[allow(dead_code)]
 mod skin_workload;
 use skin_workload::{BYTES_PER_VERTEX, VERTICES, Workload};
@@ -42,7 +42,7 @@ fn median_ms(mut run: impl FnMut()) -> f64 {
 
 #[wasm_bindgen_test]
 fn skinning_vertices_per_second_in_node() {
-    let bytes = include_bytes!("../../tests/assets/khronos/CesiumMan/glTF-Binary/CesiumMan.glb");
+    let bytes = include_bytes!("../../../tests/assets/khronos/CesiumMan/glTF-Binary/CesiumMan.glb");
     let asset = kloub_core::import(bytes, &NoResolver, &Default::default()).expect("imports").asset;
     let mut work = Workload::new(&asset);
     let rate = |ms: f64| VERTICES as f64 / (ms / 1000.0) / 1e6;
