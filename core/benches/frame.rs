@@ -16,10 +16,10 @@
 //!   on the upper body: three clips sampled and blended per frame.
 
 mod common;
+mod frame_setup;
 
 use common::{CHARACTERS, DT, Posed, clip, instance_frame, load, node};
 use criterion::{Criterion, criterion_group, criterion_main};
-use kloub_core::animator::{Crossfade, Easing, Layer, Outgoing};
 use kloub_core::job::sample::{RotationLerp, SampleContext, SampleJob};
 use kloub_core::job::world::WorldJob;
 use kloub_core::math::Mat4;
@@ -74,16 +74,7 @@ fn frame(c: &mut Criterion) {
             });
         }
 
-        let mut animator = Animator::new(&asset);
-        animator.play(&asset, Some(base)).expect("valid");
-        let mut layer = Layer::new(over, root);
-        layer.weight = 0.8;
-        animator.add_layer(&asset, layer).expect("valid");
-        // A very long linear crossfade advanced to its middle: at 1e7 s a frame (1/60 s) is below
-        // half an f32 ulp of the elapsed time, so both sides weigh exactly 0.5 throughout.
-        let fade = Crossfade { duration: 2.0e7, easing: Easing::Linear, outgoing: Outgoing::KeepPlaying };
-        animator.crossfade_to(&asset, Some(target), fade).expect("valid");
-        animator.advance(&asset, 1.0e7);
+        let mut animator = frame_setup::crossfade_layer(&asset, base, target, over, root);
         c.bench_function(&format!("crossfade_layer/{name}"), |b| {
             b.iter(|| instance_frame(&asset, &mut animator, &mut instance))
         });

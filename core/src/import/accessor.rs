@@ -609,7 +609,7 @@ impl<'a> Accessors<'a> {
         let (Some(view), None, 1) = (a.view, &a.sparse, a.cols) else {
             return Ok(false);
         };
-        if a.components() != N || a.count == 0 || S == 0 {
+        if a.components() != N || a.count == 0 {
             return Ok(false);
         }
         let data = self.view_bytes(view)?;

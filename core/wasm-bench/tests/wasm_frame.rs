@@ -8,7 +8,9 @@
 //! system). Natively this file is empty: `cargo bench --bench frame` measures the same work.
 #![cfg(target_arch = "wasm32")]
 
-use kloub_core::animator::{Crossfade, Easing, Layer, Outgoing};
+#[path = "../../benches/frame_setup.rs"]
+mod frame_setup;
+
 use kloub_core::asset::Asset;
 use kloub_core::job::world::WorldJob;
 use kloub_core::math::Mat4;
@@ -145,15 +147,7 @@ fn frame_cost_per_character_in_node() {
         animator.play(&asset, Some(base)).expect("valid");
         let single = measure(&asset, &mut animator, &mut instance);
 
-        let mut animator = Animator::new(&asset);
-        animator.play(&asset, Some(base)).expect("valid");
-        let mut layer = Layer::new(over, root);
-        layer.weight = 0.8;
-        animator.add_layer(&asset, layer).expect("valid");
-        // As in benches/frame.rs: a very long linear crossfade held at its middle.
-        let fade = Crossfade { duration: 2.0e7, easing: Easing::Linear, outgoing: Outgoing::KeepPlaying };
-        animator.crossfade_to(&asset, Some(target), fade).expect("valid");
-        animator.advance(&asset, 1.0e7);
+        let mut animator = frame_setup::crossfade_layer(&asset, base, target, over, root);
         let layered = measure(&asset, &mut animator, &mut instance);
         console_log!("| {name} | {posed:.2} µs | {single:.2} µs | {layered:.2} µs |");
     }
