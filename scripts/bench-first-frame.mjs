@@ -14,7 +14,10 @@
 // KLOUB_BENCH_RUNS (default 5; the median is printed), KLOUB_BACKENDS (webgpu,webgl2), KLOUB_BENCH_ENCODING=br,
 // KLOUB_BENCH_TRACE=1 (each run's resource timings, console, long tasks and gaps between animation frames),
 // KLOUB_BENCH_PROFILE=1 (each run's heaviest functions by self time, and at the end each viewer's functions by
-// inclusive time per run: keep the names in the wasm to read Kloub's, see BENCHMARKS.md).
+// inclusive time per run: keep the names in the wasm to read Kloub's, see BENCHMARKS.md),
+// KLOUB_BENCH_FOCUS=name (with KLOUB_BENCH_PROFILE=1: the callees of the functions whose name contains it, by
+// inclusive time per run), KLOUB_BENCH_ATTRS (more attributes on the <kloub-viewer>, e.g. 'shadow-intensity="0"' to compare with
+// model-viewer's defaults, which draw no ground shadow).
 import { createServer } from 'node:http';
 import { readFileSync, statSync } from 'node:fs';
 import { extname, resolve } from 'node:path';
@@ -30,6 +33,8 @@ const ENCODING = process.env.KLOUB_BENCH_ENCODING ?? 'gzip';
 const TRACE = process.env.KLOUB_BENCH_TRACE === '1';
 /** KLOUB_BENCH_PROFILE=1: the main thread's CPU profile of each run, its heaviest functions (self time) up to `load`. */
 const PROFILE_CPU = process.env.KLOUB_BENCH_PROFILE === '1';
+/** KLOUB_BENCH_FOCUS: with the profile, the callees of the functions whose name contains this, inclusive. */
+const FOCUS = process.env.KLOUB_BENCH_FOCUS;
 const PROFILE = { offline: false, latency: 170, downloadThroughput: (9e6 / 8), uploadThroughput: (9e6 / 8) };
 const MIME = { '.html': 'text/html', '.js': 'text/javascript', '.wasm': 'application/wasm', '.glb': 'model/gltf-binary' };
 const ROOTS = {
@@ -38,13 +43,15 @@ const ROOTS = {
   '/mv/': resolve(ROOT, 'node_modules/@google/model-viewer/dist'),
 };
 const STYLE = 'display:block;width:640px;height:480px';
+/** KLOUB_BENCH_ATTRS: more attributes on the <kloub-viewer> (its defaults otherwise). */
+const ATTRS = process.env.KLOUB_BENCH_ATTRS ?? '';
 // The `load` event's time, and that of the first animation frame callback after it: model-viewer fires `load` when
 // its model is loaded and draws it (compiling its shaders) in its next animation frame, whose callback runs before
 // this later-registered one; Kloub fires `load` once the model's first frame is drawn.
 const ON_LOAD = `() => { window.__firstFrame = performance.now(); requestAnimationFrame(() => { window.__painted = performance.now(); }); }`;
 const PAGES = {
   '/kloub.html': (q) => `<!doctype html><meta charset="utf-8"><script type="module" src="/dist/kloub-viewer.js"></script>
-<kloub-viewer src="/assets/Fox.glb" autoplay ${q.get('backend') === 'webgl2' ? 'backend="webgl2"' : ''} style="${STYLE}"></kloub-viewer>
+<kloub-viewer src="/assets/Fox.glb" autoplay ${q.get('backend') === 'webgl2' ? 'backend="webgl2"' : ''} ${ATTRS} style="${STYLE}"></kloub-viewer>
 <script>document.querySelector('kloub-viewer').addEventListener('load', ${ON_LOAD});</script>`,
   '/mv.html': () => `<!doctype html><meta charset="utf-8"><script type="module" src="/mv/model-viewer.min.js"></script>
 <model-viewer src="/assets/Fox.glb" autoplay style="${STYLE}"></model-viewer>
@@ -173,13 +180,22 @@ function printProfile(profile, untilMs, inclusive) {
     const key = `${f.functionName || '(anonymous)'} ${f.url.split('/').pop()}`;
     self.set(key, (self.get(key) ?? 0) + profile.timeDeltas[i] / 1000);
     const seen = new Set();
+    const stack = [];
     for (let node = id; node !== undefined; node = parent.get(node)) {
       // Rust's symbol hashes dropped: a function and its copies count as one.
       const name = (byId.get(node).callFrame.functionName || '(anonymous)').replace(/::h[0-9a-f]{16}|\[[0-9a-f]{16}\]/g, '');
+      stack.push(name);
       if (!seen.has(name)) {
         seen.add(name);
         inclusive.set(name, (inclusive.get(name) ?? 0) + profile.timeDeltas[i] / 1000);
       }
+    }
+    // The callees of the outermost function named like FOCUS, each once per sample ("focus: " keys).
+    const at = FOCUS ? stack.findLastIndex((n) => n.includes(FOCUS)) : -1;
+    const callees = new Set(stack.slice(0, Math.max(at, 0)));
+    if (at >= 0 && callees.size === 0) callees.add('(self)');
+    for (const name of callees) {
+      inclusive.set(`focus: ${name}`, (inclusive.get(`focus: ${name}`) ?? 0) + profile.timeDeltas[i] / 1000);
     }
   });
   for (const [key, msSelf] of [...self].sort((a, b) => b[1] - a[1]).slice(0, 25)) {
@@ -213,7 +229,12 @@ try {
     // What the main thread did until `load`, inclusive of callees, per run: where Kloub's time after its wasm goes.
     console.error(`${url}: inclusive time per run until \`load\``);
     const pseudo = /^\((root|program|idle|garbage collector|anonymous)\)$/;
-    for (const [name, total] of [...inclusive].filter(([n]) => !pseudo.test(n)).sort((a, b) => b[1] - a[1]).slice(0, 40)) {
+    const focused = (n) => n.startsWith('focus: ');
+    for (const [name, total] of [...inclusive].filter(([n]) => !pseudo.test(n) && !focused(n)).sort((a, b) => b[1] - a[1]).slice(0, 40)) {
+      console.error(`  ${(total / RUNS).toFixed(1).padStart(7)} ms  ${name.slice(0, 140)}`);
+    }
+    if (FOCUS) console.error(`  called by ${FOCUS}:`);
+    for (const [name, total] of [...inclusive].filter(([n]) => focused(n)).sort((a, b) => b[1] - a[1]).slice(0, 40)) {
       console.error(`  ${(total / RUNS).toFixed(1).padStart(7)} ms  ${name.slice(0, 140)}`);
     }
   }

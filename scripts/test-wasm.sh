@@ -15,4 +15,4 @@ if [ "$("$runner" --version 2>/dev/null | awk '{print $2}')" != "$WBG_VERSION" ]
 fi
 CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUSTFLAGS="${CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUSTFLAGS:--C target-feature=+simd128}" \
   CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUNNER="$runner" \
-  cargo test -p kloub-core --target wasm32-unknown-unknown --lib "$@"
+  cargo test -p kloub-core -p kloub-meshopt --target wasm32-unknown-unknown --lib "$@"

@@ -18,7 +18,9 @@ fn main() {
     let wanted = |case: &import_cases::Case| {
         filter.iter().all(|f| case.codec.contains(f.as_str()) || case.name.contains(f.as_str()))
     };
-    for case in import_cases::decode_cases().iter().filter(|c| wanted(c)) {
+    let decode_cases: Vec<_> = import_cases::decode_cases().into_iter().filter(|c| wanted(c)).collect();
+    import_cases::warm_up(&decode_cases, 200.0, &now);
+    for case in &decode_cases {
         let rate = |ms: f64| case.decoded as f64 / (ms / 1000.0) / 1e6;
         let (streams, imported) = (import_cases::measure_streams(case, &now), import_cases::measure(case, &now));
         println!("decode native {} {} {} B: {:.1} MB/s", case.codec, case.name, case.decoded, rate(streams));
@@ -31,7 +33,12 @@ fn main() {
             }
         }
     }
-    for case in import_cases::import_cases().iter().filter(|c| wanted(c) && std::env::var_os("DECODE_ONLY").is_none()) {
+    let import_cases: Vec<_> = import_cases::import_cases()
+        .into_iter()
+        .filter(|c| wanted(c) && std::env::var_os("DECODE_ONLY").is_none())
+        .collect();
+    import_cases::warm_up(&import_cases, 200.0, &now);
+    for case in &import_cases {
         let ms = import_cases::measure(case, &now);
         println!("import native {} {} {} B: {ms:.3} ms", case.codec, case.name, case.glb.len());
     }

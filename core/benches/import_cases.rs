@@ -170,6 +170,23 @@ fn streams(doc: &Value, bin: &[u8]) -> Vec<Stream> {
     out
 }
 
+/// Runs every case's decoding (and import) for about `ms` milliseconds each, untimed, before
+/// anything is measured: a wasm engine runs a function's first calls in baseline code and
+/// swaps in optimised code some time later (in Node the first meshopt file measured read ~1.6×
+/// slower than the same file a few seconds later). The reference side warms up the same way.
+pub fn warm_up(cases: &[Case], ms: f64, now: &dyn Fn() -> f64) {
+    let codecs = kloub_core::codecs::builtin();
+    let options = options();
+    for case in cases {
+        let start = now();
+        while now() - start < ms {
+            let decoded = case.streams.iter().all(|stream| decode_stream(stream, codecs));
+            let imported = import(&case.glb, &NoResolver, &options).is_ok();
+            std::hint::black_box((decoded, imported));
+        }
+    }
+}
+
 /// Milliseconds to decode every stream of `case` (as [`measure`] times an import).
 pub fn measure_streams(case: &Case, now: &dyn Fn() -> f64) -> f64 {
     let codecs = kloub_core::codecs::builtin();

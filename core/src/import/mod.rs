@@ -15,7 +15,14 @@ pub use container::{glb, is_web_uri, percent_decode};
 mod json;
 mod material;
 mod mesh;
-mod meshopt;
+/// `EXT_meshopt_compression` and `KHR_meshopt_compression`: the decoder is the `kloub-meshopt`
+/// crate (built for speed in the web bundle).
+mod meshopt {
+    pub(crate) use kloub_meshopt::{Filter, Mode, check, decode};
+
+    /// The extensions' names: the KHR successor first (a view naming both is read by it).
+    pub(crate) const EXTENSIONS: [&str; 2] = ["KHR_meshopt_compression", "EXT_meshopt_compression"];
+}
 mod scene;
 pub mod tangents;
 mod tree;

@@ -18,14 +18,18 @@ extern "C" {
 
 #[wasm_bindgen_test]
 fn decode_and_import_speed() {
-    for case in import_cases::decode_cases() {
+    let decode_cases = import_cases::decode_cases();
+    import_cases::warm_up(&decode_cases, 200.0, &performance_now);
+    for case in decode_cases {
         let rate = |ms: f64| case.decoded as f64 / (ms / 1000.0) / 1e6;
         let streams = import_cases::measure_streams(&case, &performance_now);
         let imported = import_cases::measure(&case, &performance_now);
         console_log!("decode wasm {} {} {} B: {:.1} MB/s", case.codec, case.name, case.decoded, rate(streams));
         console_log!("imported wasm {} {} {} B: {:.1} MB/s", case.codec, case.name, case.decoded, rate(imported));
     }
-    for case in import_cases::import_cases() {
+    let import_cases = import_cases::import_cases();
+    import_cases::warm_up(&import_cases, 200.0, &performance_now);
+    for case in import_cases {
         let ms = import_cases::measure(&case, &performance_now);
         console_log!("import wasm {} {} {} B: {ms:.3} ms", case.codec, case.name, case.glb.len());
     }
@@ -35,7 +39,9 @@ fn decode_and_import_speed() {
 /// names each of this file's two benchmarks when it runs them).
 #[wasm_bindgen_test]
 fn decode_speed_per_view() {
-    for case in import_cases::decode_cases().iter().filter(|c| c.codec == "meshopt") {
+    let cases: Vec<_> = import_cases::decode_cases().into_iter().filter(|c| c.codec == "meshopt").collect();
+    import_cases::warm_up(&cases, 200.0, &performance_now);
+    for case in &cases {
         for (view, ms) in import_cases::measure_views(case, &performance_now) {
             console_log!("view wasm {} {view}: {:.2} us", case.name, ms * 1000.0);
         }

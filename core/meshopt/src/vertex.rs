@@ -370,8 +370,8 @@ mod tests {
     #[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
     fn both_ways_decode_every_attribute_view_of_the_packed_foxes_alike() {
         let files: [&[u8]; 2] = [
-            include_bytes!("../../../../tests/optimized/Fox.gltfpack-cc.glb"),
-            include_bytes!("../../../../tests/optimized/Fox.gltfpack-khr.glb"),
+            include_bytes!("../../../tests/optimized/Fox.gltfpack-cc.glb"),
+            include_bytes!("../../../tests/optimized/Fox.gltfpack-khr.glb"),
         ];
         for (file, khr) in files.into_iter().zip([false, true]) {
             let word = |at: usize| u32::from_le_bytes([file[at], file[at + 1], file[at + 2], file[at + 3]]) as usize;

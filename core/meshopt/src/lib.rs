@@ -4,17 +4,19 @@
 //! adds version 1 of the attribute codec) and Appendix B (filters OCTAHEDRAL, QUATERNION,
 //! EXPONENTIAL, and KHR's COLOR). Every read is bounds-checked: a malformed stream is an error,
 //! never a panic, and the output is allocated by the caller after the budget allowed it.
+//!
+//! kloub-core's importer calls it for each compressed view (`import/accessor.rs`). A crate of its
+//! own so that the web bundle builds it at opt-level 3 while the rest of the widget is built for
+//! size (`Cargo.toml`, `[profile.wasm-release.package.kloub-meshopt]`; BENCHMARKS.md "Import and
+//! decoding").
 
 mod filters;
 mod lanes;
 mod vertex;
 
-/// The extensions' names: the KHR successor first (a view naming both is read by it).
-pub(crate) const EXTENSIONS: [&str; 2] = ["KHR_meshopt_compression", "EXT_meshopt_compression"];
-
 /// How a view's bytes were compressed (the extension's `mode`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Mode {
+pub enum Mode {
     /// Mode 0: elements of `byteStride` bytes, delta-coded byte by byte.
     Attributes,
     /// Mode 1: a triangle list's indices.
@@ -25,7 +27,7 @@ pub(crate) enum Mode {
 
 /// What is applied to the decoded elements (the extension's `filter`, ATTRIBUTES only).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Filter {
+pub enum Filter {
     None,
     Octahedral,
     Quaternion,
@@ -35,7 +37,8 @@ pub(crate) enum Filter {
 }
 
 impl Mode {
-    pub(crate) fn parse(s: &str) -> Option<Self> {
+    /// The extension's name for it (`None`: not one the extension defines).
+    pub fn parse(s: &str) -> Option<Self> {
         match s {
             "ATTRIBUTES" => Some(Self::Attributes),
             "TRIANGLES" => Some(Self::Triangles),
@@ -46,7 +49,8 @@ impl Mode {
 }
 
 impl Filter {
-    pub(crate) fn parse(s: &str) -> Option<Self> {
+    /// The extension's name for it (`None`: not one the extension defines).
+    pub fn parse(s: &str) -> Option<Self> {
         match s {
             "NONE" => Some(Self::None),
             "OCTAHEDRAL" => Some(Self::Octahedral),
@@ -60,7 +64,7 @@ impl Filter {
 
 /// Checks the extension's rules on `mode`, `filter`, `count` and `stride` (before anything is
 /// allocated); `khr`: the view is `KHR_meshopt_compression`'s.
-pub(crate) fn check(mode: Mode, filter: Filter, count: u64, stride: u64, khr: bool) -> Result<(), String> {
+pub fn check(mode: Mode, filter: Filter, count: u64, stride: u64, khr: bool) -> Result<(), String> {
     match mode {
         Mode::Attributes if stride == 0 || !stride.is_multiple_of(4) || stride > 256 => {
             return Err(format!("ATTRIBUTES needs a byteStride that is a multiple of 4 up to 256, not {stride}"));
@@ -97,7 +101,7 @@ pub(crate) fn check(mode: Mode, filter: Filter, count: u64, stride: u64, khr: bo
 /// Decodes `src` into `out` (`count` elements of `stride` bytes: `out.len() == count * stride`),
 /// then applies `filter`. The arguments must have passed [`check`]; `khr` allows version 1 of
 /// the attribute codec.
-pub(crate) fn decode(
+pub fn decode(
     mode: Mode,
     filter: Filter,
     count: usize,
