@@ -435,15 +435,28 @@ pub struct SceneRenderer {
 /// The shadow map's size in texels (square).
 pub const SHADOW_MAP_SIZE: u32 = 512;
 
-/// Size of the ground shadow's mask (square, over the ground rectangle the shadow can fall on).
+/// Size of the ground shadow's mask (square, over the ground rectangle the shadow can fall on)
+/// for a sharp shadow (`shadow_softness` under [`SOFT_SHADOW`]).
 pub const SHADOW_MASK_SIZE: u32 = 256;
 
+/// The mask's size for a soft shadow (the default): its penumbra spans several of these texels,
+/// and at [`SHADOW_MASK_SIZE`] its mask pass (up to 16 comparison taps per texel) was most of the
+/// shadow's cost where the GPU is the CPU (Fox ×1 on SwiftShader's WebGL2: the GPU process's time
+/// per frame 37 → 27–30 ms at this size, 26 without a shadow). Fox and CesiumMan drawn 640
+/// pixels high differ from the larger mask's by at most 8 levels at the default softness (15
+/// for a sharp shadow, which keeps the larger mask; BENCHMARKS.md "Frame cost", stop 51).
+pub const SOFT_SHADOW_MASK_SIZE: u32 = 128;
+
+/// The softness from which the shadow's mask is [`SOFT_SHADOW_MASK_SIZE`] texels wide.
+pub const SOFT_SHADOW: f32 = 0.5;
+
 /// The ground shadow's GPU side: the map the casters draw into, the mask the shadow is
-/// filtered into, the uniform, the mask pass's and the ground pass's bind groups, and whether
-/// this frame draws it.
+/// filtered into (and its size), the uniform, the mask pass's and the ground pass's bind
+/// groups, and whether this frame draws it.
 struct ShadowMap {
     view: wgpu::TextureView,
     mask: wgpu::TextureView,
+    mask_size: u32,
     uniform: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
     ground_bind_group: wgpu::BindGroup,
@@ -451,7 +464,7 @@ struct ShadowMap {
 }
 
 impl ShadowMap {
-    fn new(device: &wgpu::Device, layouts: &Layouts) -> Self {
+    fn new(device: &wgpu::Device, layouts: &Layouts, mask_size: u32) -> Self {
         let texture = device.create_texture(&wgpu::TextureDescriptor {
             label: Some("kloub shadow map"),
             size: wgpu::Extent3d { width: SHADOW_MAP_SIZE, height: SHADOW_MAP_SIZE, depth_or_array_layers: 1 },
@@ -488,7 +501,7 @@ impl ShadowMap {
         let mask = device
             .create_texture(&wgpu::TextureDescriptor {
                 label: Some("kloub shadow mask"),
-                size: wgpu::Extent3d { width: SHADOW_MASK_SIZE, height: SHADOW_MASK_SIZE, depth_or_array_layers: 1 },
+                size: wgpu::Extent3d { width: mask_size, height: mask_size, depth_or_array_layers: 1 },
                 mip_level_count: 1,
                 sample_count: 1,
                 dimension: wgpu::TextureDimension::D2,
@@ -512,7 +525,7 @@ impl ShadowMap {
                 wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::Sampler(&linear) },
             ],
         });
-        Self { view, mask, uniform, bind_group, ground_bind_group, drawn: false }
+        Self { view, mask, mask_size, uniform, bind_group, ground_bind_group, drawn: false }
     }
 }
 
@@ -643,7 +656,12 @@ impl SceneRenderer {
         }
         let light = Vec3::from_slice(&frame.light_dir[..3]) * frame.light_dir[3];
         let uniform = ShadowUniform::new(&self.ground, light, extent, SHADOW_MAP_SIZE, &self.look);
-        let shadow = self.shadow.get_or_insert_with(|| ShadowMap::new(device, &self.layouts));
+        // A new mask (and its bind groups) only when the softness crosses SOFT_SHADOW.
+        let mask_size = if self.look.shadow_softness >= SOFT_SHADOW { SOFT_SHADOW_MASK_SIZE } else { SHADOW_MASK_SIZE };
+        if self.shadow.as_ref().is_some_and(|s| s.mask_size != mask_size) {
+            self.shadow = None;
+        }
+        let shadow = self.shadow.get_or_insert_with(|| ShadowMap::new(device, &self.layouts, mask_size));
         queue.write_buffer(&shadow.uniform, 0, bytemuck::bytes_of(&uniform));
         let light_frame = FrameUniform { view_proj: uniform.light_view_proj, ..*frame };
         queue.write_buffer(&self.frame_buffers[1], 0, bytemuck::bytes_of(&light_frame));
