@@ -15,8 +15,8 @@
 // KLOUB_BENCH_TRACE=1 (each run's resource timings, console, long tasks and gaps between animation frames),
 // KLOUB_BENCH_PROFILE=1 (each run's heaviest functions by self time, and at the end each viewer's functions by
 // inclusive time per run: keep the names in the wasm to read Kloub's, see BENCHMARKS.md),
-// KLOUB_BENCH_FOCUS=name (with KLOUB_BENCH_PROFILE=1: the callees of the functions whose name contains it, by
-// inclusive time per run), KLOUB_BENCH_ATTRS (more attributes on the <kloub-viewer>, e.g. 'shadow-intensity="0"' to compare with
+// KLOUB_BENCH_FOCUS=name (with KLOUB_BENCH_PROFILE=1: what the functions whose name contains it called, directly
+// or not, by inclusive time per run), KLOUB_BENCH_ATTRS (more attributes on the <kloub-viewer>, e.g. 'shadow-intensity="0"' to compare with
 // model-viewer's defaults, which draw no ground shadow).
 import { createServer } from 'node:http';
 import { readFileSync, statSync } from 'node:fs';
@@ -190,7 +190,7 @@ function printProfile(profile, untilMs, inclusive) {
         inclusive.set(name, (inclusive.get(name) ?? 0) + profile.timeDeltas[i] / 1000);
       }
     }
-    // The callees of the outermost function named like FOCUS, each once per sample ("focus: " keys).
+    // What the outermost function named like FOCUS called, directly or not, each once per sample ("focus: " keys).
     const at = FOCUS ? stack.findLastIndex((n) => n.includes(FOCUS)) : -1;
     const callees = new Set(stack.slice(0, Math.max(at, 0)));
     if (at >= 0 && callees.size === 0) callees.add('(self)');
@@ -228,14 +228,17 @@ try {
   for (const [url, inclusive] of INCLUSIVE) {
     // What the main thread did until `load`, inclusive of callees, per run: where Kloub's time after its wasm goes.
     console.error(`${url}: inclusive time per run until \`load\``);
-    const pseudo = /^\((root|program|idle|garbage collector|anonymous)\)$/;
+    const pseudo = /^(focus: )?\((root|program|idle|garbage collector|anonymous)\)$/;
     const focused = (n) => n.startsWith('focus: ');
-    for (const [name, total] of [...inclusive].filter(([n]) => !pseudo.test(n) && !focused(n)).sort((a, b) => b[1] - a[1]).slice(0, 40)) {
-      console.error(`  ${(total / RUNS).toFixed(1).padStart(7)} ms  ${name.slice(0, 140)}`);
-    }
-    if (FOCUS) console.error(`  called by ${FOCUS}:`);
-    for (const [name, total] of [...inclusive].filter(([n]) => focused(n)).sort((a, b) => b[1] - a[1]).slice(0, 40)) {
-      console.error(`  ${(total / RUNS).toFixed(1).padStart(7)} ms  ${name.slice(0, 140)}`);
+    const top = (keep) => {
+      for (const [name, total] of [...inclusive].filter(([n]) => !pseudo.test(n) && keep(n)).sort((a, b) => b[1] - a[1]).slice(0, 40)) {
+        console.error(`  ${(total / RUNS).toFixed(1).padStart(7)} ms  ${name.slice(0, 140)}`);
+      }
+    };
+    top((n) => !focused(n));
+    if (FOCUS) {
+      console.error(`  called by ${FOCUS}, directly or not:`);
+      top(focused);
     }
   }
   const mv = rows.at(-1)[1];

@@ -35,7 +35,7 @@ set -e
 read -r rust_pass rust_fail < <(results "$log")
 if [ "$cargo_rc" != 0 ] && [ "$rust_fail" = 0 ]; then rust_fail=1; fi  # a build failure counts as a failure
 
-step "cargo test (wasm32 under Node: the core's import suite)"
+step "cargo test (wasm32 under Node: the core's import suite, the meshopt decoder)"
 set +e
 bash scripts/test-wasm.sh 2>&1 | tee "$log"
 wasm_rc=${PIPESTATUS[0]}

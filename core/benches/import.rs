@@ -33,12 +33,12 @@ fn main() {
             }
         }
     }
-    let import_cases: Vec<_> = import_cases::import_cases()
+    let imports: Vec<_> = import_cases::import_cases()
         .into_iter()
         .filter(|c| wanted(c) && std::env::var_os("DECODE_ONLY").is_none())
         .collect();
-    import_cases::warm_up(&import_cases, 200.0, &now);
-    for case in &import_cases {
+    import_cases::warm_up(&imports, 200.0, &now);
+    for case in &imports {
         let ms = import_cases::measure(case, &now);
         println!("import native {} {} {} B: {ms:.3} ms", case.codec, case.name, case.glb.len());
     }

@@ -173,24 +173,35 @@ fn streams(doc: &Value, bin: &[u8]) -> Vec<Stream> {
 /// Runs every case's decoding (and import) for about `ms` milliseconds each, untimed, before
 /// anything is measured: a wasm engine runs a function's first calls in baseline code and
 /// swaps in optimised code some time later (in Node the first meshopt file measured read ~1.6×
-/// slower than the same file a few seconds later). The reference side warms up the same way.
+/// slower than the same file a few seconds later). `scripts/bench-import.mjs` warms the
+/// reference decoders and three.js's parse up before timing them too. Every figure is then the
+/// steady state; a page's first import of a file runs in code just compiled (BENCHMARKS.md
+/// "Time to first frame").
 pub fn warm_up(cases: &[Case], ms: f64, now: &dyn Fn() -> f64) {
     let codecs = kloub_core::codecs::builtin();
     let options = options();
     for case in cases {
         let start = now();
         while now() - start < ms {
-            let decoded = case.streams.iter().all(|stream| decode_stream(stream, codecs));
-            let imported = import(&case.glb, &NoResolver, &options).is_ok();
-            std::hint::black_box((decoded, imported));
+            std::hint::black_box((decode_all(case, codecs), import_once(case, &options)));
         }
     }
+}
+
+/// Decodes every stream of `case` as the reference decoders are called: whether all decoded.
+fn decode_all(case: &Case, codecs: &dyn kloub_core::codecs::Codecs) -> bool {
+    case.streams.iter().all(|stream| decode_stream(stream, codecs))
+}
+
+/// Imports `case` once: whether it imported.
+fn import_once(case: &Case, options: &ImportOptions) -> bool {
+    std::hint::black_box(import(std::hint::black_box(&case.glb), &NoResolver, options)).is_ok()
 }
 
 /// Milliseconds to decode every stream of `case` (as [`measure`] times an import).
 pub fn measure_streams(case: &Case, now: &dyn Fn() -> f64) -> f64 {
     let codecs = kloub_core::codecs::builtin();
-    let run = || case.streams.iter().all(|stream| decode_stream(stream, codecs));
+    let run = || decode_all(case, codecs);
     // A stream that fails would be timed as a quick no-op.
     assert!(run(), "{}: a stream does not decode", case.name);
     timed(&run, now)
@@ -279,7 +290,7 @@ fn glb(doc: &Value, bin: &[u8]) -> Vec<u8> {
 /// (milliseconds).
 pub fn measure(case: &Case, now: &dyn Fn() -> f64) -> f64 {
     let options = options();
-    let run = || std::hint::black_box(import(std::hint::black_box(&case.glb), &NoResolver, &options)).is_ok();
+    let run = || import_once(case, &options);
     timed(&run, now)
 }
 

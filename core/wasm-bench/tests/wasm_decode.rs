@@ -27,9 +27,9 @@ fn decode_and_import_speed() {
         console_log!("decode wasm {} {} {} B: {:.1} MB/s", case.codec, case.name, case.decoded, rate(streams));
         console_log!("imported wasm {} {} {} B: {:.1} MB/s", case.codec, case.name, case.decoded, rate(imported));
     }
-    let import_cases = import_cases::import_cases();
-    import_cases::warm_up(&import_cases, 200.0, &performance_now);
-    for case in import_cases {
+    let imports = import_cases::import_cases();
+    import_cases::warm_up(&imports, 200.0, &performance_now);
+    for case in imports {
         let ms = import_cases::measure(&case, &performance_now);
         console_log!("import wasm {} {} {} B: {ms:.3} ms", case.codec, case.name, case.glb.len());
     }

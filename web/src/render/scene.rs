@@ -440,11 +440,10 @@ pub const SHADOW_MAP_SIZE: u32 = 512;
 pub const SHADOW_MASK_SIZE: u32 = 256;
 
 /// The mask's size for a soft shadow (the default): its penumbra spans several of these texels,
-/// and at [`SHADOW_MASK_SIZE`] its mask pass (up to 16 comparison taps per texel) was most of the
-/// shadow's cost where the GPU is the CPU (Fox ×1 on SwiftShader's WebGL2: the GPU process's time
-/// per frame 37 → 27–30 ms at this size, 26 without a shadow). Fox and CesiumMan drawn 640
-/// pixels high differ from the larger mask's by at most 8 levels at the default softness (15
-/// for a sharp shadow, which keeps the larger mask; BENCHMARKS.md "Frame cost", stop 51).
+/// and the mask pass costs up to 16 comparison taps per texel where the GPU is the CPU (a quarter
+/// of them at this size; the measurements, noisy, in BENCHMARKS.md "Frame cost", stop 51). Fox
+/// and CesiumMan drawn 640 pixels high differ from the larger mask's by at most 8 levels at the
+/// default softness (15 for a sharp shadow, which keeps the larger mask).
 pub const SOFT_SHADOW_MASK_SIZE: u32 = 128;
 
 /// The softness from which the shadow's mask is [`SOFT_SHADOW_MASK_SIZE`] texels wide.
@@ -656,7 +655,8 @@ impl SceneRenderer {
         }
         let light = Vec3::from_slice(&frame.light_dir[..3]) * frame.light_dir[3];
         let uniform = ShadowUniform::new(&self.ground, light, extent, SHADOW_MAP_SIZE, &self.look);
-        // A new mask (and its bind groups) only when the softness crosses SOFT_SHADOW.
+        // The shadow's GPU side made again (map, mask, bind groups) only when the softness crosses
+        // SOFT_SHADOW.
         let mask_size = if self.look.shadow_softness >= SOFT_SHADOW { SOFT_SHADOW_MASK_SIZE } else { SHADOW_MASK_SIZE };
         if self.shadow.as_ref().is_some_and(|s| s.mask_size != mask_size) {
             self.shadow = None;
