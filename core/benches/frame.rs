@@ -16,7 +16,6 @@
 //!   on the upper body: three clips sampled and blended per frame.
 
 mod common;
-mod frame_setup;
 
 use common::{CHARACTERS, DT, Posed, clip, instance_frame, load, node};
 use criterion::{Criterion, criterion_group, criterion_main};
@@ -74,7 +73,7 @@ fn frame(c: &mut Criterion) {
             });
         }
 
-        let mut animator = frame_setup::crossfade_layer(&asset, base, target, over, root);
+        let mut animator = common::crossfade_layer(&asset, base, target, over, root);
         c.bench_function(&format!("crossfade_layer/{name}"), |b| {
             b.iter(|| instance_frame(&asset, &mut animator, &mut instance))
         });

@@ -11,12 +11,9 @@
 #[path = "../../benches/frame_setup.rs"]
 mod frame_setup;
 
+use frame_setup::{Posed, clip, node};
 use kloub_core::asset::Asset;
-use kloub_core::job::world::WorldJob;
-use kloub_core::math::Mat4;
-use kloub_core::pose::Pose;
 use kloub_core::{Animator, Instance, NoResolver};
-use std::hint::black_box;
 use wasm_bindgen::prelude::wasm_bindgen;
 use wasm_bindgen_test::{console_log, wasm_bindgen_test};
 
@@ -65,28 +62,14 @@ const CHARACTERS: [Character; 4] = [
     ),
 ];
 
-const DT: f32 = 1.0 / 60.0;
 /// Timed batches per figure; the median is reported.
 const BATCHES: usize = 7;
 /// Wall time each batch aims for, in milliseconds.
 const BATCH_MS: f64 = 150.0;
 
-fn clip(asset: &Asset, name: &str) -> usize {
-    asset.find_clip(name).unwrap_or_else(|| panic!("no clip {name}"))
-}
-
-fn node(asset: &Asset, name: &str) -> u32 {
-    let index = asset.nodes.iter().position(|n| n.name.as_deref() == Some(name));
-    index.unwrap_or_else(|| panic!("no node {name}")) as u32
-}
-
 /// Median microseconds per frame of `advance` + `evaluate` (into an instance: worlds and palettes).
 fn measure(asset: &Asset, animator: &mut Animator, instance: &mut Instance) -> f64 {
-    time(|| {
-        animator.advance(asset, DT);
-        animator.evaluate(asset, instance).expect("valid");
-        black_box(instance.worlds());
-    })
+    time(|| frame_setup::instance_frame(asset, animator, instance))
 }
 
 /// Median microseconds per call of `frame`.
@@ -131,17 +114,8 @@ fn frame_cost_per_character_in_node() {
         // `pose`: advance + sample + blend + world transforms (no palettes), as benches/frame.rs.
         let mut animator = Animator::new(&asset);
         animator.play(&asset, Some(base)).expect("valid");
-        let parents: Vec<Option<u32>> = asset.nodes.iter().map(|n| n.parent).collect();
-        let mut pose = Pose::rest(&asset);
-        let mut worlds = vec![Mat4::IDENTITY; asset.nodes.len()];
-        let posed = time(|| {
-            animator.advance(&asset, DT);
-            animator.evaluate_pose(&asset, &mut pose).expect("valid");
-            WorldJob { parents: &parents, order: &asset.order, locals: &pose.locals, worlds: &mut worlds }
-                .run()
-                .expect("valid");
-            black_box(&worlds);
-        });
+        let mut buffers = Posed::new(&asset);
+        let posed = time(|| buffers.frame(&asset, &mut animator));
 
         let mut animator = Animator::new(&asset);
         animator.play(&asset, Some(base)).expect("valid");
