@@ -16,6 +16,11 @@
 // every copy casting, a ShadowMaterial ground of opacity 0.6). With both, three.js draws the same kinds of light and
 // shadow as Kloub's defaults (not from the same directions: Kloub's key light follows its camera).
 // KLOUB_BENCH_SHOTS=<folder>: a screenshot of each page after it is measured.
+// KLOUB_BENCH_AB=<rounds>: Kloub alone, A against B, alternated for that many rounds in the same browser (each round
+// measures A, then B, each page loaded afresh), so that the shared machine's slow drifts fall on both alike; prints
+// each round's GPU-process and all-process CPU ms per frame and the median of the rounds' B / A ratios. B is this
+// build with KLOUB_BENCH_EVAL; A is KLOUB_BENCH_AB_DIST (another build's web/dist; default this one) with
+// KLOUB_BENCH_AB_EVAL. E.g. what the ground shadow costs: KLOUB_BENCH_AB=6 KLOUB_BENCH_AB_EVAL='v.shadowIntensity = 0'.
 // KLOUB_BACKENDS (webgl2,webgpu), KLOUB_BENCH_CASES ("Fox:1,Fox:10,Fox:50,CesiumMan:1,CesiumMan:10,CesiumMan:50").
 import { createServer } from 'node:http';
 import { readFileSync, readdirSync, statSync } from 'node:fs';
@@ -192,7 +197,7 @@ async function three(page, base, backend, { model, n }, camera) {
   return measure(page, () => [performance.now(), window.frames]);
 }
 
-async function kloub(page, base, backend, { model, n }) {
+async function kloub(page, base, backend, { model, n }, evalBody = process.env.KLOUB_BENCH_EVAL) {
   const [file, clip] = MODELS[model];
   await page.goto(`${base}/embed.html`);
   await page.evaluate(({ backend, file, clip, w, h }) => {
@@ -212,9 +217,9 @@ async function kloub(page, base, backend, { model, n }) {
     && document.querySelector('kloub-viewer').dataset.clips !== '[]', null, { timeout: 120000 });
   const used = await page.evaluate(() => document.querySelector('kloub-viewer').dataset.backend);
   if (used !== backend) throw new Error(`Kloub used ${used}, not ${backend}`);
-  if (process.env.KLOUB_BENCH_EVAL) {
+  if (evalBody) {
     // An experiment on the element before measuring (e.g. `v.setGrid(false)`), to see what a part of the frame costs.
-    await page.evaluate((body) => new Function('v', body)(document.querySelector('kloub-viewer')), process.env.KLOUB_BENCH_EVAL);
+    await page.evaluate((body) => new Function('v', body)(document.querySelector('kloub-viewer')), evalBody);
   }
   if (n > 1) {
     await page.evaluate((n) => document.querySelector('kloub-viewer').setCopies(n), n);
@@ -224,6 +229,49 @@ async function kloub(page, base, backend, { model, n }) {
   // [yaw, pitch, distance, target x, y, z] (radians, model units; the field of view is 45° vertically).
   result.camera = await page.evaluate(() => document.querySelector('kloub-viewer').camera);
   return result;
+}
+
+const median = (xs) => { const s = [...xs].sort((a, b) => a - b); return s.length % 2 ? s[(s.length - 1) / 2] : (s[s.length / 2 - 1] + s[s.length / 2]) / 2; };
+
+/** KLOUB_BENCH_AB: A against B in alternating rounds (see the top of this file). */
+async function abRounds(rounds) {
+  const a = process.env.KLOUB_BENCH_AB_DIST ? await startServer({ dist: process.env.KLOUB_BENCH_AB_DIST }) : null;
+  const b = await startServer();
+  try {
+    for (const backend of BACKENDS) {
+      const ctx = await openBrowser();
+      try {
+        await ctx.page.setViewportSize({ width: WIDTH + 40, height: HEIGHT + 40 });
+        for (const c of CASES) {
+          const ratios = { gpu: [], cpu: [] };
+          const seen = { a: [], b: [] };
+          for (let round = 0; round < rounds; round++) {
+            const ra = await kloub(ctx.page, (a ?? b).url, backend, c, process.env.KLOUB_BENCH_AB_EVAL);
+            const rb = await kloub(ctx.page, b.url, backend, c);
+            seen.a.push(ra);
+            seen.b.push(rb);
+            ratios.gpu.push(rb.gpu / ra.gpu);
+            ratios.cpu.push(rb.cpu / ra.cpu);
+            console.error(`bench-frame A/B: ${backend} ${c.model} ×${c.n} round ${round + 1}: A ${ra.wall.toFixed(1)} ms (CPU ${ra.cpu.toFixed(1)}, GPU process ${ra.gpu.toFixed(1)}), B ${rb.wall.toFixed(1)} ms (CPU ${rb.cpu.toFixed(1)}, GPU process ${rb.gpu.toFixed(1)})`);
+          }
+          const m = (side, key) => median(seen[side].map((r) => r[key])).toFixed(1);
+          console.log(`| ${backend} | ${c.model} ×${c.n} | ${m('a', 'wall')} | ${m('b', 'wall')} | ${m('a', 'gpu')} | ${m('b', 'gpu')} | ${median(ratios.gpu).toFixed(3)} | ${m('a', 'cpu')} | ${m('b', 'cpu')} | ${median(ratios.cpu).toFixed(3)} |`);
+        }
+      } finally {
+        await ctx.close();
+      }
+    }
+  } finally {
+    a?.stop();
+    b.stop();
+  }
+}
+
+if (process.env.KLOUB_BENCH_AB) {
+  console.log(`| Backend (SwiftShader) | Case (${WIDTH}×${HEIGHT}) | A ms | B ms | A GPU-process CPU ms | B | median B / A | A all-process CPU ms | B | median B / A |`);
+  console.log('|---|---|---:|---:|---:|---:|---:|---:|---:|---:|');
+  await abRounds(Number(process.env.KLOUB_BENCH_AB) || 6);
+  process.exit(0);
 }
 
 const kloubServer = await startServer();

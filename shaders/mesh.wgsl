@@ -257,14 +257,17 @@ fn direct_light(n: vec3<f32>, v: vec3<f32>, l: vec3<f32>, c_diff: vec3<f32>, f0:
     let nh = clamp(dot(n, h), 0.0, 1.0);
     let vh = clamp(dot(v, h), 0.0, 1.0);
     let a2 = alpha * alpha;
-    let f = f0 + (vec3<f32>(1.0) - f0) * pow(1.0 - vh, 5.0);
+    // Schlick's (1 − v·h)⁵ by multiplication (pow is two transcendental functions).
+    let m = 1.0 - vh;
+    let m5 = m * m * m * m * m;
+    let f = f0 + (vec3<f32>(1.0) - f0) * m5;
     let d_den = nh * nh * (a2 - 1.0) + 1.0;
     let d = a2 / (PI * d_den * d_den);
     let vis_den = nl * sqrt(nv * nv * (1.0 - a2) + a2) + nv * sqrt(nl * nl * (1.0 - a2) + a2);
     let vis = select(0.0, 0.5 / vis_den, vis_den > 0.0);
     // The lights' intensities are irradiances over π: a white Lambert surface facing a light
     // of intensity 1 reflects 1.
-    let diffuse = (1.0 - (0.04 + 0.96 * pow(1.0 - vh, 5.0))) * c_diff;
+    let diffuse = (1.0 - (0.04 + 0.96 * m5)) * c_diff;
     let specular = PI * f * d * vis;
     return (diffuse + specular) * radiance * nl;
 }
@@ -423,9 +426,6 @@ fn fs_main(in: VsOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f
         }
     }
 
-    if (flags & MATERIAL_UNLIT) != 0u {
-        return scene_output(vec4<f32>(tone_map(color.rgb), color.a));
-    }
     if normal_mapped && !heatmap {
         let t = normal_texel.xyz * 2.0 - 1.0;
         let scaled = vec3<f32>(t.xy * material.pbr.z, t.z);
@@ -467,7 +467,11 @@ fn fs_main(in: VsOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f
         rgb += (c_diff * hemisphere(n) + reflected * (f0 * ab.x + ab.y)) * occlusion;
     }
     rgb += emissive;
-    if heatmap {
+    // An unlit material's colour replaces the lit one here rather than returning early: a GPU that
+    // is the CPU runs both sides of a branch, and the tone mapping and output once are cheaper.
+    if (flags & MATERIAL_UNLIT) != 0u {
+        rgb = color.rgb;
+    } else if heatmap {
         return scene_output(vec4<f32>(rgb, color.a));
     }
     return scene_output(vec4<f32>(tone_map(rgb), color.a));

@@ -18,10 +18,10 @@ export const BASE_FLAGS = [
 export const WEBGPU_FLAGS = ['--enable-unsafe-webgpu', '--use-angle=swiftshader', '--enable-features=Vulkan', '--use-vulkan=swiftshader'];
 
 /** Starts `kloub serve` on a free loopback port (the sample library, or `assets`); resolves to { url, stop() }. */
-export async function startServer({ assets = join(ROOT, 'web/assets'), args = [] } = {}) {
+export async function startServer({ assets = join(ROOT, 'web/assets'), args = [], dist } = {}) {
   const bin = join(ROOT, 'target/debug/kloub');
   // KLOUB_DIST: another build's web/dist (benchmarks of an earlier build against this one).
-  const dist = process.env.KLOUB_DIST ?? join(ROOT, 'web/dist');
+  dist ??= process.env.KLOUB_DIST ?? join(ROOT, 'web/dist');
   const child = spawn(bin, ['serve', '--addr', '127.0.0.1:0', '--dist', dist, '--assets', assets, ...args], {
     stdio: ['ignore', 'pipe', 'pipe'],
   });

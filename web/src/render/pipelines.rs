@@ -252,8 +252,10 @@ pub struct PipelineKey {
     pub skinning: u32,
     /// Skinned draws: the deviation heatmap compiled in.
     pub heatmap: bool,
-    /// A shadow caster: depth only, into the single-sampled [`SHADOW_FORMAT`] map, both faces,
-    /// with a slope-scaled depth bias.
+    /// A shadow caster: depth only, into the single-sampled [`SHADOW_FORMAT`] map, with a
+    /// slope-scaled depth bias; the faces the material shows (both where it is double-sided)
+    /// that face the light: a closed mesh's back faces add nothing to the ground's shadow, and
+    /// the rasterizer skips them.
     pub caster: bool,
     /// A caster of an alpha-masked material: it discards where the material does (always
     /// false in colour pipelines: the material's flags say it there).
@@ -274,8 +276,6 @@ impl PipelineKey {
     /// `None` for what casts no shadow (blended draws, points and lines).
     pub fn caster(self, mask: bool) -> Option<Self> {
         (!self.blend && self.topology == wgpu::PrimitiveTopology::TriangleList).then_some(Self {
-            double_sided: true,
-            mirrored: false,
             heatmap: false,
             caster: true,
             mask,
@@ -683,7 +683,12 @@ impl Pipelines {
                 label: Some("kloub shadow caster"),
                 layout: Some(&self.mesh_layout),
                 vertex,
-                primitive: wgpu::PrimitiveState { topology: key.topology, cull_mode: None, ..Default::default() },
+                primitive: wgpu::PrimitiveState {
+                    topology: key.topology,
+                    front_face: if key.mirrored { wgpu::FrontFace::Cw } else { wgpu::FrontFace::Ccw },
+                    cull_mode: (!key.double_sided).then_some(wgpu::Face::Back),
+                    ..Default::default()
+                },
                 depth_stencil: Some(wgpu::DepthStencilState {
                     format: SHADOW_FORMAT,
                     depth_write_enabled: Some(true),
