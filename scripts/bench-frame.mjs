@@ -17,10 +17,11 @@
 // shadow as Kloub's defaults (not from the same directions: Kloub's key light follows its camera).
 // KLOUB_BENCH_SHOTS=<folder>: a screenshot of each page after it is measured.
 // KLOUB_BENCH_AB=<rounds>: Kloub alone, A against B, alternated for that many rounds in the same browser (each round
-// measures A, then B, each page loaded afresh), so that the shared machine's slow drifts fall on both alike; prints
-// each round's GPU-process and all-process CPU ms per frame and the median of the rounds' B / A ratios. B is this
-// build with KLOUB_BENCH_EVAL; A is KLOUB_BENCH_AB_DIST (another build's web/dist; default this one) with
-// KLOUB_BENCH_AB_EVAL. E.g. what the ground shadow costs: KLOUB_BENCH_AB=6 KLOUB_BENCH_AB_EVAL='v.shadowIntensity = 0'.
+// measures both, A first in odd rounds and B first in even ones, each page loaded afresh), so that the shared
+// machine's slow drifts fall on both alike; prints each round's GPU-process and all-process CPU ms per frame, each
+// side's median, and the median of the rounds' B / A ratios (the measure of the difference). B is this build (or
+// KLOUB_DIST) with KLOUB_BENCH_EVAL; A is KLOUB_BENCH_AB_DIST (another build's web/dist; default B's) with
+// KLOUB_BENCH_AB_EVAL (default none). E.g. what the ground shadow costs: KLOUB_BENCH_AB=6 KLOUB_BENCH_AB_EVAL='v.shadowIntensity = 0'.
 // KLOUB_BACKENDS (webgl2,webgpu), KLOUB_BENCH_CASES ("Fox:1,Fox:10,Fox:50,CesiumMan:1,CesiumMan:10,CesiumMan:50").
 import { createServer } from 'node:http';
 import { readFileSync, readdirSync, statSync } from 'node:fs';
@@ -235,9 +236,11 @@ const median = (xs) => { const s = [...xs].sort((a, b) => a - b); return s.lengt
 
 /** KLOUB_BENCH_AB: A against B in alternating rounds (see the top of this file). */
 async function abRounds(rounds) {
-  const a = process.env.KLOUB_BENCH_AB_DIST ? await startServer({ dist: process.env.KLOUB_BENCH_AB_DIST }) : null;
-  const b = await startServer();
+  let a = null;
+  let b = null;
   try {
+    a = process.env.KLOUB_BENCH_AB_DIST ? await startServer({ dist: process.env.KLOUB_BENCH_AB_DIST }) : null;
+    b = await startServer();
     for (const backend of BACKENDS) {
       const ctx = await openBrowser();
       try {
@@ -246,16 +249,29 @@ async function abRounds(rounds) {
           const ratios = { gpu: [], cpu: [] };
           const seen = { a: [], b: [] };
           for (let round = 0; round < rounds; round++) {
-            const ra = await kloub(ctx.page, (a ?? b).url, backend, c, process.env.KLOUB_BENCH_AB_EVAL);
-            const rb = await kloub(ctx.page, b.url, backend, c);
+            const runA = () => kloub(ctx.page, (a ?? b).url, backend, c, process.env.KLOUB_BENCH_AB_EVAL ?? '');
+            const runB = () => kloub(ctx.page, b.url, backend, c);
+            let ra;
+            let rb;
+            if (round % 2 === 0) {
+              ra = await runA();
+              rb = await runB();
+            } else {
+              rb = await runB();
+              ra = await runA();
+            }
             seen.a.push(ra);
             seen.b.push(rb);
-            ratios.gpu.push(rb.gpu / ra.gpu);
-            ratios.cpu.push(rb.cpu / ra.cpu);
+            // A window that drew no frame reads Infinity: its round gives no ratio.
+            if (Number.isFinite(ra.gpu) && Number.isFinite(rb.gpu)) {
+              ratios.gpu.push(rb.gpu / ra.gpu);
+              ratios.cpu.push(rb.cpu / ra.cpu);
+            }
             console.error(`bench-frame A/B: ${backend} ${c.model} ×${c.n} round ${round + 1}: A ${ra.wall.toFixed(1)} ms (CPU ${ra.cpu.toFixed(1)}, GPU process ${ra.gpu.toFixed(1)}), B ${rb.wall.toFixed(1)} ms (CPU ${rb.cpu.toFixed(1)}, GPU process ${rb.gpu.toFixed(1)})`);
           }
           const m = (side, key) => median(seen[side].map((r) => r[key])).toFixed(1);
-          console.log(`| ${backend} | ${c.model} ×${c.n} | ${m('a', 'wall')} | ${m('b', 'wall')} | ${m('a', 'gpu')} | ${m('b', 'gpu')} | ${median(ratios.gpu).toFixed(3)} | ${m('a', 'cpu')} | ${m('b', 'cpu')} | ${median(ratios.cpu).toFixed(3)} |`);
+          const r = (xs) => (xs.length ? median(xs).toFixed(3) : 'n/a');
+          console.log(`| ${backend} | ${c.model} ×${c.n} | ${m('a', 'wall')} | ${m('b', 'wall')} | ${m('a', 'gpu')} | ${m('b', 'gpu')} | ${r(ratios.gpu)} | ${m('a', 'cpu')} | ${m('b', 'cpu')} | ${r(ratios.cpu)} |`);
         }
       } finally {
         await ctx.close();
@@ -263,12 +279,12 @@ async function abRounds(rounds) {
     }
   } finally {
     a?.stop();
-    b.stop();
+    b?.stop();
   }
 }
 
 if (process.env.KLOUB_BENCH_AB) {
-  console.log(`| Backend (SwiftShader) | Case (${WIDTH}×${HEIGHT}) | A ms | B ms | A GPU-process CPU ms | B | median B / A | A all-process CPU ms | B | median B / A |`);
+  console.log(`| Backend (SwiftShader) | Case (${WIDTH}×${HEIGHT}) | A ms (median) | B ms | A GPU-process CPU ms (median) | B | median of the rounds' B / A | A all-process CPU ms (median) | B | median of the rounds' B / A |`);
   console.log('|---|---|---:|---:|---:|---:|---:|---:|---:|---:|');
   await abRounds(Number(process.env.KLOUB_BENCH_AB) || 6);
   process.exit(0);

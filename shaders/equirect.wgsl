@@ -5,8 +5,9 @@
 const EQUIRECT_PI: f32 = 3.14159265358979;
 
 /// The texture coordinates of unit direction `d`: its longitude atan2(x, −z) and colatitude
-/// acos(y) by polynomials (atan on [0, 1] within 1e-5 radians, Abramowitz and Stegun 4.4.45's
-/// acos within 7e-5: under a twentieth of a texel of a 4096 × 2048 map) rather than the built-in
+/// acos(y) by polynomials (Abramowitz and Stegun 4.4.49's atan on [0, 1], within 1.2e-5
+/// radians, and 4.4.45's acos, within 7e-5: under a twentieth of a texel of a 4096 × 2048 map;
+/// the specular chain is 256 wide) rather than the built-in
 /// functions, for a GPU that is the CPU (SwiftShader) evaluates this for every pixel of every mesh
 /// (BENCHMARKS.md, "Frame cost", stop 52, measures it with the fragment shader's other cuts).
 fn equirect_uv(d: vec3<f32>) -> vec2<f32> {
@@ -16,7 +17,7 @@ fn equirect_uv(d: vec3<f32>) -> vec2<f32> {
     let az = abs(z);
     let a = min(ax, az) / max(max(ax, az), 1e-30);
     let s = a * a;
-    var r = ((-0.0464964749 * s + 0.15931422) * s - 0.327622764) * s * a + a;
+    var r = a * (0.9998660 + s * (-0.3302995 + s * (0.1801410 + s * (-0.0851330 + s * 0.0208351))));
     r = select(r, 1.57079637 - r, ax > az);
     r = select(r, 3.14159274 - r, z < 0.0);
     r = select(r, -r, x < 0.0);

@@ -722,3 +722,69 @@ fn ground_shadow_darkens_the_floor_under_the_character() {
 fn luminance_of(p: &Rgba<u8>) -> f32 {
     0.2126 * f32::from(p.0[0]) + 0.7152 * f32::from(p.0[1]) + 0.0722 * f32::from(p.0[2])
 }
+
+/// A 1 × 1 quad in the XY plane facing +Z (counter-clockwise seen from there), single-sided,
+/// with one morph target (all zeros: its vertices are deformed wherever morphs are), on a node
+/// scaled by `scale`.
+fn morphed_quad(scale: [f32; 3]) -> Asset {
+    use base64::Engine as _;
+    let mut bin: Vec<u8> = Vec::new();
+    let positions = [[-0.5f32, -0.5, 0.0], [0.5, -0.5, 0.0], [0.5, 0.5, 0.0], [-0.5, 0.5, 0.0]];
+    positions.iter().flatten().for_each(|f| bin.extend(f.to_le_bytes()));
+    [[0.0f32, 0.0, 1.0]; 4].iter().flatten().for_each(|f| bin.extend(f.to_le_bytes()));
+    [0.0f32; 12].iter().for_each(|f| bin.extend(f.to_le_bytes()));
+    [0u16, 1, 2, 0, 2, 3].iter().for_each(|i| bin.extend(i.to_le_bytes()));
+    let uri =
+        format!("data:application/octet-stream;base64,{}", base64::engine::general_purpose::STANDARD.encode(&bin));
+    let view =
+        |offset: usize, length: usize| serde_json::json!({"buffer": 0, "byteOffset": offset, "byteLength": length});
+    let json = serde_json::json!({
+        "asset": {"version": "2.0"},
+        "buffers": [{"byteLength": bin.len(), "uri": uri}],
+        "bufferViews": [view(0, 48), view(48, 48), view(96, 48), view(144, 12)],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-0.5, -0.5, 0.0], "max": [0.5, 0.5, 0.0]},
+            {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC3"},
+            {"bufferView": 2, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0.0, 0.0, 0.0], "max": [0.0, 0.0, 0.0]},
+            {"bufferView": 3, "componentType": 5123, "count": 6, "type": "SCALAR"},
+        ],
+        "meshes": [{"weights": [0.0], "primitives": [{
+            "attributes": {"POSITION": 0, "NORMAL": 1}, "indices": 3, "targets": [{"POSITION": 2}],
+        }]}],
+        "nodes": [{"mesh": 0, "scale": scale}],
+        "scenes": [{"nodes": [0]}],
+        "scene": 0,
+    });
+    let bytes = serde_json::to_vec(&json).expect("JSON");
+    kloub_core::import(&bytes, &MapResolver::new(), &ImportOptions::default()).expect("a valid glTF").asset
+}
+
+/// A node that mirrors its mesh (a negative scale) turns its triangles' winding round; a
+/// single-sided material must still show its front, whether the vertices are transformed by
+/// the vertex shader or deformed (here: morphed) on the CPU with the node's matrix baked in.
+#[test]
+fn a_mirrored_single_sided_mesh_shows_its_front_on_every_path() {
+    use kloub_web::render::SceneRenderer;
+    use kloub_web::render::uniforms::{Background, Look};
+    let offscreen = Offscreen::new().expect("a wgpu adapter");
+    let (device, queue) = (offscreen.device(), offscreen.queue());
+    let size = 64;
+    for scale in [[1.0, 1.0, 1.0], [-1.0, 1.0, 1.0]] {
+        let asset = morphed_quad(scale);
+        let (mut instance, camera) = pose(&asset, None, 0.0, Some((0.0, 0.0)));
+        for path in [SkinningPath::Cpu, SkinningPath::Gpu] {
+            let mut renderer = SceneRenderer::new(device, queue, 1);
+            renderer.set_asset(device, queue, &asset).expect("uploading");
+            renderer.set_grid(false);
+            renderer.set_skinning_path(path).expect("a path every device has");
+            renderer.set_look(Look { background: Background::Transparent, shadow_intensity: 0.0, ..Look::default() });
+            let image = offscreen.render(&mut renderer, &asset, &mut instance, &camera, size, size).expect("rendering");
+            let shown = image.pixels().filter(|p| p.0[3] > 0).count();
+            eprintln!("mirrored quad: scale {scale:?}, {path:?}: {shown} pixels");
+            assert!(
+                shown > (size * size / 8) as usize,
+                "scale {scale:?}, {path:?}: the quad's front shows in {shown} pixels"
+            );
+        }
+    }
+}

@@ -253,9 +253,11 @@ pub struct PipelineKey {
     /// Skinned draws: the deviation heatmap compiled in.
     pub heatmap: bool,
     /// A shadow caster: depth only, into the single-sampled [`SHADOW_FORMAT`] map, with a
-    /// slope-scaled depth bias; the faces the material shows (both where it is double-sided)
-    /// that face the light: a closed mesh's back faces add nothing to the ground's shadow, and
-    /// the rasterizer skips them.
+    /// slope-scaled depth bias; for a single-sided material only the faces turned towards the
+    /// light (both for a double-sided one): a closed mesh's far side adds nothing to the
+    /// ground's shadow, and the rasterizer skips it. An open single-sided sheet (a cape, a
+    /// card) casts only where its front faces the light, the side it is seen from; three.js
+    /// draws the back faces of such materials instead.
     pub caster: bool,
     /// A caster of an alpha-masked material: it discards where the material does (always
     /// false in colour pipelines: the material's flags say it there).
@@ -276,6 +278,8 @@ impl PipelineKey {
     /// `None` for what casts no shadow (blended draws, points and lines).
     pub fn caster(self, mask: bool) -> Option<Self> {
         (!self.blend && self.topology == wgpu::PrimitiveTopology::TriangleList).then_some(Self {
+            // Winding matters only where a face is culled.
+            mirrored: self.mirrored && !self.double_sided,
             heatmap: false,
             caster: true,
             mask,

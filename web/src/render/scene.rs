@@ -1653,6 +1653,12 @@ impl GpuScene {
             for (c, instance) in instances.iter_mut().enumerate() {
                 let place = Mat4::from_translation(offsets[c]);
                 let world = instance.worlds()[draw.node as usize];
+                // An unskinned draw's world matrix mirrors its triangles wherever it is applied (in
+                // the vertex shader, or baked into vertices deformed on the CPU); a skinned one's
+                // is ignored (glTF), its joints place it.
+                if draw.skin.is_none() {
+                    mirrored = world.determinant() < 0.0;
+                }
                 let morph = |u: DrawUniform| match draw.morph {
                     Some(slot) => u.with_morph(slot, instance.node_weights(asset, draw.node)),
                     None => u,
@@ -1771,7 +1777,6 @@ impl GpuScene {
                     method = Some(if method.is_none_or(|m| m == code) { code } else { SKIN_FROM_DRAW });
                     (uniform, VertexPath::Skinned)
                 } else {
-                    mirrored = world.determinant() < 0.0;
                     (morph(DrawUniform::new(place * world, 0, gpu.has_normals)), VertexPath::Static)
                 };
                 let start = (c * draws + i) * stride as usize;
