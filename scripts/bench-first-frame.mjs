@@ -23,7 +23,7 @@ import { readFileSync, statSync } from 'node:fs';
 import { extname, resolve } from 'node:path';
 import { brotliCompressSync, constants, gzipSync } from 'node:zlib';
 import { chromium } from 'playwright-core';
-import { BASE_FLAGS, ROOT, WEBGPU_FLAGS } from '../tests/browser/lib.mjs';
+import { BASE_FLAGS, ROOT, WEBGPU_FLAGS, median } from '../tests/browser/lib.mjs';
 
 const RUNS = Number(process.env.KLOUB_BENCH_RUNS ?? 5);
 const BACKENDS = (process.env.KLOUB_BACKENDS ?? 'webgpu,webgl2').split(',');
@@ -203,7 +203,6 @@ function printProfile(profile, untilMs, inclusive) {
   }
 }
 
-const median = (xs) => [...xs].sort((a, b) => a - b)[Math.floor(xs.length / 2)];
 const server = await serve();
 try {
   const impls = [

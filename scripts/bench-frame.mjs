@@ -26,7 +26,7 @@
 import { createServer } from 'node:http';
 import { readFileSync, readdirSync, statSync } from 'node:fs';
 import { extname, join, resolve } from 'node:path';
-import { ROOT, openBrowser, startServer } from '../tests/browser/lib.mjs';
+import { ROOT, median, openBrowser, startServer } from '../tests/browser/lib.mjs';
 
 const SECONDS = Number(process.env.KLOUB_BENCH_SECONDS ?? 4);
 const BACKENDS = (process.env.KLOUB_BACKENDS ?? 'webgl2,webgpu').split(',');
@@ -231,8 +231,6 @@ async function kloub(page, base, backend, { model, n }, evalBody = process.env.K
   result.camera = await page.evaluate(() => document.querySelector('kloub-viewer').camera);
   return result;
 }
-
-const median = (xs) => { const s = [...xs].sort((a, b) => a - b); return s.length % 2 ? s[(s.length - 1) / 2] : (s[s.length / 2 - 1] + s[s.length / 2]) / 2; };
 
 /** KLOUB_BENCH_AB: A against B in alternating rounds (see the top of this file). */
 async function abRounds(rounds) {

@@ -5,11 +5,11 @@
 const EQUIRECT_PI: f32 = 3.14159265358979;
 
 /// The texture coordinates of unit direction `d`: its longitude atan2(x, −z) and colatitude
-/// acos(y) by polynomials (Abramowitz and Stegun 4.4.49's atan on [0, 1], within 1.2e-5
-/// radians, and 4.4.45's acos, within 7e-5: under a twentieth of a texel of a 4096 × 2048 map;
-/// the specular chain is 256 wide) rather than the built-in
-/// functions, for a GPU that is the CPU (SwiftShader) evaluates this for every pixel of every mesh
-/// (BENCHMARKS.md, "Frame cost", stop 52, measures it with the fragment shader's other cuts).
+/// acos(y) by polynomials rather than the built-in functions, for a GPU that is the CPU
+/// (SwiftShader) evaluates this for every pixel of every mesh (BENCHMARKS.md, "Frame cost",
+/// stop 52, measures it with the fragment shader's other cuts). Abramowitz and Stegun 4.4.49's
+/// atan on [0, 1] is within 1.2e-5 radians and 4.4.45's acos within 7e-5: under a twentieth of a
+/// texel of a 4096 × 2048 map (the specular chain is 256 wide).
 fn equirect_uv(d: vec3<f32>) -> vec2<f32> {
     let x = d.x;
     let z = -d.z;

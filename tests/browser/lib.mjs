@@ -61,6 +61,13 @@ export async function startStatic(dir, { cors = false } = {}) {
   return { url: `http://127.0.0.1:${server.address().port}`, stop: () => server.close() };
 }
 
+/** The median of `xs` (the mean of the middle two for an even count), for the benchmark scripts. */
+export function median(xs) {
+  const s = [...xs].sort((a, b) => a - b);
+  const mid = Math.floor(s.length / 2);
+  return s.length % 2 ? s[mid] : (s[mid - 1] + s[mid]) / 2;
+}
+
 /** Fraction of pixels with a clearly coloured (saturated) look: a texture, not flat grey shading. */
 export function saturatedFraction(img) {
   let n = 0;
