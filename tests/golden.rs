@@ -719,6 +719,66 @@ fn ground_shadow_darkens_the_floor_under_the_character() {
     assert!(beside_feet >= 10, "the shadow is not at the feet ({beside_feet} darkened pixels beside them)");
 }
 
+/// A soft shadow's casters draw each primitive clustered on a grid
+/// ([`kloub_core::simplify::cluster_triangles`]): the shadow is the full mesh's within a few
+/// levels (the mask blurs detail finer than a cell), in every pose measured, while CesiumMan's
+/// casters draw under a third of its triangles.
+#[test]
+fn a_soft_shadow_from_simplified_casters_matches_the_full_meshes() {
+    use kloub_web::render::SceneRenderer;
+    use kloub_web::render::uniforms::{Background, Look};
+    let offscreen = Offscreen::new().expect("a wgpu adapter");
+    let (device, queue) = (offscreen.device(), offscreen.queue());
+    let cases = [
+        ("khronos/CesiumMan/glTF-Binary/CesiumMan.glb", 0.5, (0.3, -0.5)),
+        ("khronos/CesiumMan/glTF-Binary/CesiumMan.glb", 1.4, (-0.6, -0.15)),
+        ("khronos/Fox/glTF-Binary/Fox.glb", 0.3, (0.3, -0.5)),
+        ("threejs/RobotExpressive/RobotExpressive.glb", 0.8, (0.3, -0.4)),
+    ];
+    for (model, time, view) in cases {
+        let asset = load(model);
+        if model.contains("CesiumMan") {
+            let (all, cast): (usize, usize) = asset
+                .meshes
+                .iter()
+                .flat_map(|m| &m.primitives)
+                .map(|p| {
+                    let simplified = kloub_core::simplify::cluster_triangles(p, kloub_core::simplify::SHADOW_CELLS);
+                    (p.indices.len(), simplified.map_or(p.indices.len(), |s| s.len()))
+                })
+                .fold((0, 0), |(a, c), (x, y)| (a + x, c + y));
+            assert!(cast * 3 < all, "CesiumMan's casters draw {cast} of {all} indices");
+        }
+        let (mut instance, camera) = pose(&asset, Some(0), time, Some(view));
+        let mut renderer = SceneRenderer::new(device, queue, 1);
+        renderer.set_asset(device, queue, &asset).expect("uploading");
+        renderer.set_grid(false);
+        renderer.set_look(Look { background: Background::Grey, ..Look::default() });
+        let size = 256;
+        let mut shot = |full: bool| {
+            renderer.set_full_casters(full);
+            offscreen.render(&mut renderer, &asset, &mut instance, &camera, size, size).expect("rendering")
+        };
+        let (full, simplified) = (shot(true), shot(false));
+        let c = compare(&full, &simplified, 4);
+        let out = kloub_tests::repo_root().join("tests/out/simplified-casters");
+        let name = format!("{}-{time}", model.rsplit('/').next().unwrap_or(model));
+        if std::fs::create_dir_all(&out).is_ok() {
+            // Kept for a look: both shadows and where they differ.
+            let _ = full.save(out.join(format!("{name}.full.png")));
+            let _ = simplified.save(out.join(format!("{name}.simplified.png")));
+            let _ = c.diff.save(out.join(format!("{name}.diff.png")));
+        }
+        eprintln!(
+            "{model} at {time} s: simplified casters' shadow differs by up to {} levels, {:.3} % of pixels over 4",
+            c.largest_channel_diff,
+            c.differing_fraction * 100.0
+        );
+        assert!(c.largest_channel_diff <= 12, "{model} at {time} s: {} levels", c.largest_channel_diff);
+        assert!(c.differing_fraction < 0.005, "{model} at {time} s: {} of the pixels", c.differing_fraction);
+    }
+}
+
 fn luminance_of(p: &Rgba<u8>) -> f32 {
     0.2126 * f32::from(p.0[0]) + 0.7152 * f32::from(p.0[1]) + 0.0722 * f32::from(p.0[2])
 }

@@ -37,6 +37,7 @@ pub mod pose;
 pub mod ragdoll;
 pub mod rig;
 pub mod sculpt;
+pub mod simplify;
 #[cfg(test)]
 mod testutil;
 

@@ -430,6 +430,8 @@ pub struct SceneRenderer {
     /// The environment image's prefiltered textures, kept while it is the image (choosing it
     /// again after a named one does not prefilter it again).
     image_environment: Option<(u64, GpuEnvironment)>,
+    /// Soft shadows' casters draw every triangle too ([`SceneRenderer::set_full_casters`]).
+    full_casters: bool,
 }
 
 /// The shadow map's size in texels (square).
@@ -448,6 +450,18 @@ pub const SOFT_SHADOW_MASK_SIZE: u32 = 128;
 
 /// The softness from which the shadow's mask is [`SOFT_SHADOW_MASK_SIZE`] texels wide.
 pub const SOFT_SHADOW: f32 = 0.5;
+
+/// What [`GpuScene::encode`] records.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Pass {
+    /// The scene itself.
+    Scene,
+    /// The shadow casters, every triangle.
+    Casters,
+    /// The shadow casters, each primitive's simplified triangles where it has them
+    /// ([`super::mesh::GpuPrimitive::caster_indices`]).
+    SimplifiedCasters,
+}
 
 /// The ground shadow's GPU side: the map the casters draw into, the mask the shadow is
 /// filtered into (and its size), the uniform, the mask pass's and the ground pass's bind
@@ -616,6 +630,7 @@ impl SceneRenderer {
             environment_image: None,
             environment: (None, no_environment, 0.0),
             image_environment: None,
+            full_casters: false,
         }
     }
 
@@ -977,6 +992,13 @@ impl SceneRenderer {
         self.heatmap.is_some()
     }
 
+    /// Whether a soft shadow's casters draw every triangle of their primitives instead of the
+    /// simplified ones ([`kloub_core::simplify::cluster_triangles`], the default); a sharp
+    /// shadow's always do. For comparing the two (tests/golden.rs, benchmarks).
+    pub fn set_full_casters(&mut self, full: bool) {
+        self.full_casters = full;
+    }
+
     /// Shows or hides the ground grid (on by default).
     pub fn set_grid(&mut self, on: bool) {
         self.grid = on;
@@ -1265,7 +1287,13 @@ impl SceneRenderer {
             });
             pass.set_bind_group(0, &scene.frame_bind_groups[1], &[]);
             pass.set_bind_group(3, &self.environment.1.bind_group, &[]);
-            scene.encode(&mut pass, &self.pipelines, (0..copies * draws).filter(opaque), self.draw_stride, true);
+            // A soft shadow's casters draw their simplified triangles (the mask blurs finer detail).
+            let pass_kind = if shadow.mask_size == SOFT_SHADOW_MASK_SIZE && !self.full_casters {
+                Pass::SimplifiedCasters
+            } else {
+                Pass::Casters
+            };
+            scene.encode(&mut pass, &self.pipelines, (0..copies * draws).filter(opaque), self.draw_stride, pass_kind);
             drop(pass);
             // The shadow filtered once into the mask (a fixed cost), not per pixel of the view.
             let mut pass = super::pipelines::fill_pass(encoder, "kloub shadow mask", &shadow.mask);
@@ -1313,13 +1341,13 @@ impl SceneRenderer {
                 pass.draw(0..6, 0..1);
             }
 
-            scene.encode(&mut pass, &self.pipelines, (0..copies * draws).filter(opaque), self.draw_stride, false);
+            scene.encode(&mut pass, &self.pipelines, (0..copies * draws).filter(opaque), self.draw_stride, Pass::Scene);
             if let Some(grid) = grid {
                 pass.set_pipeline(grid);
                 pass.draw(0..6, 0..1);
             }
             let blended = self.scratch.blend_order.iter().map(|&(_, i)| i);
-            scene.encode(&mut pass, &self.pipelines, blended, self.draw_stride, false);
+            scene.encode(&mut pass, &self.pipelines, blended, self.draw_stride, Pass::Scene);
         }
         self.times.draw_ms = encode_started.elapsed().as_secs_f32() * 1000.0;
     }
@@ -1850,15 +1878,16 @@ impl GpuScene {
     }
 
     /// Records the draw slots `slots` (copy `c` of draw `i` is slot `c * draws + i`; those
-    /// prepared this frame), or with `caster` their shadow casters (into the shadow map).
+    /// prepared this frame) for `pass`: the scene, or their shadow casters (into the shadow map).
     fn encode(
         &self,
         pass: &mut wgpu::RenderPass<'_>,
         pipelines: &Pipelines,
         slots: impl Iterator<Item = usize>,
         stride: u64,
-        caster: bool,
+        kind: Pass,
     ) {
+        let caster = kind != Pass::Scene;
         let draws = self.draws.len().max(1);
         for slot in slots {
             let (c, i) = (slot / draws, slot % draws);
@@ -1902,8 +1931,12 @@ impl GpuScene {
                 pass.set_vertex_buffer(2, skin.slice(..));
                 pass.set_vertex_buffer(3, pivots.slice(..));
             }
-            pass.set_index_buffer(gpu.indices.slice(..), wgpu::IndexFormat::Uint32);
-            pass.draw_indexed(0..gpu.index_count, 0, 0..1);
+            let (indices, count) = match (&gpu.caster_indices, kind) {
+                (Some((indices, count)), Pass::SimplifiedCasters) => (indices, *count),
+                _ => (&gpu.indices, gpu.index_count),
+            };
+            pass.set_index_buffer(indices.slice(..), wgpu::IndexFormat::Uint32);
+            pass.draw_indexed(0..count, 0, 0..1);
         }
     }
 }
