@@ -18,6 +18,14 @@ use crate::asset::{Primitive, Topology};
 /// (tests/golden.rs measures it).
 pub const SHADOW_CELLS: u32 = 32;
 
+/// Cells for casters drawn at under [`COARSE_SCALE`] of the size one model alone is drawn at in
+/// the shadow map (many copies share it): a cell is then no more texels than
+/// [`SHADOW_CELLS`]' are for one model.
+pub const COARSE_SHADOW_CELLS: u32 = 16;
+
+/// See [`COARSE_SHADOW_CELLS`].
+pub const COARSE_SCALE: f32 = 0.5;
+
 /// Primitives with fewer triangles than this keep their own list: a second index buffer would
 /// save next to nothing.
 pub const MIN_TRIANGLES: usize = 64;

@@ -121,10 +121,11 @@ pub struct GpuPrimitive {
     pub indices: wgpu::Buffer,
     /// Number of indices.
     pub index_count: u32,
-    /// The triangles a soft ground shadow's casters draw instead, and their number of indices:
-    /// the primitive clustered on [`kloub_core::simplify::SHADOW_CELLS`] cells (the same
-    /// vertices); `None` where that saves little ([`kloub_core::simplify::cluster_triangles`]).
-    pub caster_indices: Option<(wgpu::Buffer, u32)>,
+    /// The triangles a soft ground shadow's casters draw instead, and their numbers of indices:
+    /// the primitive clustered on [`kloub_core::simplify::SHADOW_CELLS`] and on
+    /// [`kloub_core::simplify::COARSE_SHADOW_CELLS`] cells (the same vertices); `None` where that
+    /// saves little ([`kloub_core::simplify::cluster_triangles`]).
+    pub caster_indices: [Option<(wgpu::Buffer, u32)>; 2],
     /// Number of vertices.
     pub vertex_count: u32,
     /// Whether the primitive has normals (else the fragment shader makes flat ones).
@@ -188,20 +189,17 @@ impl GpuPrimitive {
                 wgpu::BufferUsages::INDEX,
             ),
             index_count: primitive.indices.len() as u32,
-            caster_indices: kloub_core::simplify::cluster_triangles(primitive, kloub_core::simplify::SHADOW_CELLS)
-                .filter(|simplified| !simplified.is_empty())
-                .map(|simplified| {
-                    let count = simplified.len() as u32;
-                    (
-                        buffer(
-                            device,
-                            "kloub caster indices",
-                            bytemuck::cast_slice(&simplified),
-                            wgpu::BufferUsages::INDEX,
-                        ),
-                        count,
-                    )
-                }),
+            caster_indices: [kloub_core::simplify::SHADOW_CELLS, kloub_core::simplify::COARSE_SHADOW_CELLS].map(
+                |cells| {
+                    kloub_core::simplify::cluster_triangles(primitive, cells)
+                        .filter(|simplified| !simplified.is_empty())
+                        .map(|simplified| {
+                            let count = simplified.len() as u32;
+                            let contents = bytemuck::cast_slice(&simplified);
+                            (buffer(device, "kloub caster indices", contents, wgpu::BufferUsages::INDEX), count)
+                        })
+                },
+            ),
             vertex_count: n as u32,
             has_normals,
         })

@@ -459,8 +459,8 @@ enum Pass {
     /// The shadow casters, every triangle.
     Casters,
     /// The shadow casters, each primitive's simplified triangles where it has them
-    /// ([`super::mesh::GpuPrimitive::caster_indices`]).
-    SimplifiedCasters,
+    /// ([`super::mesh::GpuPrimitive::caster_indices`]), `coarse` or not.
+    SimplifiedCasters { coarse: bool },
 }
 
 /// The ground shadow's GPU side: the map the casters draw into, the mask the shadow is
@@ -470,6 +470,9 @@ struct ShadowMap {
     view: wgpu::TextureView,
     mask: wgpu::TextureView,
     mask_size: u32,
+    /// The copies are drawn small enough in the map for the coarse simplified casters
+    /// ([`kloub_core::simplify::COARSE_SHADOW_CELLS`]).
+    coarse: bool,
     uniform: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
     ground_bind_group: wgpu::BindGroup,
@@ -538,7 +541,7 @@ impl ShadowMap {
                 wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::Sampler(&linear) },
             ],
         });
-        Self { view, mask, mask_size, uniform, bind_group, ground_bind_group, drawn: false }
+        Self { view, mask, mask_size, coarse: false, uniform, bind_group, ground_bind_group, drawn: false }
     }
 }
 
@@ -678,6 +681,10 @@ impl SceneRenderer {
         }
         let shadow = self.shadow.get_or_insert_with(|| ShadowMap::new(device, &self.layouts, mask_size));
         queue.write_buffer(&shadow.uniform, 0, bytemuck::bytes_of(&uniform));
+        // The map spans 1.5 radii of the scene's box beyond the farthest copy's offset
+        // (`ShadowUniform::new`): a copy is drawn at 1.5 r / (1.5 r + extent) of one model's size.
+        let r = 1.5 * self.ground.radius;
+        shadow.coarse = r < kloub_core::simplify::COARSE_SCALE * (r + extent);
         let light_frame = FrameUniform { view_proj: uniform.light_view_proj, ..*frame };
         queue.write_buffer(&self.frame_buffers[1], 0, bytemuck::bytes_of(&light_frame));
         shadow.drawn = true;
@@ -999,6 +1006,19 @@ impl SceneRenderer {
         self.full_casters = full;
     }
 
+    /// The cells along a primitive's longest side that the last frame's shadow casters were
+    /// simplified on ([`kloub_core::simplify::SHADOW_CELLS`], or
+    /// [`kloub_core::simplify::COARSE_SHADOW_CELLS`] for many copies); `None` when they drew
+    /// every triangle or no shadow was drawn.
+    pub fn caster_cells(&self) -> Option<u32> {
+        let shadow = self.shadow.as_ref().filter(|s| s.drawn && s.mask_size == SOFT_SHADOW_MASK_SIZE)?;
+        (!self.full_casters).then_some(if shadow.coarse {
+            kloub_core::simplify::COARSE_SHADOW_CELLS
+        } else {
+            kloub_core::simplify::SHADOW_CELLS
+        })
+    }
+
     /// Shows or hides the ground grid (on by default).
     pub fn set_grid(&mut self, on: bool) {
         self.grid = on;
@@ -1289,7 +1309,7 @@ impl SceneRenderer {
             pass.set_bind_group(3, &self.environment.1.bind_group, &[]);
             // A soft shadow's casters draw their simplified triangles (the mask blurs finer detail).
             let pass_kind = if shadow.mask_size == SOFT_SHADOW_MASK_SIZE && !self.full_casters {
-                Pass::SimplifiedCasters
+                Pass::SimplifiedCasters { coarse: shadow.coarse }
             } else {
                 Pass::Casters
             };
@@ -1931,8 +1951,12 @@ impl GpuScene {
                 pass.set_vertex_buffer(2, skin.slice(..));
                 pass.set_vertex_buffer(3, pivots.slice(..));
             }
-            let (indices, count) = match (&gpu.caster_indices, kind) {
-                (Some((indices, count)), Pass::SimplifiedCasters) => (indices, *count),
+            let simplified = match kind {
+                Pass::SimplifiedCasters { coarse } => gpu.caster_indices.get(usize::from(coarse)),
+                _ => None,
+            };
+            let (indices, count) = match simplified {
+                Some(Some((indices, count))) => (indices, *count),
                 _ => (&gpu.indices, gpu.index_count),
             };
             pass.set_index_buffer(indices.slice(..), wgpu::IndexFormat::Uint32);
