@@ -12,9 +12,9 @@ use std::collections::{HashMap, HashSet};
 
 use crate::asset::{Primitive, Topology};
 
-/// Cells along the longest side of a primitive's bounds for its ground-shadow casters: each
-/// cell is about one texel of the soft shadow's mask when one model fills it (the mask blurs
-/// over several), so the simplified caster's shadow is the full mesh's within a few levels
+/// Cells along the longest side of a primitive's bounds for its ground-shadow casters: a few
+/// texels of the soft shadow's 128² mask for one model alone, which the mask's filter blurs
+/// over, so the simplified casters' shadow is the full mesh's within a few levels
 /// (tests/golden.rs measures it).
 pub const SHADOW_CELLS: u32 = 32;
 
@@ -33,18 +33,24 @@ pub const MIN_TRIANGLES: usize = 64;
 /// A simplified list is kept only when it has at most this share of the triangles.
 pub const MAX_KEPT: f32 = 0.8;
 
+/// Primitives with more triangles than this keep their own list: the clustering's time and
+/// memory at upload stay bounded whatever a file declares.
+pub const MAX_TRIANGLES: usize = 1 << 20;
+
 /// No joint: the group of an unskinned primitive's vertices.
 const NO_JOINT: u32 = u32::MAX;
 
 /// The triangle list of `primitive` clustered on a grid of `cells` cells along its bounds'
 /// longest side (see the module's documentation): indices into the primitive's own vertices,
 /// each triangle's winding kept, no degenerate or repeated triangle. `None` when there is
-/// nothing to gain: not a triangle list, fewer than [`MIN_TRIANGLES`] triangles, bounds that
-/// are empty or not finite, an index out of range, or more than [`MAX_KEPT`] of the triangles
-/// kept. Vertices with a non-finite position are never merged.
+/// nothing to gain: not a triangle list, fewer than [`MIN_TRIANGLES`] or more than
+/// [`MAX_TRIANGLES`] triangles, bounds that are empty or not finite, an index out of range, or
+/// more than [`MAX_KEPT`] of the triangles kept. Vertices with a non-finite position are never
+/// merged.
 pub fn cluster_triangles(primitive: &Primitive, cells: u32) -> Option<Vec<u32>> {
     let indices = &primitive.indices;
-    if primitive.topology != Topology::Triangles || indices.len() / 3 < MIN_TRIANGLES {
+    let triangles = indices.len() / 3;
+    if primitive.topology != Topology::Triangles || !(MIN_TRIANGLES..=MAX_TRIANGLES).contains(&triangles) {
         return None;
     }
     let representative = representatives(primitive, cells)?;
@@ -81,7 +87,8 @@ fn representatives(primitive: &Primitive, cells: u32) -> Option<Vec<u32>> {
     let positions = &primitive.positions;
     let (min, max) = primitive.bounds;
     let extent = (0..3).map(|a| max[a] - min[a]).fold(0.0f32, f32::max);
-    if cells == 0 || !(extent.is_finite() && extent > 0.0 && min.iter().all(|v| v.is_finite())) {
+    let finite_bounds = min.iter().chain(&max).all(|v| v.is_finite());
+    if cells == 0 || !(finite_bounds && extent.is_finite() && extent > 0.0) {
         return None;
     }
     let scale = cells as f32 / extent;
@@ -95,8 +102,10 @@ fn representatives(primitive: &Primitive, cells: u32) -> Option<Vec<u32>> {
     for (v, p) in positions.iter().enumerate() {
         let next = sums.len() as u32;
         let id = if finite(p) {
-            // In range for a position within the bounds; clamped for any other.
-            let cell = [0, 1, 2].map(|a| ((p[a] - min[a]) * scale).clamp(0.0, cells as f32) as u32);
+            // `cells` cells an axis: the bounds' far face and any position outside them (bounds
+            // that lie) fall into the edge cells.
+            let last = (cells - 1) as f32;
+            let cell = [0, 1, 2].map(|a| ((p[a] - min[a]) * scale).clamp(0.0, last) as u32);
             let group = match (primitive.joints.get(v), primitive.weights.get(v)) {
                 (Some(j), Some(w)) if skinned => dominant_joint(j, w),
                 _ => NO_JOINT,
@@ -243,6 +252,10 @@ mod tests {
         // Bounds that are not finite, or empty.
         let nan = Primitive { bounds: ([f32::NAN; 3], [1.0; 3]), ..sheet(64) };
         assert!(cluster_triangles(&nan, 16).is_none());
+        let nan_max = Primitive { bounds: ([0.0; 3], [1.0, f32::NAN, 0.0]), ..sheet(64) };
+        assert!(cluster_triangles(&nan_max, 16).is_none());
+        let huge = Primitive { bounds: ([-3e38; 3], [3e38; 3]), ..sheet(64) };
+        assert!(cluster_triangles(&huge, 16).is_none());
         let flat = Primitive { bounds: ([0.0; 3], [0.0; 3]), ..sheet(64) };
         assert!(cluster_triangles(&flat, 16).is_none());
         // An index past the vertices.

@@ -124,7 +124,8 @@ pub struct GpuPrimitive {
     /// The triangles a soft ground shadow's casters draw instead, and their numbers of indices:
     /// the primitive clustered on [`kloub_core::simplify::SHADOW_CELLS`] and on
     /// [`kloub_core::simplify::COARSE_SHADOW_CELLS`] cells (the same vertices); `None` where that
-    /// saves little ([`kloub_core::simplify::cluster_triangles`]).
+    /// saves little ([`kloub_core::simplify::cluster_triangles`]). Alpha-masked materials' casters
+    /// never draw them (see `caster_list` in `scene.rs`).
     pub caster_indices: [Option<(wgpu::Buffer, u32)>; 2],
     /// Number of vertices.
     pub vertex_count: u32,

@@ -459,8 +459,23 @@ enum Pass {
     /// The shadow casters, every triangle.
     Casters,
     /// The shadow casters, each primitive's simplified triangles where it has them
-    /// ([`super::mesh::GpuPrimitive::caster_indices`]), `coarse` or not.
+    /// ([`super::mesh::GpuPrimitive::caster_indices`]), `coarse` or not; alpha-masked materials'
+    /// casters draw every triangle ([`caster_list`]).
     SimplifiedCasters { coarse: bool },
+}
+
+/// The index buffer and count `gpu` draws in `kind` of pass: its simplified caster list where
+/// the pass asks for one and it has one, except for an alpha-masked material (`mask`), whose
+/// caster cuts the shadow by the texture's alpha at interpolated UVs that a clustered triangle
+/// would take from unrelated parts of the texture.
+fn caster_list(gpu: &GpuPrimitive, kind: Pass, mask: bool) -> (&wgpu::Buffer, u32) {
+    match kind {
+        Pass::SimplifiedCasters { coarse } if !mask => match gpu.caster_indices.get(usize::from(coarse)) {
+            Some(Some((indices, count))) => (indices, *count),
+            _ => (&gpu.indices, gpu.index_count),
+        },
+        _ => (&gpu.indices, gpu.index_count),
+    }
 }
 
 /// The ground shadow's GPU side: the map the casters draw into, the mask the shadow is
@@ -1006,17 +1021,32 @@ impl SceneRenderer {
         self.full_casters = full;
     }
 
-    /// The cells along a primitive's longest side that the last frame's shadow casters were
-    /// simplified on ([`kloub_core::simplify::SHADOW_CELLS`], or
-    /// [`kloub_core::simplify::COARSE_SHADOW_CELLS`] for many copies); `None` when they drew
-    /// every triangle or no shadow was drawn.
-    pub fn caster_cells(&self) -> Option<u32> {
-        let shadow = self.shadow.as_ref().filter(|s| s.drawn && s.mask_size == SOFT_SHADOW_MASK_SIZE)?;
-        (!self.full_casters).then_some(if shadow.coarse {
-            kloub_core::simplify::COARSE_SHADOW_CELLS
+    /// What the casters of `shadow` draw: a soft shadow's, their simplified triangles (the mask
+    /// blurs finer detail), unless [`SceneRenderer::set_full_casters`].
+    fn casters_pass(&self, shadow: &ShadowMap) -> Pass {
+        if shadow.mask_size == SOFT_SHADOW_MASK_SIZE && !self.full_casters {
+            Pass::SimplifiedCasters { coarse: shadow.coarse }
         } else {
-            kloub_core::simplify::SHADOW_CELLS
-        })
+            Pass::Casters
+        }
+    }
+
+    /// How many indices the last prepared frame's shadow casters draw, over every copy; `None`
+    /// when it draws no shadow. For checking which lists they draw (tests/golden.rs).
+    pub fn caster_indices_drawn(&self) -> Option<u64> {
+        let shadow = self.shadow.as_ref().filter(|s| s.drawn)?;
+        let scene = self.scene.as_ref()?;
+        let kind = self.casters_pass(shadow);
+        let per_copy: u64 = scene
+            .draws
+            .iter()
+            .filter(|d| !d.blend && d.key.and_then(|k| k.caster(d.mask)).is_some())
+            .filter_map(|d| {
+                let gpu = scene.primitives.get(d.mesh)?.get(d.primitive)?.as_ref()?;
+                Some(u64::from(caster_list(gpu, kind, d.mask).1))
+            })
+            .sum();
+        Some(per_copy * self.prepared_copies as u64)
     }
 
     /// Shows or hides the ground grid (on by default).
@@ -1307,12 +1337,7 @@ impl SceneRenderer {
             });
             pass.set_bind_group(0, &scene.frame_bind_groups[1], &[]);
             pass.set_bind_group(3, &self.environment.1.bind_group, &[]);
-            // A soft shadow's casters draw their simplified triangles (the mask blurs finer detail).
-            let pass_kind = if shadow.mask_size == SOFT_SHADOW_MASK_SIZE && !self.full_casters {
-                Pass::SimplifiedCasters { coarse: shadow.coarse }
-            } else {
-                Pass::Casters
-            };
+            let pass_kind = self.casters_pass(shadow);
             scene.encode(&mut pass, &self.pipelines, (0..copies * draws).filter(opaque), self.draw_stride, pass_kind);
             drop(pass);
             // The shadow filtered once into the mask (a fixed cost), not per pixel of the view.
@@ -1951,14 +1976,7 @@ impl GpuScene {
                 pass.set_vertex_buffer(2, skin.slice(..));
                 pass.set_vertex_buffer(3, pivots.slice(..));
             }
-            let simplified = match kind {
-                Pass::SimplifiedCasters { coarse } => gpu.caster_indices.get(usize::from(coarse)),
-                _ => None,
-            };
-            let (indices, count) = match simplified {
-                Some(Some((indices, count))) => (indices, *count),
-                _ => (&gpu.indices, gpu.index_count),
-            };
+            let (indices, count) = caster_list(gpu, kind, draw.mask);
             pass.set_index_buffer(indices.slice(..), wgpu::IndexFormat::Uint32);
             pass.draw_indexed(0..count, 0, 0..1);
         }
