@@ -93,7 +93,9 @@ fn representatives(primitive: &Primitive, cells: u32) -> Option<Vec<u32>> {
     }
     let scale = cells as f32 / extent;
     let skinned = primitive.joints.len() == positions.len() && primitive.weights.len() == positions.len();
-    let finite = |p: &[f32; 3]| p.iter().all(|c| c.is_finite());
+    // `cells` cells an axis: the bounds' far face and any position outside them (bounds that
+    // lie) fall into the edge cells.
+    let last = (cells - 1) as f32;
 
     // Each vertex's cluster, and each cluster's sum of positions and count.
     let mut lookup: HashMap<([u32; 3], u32), u32> = HashMap::new();
@@ -101,13 +103,11 @@ fn representatives(primitive: &Primitive, cells: u32) -> Option<Vec<u32>> {
     let mut cluster_of: Vec<u32> = Vec::with_capacity(positions.len());
     for (v, p) in positions.iter().enumerate() {
         let next = sums.len() as u32;
-        let id = if finite(p) {
-            // `cells` cells an axis: the bounds' far face and any position outside them (bounds
-            // that lie) fall into the edge cells.
-            let last = (cells - 1) as f32;
+        let finite = p.iter().all(|c| c.is_finite());
+        let id = if finite {
             let cell = [0, 1, 2].map(|a| ((p[a] - min[a]) * scale).clamp(0.0, last) as u32);
             let group = match (primitive.joints.get(v), primitive.weights.get(v)) {
-                (Some(j), Some(w)) if skinned => dominant_joint(j, w),
+                (Some(j), Some(w)) if skinned => crate::job::strongest_joint(j, w).map_or(NO_JOINT, u32::from),
                 _ => NO_JOINT,
             };
             *lookup.entry((cell, group)).or_insert(next)
@@ -119,7 +119,7 @@ fn representatives(primitive: &Primitive, cells: u32) -> Option<Vec<u32>> {
             sums.push(([0.0; 3], 0));
         }
         if let Some((sum, n)) = sums.get_mut(id as usize)
-            && finite(p)
+            && finite
         {
             for a in 0..3 {
                 sum[a] += p[a];
@@ -140,17 +140,6 @@ fn representatives(primitive: &Primitive, cells: u32) -> Option<Vec<u32>> {
         }
     }
     cluster_of.iter().map(|&id| nearest.get(id as usize).map(|n| n.0)).collect()
-}
-
-/// The joint with the largest weight among a vertex's influences (the first of equals).
-fn dominant_joint(joints: &[u16; 8], weights: &[f32; 8]) -> u32 {
-    let mut best = (NO_JOINT, 0.0f32);
-    for (&j, &w) in joints.iter().zip(weights) {
-        if w > best.1 {
-            best = (u32::from(j), w);
-        }
-    }
-    best.0
 }
 
 #[cfg(test)]

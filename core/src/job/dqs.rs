@@ -334,14 +334,8 @@ impl RigidJob<'_> {
     pub fn run(&mut self) -> Result<(), JobError> {
         self.validate()?;
         for v in 0..self.positions.len() {
-            let mut best: Option<(u16, f32)> = None;
-            for (&j, &w) in self.joints[v].iter().zip(&self.weights[v]) {
-                if w > 0.0 && best.is_none_or(|(_, b)| w > b) {
-                    best = Some((j, w));
-                }
-            }
-            let m = match best {
-                Some((j, _)) => *joint_at(self.palette, j)?,
+            let m = match super::strongest_joint(&self.joints[v], &self.weights[v]) {
+                Some(j) => *joint_at(self.palette, j)?,
                 None => Mat4::IDENTITY,
             };
             self.out_positions[v] = m.transform_point3(Vec3::from(self.positions[v])).to_array();

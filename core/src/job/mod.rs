@@ -26,6 +26,18 @@ pub mod world;
 
 use crate::error::JobError;
 
+/// The joint of a vertex's strongest influence (the first of equals); `None` without a positive
+/// weight. Rigid skinning follows it; the shadow casters' clustering groups vertices by it.
+pub(crate) fn strongest_joint(joints: &[u16; 8], weights: &[f32; 8]) -> Option<u16> {
+    let mut best: Option<(u16, f32)> = None;
+    for (&j, &w) in joints.iter().zip(weights) {
+        if w > 0.0 && best.is_none_or(|(_, b)| w > b) {
+            best = Some((j, w));
+        }
+    }
+    best.map(|(j, _)| j)
+}
+
 /// `Err(BufferTooSmall)` when `got < needed`.
 pub(crate) fn check_len(what: &'static str, needed: usize, got: usize) -> Result<(), JobError> {
     if got < needed { Err(JobError::BufferTooSmall { what, needed, got }) } else { Ok(()) }

@@ -469,13 +469,13 @@ enum Pass {
 /// caster cuts the shadow by the texture's alpha at interpolated UVs that a clustered triangle
 /// would take from unrelated parts of the texture.
 fn caster_list(gpu: &GpuPrimitive, kind: Pass, mask: bool) -> (&wgpu::Buffer, u32) {
-    match kind {
-        Pass::SimplifiedCasters { coarse } if !mask => match gpu.caster_indices.get(usize::from(coarse)) {
-            Some(Some((indices, count))) => (indices, *count),
-            _ => (&gpu.indices, gpu.index_count),
-        },
-        _ => (&gpu.indices, gpu.index_count),
-    }
+    let simplified = match kind {
+        Pass::SimplifiedCasters { coarse } if !mask => {
+            gpu.caster_indices.get(usize::from(coarse)).and_then(Option::as_ref)
+        }
+        _ => None,
+    };
+    simplified.map_or((&gpu.indices, gpu.index_count), |(indices, count)| (indices, *count))
 }
 
 /// The ground shadow's GPU side: the map the casters draw into, the mask the shadow is
