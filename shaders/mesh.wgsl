@@ -174,6 +174,13 @@ fn vs_caster_skinned(g: GeometryIn, s: SkinIn) -> @builtin(position) vec4<f32> {
     return frame.view_proj * (draw.model * vec4<f32>(v.position, 1.0));
 }
 
+/// Casters already in world space: every copy's, deformed on the CPU, gathered into one
+/// buffer and drawn at once (one draw for the copies instead of one each).
+@vertex
+fn vs_caster_world(@location(0) position: vec3<f32>) -> @builtin(position) vec4<f32> {
+    return frame.view_proj * vec4<f32>(position, 1.0);
+}
+
 /// Blue (0) through green and yellow to red (1 and beyond).
 fn heat_color(t: f32) -> vec3<f32> {
     let x = clamp(t, 0.0, 1.0);

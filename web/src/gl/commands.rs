@@ -14,7 +14,7 @@ use wgpu::custom::{
 use super::resources::{
     BindGroup, BindGroupInner, Buffer, BufferInner, PipelineInner, RenderPipeline, Resource, TextureView,
 };
-use super::state::{self, Context, FramebufferKey, Image};
+use super::state::{self, Context, FramebufferKey, Image, changes};
 use super::{Errors, Unsupported};
 
 /// A colour attachment of a pass.
@@ -502,6 +502,8 @@ fn attachment_key(view: &TextureView) -> Option<(u32, u32)> {
 /// held are released after, not while the context's table is in use.
 pub(super) fn execute(ctx: u32, commands: &[Command], errors: &Errors) {
     state::with(ctx, |c| {
+        // What was bound before this submit is not known (uploads bind buffers and textures).
+        c.known = Default::default();
         let mut pass: Option<Pass<'_>> = None;
         for command in commands {
             match command {
@@ -576,7 +578,9 @@ pub(super) fn execute(ctx: u32, commands: &[Command], errors: &Errors) {
                             wgpu::IndexFormat::Uint16 => (Gl::UNSIGNED_SHORT, 2),
                             wgpu::IndexFormat::Uint32 => (Gl::UNSIGNED_INT, 4),
                         };
-                        c.gl.bind_buffer(Gl::ELEMENT_ARRAY_BUFFER, Some(b));
+                        if changes(Some(&mut c.known.element_buffer), buffer.id.unwrap_or(u32::MAX)) {
+                            c.gl.bind_buffer(Gl::ELEMENT_ARRAY_BUFFER, Some(b));
+                        }
                         c.gl.draw_elements_instanced_with_f64(
                             mode,
                             indices.len() as i32,
@@ -597,6 +601,9 @@ pub(super) fn execute(ctx: u32, commands: &[Command], errors: &Errors) {
                     if let Some(b) = buffer.id.and_then(|id| c.buffers.get(id)) {
                         let target = buffer.target();
                         c.gl.bind_buffer(target, Some(b));
+                        if target == Gl::ELEMENT_ARRAY_BUFFER {
+                            c.known.element_buffer = None;
+                        }
                         c.gl.buffer_sub_data_with_f64_and_u8_array(target, *offset as f64, &vec![0; size as usize]);
                     }
                 }
@@ -638,7 +645,9 @@ fn begin<'a>(c: &mut Context, colors: &'a [ColorAttachment], depth: Option<&'a D
     gl.disable(Gl::SCISSOR_TEST);
     for (i, a) in colors.iter().enumerate() {
         if let Some(k) = a.clear {
-            gl.color_mask(true, true, true, true);
+            if changes(Some(&mut c.known.color_mask), [true; 4]) {
+                gl.color_mask(true, true, true, true);
+            }
             if matches!(a.view.format, wgpu::TextureFormat::Rgba32Uint | wgpu::TextureFormat::R32Uint) {
                 let v = [k.r as u32, k.g as u32, k.b as u32, k.a as u32];
                 gl.clear_bufferuiv_with_u32_array(Gl::COLOR, i as i32, &v);
@@ -651,7 +660,9 @@ fn begin<'a>(c: &mut Context, colors: &'a [ColorAttachment], depth: Option<&'a D
     if let Some(d) = &depth
         && let Some(v) = d.clear
     {
-        gl.depth_mask(true);
+        if changes(Some(&mut c.known.depth_mask), true) {
+            gl.depth_mask(true);
+        }
         gl.clear_bufferfv_with_f32_array(Gl::DEPTH, 0, &[v]);
     }
     Some(Pass {
@@ -747,6 +758,10 @@ fn topology(t: wgpu::PrimitiveTopology) -> u32 {
 }
 
 fn set_pipeline<'a>(c: &mut Context, pass: &mut Pass<'a>, pipeline: &'a PipelineInner, errors: &Errors) {
+    // The same pipeline again (a draw per copy sets it each time): nothing changes.
+    if pass.pipeline.is_some_and(|p| std::ptr::eq(p, pipeline)) {
+        return;
+    }
     // No program (its stages were not translated, reported when it was made; or the context is
     // lost), or one that did not link: the pipeline draws nothing.
     let program = pipeline.program.filter(|&id| match super::shaders::check(c, id) {
@@ -756,9 +771,16 @@ fn set_pipeline<'a>(c: &mut Context, pass: &mut Pass<'a>, pipeline: &'a Pipeline
             false
         }
     });
-    let gl = &c.gl;
-    if let Some(p) = program.and_then(|id| c.programs.get_mut(id)) {
-        gl.use_program(Some(&p.program));
+    // A first check uses the program it checks.
+    c.known.program = None;
+    let Context { gl, programs, known, .. } = c;
+    let gl = &*gl;
+    if let Some(id) = program
+        && let Some(p) = programs.get_mut(id)
+    {
+        if changes(Some(&mut known.program), id) {
+            gl.use_program(Some(&p.program));
+        }
         let flip = if pass.canvas { 1.0 } else { -1.0 };
         if p.flipped != flip {
             gl.uniform1f(p.flip.as_ref(), flip);
@@ -767,56 +789,85 @@ fn set_pipeline<'a>(c: &mut Context, pass: &mut Pass<'a>, pipeline: &'a Pipeline
     }
     // State: faces (the flip reverses the winding), depth, blending, colour writes.
     let primitive = &pipeline.primitive;
-    match primitive.cull_mode {
-        Some(face) => {
-            gl.enable(Gl::CULL_FACE);
-            gl.cull_face(if face == wgpu::Face::Front { Gl::FRONT } else { Gl::BACK });
+    let cull = primitive.cull_mode.map(|face| if face == wgpu::Face::Front { Gl::FRONT } else { Gl::BACK });
+    if changes(Some(&mut known.cull), cull) {
+        match cull {
+            Some(face) => {
+                gl.enable(Gl::CULL_FACE);
+                gl.cull_face(face);
+            }
+            None => gl.disable(Gl::CULL_FACE),
         }
-        None => gl.disable(Gl::CULL_FACE),
     }
     let ccw = (primitive.front_face == wgpu::FrontFace::Ccw) == pass.canvas;
-    gl.front_face(if ccw { Gl::CCW } else { Gl::CW });
-    match &pipeline.depth {
+    let front = if ccw { Gl::CCW } else { Gl::CW };
+    if changes(Some(&mut known.front_face), front) {
+        gl.front_face(front);
+    }
+    let (test, mask, offset) = match &pipeline.depth {
         Some(d) => {
-            gl.enable(Gl::DEPTH_TEST);
-            gl.depth_func(super::resources::compare(d.depth_compare.unwrap_or(wgpu::CompareFunction::Always)));
-            gl.depth_mask(d.depth_write_enabled.unwrap_or(false));
-            if d.bias.constant != 0 || d.bias.slope_scale != 0.0 {
-                gl.enable(Gl::POLYGON_OFFSET_FILL);
-                gl.polygon_offset(d.bias.slope_scale, d.bias.constant as f32);
-            } else {
-                gl.disable(Gl::POLYGON_OFFSET_FILL);
-            }
+            let func = super::resources::compare(d.depth_compare.unwrap_or(wgpu::CompareFunction::Always));
+            let biased = d.bias.constant != 0 || d.bias.slope_scale != 0.0;
+            let offset = biased.then(|| (d.bias.slope_scale.to_bits(), (d.bias.constant as f32).to_bits()));
+            (Some(func), Some(d.depth_write_enabled.unwrap_or(false)), offset)
         }
-        None => {
-            gl.disable(Gl::DEPTH_TEST);
-            gl.disable(Gl::POLYGON_OFFSET_FILL);
+        None => (None, None, None),
+    };
+    if changes(Some(&mut known.depth_test), test) {
+        match test {
+            Some(func) => {
+                gl.enable(Gl::DEPTH_TEST);
+                gl.depth_func(func);
+            }
+            None => gl.disable(Gl::DEPTH_TEST),
         }
     }
-    match pipeline.targets.first().cloned().flatten() {
-        Some(target) => {
-            match target.blend {
-                Some(b) => {
-                    gl.enable(Gl::BLEND);
-                    gl.blend_func_separate(
-                        blend_factor(b.color.src_factor),
-                        blend_factor(b.color.dst_factor),
-                        blend_factor(b.alpha.src_factor),
-                        blend_factor(b.alpha.dst_factor),
-                    );
-                    gl.blend_equation_separate(blend_op(b.color.operation), blend_op(b.alpha.operation));
-                }
-                None => gl.disable(Gl::BLEND),
+    if let Some(mask) = mask
+        && changes(Some(&mut known.depth_mask), mask)
+    {
+        gl.depth_mask(mask);
+    }
+    if changes(Some(&mut known.polygon_offset), offset) {
+        match offset {
+            Some((factor, units)) => {
+                gl.enable(Gl::POLYGON_OFFSET_FILL);
+                gl.polygon_offset(f32::from_bits(factor), f32::from_bits(units));
             }
-            let m = target.write_mask;
-            gl.color_mask(
-                m.contains(wgpu::ColorWrites::RED),
-                m.contains(wgpu::ColorWrites::GREEN),
-                m.contains(wgpu::ColorWrites::BLUE),
-                m.contains(wgpu::ColorWrites::ALPHA),
-            );
+            None => gl.disable(Gl::POLYGON_OFFSET_FILL),
         }
-        None => gl.disable(Gl::BLEND),
+    }
+    let target = pipeline.targets.first().and_then(Option::as_ref);
+    let blend = target.and_then(|t| t.blend).map(|b| {
+        [
+            blend_factor(b.color.src_factor),
+            blend_factor(b.color.dst_factor),
+            blend_factor(b.alpha.src_factor),
+            blend_factor(b.alpha.dst_factor),
+            blend_op(b.color.operation),
+            blend_op(b.alpha.operation),
+        ]
+    });
+    if changes(Some(&mut known.blend), blend) {
+        match blend {
+            Some([cs, cd, as_, ad, co, ao]) => {
+                gl.enable(Gl::BLEND);
+                gl.blend_func_separate(cs, cd, as_, ad);
+                gl.blend_equation_separate(co, ao);
+            }
+            None => gl.disable(Gl::BLEND),
+        }
+    }
+    if let Some(target) = target {
+        let m = target.write_mask;
+        let mask = [
+            m.contains(wgpu::ColorWrites::RED),
+            m.contains(wgpu::ColorWrites::GREEN),
+            m.contains(wgpu::ColorWrites::BLUE),
+            m.contains(wgpu::ColorWrites::ALPHA),
+        ];
+        if changes(Some(&mut known.color_mask), mask) {
+            gl.color_mask(mask[0], mask[1], mask[2], mask[3]);
+        }
     }
     pass.program = program;
     pass.pipeline = Some(pipeline);
@@ -862,7 +913,9 @@ fn prepare_draw(c: &mut Context, pass: &mut Pass<'_>, base_vertex: i32, first_in
     }
     pass.dirty = rebase;
     // The table's parts apart: the program's lists are read while the images' levels change.
-    let Context { gl, buffers, images, samplers, programs, nearest, enabled_attributes, .. } = c;
+    // Every binding is compared with what is known to be bound (`Known`): what the previous
+    // draw left in place is not set again.
+    let Context { gl, buffers, images, samplers, programs, nearest, enabled_attributes, known, .. } = c;
     let gl = &*gl;
     let Some(p) = programs.get(program) else { return false };
     let groups = &pass.groups;
@@ -873,7 +926,9 @@ fn prepare_draw(c: &mut Context, pass: &mut Pass<'_>, base_vertex: i32, first_in
     };
     for (slot, &gb) in p.uniforms.iter().enumerate() {
         if let Some((&Resource::Buffer { ref buffer, offset, size }, dynamic)) = resource(gb)
-            && let Some(b) = buffer.id.and_then(|id| buffers.get(id))
+            && let Some(id) = buffer.id
+            && let Some(b) = buffers.get(id)
+            && changes(known.uniforms.get_mut(slot), (id, offset + dynamic, size))
         {
             gl.bind_buffer_range_with_f64_and_f64(
                 Gl::UNIFORM_BUFFER,
@@ -885,34 +940,53 @@ fn prepare_draw(c: &mut Context, pass: &mut Pass<'_>, base_vertex: i32, first_in
         }
     }
     for (unit, &(t, s)) in p.textures.iter().enumerate() {
-        gl.active_texture(Gl::TEXTURE0 + unit as u32);
         let Some((Resource::View(view), _)) = resource(t) else { continue };
         let Some(id) = view.texture.id else { continue };
         if let Some(Image::Texture { texture, levels }) = images.get_mut(id) {
-            gl.bind_texture(Gl::TEXTURE_2D, Some(texture));
-            if *levels != view.levels {
+            let bind = changes(known.textures.get_mut(unit), id);
+            let limit = *levels != view.levels;
+            if (bind || limit) && changes(Some(&mut known.active_unit), unit as u32) {
+                gl.active_texture(Gl::TEXTURE0 + unit as u32);
+            }
+            if bind {
+                gl.bind_texture(Gl::TEXTURE_2D, Some(texture));
+            }
+            if limit {
                 gl.tex_parameteri(Gl::TEXTURE_2D, Gl::TEXTURE_BASE_LEVEL, view.levels.0 as i32);
                 gl.tex_parameteri(Gl::TEXTURE_2D, Gl::TEXTURE_MAX_LEVEL, view.levels.1 as i32);
                 *levels = view.levels;
             }
         }
-        let sampler = match s.and_then(&resource) {
-            Some((Resource::Sampler(sampler), _)) => sampler.id.and_then(|id| samplers.get(id)),
-            _ => nearest.as_ref(),
+        let (sampler, key) = match s.and_then(&resource) {
+            Some((Resource::Sampler(sampler), _)) => match sampler.id {
+                Some(id) => (samplers.get(id), id),
+                None => (None, u32::MAX - 1),
+            },
+            _ => (nearest.as_ref(), u32::MAX),
         };
-        gl.bind_sampler(unit as u32, sampler);
+        if changes(known.samplers.get_mut(unit), key) {
+            gl.bind_sampler(unit as u32, sampler);
+        }
     }
     let mut enabled = 0u32;
     for (slot, layout) in pipeline.buffers.iter().enumerate() {
         let Some(layout) = layout else { continue };
         let Some(Some((buffer, offset))) = pass.vertex.get(slot) else { continue };
-        let Some(b) = buffer.id.and_then(|id| buffers.get(id)) else { continue };
-        gl.bind_buffer(Gl::ARRAY_BUFFER, Some(b));
+        let Some(id) = buffer.id else { continue };
+        let Some(b) = buffers.get(id) else { continue };
         let shift = if layout.instance { i64::from(first_instance) } else { i64::from(base_vertex) };
         let start = *offset as i64 + shift * layout.stride as i64;
         for a in &layout.attributes {
             let Some((count, kind, normalized, integer)) = vertex_format(a.format) else { continue };
             let at = (start + a.offset as i64).max(0);
+            enabled |= 1 << a.shader_location.min(31);
+            let source = (id, at, layout.stride as i32, a.format, layout.instance);
+            if !changes(known.attributes.get_mut(a.shader_location as usize), source) {
+                continue;
+            }
+            if changes(Some(&mut known.array_buffer), id) {
+                gl.bind_buffer(Gl::ARRAY_BUFFER, Some(b));
+            }
             if integer {
                 gl.vertex_attrib_i_pointer_with_f64(a.shader_location, count, kind, layout.stride as i32, at as f64);
             } else {
@@ -926,7 +1000,6 @@ fn prepare_draw(c: &mut Context, pass: &mut Pass<'_>, base_vertex: i32, first_in
                 );
             }
             gl.vertex_attrib_divisor(a.shader_location, u32::from(layout.instance));
-            enabled |= 1 << a.shader_location.min(31);
         }
     }
     let changed = enabled ^ *enabled_attributes;

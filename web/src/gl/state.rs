@@ -111,6 +111,8 @@ pub(super) struct Context {
     pub nearest: Option<WebGlSampler>,
     /// Vertex attributes enabled in [`Self::vertex_array`], by location.
     pub enabled_attributes: u32,
+    /// The GL state the running submit has set (see [`Known`]).
+    pub known: Known,
     /// Whether `EXT_color_buffer_float` is on (rendering to 16- and 32-bit float textures).
     pub float_render: bool,
     /// Whether `OES_texture_float_linear` is on (filtering 32-bit float textures).
@@ -121,6 +123,64 @@ pub(super) struct Context {
     pub renderer: String,
     /// Live handles of this context (its table goes when the last one does).
     pub handles: usize,
+}
+
+/// Binding points, texture units and attribute locations whose state [`Known`] tracks (the
+/// renderer's programs use fewer; one beyond is set at every draw).
+pub(super) const KNOWN_SLOTS: usize = 16;
+
+/// A vertex attribute's source as last pointed at: buffer, byte offset, stride, format, per
+/// instance.
+pub(super) type Attribute = (u32, i64, i32, wgpu::VertexFormat, bool);
+
+/// The GL state the running submit has set, so that a draw makes only the calls that change
+/// something (a WebGL call costs the page and the GPU process a few microseconds: at 50 copies,
+/// two passes re-binding every texture, uniform block and attribute were thousands a frame).
+///
+/// `None` is "not known": everything is forgotten when a submit starts
+/// ([`super::commands::execute`]), as uploads, copies and programs' first checks between
+/// submits bind buffers, textures and programs behind it; within a submit only the commands'
+/// runner makes GL calls, and it keeps this up to date (or forgets what it changed otherwise).
+#[derive(Default)]
+pub(super) struct Known {
+    /// The program in use (by number).
+    pub program: Option<u32>,
+    /// Face culling: off, or the face culled.
+    pub cull: Option<Option<u32>>,
+    pub front_face: Option<u32>,
+    /// The depth test: off, or its function.
+    pub depth_test: Option<Option<u32>>,
+    pub depth_mask: Option<bool>,
+    /// Polygon offset: off, or its factor and units (as bits).
+    pub polygon_offset: Option<Option<(u32, u32)>>,
+    /// Blending: off, or its four factors and two equations.
+    pub blend: Option<Option<[u32; 6]>>,
+    pub color_mask: Option<[bool; 4]>,
+    /// Each uniform binding point's buffer, offset and size.
+    pub uniforms: [Option<(u32, u64, u64)>; KNOWN_SLOTS],
+    /// The active texture unit.
+    pub active_unit: Option<u32>,
+    /// Each unit's texture (by image).
+    pub textures: [Option<u32>; KNOWN_SLOTS],
+    /// Each unit's sampler (`u32::MAX`: the backend's nearest one).
+    pub samplers: [Option<u32>; KNOWN_SLOTS],
+    pub array_buffer: Option<u32>,
+    /// The vertex array's index buffer.
+    pub element_buffer: Option<u32>,
+    /// Each attribute location's source.
+    pub attributes: [Option<Attribute>; KNOWN_SLOTS],
+}
+
+/// Whether `value` differs from what `known` holds (always, for an untracked slot), noting it.
+pub(super) fn changes<T: PartialEq>(known: Option<&mut Option<T>>, value: T) -> bool {
+    match known {
+        Some(k) if k.as_ref() == Some(&value) => false,
+        Some(k) => {
+            *k = Some(value);
+            true
+        }
+        None => true,
+    }
 }
 
 /// Work on a context that a handle's drop asked for while the table was in use (a recorded

@@ -74,6 +74,7 @@ pub fn instance(canvas: &web_sys::HtmlCanvasElement, attributes: &js_sys::Object
         framebuffers: Default::default(),
         nearest,
         enabled_attributes: 0,
+        known: Default::default(),
         float_render,
         float_linear,
         max_texture,

@@ -104,6 +104,39 @@ pub fn interleave(positions: &[[f32; 3]], normals: &[[f32; 3]], out: &mut Vec<Ge
     );
 }
 
+/// The largest index list a primitive's casters are gathered for ([`GpuPrimitive::caster_sets`]):
+/// bigger ones draw on their own, as a sharp shadow's do.
+pub const BATCHED_CASTER_MAX_INDICES: usize = 3 << 16;
+
+/// A shadow caster's triangles over the vertices they use: `vertices` lists those (indices into
+/// the primitive's, ascending, each once) and `indices` the triangles as positions in that list.
+#[derive(Debug, Default, PartialEq)]
+pub struct CasterSet {
+    pub vertices: Vec<u32>,
+    pub indices: Vec<u32>,
+}
+
+impl CasterSet {
+    /// The triangles of `indices` over a primitive of `vertex_count` vertices; `None` when an
+    /// index is out of range.
+    pub fn new(indices: &[u32], vertex_count: usize) -> Option<Self> {
+        let mut slot = vec![u32::MAX; vertex_count];
+        let mut used: Vec<u32> = Vec::new();
+        for &i in indices {
+            if *slot.get(i as usize)? == u32::MAX {
+                slot[i as usize] = 0;
+                used.push(i);
+            }
+        }
+        used.sort_unstable();
+        for (k, &v) in used.iter().enumerate() {
+            slot[v as usize] = k as u32;
+        }
+        let indices = indices.iter().map(|&i| slot[i as usize]).collect();
+        Some(Self { vertices: used, indices })
+    }
+}
+
 /// A primitive's buffers on the GPU (a clone is the same buffers).
 #[derive(Clone)]
 pub struct GpuPrimitive {
@@ -127,6 +160,11 @@ pub struct GpuPrimitive {
     /// saves little ([`kloub_core::simplify::cluster_triangles`]). Alpha-masked materials' casters
     /// never draw them (see `caster_list` in `scene.rs`).
     pub caster_indices: [Option<(wgpu::Buffer, u32)>; 2],
+    /// The same two levels' triangles on the CPU, over only the vertices they use, for
+    /// gathering every copy's casters into one draw (`CasterBatch` in `scene.rs`); the whole
+    /// primitive's where a level has no list of its own. `None` for a primitive over
+    /// [`BATCHED_CASTER_MAX_INDICES`] indices.
+    pub caster_sets: [Option<std::sync::Arc<CasterSet>>; 2],
     /// Number of vertices.
     pub vertex_count: u32,
     /// Whether the primitive has normals (else the fragment shader makes flat ones).
@@ -172,6 +210,22 @@ impl GpuPrimitive {
                 mapped_at_creation: false,
             }),
         };
+        let lists = [kloub_core::simplify::SHADOW_CELLS, kloub_core::simplify::COARSE_SHADOW_CELLS]
+            .map(|cells| kloub_core::simplify::cluster_triangles(primitive, cells).filter(|l| !l.is_empty()));
+        let caster_sets = [0, 1].map(|level| {
+            let list = lists[level].as_deref().unwrap_or(&primitive.indices);
+            (list.len() <= BATCHED_CASTER_MAX_INDICES)
+                .then(|| CasterSet::new(list, n))
+                .flatten()
+                .map(std::sync::Arc::new)
+        });
+        let caster_indices = lists.map(|list| {
+            list.map(|simplified| {
+                let count = simplified.len() as u32;
+                let contents = bytemuck::cast_slice(&simplified);
+                (buffer(device, "kloub caster indices", contents, wgpu::BufferUsages::INDEX), count)
+            })
+        });
         Some(Self {
             geometry: buffer(device, "kloub geometry", bytemuck::cast_slice(&geometry), stream_usage(storage)),
             attributes: buffer(
@@ -190,17 +244,8 @@ impl GpuPrimitive {
                 wgpu::BufferUsages::INDEX,
             ),
             index_count: primitive.indices.len() as u32,
-            caster_indices: [kloub_core::simplify::SHADOW_CELLS, kloub_core::simplify::COARSE_SHADOW_CELLS].map(
-                |cells| {
-                    kloub_core::simplify::cluster_triangles(primitive, cells)
-                        .filter(|simplified| !simplified.is_empty())
-                        .map(|simplified| {
-                            let count = simplified.len() as u32;
-                            let contents = bytemuck::cast_slice(&simplified);
-                            (buffer(device, "kloub caster indices", contents, wgpu::BufferUsages::INDEX), count)
-                        })
-                },
-            ),
+            caster_indices,
+            caster_sets,
             vertex_count: n as u32,
             has_normals,
         })

@@ -331,6 +331,8 @@ struct FirstUse {
     /// The ground shadow's mask pass and its layout (frame, shadow).
     shadow_mask: std::sync::OnceLock<wgpu::RenderPipeline>,
     shadow_layout: wgpu::PipelineLayout,
+    /// Shadow casters in world space, every copy's in one draw ([`Pipelines::world_caster`]).
+    world_caster: std::sync::OnceLock<wgpu::RenderPipeline>,
     /// Mip levels on the GPU (`shaders/mip.wgsl`), of colour and of data textures.
     mips: [std::sync::OnceLock<super::texture::MipMaker>; 2],
     /// Prefiltering environments (`None` inside: the device cannot).
@@ -338,6 +340,17 @@ struct FirstUse {
     /// The environments Kloub ships (made in code, or photographs), prefiltered (each once per
     /// device).
     environments: std::sync::Mutex<HashMap<super::environment::Builtin, super::environment::GpuEnvironment>>,
+}
+
+/// The shadow casters' depth: into the [`SHADOW_FORMAT`] map, biased.
+fn caster_depth() -> wgpu::DepthStencilState {
+    wgpu::DepthStencilState {
+        format: SHADOW_FORMAT,
+        depth_write_enabled: Some(true),
+        depth_compare: Some(wgpu::CompareFunction::Less),
+        stencil: wgpu::StencilState::default(),
+        bias: wgpu::DepthBiasState { constant: 2, slope_scale: 2.0, clamp: 0.0 },
+    }
 }
 
 fn depth_state(compare: wgpu::CompareFunction, write: bool) -> Option<wgpu::DepthStencilState> {
@@ -495,6 +508,7 @@ impl Pipelines {
             shadow: std::sync::OnceLock::new(),
             shadow_ground_layout,
             shadow_mask: std::sync::OnceLock::new(),
+            world_caster: std::sync::OnceLock::new(),
             shadow_layout,
             background: std::sync::OnceLock::new(),
             grid: std::sync::OnceLock::new(),
@@ -608,6 +622,42 @@ impl Pipelines {
         })
     }
 
+    /// The shadow casters of vertices already in world space (positions only, `vs_caster_world`):
+    /// the copies' casters deformed on the CPU, gathered into one buffer and drawn at once.
+    /// Culled and biased as the single-sided casters of [`PipelineKey::caster`]; a double-sided
+    /// material's triangles are gathered with both windings. Built on first use.
+    pub fn world_caster(&self, device: &wgpu::Device) -> &wgpu::RenderPipeline {
+        self.first_use.world_caster.get_or_init(|| {
+            let attributes =
+                [wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32x3, offset: 0, shader_location: 0 }];
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some("kloub shadow casters in world space"),
+                layout: Some(&self.mesh_layout),
+                vertex: wgpu::VertexState {
+                    module: &self.mesh_module,
+                    entry_point: Some("vs_caster_world"),
+                    compilation_options: Default::default(),
+                    buffers: &[Some(wgpu::VertexBufferLayout {
+                        array_stride: 12,
+                        step_mode: wgpu::VertexStepMode::Vertex,
+                        attributes: &attributes,
+                    })],
+                },
+                primitive: wgpu::PrimitiveState {
+                    topology: wgpu::PrimitiveTopology::TriangleList,
+                    front_face: wgpu::FrontFace::Ccw,
+                    cull_mode: Some(wgpu::Face::Back),
+                    ..Default::default()
+                },
+                depth_stencil: Some(caster_depth()),
+                multisample: wgpu::MultisampleState::default(),
+                fragment: None,
+                multiview_mask: None,
+                cache: None,
+            })
+        })
+    }
+
     /// The mip maker for the colour (`srgb`) or data images the browser decoded, built on first
     /// use (one of each per kit: the page's viewers share them).
     pub fn mip_maker(&self, device: &wgpu::Device, srgb: bool) -> &super::texture::MipMaker {
@@ -693,13 +743,7 @@ impl Pipelines {
                     cull_mode: (!key.double_sided).then_some(wgpu::Face::Back),
                     ..Default::default()
                 },
-                depth_stencil: Some(wgpu::DepthStencilState {
-                    format: SHADOW_FORMAT,
-                    depth_write_enabled: Some(true),
-                    depth_compare: Some(wgpu::CompareFunction::Less),
-                    stencil: wgpu::StencilState::default(),
-                    bias: wgpu::DepthBiasState { constant: 2, slope_scale: 2.0, clamp: 0.0 },
-                }),
+                depth_stencil: Some(caster_depth()),
                 multisample: wgpu::MultisampleState::default(),
                 // Masked materials cut their shadow as they cut themselves.
                 fragment: key.mask.then_some(wgpu::FragmentState {

@@ -11,7 +11,7 @@ use kloub_core::job::sjb::SjbPlan;
 
 use super::environment::{Builtin, GpuEnvironment, HdrImage, fallback_environment};
 use super::mesh::{
-    GeometryVertex, GpuPrimitive, TANGENT_STRIDE, interleave, pivot_buffer, sanitize_tangent, write_pivots,
+    CasterSet, GeometryVertex, GpuPrimitive, TANGENT_STRIDE, interleave, pivot_buffer, sanitize_tangent, write_pivots,
 };
 use super::morph::{MorphSlot, MorphTexture};
 use super::palette::PaletteTexture;
@@ -235,6 +235,9 @@ struct DrawItem {
     on_cpu: bool,
     /// Set each frame: vertices come from `deformed`, written by the compute pass.
     on_compute: bool,
+    /// Set each frame: its copies' shadow casters are gathered into [`GpuScene::batch`] and
+    /// drawn with it, not one draw each.
+    batched: bool,
     /// Per copy: the compute pass's streams (created on first use).
     compute_groups: Vec<Option<wgpu::BindGroup>>,
 }
@@ -283,6 +286,86 @@ struct GpuScene {
     diagonal: f32,
     /// The compute pass's textures and draw-uniform bind groups (where compute exists).
     compute: Option<(wgpu::BindGroup, wgpu::BindGroup)>,
+    /// Every copy's casters deformed on the CPU, in one draw.
+    batch: CasterBatch,
+}
+
+/// The shadow casters of the copies deformed on the CPU, gathered into one buffer in world space
+/// and drawn at once ([`super::pipelines::Pipelines::world_caster`]): a draw costs a software
+/// rasterizer (SwiftShader, the CPU adapter that takes this path) and GL drivers a fixed
+/// amount, and 50 copies were 50 caster draws of a few hundred triangles. Each draw's
+/// simplified triangles ([`super::mesh::CasterSet`]) are gathered over only the vertices they
+/// use, after the copy's deformation, so the main pass's vertices stay as they are.
+#[derive(Default)]
+struct CasterBatch {
+    /// This frame's positions, draw by draw and copy by copy (kept: no allocation per frame).
+    positions: Vec<[f32; 3]>,
+    /// The positions on the GPU (grown when they do not fit).
+    vertices: Option<wgpu::Buffer>,
+    /// The triangles over them, and how many indices.
+    indices: Option<wgpu::Buffer>,
+    count: u32,
+    /// How many positions the triangles are over (a frame whose gathering stopped short draws
+    /// none).
+    vertex_total: usize,
+    /// What `indices` were made for: the copies, the level, and each gathered draw with its
+    /// double-sidedness; `wanted`, this frame's (built again only when they differ).
+    built: Vec<u32>,
+    wanted: Vec<u32>,
+}
+
+impl CasterBatch {
+    /// Makes the triangles again for `wanted` (copies, level, then pairs of draw and
+    /// double-sidedness), with draw `i`'s set at the level `set_of(i)`: copy after copy, each over
+    /// its own vertices; a double-sided draw's triangles twice, the second time turned, as the
+    /// world caster culls one face.
+    fn build_indices(&mut self, device: &wgpu::Device, set_of: impl Fn(usize) -> Option<std::sync::Arc<CasterSet>>) {
+        use wgpu::util::DeviceExt as _;
+        let mut indices: Vec<u32> = Vec::new();
+        let copies = self.wanted.first().copied().unwrap_or(0);
+        let mut base = 0u32;
+        for pair in self.wanted.get(2..).unwrap_or_default().chunks_exact(2) {
+            let Some(set) = set_of(pair[0] as usize) else { continue };
+            for _ in 0..copies {
+                for t in set.indices.chunks_exact(3) {
+                    indices.extend([t[0] + base, t[1] + base, t[2] + base]);
+                    if pair[1] != 0 {
+                        indices.extend([t[0] + base, t[2] + base, t[1] + base]);
+                    }
+                }
+                base += set.vertices.len() as u32;
+            }
+        }
+        self.count = indices.len() as u32;
+        self.vertex_total = base as usize;
+        self.indices = (!indices.is_empty()).then(|| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("kloub batched caster indices"),
+                contents: bytemuck::cast_slice(&indices),
+                usage: wgpu::BufferUsages::INDEX,
+            })
+        });
+        self.built.clone_from(&self.wanted);
+    }
+
+    /// Uploads this frame's positions (a bigger buffer when they outgrow it).
+    fn upload(&mut self, device: &wgpu::Device, queue: &wgpu::Queue) {
+        let bytes: &[u8] = bytemuck::cast_slice(&self.positions);
+        if bytes.is_empty() {
+            return;
+        }
+        if self.vertices.as_ref().is_none_or(|b| b.size() < bytes.len() as u64) {
+            self.vertices = Some(device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("kloub batched caster positions"),
+                size: (bytes.len() as u64).next_power_of_two(),
+                usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }));
+        }
+        if let Some(buffer) = &self.vertices {
+            queue.write_buffer(buffer, 0, bytes);
+        }
+    }
 }
 
 /// What of an asset lives on the GPU the same for every viewer: its meshes, materials (with
@@ -881,6 +964,7 @@ impl SceneRenderer {
                     key: None,
                     on_cpu: false,
                     on_compute: false,
+                    batched: false,
                     compute_groups: Vec::new(),
                 });
             }
@@ -930,6 +1014,7 @@ impl SceneRenderer {
             copies: 1,
             diagonal,
             compute,
+            batch: CasterBatch::default(),
         });
         Ok(shared)
     }
@@ -1040,13 +1125,25 @@ impl SceneRenderer {
         let per_copy: u64 = scene
             .draws
             .iter()
-            .filter(|d| !d.blend && d.key.and_then(|k| k.caster(d.mask)).is_some())
+            .filter(|d| !d.blend && !d.batched && d.key.and_then(|k| k.caster(d.mask)).is_some())
             .filter_map(|d| {
                 let gpu = scene.primitives.get(d.mesh)?.get(d.primitive)?.as_ref()?;
                 Some(u64::from(caster_list(gpu, kind, d.mask).1))
             })
             .sum();
-        Some(per_copy * self.prepared_copies as u64)
+        let batched = if scene.draws.iter().any(|d| d.batched) { u64::from(scene.batch.count) } else { 0 };
+        Some(per_copy * self.prepared_copies as u64 + batched)
+    }
+
+    /// How many draws the last prepared frame's shadow casters make (the copies' gathered ones
+    /// count once); `None` when it draws no shadow. For tests.
+    pub fn caster_draws(&self) -> Option<u64> {
+        self.shadow.as_ref().filter(|s| s.drawn)?;
+        let scene = self.scene.as_ref()?;
+        let each =
+            scene.draws.iter().filter(|d| !d.blend && !d.batched && d.key.and_then(|k| k.caster(d.mask)).is_some());
+        let batched = scene.draws.iter().any(|d| d.batched) && scene.batch.count > 0;
+        Some(each.count() as u64 * self.prepared_copies as u64 + u64::from(batched))
     }
 
     /// Shows or hides the ground grid (on by default).
@@ -1211,6 +1308,12 @@ impl SceneRenderer {
         let copies = instances.len();
         self.prepared_copies = copies;
         let path = self.skinning_path();
+        // A soft shadow's simplified casters, on the coarse level or not (`None`: no casters, or
+        // every triangle: neither is gathered).
+        let casters = match self.shadow.as_ref().filter(|s| s.drawn).map(|s| self.casters_pass(s)) {
+            Some(Pass::SimplifiedCasters { coarse }) => Some(coarse),
+            _ => None,
+        };
         if let Some(scene) = self.scene.as_mut() {
             scene.reserve(
                 device,
@@ -1233,9 +1336,13 @@ impl SceneRenderer {
                 // The frame's ambient light, as the frame uniform says it (its intensity 0: the
                 // hemisphere): the draws' pipelines compile that one only.
                 environment.intensity > 0.0,
+                casters,
                 self.draw_stride,
                 &mut self.scratch,
             )?;
+            if scene.draws.iter().any(|d| d.batched) {
+                self.pipelines.world_caster(device);
+            }
             let casting = self.shadow.as_ref().is_some_and(|s| s.drawn);
             for draw in &scene.draws {
                 if let Some(key) = draw.key {
@@ -1339,6 +1446,9 @@ impl SceneRenderer {
             pass.set_bind_group(3, &self.environment.1.bind_group, &[]);
             let pass_kind = self.casters_pass(shadow);
             scene.encode(&mut pass, &self.pipelines, (0..copies * draws).filter(opaque), self.draw_stride, pass_kind);
+            if scene.draws.iter().any(|d| d.batched) {
+                scene.encode_batch(&mut pass, self.pipelines.world_caster(device));
+            }
             drop(pass);
             // The shadow filtered once into the mask (a fixed cost), not per pixel of the view.
             let mut pass = super::pipelines::fill_pass(encoder, "kloub shadow mask", &shadow.mask);
@@ -1609,6 +1719,7 @@ impl GpuScene {
             copies: 1,
             diagonal: 1.0,
             compute: None,
+            batch: CasterBatch::default(),
         }
     }
 
@@ -1656,6 +1767,7 @@ impl GpuScene {
         kit: Option<&ComputeKit>,
         heatmap: Option<f32>,
         ibl: bool,
+        casters: Option<bool>,
         stride: u64,
         scratch: &mut Scratch,
     ) -> Result<(), String> {
@@ -1689,7 +1801,14 @@ impl GpuScene {
         scratch.draw_bytes.resize(2 * stride as usize * compute_base, 0);
         scratch.blend_order.clear();
         scratch.cpu_skin = std::time::Duration::ZERO;
+        let batch = &mut self.batch;
+        batch.positions.clear();
+        batch.wanted.clear();
+        if let Some(coarse) = casters {
+            batch.wanted.extend([instances.len() as u32, u32::from(coarse)]);
+        }
         for (i, draw) in self.draws.iter_mut().enumerate() {
+            draw.batched = false;
             let primitive = self.primitives.get(draw.mesh).and_then(|m| m.get(draw.primitive)).and_then(Option::as_ref);
             let (Some(gpu), Some(source)) =
                 (primitive, asset.meshes.get(draw.mesh).and_then(|m| m.primitives.get(draw.primitive)))
@@ -1707,6 +1826,23 @@ impl GpuScene {
                 && draw.skin.is_some()
                 && gpu.skin.is_some()
                 && draw.pivots.is_some();
+            // The copies' soft-shadow casters gathered on the CPU, where their vertices are
+            // deformed anyway (not a sculpt's, written once; not a mirrored unskinned node's,
+            // whose winding its world matrix turns).
+            let batch_set = casters.and_then(|coarse| gpu.caster_sets.get(usize::from(coarse)).cloned().flatten());
+            draw.batched = batch_set.is_some()
+                && draw.on_cpu
+                && !sculpted
+                && !draw.blend
+                && !draw.mask
+                && topology(source.topology) == wgpu::PrimitiveTopology::TriangleList
+                && (draw.skin.is_some()
+                    || instances
+                        .iter()
+                        .all(|c| c.worlds().get(draw.node as usize).is_some_and(|w| w.determinant() >= 0.0)));
+            if draw.batched {
+                batch.wanted.extend([i as u32, u32::from(draw.double_sided)]);
+            }
             if instances.iter().any(|i| i.skinning().uses_sjb_plan()) {
                 write_pivots_once(queue, asset, draw, source);
             }
@@ -1786,6 +1922,13 @@ impl GpuScene {
                                 "node {} primitive {}: deformed vertex count differs",
                                 draw.node, draw.primitive
                             ));
+                        }
+                        if let Some(set) = batch_set.as_ref().filter(|_| draw.batched) {
+                            let offset = offsets[c];
+                            batch.positions.extend(set.vertices.iter().map(|&v| {
+                                let p = scratch.positions.get(v as usize).copied().unwrap_or_default();
+                                (Vec3::from(p) + offset).to_array()
+                            }));
                         }
                         interleave(&scratch.positions, &scratch.normals, &mut scratch.geometry);
                         let storage = kit.is_some();
@@ -1876,6 +2019,16 @@ impl GpuScene {
                 }
             }
         }
+        if self.batch.wanted != self.batch.built {
+            let (draws, primitives) = (&self.draws, &self.primitives);
+            let level = casters.map_or(0, usize::from);
+            self.batch.build_indices(device, |i| {
+                let draw = draws.get(i)?;
+                let gpu = primitives.get(draw.mesh)?.get(draw.primitive)?.as_ref()?;
+                gpu.caster_sets.get(level)?.clone()
+            });
+        }
+        self.batch.upload(device, queue);
         scratch.blend_order.sort_by(|a, b| a.0.total_cmp(&b.0));
         if !scratch.draw_bytes.is_empty() {
             queue.write_buffer(&self.draw_buffer, 0, &scratch.draw_bytes);
@@ -1922,6 +2075,26 @@ impl GpuScene {
         }
     }
 
+    /// Records the copies' gathered shadow casters ([`CasterBatch`]) with `pipeline` (the world
+    /// caster's), if any were gathered this frame.
+    fn encode_batch(&self, pass: &mut wgpu::RenderPass<'_>, pipeline: &wgpu::RenderPipeline) {
+        let batch = &self.batch;
+        let (Some(vertices), Some(indices), Some(material)) = (&batch.vertices, &batch.indices, self.materials.first())
+        else {
+            return;
+        };
+        if batch.count == 0 || batch.positions.len() != batch.vertex_total || batch.built != batch.wanted {
+            return;
+        }
+        pass.set_pipeline(pipeline);
+        // The layout's groups, which this vertex shader does not read: any material and slot 0.
+        pass.set_bind_group(1, material, &[]);
+        pass.set_bind_group(2, &self.draw_bind_group, &[0]);
+        pass.set_vertex_buffer(0, vertices.slice(..));
+        pass.set_index_buffer(indices.slice(..), wgpu::IndexFormat::Uint32);
+        pass.draw_indexed(0..batch.count, 0, 0..1);
+    }
+
     /// Records the draw slots `slots` (copy `c` of draw `i` is slot `c * draws + i`; those
     /// prepared this frame) for `pass`: the scene, or their shadow casters (into the shadow map).
     fn encode(
@@ -1939,6 +2112,9 @@ impl GpuScene {
             let Some(draw) = self.draws.get(i) else {
                 continue;
             };
+            if caster && draw.batched {
+                continue;
+            }
             let key = if caster { draw.key.and_then(|k| k.caster(draw.mask)) } else { draw.key };
             let Some(pipeline) = key.as_ref().and_then(|k| pipelines.mesh(k)) else {
                 continue;

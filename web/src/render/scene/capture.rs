@@ -77,6 +77,7 @@ impl SceneRenderer {
             None,
             // No colour is drawn: the draws' pipeline keys are made again by the next frame.
             false,
+            None,
             self.draw_stride,
             &mut self.scratch,
         )?;
@@ -132,6 +133,7 @@ impl SceneRenderer {
             None,
             // No colour is drawn: the draws' pipeline keys are made again by the next frame.
             false,
+            None,
             self.draw_stride,
             &mut self.scratch,
         )?;
