@@ -764,6 +764,7 @@ fn set_pipeline<'a>(c: &mut Context, pass: &mut Pass<'a>, pipeline: &'a Pipeline
     }
     // No program (its stages were not translated, reported when it was made; or the context is
     // lost), or one that did not link: the pipeline draws nothing.
+    let first_check = pipeline.program.and_then(|id| c.programs.get(id)).is_some_and(|p| p.pending.is_some());
     let program = pipeline.program.filter(|&id| match super::shaders::check(c, id) {
         Ok(()) => c.programs.get(id).is_some_and(|p| !p.failed),
         Err(e) => {
@@ -771,8 +772,10 @@ fn set_pipeline<'a>(c: &mut Context, pass: &mut Pass<'a>, pipeline: &'a Pipeline
             false
         }
     });
-    // A first check uses the program it checks.
-    c.known.program = None;
+    // A program's first check uses it (unless it failed to link).
+    if first_check {
+        c.known.program = None;
+    }
     let Context { gl, programs, known, .. } = c;
     let gl = &*gl;
     if let Some(id) = program

@@ -138,9 +138,9 @@ pub(super) type Attribute = (u32, i64, i32, wgpu::VertexFormat, bool);
 /// two passes re-binding every texture, uniform block and attribute were thousands a frame).
 ///
 /// `None` is "not known": everything is forgotten when a submit starts
-/// ([`super::commands::execute`]), as uploads, copies and programs' first checks between
-/// submits bind buffers, textures and programs behind it; within a submit only the commands'
-/// runner makes GL calls, and it keeps this up to date (or forgets what it changed otherwise).
+/// ([`super::commands::execute`]), as uploads between submits bind buffers and textures behind
+/// it; within a submit only the commands' runner makes GL calls, and it keeps this up to date
+/// (or forgets what it changed otherwise: the program after a program's first check).
 #[derive(Default)]
 pub(super) struct Known {
     /// The program in use (by number).

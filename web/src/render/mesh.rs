@@ -162,8 +162,8 @@ pub struct GpuPrimitive {
     pub caster_indices: [Option<(wgpu::Buffer, u32)>; 2],
     /// The same two levels' triangles on the CPU, over only the vertices they use, for
     /// gathering every copy's casters into one draw (`CasterBatch` in `scene.rs`); the whole
-    /// primitive's where a level has no list of its own. `None` for a primitive over
-    /// [`BATCHED_CASTER_MAX_INDICES`] indices.
+    /// primitive's where a level has no list of its own (one set for both levels when neither
+    /// has). `None` where that level's list is over [`BATCHED_CASTER_MAX_INDICES`] indices.
     pub caster_sets: [Option<std::sync::Arc<CasterSet>>; 2],
     /// Number of vertices.
     pub vertex_count: u32,
@@ -212,12 +212,16 @@ impl GpuPrimitive {
         };
         let lists = [kloub_core::simplify::SHADOW_CELLS, kloub_core::simplify::COARSE_SHADOW_CELLS]
             .map(|cells| kloub_core::simplify::cluster_triangles(primitive, cells).filter(|l| !l.is_empty()));
-        let caster_sets = [0, 1].map(|level| {
-            let list = lists[level].as_deref().unwrap_or(&primitive.indices);
+        let set = |list: &[u32]| {
             (list.len() <= BATCHED_CASTER_MAX_INDICES)
                 .then(|| CasterSet::new(list, n))
                 .flatten()
                 .map(std::sync::Arc::new)
+        };
+        let whole = lists.iter().any(Option::is_none).then(|| set(&primitive.indices)).flatten();
+        let caster_sets = lists.each_ref().map(|list| match list {
+            Some(list) => set(list),
+            None => whole.clone(),
         });
         let caster_indices = lists.map(|list| {
             list.map(|simplified| {

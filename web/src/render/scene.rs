@@ -314,7 +314,16 @@ struct CasterBatch {
     wanted: Vec<u32>,
 }
 
+/// The most indices the gathered casters make (64 MiB of them): draws beyond draw on their own.
+const BATCH_MAX_INDICES: usize = 1 << 24;
+
 impl CasterBatch {
+    /// Whether this frame's gathering is complete and its triangles made for it: what
+    /// [`GpuScene::encode_batch`] draws.
+    fn ready(&self) -> bool {
+        self.count > 0 && self.built == self.wanted && self.positions.len() == self.vertex_total
+    }
+
     /// Makes the triangles again for `wanted` (copies, level, then pairs of draw and
     /// double-sidedness), with draw `i`'s set at the level `set_of(i)`: copy after copy, each over
     /// its own vertices; a double-sided draw's triangles twice, the second time turned, as the
@@ -1131,7 +1140,7 @@ impl SceneRenderer {
                 Some(u64::from(caster_list(gpu, kind, d.mask).1))
             })
             .sum();
-        let batched = if scene.draws.iter().any(|d| d.batched) { u64::from(scene.batch.count) } else { 0 };
+        let batched = if scene.batch.ready() { u64::from(scene.batch.count) } else { 0 };
         Some(per_copy * self.prepared_copies as u64 + batched)
     }
 
@@ -1142,7 +1151,7 @@ impl SceneRenderer {
         let scene = self.scene.as_ref()?;
         let each =
             scene.draws.iter().filter(|d| !d.blend && !d.batched && d.key.and_then(|k| k.caster(d.mask)).is_some());
-        let batched = scene.draws.iter().any(|d| d.batched) && scene.batch.count > 0;
+        let batched = scene.batch.ready();
         Some(each.count() as u64 * self.prepared_copies as u64 + u64::from(batched))
     }
 
@@ -1340,14 +1349,15 @@ impl SceneRenderer {
                 self.draw_stride,
                 &mut self.scratch,
             )?;
-            if scene.draws.iter().any(|d| d.batched) {
+            if scene.batch.ready() {
                 self.pipelines.world_caster(device);
             }
             let casting = self.shadow.as_ref().is_some_and(|s| s.drawn);
             for draw in &scene.draws {
                 if let Some(key) = draw.key {
                     self.pipelines.prepare(device, key);
-                    if let Some(caster) = key.caster(draw.mask).filter(|_| casting) {
+                    // A gathered draw's casters draw through the world caster.
+                    if let Some(caster) = key.caster(draw.mask).filter(|_| casting && !draw.batched) {
                         self.pipelines.prepare(device, caster);
                     }
                 }
@@ -1446,7 +1456,7 @@ impl SceneRenderer {
             pass.set_bind_group(3, &self.environment.1.bind_group, &[]);
             let pass_kind = self.casters_pass(shadow);
             scene.encode(&mut pass, &self.pipelines, (0..copies * draws).filter(opaque), self.draw_stride, pass_kind);
-            if scene.draws.iter().any(|d| d.batched) {
+            if matches!(pass_kind, Pass::SimplifiedCasters { .. }) && scene.batch.ready() {
                 scene.encode_batch(&mut pass, self.pipelines.world_caster(device));
             }
             drop(pass);
@@ -1804,11 +1814,14 @@ impl GpuScene {
         let batch = &mut self.batch;
         batch.positions.clear();
         batch.wanted.clear();
+        let mut batch_indices = 0usize;
+        for draw in &mut self.draws {
+            draw.batched = false;
+        }
         if let Some(coarse) = casters {
             batch.wanted.extend([instances.len() as u32, u32::from(coarse)]);
         }
         for (i, draw) in self.draws.iter_mut().enumerate() {
-            draw.batched = false;
             let primitive = self.primitives.get(draw.mesh).and_then(|m| m.get(draw.primitive)).and_then(Option::as_ref);
             let (Some(gpu), Some(source)) =
                 (primitive, asset.meshes.get(draw.mesh).and_then(|m| m.primitives.get(draw.primitive)))
@@ -1840,8 +1853,13 @@ impl GpuScene {
                     || instances
                         .iter()
                         .all(|c| c.worlds().get(draw.node as usize).is_some_and(|w| w.determinant() >= 0.0)));
-            if draw.batched {
-                batch.wanted.extend([i as u32, u32::from(draw.double_sided)]);
+            if let Some(set) = batch_set.as_ref().filter(|_| draw.batched) {
+                let more = set.indices.len() * instances.len() * (1 + usize::from(draw.double_sided));
+                draw.batched = batch_indices + more <= BATCH_MAX_INDICES;
+                if draw.batched {
+                    batch_indices += more;
+                    batch.wanted.extend([i as u32, u32::from(draw.double_sided)]);
+                }
             }
             if instances.iter().any(|i| i.skinning().uses_sjb_plan()) {
                 write_pivots_once(queue, asset, draw, source);
@@ -2083,7 +2101,7 @@ impl GpuScene {
         else {
             return;
         };
-        if batch.count == 0 || batch.positions.len() != batch.vertex_total || batch.built != batch.wanted {
+        if !batch.ready() {
             return;
         }
         pass.set_pipeline(pipeline);
@@ -2112,7 +2130,7 @@ impl GpuScene {
             let Some(draw) = self.draws.get(i) else {
                 continue;
             };
-            if caster && draw.batched {
+            if draw.batched && matches!(kind, Pass::SimplifiedCasters { .. }) {
                 continue;
             }
             let key = if caster { draw.key.and_then(|k| k.caster(draw.mask)) } else { draw.key };
