@@ -1176,9 +1176,14 @@ impl SceneRenderer {
     }
 
     /// Builds the fixed pipelines a first frame draws with ([`Pipelines::warm`]), for a viewer
-    /// about to load its first model.
+    /// about to load its first model; on the CPU skinning path also the world caster its soft
+    /// shadow's casters are gathered into (instead of the model's own caster pipelines, which
+    /// depend on the model).
     pub fn warm_pipelines(&self, device: &wgpu::Device) {
         self.pipelines.warm(device, self.ibl_supported);
+        if self.skinning_path() == SkinningPath::Cpu {
+            let _ = self.pipelines.world_caster(device);
+        }
     }
 
     /// Whether [`SkinningPath::Compute`] is available on this device.
