@@ -546,10 +546,9 @@ impl Stage {
         self.transition
     }
 
-    /// Imports and installs every delivery that arrived since the last frame (and lights with a
-    /// photograph that came).
+    /// Imports and installs every delivery that arrived since the last frame (a photograph that
+    /// came lights the model in [`Stage::tick`], after the page's commands).
     pub(crate) fn receive(&mut self) {
-        self.receive_environment();
         // A large delivery is held for one frame so the "Parsing…" bar is painted before the
         // import blocks the frame; small ones are imported at once.
         // Models whose images the browser has decoded since, in the order they came.
@@ -1030,6 +1029,10 @@ impl Stage {
     pub(crate) fn tick(&mut self, stable_dt: f32, unstable_dt: f32) {
         self.fps.update(unstable_dt);
         self.apply_commands();
+        // After the commands: a photograph that came in the meantime lights the model only if
+        // it is still wanted (an image chosen since drops it: the commands are the page's order,
+        // whatever the network's).
+        self.receive_environment();
         if let Some(model) = &mut self.model {
             #[cfg(feature = "full")]
             model.advance_ragdoll(stable_dt.clamp(0.0, MAX_DT));

@@ -163,7 +163,8 @@ pub struct GpuPrimitive {
     /// The same two levels' triangles on the CPU, over only the vertices they use, for
     /// gathering every copy's casters into one draw (`CasterBatch` in `scene.rs`); the whole
     /// primitive's where a level has no list of its own (one set for both levels when neither
-    /// has). `None` where that level's list is over [`BATCHED_CASTER_MAX_INDICES`] indices.
+    /// has). `None` where that level's list is over [`BATCHED_CASTER_MAX_INDICES`] indices (or names a
+    /// vertex the primitive lacks).
     pub caster_sets: [Option<std::sync::Arc<CasterSet>>; 2],
     /// Number of vertices.
     pub vertex_count: u32,

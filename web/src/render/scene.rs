@@ -242,6 +242,14 @@ struct DrawItem {
     compute_groups: Vec<Option<wgpu::BindGroup>>,
 }
 
+impl DrawItem {
+    /// Whether the last prepared frame draws this draw's casters itself (one draw per copy): it
+    /// has a caster pipeline and was not gathered into the [`CasterBatch`].
+    fn casts_alone(&self) -> bool {
+        !self.batched && self.key.and_then(|k| k.caster(self.mask)).is_some()
+    }
+}
+
 /// [`DrawItem::sjb_fallbacks`] before its pivots are written.
 const PIVOTS_UNWRITTEN: usize = usize::MAX;
 
@@ -291,9 +299,9 @@ struct GpuScene {
 }
 
 /// The shadow casters of the copies deformed on the CPU, gathered into one buffer in world space
-/// and drawn at once ([`super::pipelines::Pipelines::world_caster`]): a draw costs a software
-/// rasterizer (SwiftShader, the CPU adapter that takes this path) and GL drivers a fixed
-/// amount, and 50 copies were 50 caster draws of a few hundred triangles. Each draw's
+/// and drawn at once ([`super::pipelines::Pipelines::world_caster`]): one draw instead of one per
+/// copy and primitive (50 copies were 50 caster draws of a few hundred triangles; BENCHMARKS.md,
+/// "Frame cost", stop 54, has what it saves on SwiftShader, the CPU adapter that takes this path). Each draw's
 /// simplified triangles ([`super::mesh::CasterSet`]) are gathered over only the vertices they
 /// use, after the copy's deformation, so the main pass's vertices stay as they are.
 #[derive(Default)]
@@ -1134,7 +1142,7 @@ impl SceneRenderer {
         let per_copy: u64 = scene
             .draws
             .iter()
-            .filter(|d| !d.blend && !d.batched && d.key.and_then(|k| k.caster(d.mask)).is_some())
+            .filter(|d| d.casts_alone())
             .filter_map(|d| {
                 let gpu = scene.primitives.get(d.mesh)?.get(d.primitive)?.as_ref()?;
                 Some(u64::from(caster_list(gpu, kind, d.mask).1))
@@ -1149,8 +1157,7 @@ impl SceneRenderer {
     pub fn caster_draws(&self) -> Option<u64> {
         self.shadow.as_ref().filter(|s| s.drawn)?;
         let scene = self.scene.as_ref()?;
-        let each =
-            scene.draws.iter().filter(|d| !d.blend && !d.batched && d.key.and_then(|k| k.caster(d.mask)).is_some());
+        let each = scene.draws.iter().filter(|d| d.casts_alone());
         let batched = scene.batch.ready();
         Some(each.count() as u64 * self.prepared_copies as u64 + u64::from(batched))
     }
@@ -1177,8 +1184,8 @@ impl SceneRenderer {
 
     /// Builds the fixed pipelines a first frame draws with ([`Pipelines::warm`]), for a viewer
     /// about to load its first model; on the CPU skinning path also the world caster its soft
-    /// shadow's casters are gathered into (instead of the model's own caster pipelines, which
-    /// depend on the model).
+    /// shadow's deformed casters are gathered into (those draw without their own caster
+    /// pipelines, which depend on the model).
     pub fn warm_pipelines(&self, device: &wgpu::Device) {
         self.pipelines.warm(device, self.ibl_supported);
         if self.skinning_path() == SkinningPath::Cpu {
@@ -1355,7 +1362,7 @@ impl SceneRenderer {
                 &mut self.scratch,
             )?;
             if scene.batch.ready() {
-                self.pipelines.world_caster(device);
+                let _ = self.pipelines.world_caster(device);
             }
             let casting = self.shadow.as_ref().is_some_and(|s| s.drawn);
             for draw in &scene.draws {
