@@ -794,13 +794,7 @@ fn set_pipeline<'a>(c: &mut Context, pass: &mut Pass<'a>, pipeline: &'a Pipeline
     let primitive = &pipeline.primitive;
     let cull = primitive.cull_mode.map(|face| if face == wgpu::Face::Front { Gl::FRONT } else { Gl::BACK });
     if changes(Some(&mut known.cull), cull) {
-        match cull {
-            Some(face) => {
-                gl.enable(Gl::CULL_FACE);
-                gl.cull_face(face);
-            }
-            None => gl.disable(Gl::CULL_FACE),
-        }
+        capability(gl, Gl::CULL_FACE, cull, |face| gl.cull_face(face));
     }
     let ccw = (primitive.front_face == wgpu::FrontFace::Ccw) == pass.canvas;
     let front = if ccw { Gl::CCW } else { Gl::CW };
@@ -817,13 +811,7 @@ fn set_pipeline<'a>(c: &mut Context, pass: &mut Pass<'a>, pipeline: &'a Pipeline
         None => (None, None, None),
     };
     if changes(Some(&mut known.depth_test), test) {
-        match test {
-            Some(func) => {
-                gl.enable(Gl::DEPTH_TEST);
-                gl.depth_func(func);
-            }
-            None => gl.disable(Gl::DEPTH_TEST),
-        }
+        capability(gl, Gl::DEPTH_TEST, test, |func| gl.depth_func(func));
     }
     if let Some(mask) = mask
         && changes(Some(&mut known.depth_mask), mask)
@@ -831,13 +819,9 @@ fn set_pipeline<'a>(c: &mut Context, pass: &mut Pass<'a>, pipeline: &'a Pipeline
         gl.depth_mask(mask);
     }
     if changes(Some(&mut known.polygon_offset), offset) {
-        match offset {
-            Some((factor, units)) => {
-                gl.enable(Gl::POLYGON_OFFSET_FILL);
-                gl.polygon_offset(f32::from_bits(factor), f32::from_bits(units));
-            }
-            None => gl.disable(Gl::POLYGON_OFFSET_FILL),
-        }
+        capability(gl, Gl::POLYGON_OFFSET_FILL, offset, |(factor, units)| {
+            gl.polygon_offset(f32::from_bits(factor), f32::from_bits(units));
+        });
     }
     let target = pipeline.targets.first().and_then(Option::as_ref);
     let blend = target.and_then(|t| t.blend).map(|b| {
@@ -851,14 +835,10 @@ fn set_pipeline<'a>(c: &mut Context, pass: &mut Pass<'a>, pipeline: &'a Pipeline
         ]
     });
     if changes(Some(&mut known.blend), blend) {
-        match blend {
-            Some([cs, cd, as_, ad, co, ao]) => {
-                gl.enable(Gl::BLEND);
-                gl.blend_func_separate(cs, cd, as_, ad);
-                gl.blend_equation_separate(co, ao);
-            }
-            None => gl.disable(Gl::BLEND),
-        }
+        capability(gl, Gl::BLEND, blend, |[cs, cd, as_, ad, co, ao]| {
+            gl.blend_func_separate(cs, cd, as_, ad);
+            gl.blend_equation_separate(co, ao);
+        });
     }
     if let Some(target) = target {
         let m = target.write_mask;
@@ -875,6 +855,17 @@ fn set_pipeline<'a>(c: &mut Context, pass: &mut Pass<'a>, pipeline: &'a Pipeline
     pass.program = program;
     pass.pipeline = Some(pipeline);
     pass.dirty = true;
+}
+
+/// Turns GL capability `cap` on and sets its parameters with `set` (`value` given), or off.
+fn capability<T>(gl: &Gl, cap: u32, value: Option<T>, set: impl FnOnce(T)) {
+    match value {
+        Some(v) => {
+            gl.enable(cap);
+            set(v);
+        }
+        None => gl.disable(cap),
+    }
 }
 
 /// The vertex format's GL components, type, normalisation and whether it is read as integers

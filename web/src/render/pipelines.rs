@@ -63,6 +63,8 @@ const SKIN_ATTRIBUTES: [wgpu::VertexAttribute; 4] =
     wgpu::vertex_attr_array![4 => Uint16x4, 5 => Uint16x4, 6 => Float32x4, 7 => Float32x4];
 const PIVOT_ATTRIBUTES: [wgpu::VertexAttribute; 2] = wgpu::vertex_attr_array![8 => Float32x3, 9 => Uint32];
 const TANGENT_ATTRIBUTES: [wgpu::VertexAttribute; 1] = wgpu::vertex_attr_array![11 => Float32x4];
+/// The world caster's positions (`vs_caster_world`).
+const WORLD_ATTRIBUTES: [wgpu::VertexAttribute; 1] = wgpu::vertex_attr_array![0 => Float32x3];
 
 /// The vertex buffer slot of the tangent stream: after geometry and attributes in a static
 /// draw, after the skin and pivot streams in a skinned one.
@@ -628,8 +630,6 @@ impl Pipelines {
     /// material's triangles are gathered with both windings. Built on first use.
     pub fn world_caster(&self, device: &wgpu::Device) -> &wgpu::RenderPipeline {
         self.first_use.world_caster.get_or_init(|| {
-            let attributes =
-                [wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32x3, offset: 0, shader_location: 0 }];
             device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some("kloub shadow casters in world space"),
                 layout: Some(&self.mesh_layout),
@@ -637,11 +637,7 @@ impl Pipelines {
                     module: &self.mesh_module,
                     entry_point: Some("vs_caster_world"),
                     compilation_options: Default::default(),
-                    buffers: &[Some(wgpu::VertexBufferLayout {
-                        array_stride: 12,
-                        step_mode: wgpu::VertexStepMode::Vertex,
-                        attributes: &attributes,
-                    })],
+                    buffers: &[layout(12, &WORLD_ATTRIBUTES)],
                 },
                 primitive: wgpu::PrimitiveState {
                     topology: wgpu::PrimitiveTopology::TriangleList,
