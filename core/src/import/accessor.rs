@@ -575,6 +575,20 @@ impl<'a> Accessors<'a> {
             }
             return Ok(out);
         }
+        // Quantized (integer) attributes, finite whatever they hold: converted as one flat run
+        // (code for each component size, not for each size and element width), then grouped;
+        // only where that passing copy fits in what the budget has left (it is not kept).
+        if a.component != Component::F32 && a.count.saturating_mul(4 * N as u64) <= budget.left() {
+            let mut flat = Vec::new();
+            if self.dense_components(a, normalized, &mut flat)? {
+                out.extend(flat.chunks_exact(N).map(|c| {
+                    let mut e = [0.0; N];
+                    e.copy_from_slice(c);
+                    e
+                }));
+                return Ok(out);
+            }
+        }
         self.visit(
             index,
             |c, b| c.to_f32(b, normalized),
@@ -606,26 +620,12 @@ impl<'a> Accessors<'a> {
         read: impl Fn([u8; S]) -> T,
         out: &mut Vec<[T; N]>,
     ) -> Result<bool, ImportError> {
-        let (Some(view), None, 1) = (a.view, &a.sparse, a.cols) else {
-            return Ok(false);
-        };
-        if a.components() != N || a.count == 0 {
+        if a.components() != N {
             return Ok(false);
         }
-        let data = self.view_bytes(view)?;
-        let element = S * N;
-        // The bytes from the first element's start to the last one's end.
-        let span = (a.count - 1).checked_mul(a.stride).and_then(|s| s.checked_add(element as u64));
-        let region = span
-            .and_then(|span| a.offset.checked_add(span).map(|end| (a.offset, end)))
-            .and_then(|(start, end)| Some((usize::try_from(start).ok()?, usize::try_from(end).ok()?)))
-            .and_then(|(start, end)| data.get(start..end));
-        let (Some(region), Ok(stride)) = (region, usize::try_from(a.stride)) else {
+        let Some((region, stride)) = self.dense_region(a, S * N)? else {
             return Ok(false);
         };
-        if stride < element {
-            return Ok(false);
-        }
         // Each chunk below is one element's `S · N` bytes.
         let convert = |bytes: &[u8]| {
             let mut e = [T::default(); N];
@@ -634,13 +634,71 @@ impl<'a> Accessors<'a> {
             }
             e
         };
-        if stride == element {
-            out.extend(region.chunks_exact(element).map(convert));
+        if stride == S * N {
+            out.extend(region.chunks_exact(S * N).map(convert));
         } else {
             // Interleaved: each chunk starts an element (the last may stop at its end).
-            out.extend(region.chunks(stride).filter_map(|c| c.get(..element)).map(convert));
+            out.extend(region.chunks(stride).filter_map(|c| c.get(..S * N)).map(convert));
         }
         Ok(true)
+    }
+
+    /// [`Accessors::dense_elements`] for [`Accessors::read_flat`]: every component of every
+    /// element, one after the other, whatever the number of components.
+    fn dense_flat<const S: usize>(
+        &self,
+        a: &Accessor,
+        read: impl Fn([u8; S]) -> f32,
+        out: &mut Vec<f32>,
+    ) -> Result<bool, ImportError> {
+        let element = S * a.components();
+        let Some((region, stride)) = self.dense_region(a, element)? else {
+            return Ok(false);
+        };
+        if stride == element {
+            out.extend(region.as_chunks::<S>().0.iter().map(|&b| read(b)));
+        } else {
+            for e in region.chunks(stride).filter_map(|c| c.get(..element)) {
+                out.extend(e.as_chunks::<S>().0.iter().map(|&b| read(b)));
+            }
+        }
+        Ok(true)
+    }
+
+    /// [`Accessors::dense_flat`] for any component type (`normalized`: integers mapped to
+    /// [0, 1] or [-1, 1]).
+    fn dense_components(&self, a: &Accessor, normalized: bool, out: &mut Vec<f32>) -> Result<bool, ImportError> {
+        let component = a.component;
+        let read = |b: &[u8]| component.to_f32(b, normalized);
+        match component.size() {
+            1 => self.dense_flat::<1>(a, |b| read(&b), out),
+            2 => self.dense_flat::<2>(a, |b| read(&b), out),
+            _ => self.dense_flat::<4>(a, |b| read(&b), out),
+        }
+    }
+
+    /// The bytes from a dense accessor's first element to the end of its last (`element`
+    /// bytes each) and its stride, where the accessor is in a buffer view, not sparse, not a
+    /// matrix with padded columns, not empty, and every element lies in the view (checked once,
+    /// for the last); `None` for anything else (the element-by-element path then gives the
+    /// right error where there is one).
+    fn dense_region(&self, a: &Accessor, element: usize) -> Result<Option<(&[u8], usize)>, ImportError> {
+        let (Some(view), None, 1) = (a.view, &a.sparse, a.cols) else {
+            return Ok(None);
+        };
+        if a.count == 0 || element == 0 {
+            return Ok(None);
+        }
+        let data = self.view_bytes(view)?;
+        let span = (a.count - 1).checked_mul(a.stride).and_then(|s| s.checked_add(element as u64));
+        let region = span
+            .and_then(|span| a.offset.checked_add(span).map(|end| (a.offset, end)))
+            .and_then(|(start, end)| Some((usize::try_from(start).ok()?, usize::try_from(end).ok()?)))
+            .and_then(|(start, end)| data.get(start..end));
+        match (region, usize::try_from(a.stride)) {
+            (Some(region), Ok(stride)) if stride >= element => Ok(Some((region, stride))),
+            _ => Ok(None),
+        }
     }
 
     /// Reads any accessor as a flat float array (`count × components`), non-finite values included.
@@ -650,6 +708,10 @@ impl<'a> Accessors<'a> {
         let normalized = a.normalized;
         let total = a.count.checked_mul(n as u64);
         let mut out = self.allocate::<f32>(index, total.unwrap_or(u64::MAX), budget)?;
+        let dense = self.dense_components(a, normalized, &mut out)?;
+        if dense {
+            return Ok((out, n));
+        }
         self.visit(
             index,
             |c, b| c.to_f32(b, normalized),

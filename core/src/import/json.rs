@@ -79,6 +79,11 @@ impl<'a> Ptr<'a> {
     pub(crate) fn member(parent: &'a dyn Display, key: &'a str) -> Self {
         Ptr { parent, key, index: None }
     }
+
+    /// `{parent}/{key}/{index}`.
+    pub(crate) fn element(parent: &'a dyn Display, key: &'a str, index: usize) -> Self {
+        Ptr { parent, key, index: Some(index) }
+    }
 }
 
 impl Display for Ptr<'_> {

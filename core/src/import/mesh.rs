@@ -6,6 +6,7 @@ use super::json::Value;
 use super::json::{Obj, child, member_error, objects, opt_f32_list, opt_index, opt_object, opt_u64};
 use crate::asset::{Mesh, MorphTarget, Primitive, Topology};
 use crate::error::ImportError;
+use crate::math::Vec4;
 
 /// Largest deviation of a weight sum from 1 accepted without a warning (quantized
 /// weights round to about 1/255 per component).
@@ -238,53 +239,33 @@ fn influences(cx: &mut Cx<'_>, attributes: &Obj, aptr: &str, vertex_count: usize
         }
         if set == 0 {
             cx.budget.take_items(vertex_count as u64, 64, aptr, "skin influences")?;
-            joints = vec![[0; 8]; vertex_count];
-            weights = vec![[0.0; 8]; vertex_count];
         }
         let js = cx.accessors.read_u32::<4>(j, &jptr, &["VEC4"], &mut cx.budget)?;
         let ws = cx.accessors.read_f32::<4>(w, &wptr, &["VEC4"], false, &mut cx.budget)?;
-        let slots = set * 4..set * 4 + 4;
-        used = slots.end;
-        for (v, (jv, wv)) in js.iter().zip(&ws).enumerate() {
-            for (k, slot) in slots.clone().enumerate() {
-                // JOINTS are 8 or 16 bits (checked above), so they fit u16.
-                joints[v][slot] = u16::try_from(jv[k]).unwrap_or(u16::MAX);
-                weights[v][slot] = wv[k];
+        // JOINTS are 8 or 16 bits (checked above), so they fit u16.
+        let joint = |x: u32| u16::try_from(x).unwrap_or(u16::MAX);
+        if set == 0 {
+            joints = js.iter().map(|j| [joint(j[0]), joint(j[1]), joint(j[2]), joint(j[3]), 0, 0, 0, 0]).collect();
+            weights = ws.iter().map(|w| [w[0], w[1], w[2], w[3], 0.0, 0.0, 0.0, 0.0]).collect();
+        } else {
+            for ((to_j, to_w), (jv, wv)) in joints.iter_mut().zip(weights.iter_mut()).zip(js.iter().zip(&ws)) {
+                to_j[4..].copy_from_slice(&jv.map(joint));
+                to_w[4..].copy_from_slice(wv);
             }
         }
+        used = set * 4 + 4;
     }
     let mut repaired = 0usize;
     let mut max_joint: Option<u16> = None;
     for (j, w) in joints.iter_mut().zip(weights.iter_mut()) {
-        let all = w.len();
-        let (j, w) = (&mut j[..used.min(all)], &mut w[..used.min(all)]);
-        let mut defect = false;
-        for x in w.iter_mut() {
-            if !x.is_finite() || *x < 0.0 {
-                *x = 0.0;
-                defect = true;
-            }
-        }
-        let sum: f32 = w.iter().sum();
-        if sum <= 0.0 || !sum.is_finite() {
-            w.fill(0.0);
-            if let Some(first) = w.first_mut() {
-                *first = 1.0;
-            }
-            defect = true;
-        } else {
-            defect |= (sum - 1.0).abs() > WEIGHT_SUM_TOLERANCE;
-            for x in w.iter_mut() {
-                *x /= sum;
-            }
-        }
+        // The slots the file fills, as fixed-size arrays (the loops below unroll).
+        let (defect, most) = match used {
+            4 => renormalize_four(j, w),
+            _ => renormalize_eight(j, w),
+        };
         repaired += usize::from(defect);
-        for (joint, &weight) in j.iter_mut().zip(w.iter()) {
-            if weight == 0.0 {
-                *joint = 0;
-            } else {
-                max_joint = Some(max_joint.map_or(*joint, |m| m.max(*joint)));
-            }
+        if let Some(most) = most {
+            max_joint = Some(max_joint.map_or(most, |m| m.max(most)));
         }
     }
     if repaired > 0 {
@@ -296,6 +277,63 @@ fn influences(cx: &mut Cx<'_>, attributes: &Obj, aptr: &str, vertex_count: usize
         );
     }
     Ok((joints, weights, max_joint))
+}
+
+/// [`renormalize_eight`] of the first four slots in one vector: the same results (each lane's
+/// division is correctly rounded, the sum is taken in the same order).
+fn renormalize_four(j: &mut [u16; 8], w: &mut [f32; 8]) -> (bool, Option<u16>) {
+    let v = Vec4::new(w[0], w[1], w[2], w[3]);
+    let bad = !v.is_finite_mask() | v.cmplt(Vec4::ZERO);
+    let v = Vec4::select(bad, Vec4::ZERO, v);
+    let mut defect = bad.any();
+    let sum = v.x + v.y + v.z + v.w;
+    let v = if sum <= 0.0 || !sum.is_finite() {
+        defect = true;
+        Vec4::X
+    } else {
+        defect |= (sum - 1.0).abs() > WEIGHT_SUM_TOLERANCE;
+        v / sum
+    };
+    w[..4].copy_from_slice(&v.to_array());
+    (defect, weighted_joints(&mut j[..4], &w[..4]))
+}
+
+/// Renormalizes one vertex's eight weights (negative or non-finite ones zeroed; all zero:
+/// bound to its first joint) and points its zero-weight slots at joint 0; returns whether it
+/// needed repair and its largest weighted joint.
+fn renormalize_eight(j: &mut [u16; 8], w: &mut [f32; 8]) -> (bool, Option<u16>) {
+    let mut defect = false;
+    for x in w.iter_mut() {
+        if !x.is_finite() || *x < 0.0 {
+            *x = 0.0;
+            defect = true;
+        }
+    }
+    let sum: f32 = w.iter().sum();
+    if sum <= 0.0 || !sum.is_finite() {
+        *w = [0.0; 8];
+        w[0] = 1.0;
+        defect = true;
+    } else {
+        defect |= (sum - 1.0).abs() > WEIGHT_SUM_TOLERANCE;
+        for x in w.iter_mut() {
+            *x /= sum;
+        }
+    }
+    (defect, weighted_joints(j, w))
+}
+
+/// Points the zero-weight slots at joint 0; returns the largest joint with a weight.
+fn weighted_joints(j: &mut [u16], w: &[f32]) -> Option<u16> {
+    let mut most: Option<u16> = None;
+    for (joint, &weight) in j.iter_mut().zip(w) {
+        if weight == 0.0 {
+            *joint = 0;
+        } else {
+            most = Some(most.map_or(*joint, |m| m.max(*joint)));
+        }
+    }
+    most
 }
 
 /// Converts `mode` (glTF primitive mode) and its index sequence into a list topology.

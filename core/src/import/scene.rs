@@ -1,7 +1,7 @@
 //! Nodes (transforms, hierarchy, traversal order), scenes and skins.
 
 use super::Cx;
-use super::json::{Obj, array, check_index, child, objects, opt_f32_array, opt_f32_list, opt_index};
+use super::json::{Obj, Ptr, array, check_index, child, items, objects, opt_f32_array, opt_f32_list, opt_index};
 use crate::asset::{Node, Scene, Skin};
 use crate::error::ImportError;
 use crate::math::{Mat4, Quat, QuatExt, Transform, Vec3};
@@ -17,19 +17,18 @@ pub(crate) struct Graph {
 /// Parses every node and checks the hierarchy: a forest (one parent at most, no cycle)
 /// no deeper than `max_node_depth`. Iterative, so deep chains cannot overflow the stack.
 pub(crate) fn nodes(cx: &mut Cx<'_>, mesh_count: usize, skin_count: usize) -> Result<Graph, ImportError> {
-    let list = objects(cx.root, "nodes", "")?;
+    let list = items(cx.root, "nodes", &"")?;
     let n = list.len();
     cx.budget.take_items(n as u64, (size_of::<Node>() + 16) as u64, "/nodes", "nodes")?;
     let mut nodes = Vec::with_capacity(n);
     let mut file_weights = Vec::with_capacity(n);
     for (node, ptr) in &list {
-        let children_ptr = child(ptr, "children");
         let children = array(node, "children", ptr)?
             .iter()
             .enumerate()
             .map(|(i, c)| {
-                let p = child(&children_ptr, i);
-                let index = super::json::as_u64(c).ok_or_else(|| ImportError::new(&p, "expected a node index"))?;
+                let p = Ptr::element(ptr, "children", i);
+                let index = super::json::as_u64(c).ok_or_else(|| ImportError::new(p, "expected a node index"))?;
                 check_index(index, n, "node", &p)
             })
             .collect::<Result<Vec<_>, _>>()?;
@@ -47,13 +46,13 @@ pub(crate) fn nodes(cx: &mut Cx<'_>, mesh_count: usize, skin_count: usize) -> Re
     for p in 0..n {
         for i in 0..nodes[p].children.len() {
             let c = nodes[p].children[i];
-            let ptr = format!("/nodes/{p}/children/{i}");
+            let ptr = || format!("/nodes/{p}/children/{i}");
             if c as usize == p {
-                return Err(ImportError::new(ptr, format!("node {p} is its own child (a cycle)")));
+                return Err(ImportError::new(ptr(), format!("node {p} is its own child (a cycle)")));
             }
             if let Some(other) = nodes[c as usize].parent {
                 return Err(ImportError::new(
-                    ptr,
+                    ptr(),
                     format!("node {c} already has parent {other}; a node may have only one parent"),
                 ));
             }
@@ -98,13 +97,13 @@ fn traversal_order(nodes: &[Node], max_depth: u32) -> Result<Vec<u32>, ImportErr
 }
 
 /// The local transform of a node: `matrix` decomposed, or TRS with the rotation normalized.
-fn rest_transform(cx: &mut Cx<'_>, node: &Obj, ptr: &str) -> Result<Transform, ImportError> {
+fn rest_transform(cx: &mut Cx<'_>, node: &Obj, ptr: &Ptr<'_>) -> Result<Transform, ImportError> {
     if let Some(m) = opt_f32_array::<16>(node, "matrix", ptr)? {
         let trs: Vec<&str> =
             ["translation", "rotation", "scale"].into_iter().filter(|k| node.contains_key(k)).collect();
         if !trs.is_empty() {
             cx.warn(
-                ptr,
+                ptr.to_string(),
                 format!("the node has a matrix and {}; the matrix is used (glTF allows only one)", trs.join(", ")),
             );
         }
@@ -121,22 +120,22 @@ fn rest_transform(cx: &mut Cx<'_>, node: &Obj, ptr: &str) -> Result<Transform, I
     let scale = Vec3::from(opt_f32_array::<3>(node, "scale", ptr)?.unwrap_or([1.0; 3]));
     let rotation = match opt_f32_array::<4>(node, "rotation", ptr)? {
         None => Quat::IDENTITY,
-        Some(q) => normalize_rotation(cx, Quat::from_array(q), &child(ptr, "rotation")),
+        Some(q) => normalize_rotation(cx, Quat::from_array(q), &Ptr::member(ptr, "rotation")),
     };
     Ok(Transform { translation, rotation, scale })
 }
 
 /// A unit quaternion from `q`, warning when it was not (identity when it cannot be normalized).
-pub(crate) fn normalize_rotation(cx: &mut Cx<'_>, q: Quat, ptr: &str) -> Quat {
+pub(crate) fn normalize_rotation(cx: &mut Cx<'_>, q: Quat, ptr: &(impl std::fmt::Display + ?Sized)) -> Quat {
     match q.try_normalize_quat() {
         Some(unit) => {
             if (q.length() - 1.0).abs() > 1e-3 {
-                cx.warn(ptr, format!("rotation {q} has length {}; normalized", q.length()));
+                cx.warn(ptr.to_string(), format!("rotation {q} has length {}; normalized", q.length()));
             }
             unit
         }
         None => {
-            cx.warn(ptr, format!("rotation {q} cannot be normalized; the identity is used"));
+            cx.warn(ptr.to_string(), format!("rotation {q} cannot be normalized; the identity is used"));
             Quat::IDENTITY
         }
     }

@@ -34,7 +34,14 @@ pub(crate) enum Number {
 pub(crate) struct Map<'j>(Vec<(Cow<'j, str>, Value<'j>)>);
 
 /// Parses `bytes` as one JSON value.
+#[cfg(test)]
 pub(crate) fn parse(bytes: &[u8]) -> Result<Value<'_>, serde_json::Error> {
+    parse_counted(bytes).map(|(value, _)| value)
+}
+
+/// Parses `bytes` as one JSON value; also returns how many values the tree holds (arrays',
+/// objects' and their items', the root's).
+pub(crate) fn parse_counted(bytes: &[u8]) -> Result<(Value<'_>, u64), serde_json::Error> {
     // Valid UTF-8 as a whole (checked in one vectorized pass): the parser need not check each
     // string again. Anything else goes through the byte reader, which says where it fails.
     match std::str::from_utf8(bytes) {
@@ -45,11 +52,11 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<Value<'_>, serde_json::Error> {
 
 fn parse_with<'j, R: serde_json::de::Read<'j>>(
     deserializer: &mut serde_json::Deserializer<R>,
-) -> Result<Value<'j>, serde_json::Error> {
+) -> Result<(Value<'j>, u64), serde_json::Error> {
     let mut scratch = Scratch::default();
     let value = Seed(&mut scratch).deserialize(&mut *deserializer)?;
     deserializer.end()?;
-    Ok(value)
+    Ok((value, 1 + scratch.nested))
 }
 
 impl<'j> Value<'j> {
@@ -236,6 +243,8 @@ impl<'de> Deserialize<'de> for Str<'de> {
 struct Scratch<'de> {
     items: Vec<Value<'de>>,
     members: Vec<(Cow<'de, str>, Value<'de>)>,
+    /// The items and members parsed so far (every value but the root).
+    nested: u64,
 }
 
 /// Deserializes one value with the shared scratch stacks.
@@ -281,6 +290,7 @@ impl<'de> Visitor<'de> for Seed<'_, 'de> {
         while let Some(item) = seq.next_element_seed(Seed(&mut *self.0))? {
             self.0.items.push(item);
         }
+        self.0.nested += (self.0.items.len() - start) as u64;
         Ok(Value::Array(self.0.items.drain(start..).collect()))
     }
     fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Value<'de>, A::Error> {
@@ -289,6 +299,7 @@ impl<'de> Visitor<'de> for Seed<'_, 'de> {
             let value = map.next_value_seed(Seed(&mut *self.0))?;
             self.0.members.push((key, value));
         }
+        self.0.nested += (self.0.members.len() - start) as u64;
         Ok(Value::Object(Map::from_members(self.0.members.drain(start..).collect())))
     }
 }
@@ -314,5 +325,14 @@ mod tests {
         let deep = format!("{}{}", "[".repeat(200), "]".repeat(200));
         assert!(parse(deep.as_bytes()).is_err(), "serde_json's recursion limit");
         assert!(parse(b"{\"a\": 1,}").expect_err("trailing comma").to_string().contains("line 1"));
+    }
+
+    #[test]
+    fn counts_every_value() {
+        // The root, "a" and its two items, "b", "c" and its item: 7 values.
+        let (_, values) = parse_counted(br#"{"a": [1, "x"], "b": {}, "c": {"d": null}}"#).expect("parses");
+        assert_eq!(values, 7);
+        assert_eq!(parse_counted(b"3").expect("parses").1, 1);
+        assert_eq!(parse_counted(b"[[], [[]]]").expect("parses").1, 4);
     }
 }
