@@ -57,7 +57,7 @@ impl Component {
             Self::I16 => (f32::from(i16::from_le_bytes([b[0], b[1]])), 32767.0),
             Self::U16 => (f32::from(u16::from_le_bytes([b[0], b[1]])), 65535.0),
         };
-        if normalized { (v / scale).max(-1.0) } else { v }
+        scaled(v, scale, normalized)
     }
 
     /// One unsigned component as `u32` (0 for signed or float types, which callers refuse).
@@ -70,6 +70,13 @@ impl Component {
             _ => 0,
         }
     }
+}
+
+/// An integer component's value as `f32`; normalized, divided by its type's largest value
+/// (`scale`) and kept at or above -1.
+#[inline]
+fn scaled(v: f32, scale: f32, normalized: bool) -> f32 {
+    if normalized { (v / scale).max(-1.0) } else { v }
 }
 
 /// A validated buffer view.
@@ -668,12 +675,15 @@ impl<'a> Accessors<'a> {
     /// [`Accessors::dense_flat`] for any component type (`normalized`: integers mapped to
     /// [0, 1] or [-1, 1]).
     fn dense_components(&self, a: &Accessor, normalized: bool, out: &mut Vec<f32>) -> Result<bool, ImportError> {
-        let component = a.component;
-        let read = |b: &[u8]| component.to_f32(b, normalized);
-        match component.size() {
-            1 => self.dense_flat::<1>(a, |b| read(&b), out),
-            2 => self.dense_flat::<2>(a, |b| read(&b), out),
-            _ => self.dense_flat::<4>(a, |b| read(&b), out),
+        // One loop per component type (as `Component::to_f32` reads each).
+        let n = normalized;
+        match a.component {
+            Component::F32 => self.dense_flat::<4>(a, f32::from_le_bytes, out),
+            Component::U32 => self.dense_flat::<4>(a, |b| u32::from_le_bytes(b) as f32, out),
+            Component::I16 => self.dense_flat::<2>(a, |b| scaled(f32::from(i16::from_le_bytes(b)), 32767.0, n), out),
+            Component::U16 => self.dense_flat::<2>(a, |b| scaled(f32::from(u16::from_le_bytes(b)), 65535.0, n), out),
+            Component::I8 => self.dense_flat::<1>(a, |[b]| scaled(f32::from(b as i8), 127.0, n), out),
+            Component::U8 => self.dense_flat::<1>(a, |[b]| scaled(f32::from(b), 255.0, n), out),
         }
     }
 
