@@ -586,7 +586,9 @@ impl<'a> Accessors<'a> {
         // (code for each component size, not for each size and element width), then grouped;
         // only where that passing copy fits in what the budget has left (it is not kept).
         if a.component != Component::F32 && a.count.saturating_mul(4 * N as u64) <= budget.left() {
-            let mut flat = Vec::new();
+            // Its exact size up front: grown element by element (an interleaved view) it could
+            // hold up to twice that, and three times while it moves.
+            let mut flat = Vec::with_capacity(usize::try_from(a.count).unwrap_or(0).saturating_mul(N));
             if self.dense_components(a, normalized, &mut flat)? {
                 out.extend(flat.chunks_exact(N).map(|c| {
                     let mut e = [0.0; N];

@@ -379,3 +379,35 @@ fn to_list(cx: &mut Cx<'_>, mode: u64, raw: Vec<u32>, ptr: &str) -> Result<(Topo
     }
     Ok((topology, list))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn four_weights_renormalize_as_eight_with_four_zero() {
+        let cases: [[f32; 4]; 10] = [
+            [0.5, 0.25, 0.125, 0.125],
+            [0.3, 0.3, 0.3, 0.3],
+            [f32::NAN, 0.5, 0.5, 0.0],
+            [f32::INFINITY, 1.0, 0.0, 0.0],
+            [f32::NEG_INFINITY, 0.7, 0.3, 0.0],
+            [-0.5, 0.6, 0.4, 0.0],
+            [-0.0, 1.0, 0.0, 0.0],
+            [-0.0, -0.0, 0.0, 0.0],
+            [f32::MAX, f32::MAX, 0.0, 0.0],
+            [0.0; 4],
+        ];
+        for w4 in cases {
+            let joints = [3u16, 9, 65535, 1];
+            let (mut j4, mut w4a) = ([joints[0], joints[1], joints[2], joints[3], 0, 0, 0, 0], [0.0f32; 8]);
+            w4a[..4].copy_from_slice(&w4);
+            let (mut j8, mut w8) = (j4, w4a);
+            let four = renormalize_four(&mut j4, &mut w4a);
+            let eight = renormalize_eight(&mut j8, &mut w8);
+            assert_eq!(four, eight, "{w4:?}");
+            assert_eq!(j4, j8, "{w4:?}");
+            assert_eq!(w4a.map(f32::to_bits), w8.map(f32::to_bits), "{w4:?}");
+        }
+    }
+}

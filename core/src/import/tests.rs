@@ -1592,3 +1592,88 @@ fn meshopt_compressed_files_decode_to_their_quantized_twins() {
 }
 
 mod draco;
+
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+fn whole_run_reads_equal_the_element_by_element_reads() {
+    // Each component type, normalized or not, packed and interleaved (a 12-byte stride) at an
+    // offset: accessor 0 is read as one run, accessor 1 (the same data with a sparse
+    // substitution of element 0 by its own bytes) element by element; both bit for bit alike.
+    let cases: [(u64, usize, &[f64]); 6] = [
+        (5120, 1, &[-128.0, 127.0, 0.0, -1.0, 5.0, -7.0]),
+        (5121, 1, &[255.0, 0.0, 128.0, 1.0, 2.0, 3.0]),
+        (5122, 2, &[-32768.0, 32767.0, 0.0, -1.0, 300.0, -300.0]),
+        (5123, 2, &[65535.0, 0.0, 32768.0, 1.0, 2.0, 3.0]),
+        (5125, 4, &[16_777_217.0, 4_294_967_295.0, 0.0, 1.0, 2.0, 3.0]),
+        (5126, 4, &[1.5, -0.0, f64::NAN, f64::INFINITY, -2.25, 1e-40]),
+    ];
+    for (ctype, size, values) in cases {
+        let encode = |v: f64| -> Vec<u8> {
+            match ctype {
+                5120 => vec![(v as i8) as u8],
+                5121 => vec![v as u8],
+                5122 => (v as i16).to_le_bytes().to_vec(),
+                5123 => (v as u16).to_le_bytes().to_vec(),
+                5125 => (v as u32).to_le_bytes().to_vec(),
+                _ => (v as f32).to_le_bytes().to_vec(),
+            }
+        };
+        for stride in [None, Some(12usize)] {
+            let element = 2 * size;
+            let step = stride.unwrap_or(element);
+            // The view: `size` bytes of padding, then 3 VEC2 elements `step` apart (filler between).
+            let mut data = vec![0xA5u8; size + 2 * step + element];
+            for (i, pair) in values.chunks(2).enumerate() {
+                let at = size + i * step;
+                let bytes: Vec<u8> = pair.iter().flat_map(|&v| encode(v)).collect();
+                data[at..at + element].copy_from_slice(&bytes);
+            }
+            let main_len = data.len();
+            while !data.len().is_multiple_of(4) {
+                data.push(0);
+            }
+            let indices_at = data.len();
+            data.extend([0u8, 0, 0, 0]);
+            let values_at = data.len();
+            data.extend_from_within(size..size + element);
+            let mut main = json!({"buffer": 0, "byteLength": main_len});
+            if let Some(s) = stride {
+                main["byteStride"] = json!(s);
+            }
+            for normalized in [false, true] {
+                if normalized && (ctype == 5125 || ctype == 5126) {
+                    continue;
+                }
+                let accessor = json!({"bufferView": 0, "byteOffset": size, "componentType": ctype,
+                    "normalized": normalized, "count": 3, "type": "VEC2"});
+                let mut twin = accessor.clone();
+                twin["sparse"] = json!({"count": 1,
+                    "indices": {"bufferView": 1, "componentType": 5121},
+                    "values": {"bufferView": 2}});
+                let doc = json!({
+                    "bufferViews": [main, {"buffer": 0, "byteOffset": indices_at, "byteLength": 1},
+                        {"buffer": 0, "byteOffset": values_at, "byteLength": element}],
+                    "accessors": [accessor, twin]
+                });
+                let text = doc.to_string();
+                let tree = super::tree::parse(text.as_bytes()).expect("JSON");
+                let root = tree.as_object().expect("object");
+                let mut budget = Budget::new(1 << 20);
+                let accessors =
+                    accessor::Accessors::new(root, vec![Some(std::borrow::Cow::Owned(data.clone()))], &mut budget)
+                        .expect("valid");
+                let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                let case = format!("type {ctype}, stride {stride:?}, normalized {normalized}");
+                let (run, n) = accessors.read_flat(0, &mut budget).expect("read");
+                let (each, m) = accessors.read_flat(1, &mut budget).expect("read");
+                assert_eq!((n, bits(&run)), (m, bits(&each)), "read_flat, {case}");
+                let run = accessors.read_f32::<2>(0, "", &["VEC2"], false, &mut budget).expect("read");
+                let each = accessors.read_f32::<2>(1, "", &["VEC2"], false, &mut budget).expect("read");
+                assert_eq!(bits(run.as_flattened()), bits(each.as_flattened()), "read_f32, {case}");
+                if normalized {
+                    assert!(run.as_flattened().iter().all(|x| (-1.0..=1.0).contains(x)), "{case}: {run:?}");
+                }
+            }
+        }
+    }
+}

@@ -39,8 +39,9 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<Value<'_>, serde_json::Error> {
     parse_counted(bytes).map(|(value, _)| value)
 }
 
-/// Parses `bytes` as one JSON value; also returns how many values the tree holds (arrays',
-/// objects' and their items', the root's).
+/// Parses `bytes` as one JSON value; also returns how many values were parsed (the root and
+/// every item and member, a repeated key's dropped values included: they were held while
+/// parsing).
 pub(crate) fn parse_counted(bytes: &[u8]) -> Result<(Value<'_>, u64), serde_json::Error> {
     // Valid UTF-8 as a whole (checked in one vectorized pass): the parser need not check each
     // string again. Anything else goes through the byte reader, which says where it fails.
@@ -334,5 +335,6 @@ mod tests {
         assert_eq!(values, 7);
         assert_eq!(parse_counted(b"3").expect("parses").1, 1);
         assert_eq!(parse_counted(b"[[], [[]]]").expect("parses").1, 4);
+        assert_eq!(parse_counted(br#"{"a": 1, "a": [2]}"#).expect("parses").1, 4);
     }
 }
