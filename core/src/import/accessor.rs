@@ -585,7 +585,10 @@ impl<'a> Accessors<'a> {
         // Quantized (integer) attributes, finite whatever they hold: converted as one flat run
         // (code for each component size, not for each size and element width), then grouped;
         // only where that passing copy fits in what the budget has left (it is not kept).
-        if a.component != Component::F32 && a.count.saturating_mul(4 * N as u64) <= budget.left() {
+        if a.component != Component::F32
+            && a.count.saturating_mul(4 * N as u64) <= budget.left()
+            && self.dense_region(a, a.component.size() as usize * N)?.is_some()
+        {
             // Its exact size up front: grown element by element (an interleaved view) it could
             // hold up to twice that, and three times while it moves.
             let mut flat = Vec::with_capacity(usize::try_from(a.count).unwrap_or(0).saturating_mul(N));
@@ -674,6 +677,14 @@ impl<'a> Accessors<'a> {
         Ok(true)
     }
 
+    /// Whether accessor `index` is read as one run ([`Accessors::dense_region`]) rather than
+    /// element by element.
+    #[cfg(test)]
+    pub(crate) fn reads_as_one_run(&self, index: u32) -> bool {
+        self.get(index)
+            .is_ok_and(|a| matches!(self.dense_region(a, a.component.size() as usize * a.components()), Ok(Some(_))))
+    }
+
     /// [`Accessors::dense_flat`] for any component type (`normalized`: integers mapped to
     /// [0, 1] or [-1, 1]).
     fn dense_components(&self, a: &Accessor, normalized: bool, out: &mut Vec<f32>) -> Result<bool, ImportError> {
@@ -691,7 +702,7 @@ impl<'a> Accessors<'a> {
 
     /// The bytes from a dense accessor's first element to the end of its last (`element`
     /// bytes each) and its stride, where the accessor is in a buffer view, not sparse, not a
-    /// matrix with padded columns, not empty, and every element lies in the view (checked once,
+    /// matrix (whose columns may be padded), not empty, and every element lies in the view (checked once,
     /// for the last); `None` for anything else (the element-by-element path then gives the
     /// right error where there is one).
     fn dense_region(&self, a: &Accessor, element: usize) -> Result<Option<(&[u8], usize)>, ImportError> {

@@ -384,11 +384,17 @@ fn to_list(cx: &mut Cx<'_>, mode: u64, raw: Vec<u32>, ptr: &str) -> Result<(Topo
 mod tests {
     use super::*;
 
-    #[test]
+    #[cfg_attr(not(target_arch = "wasm32"), test)]
+    #[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
     fn four_weights_renormalize_as_eight_with_four_zero() {
-        let cases: [[f32; 4]; 10] = [
+        // Sums whose rounding depends on their order (left to right in both) among them.
+        let q = |x: u8| f32::from(x) / 255.0;
+        let cases: [[f32; 4]; 13] = [
             [0.5, 0.25, 0.125, 0.125],
             [0.3, 0.3, 0.3, 0.3],
+            [0.1, 0.2, 0.3, 0.4],
+            [q(77), q(51), q(64), q(63)],
+            [1e-8, 1.0, 1e8, 0.7],
             [f32::NAN, 0.5, 0.5, 0.0],
             [f32::INFINITY, 1.0, 0.0, 0.0],
             [f32::NEG_INFINITY, 0.7, 0.3, 0.0],

@@ -1662,6 +1662,7 @@ fn whole_run_reads_equal_the_element_by_element_reads() {
                 let accessors =
                     accessor::Accessors::new(root, vec![Some(std::borrow::Cow::Owned(data.clone()))], &mut budget)
                         .expect("valid");
+                assert!(accessors.reads_as_one_run(0) && !accessors.reads_as_one_run(1), "the two paths");
                 let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
                 let case = format!("type {ctype}, stride {stride:?}, normalized {normalized}");
                 let (run, n) = accessors.read_flat(0, &mut budget).expect("read");
