@@ -51,15 +51,21 @@ pub trait QuatExt: Sized {
     fn check_unit(self) -> Result<Self, f32>;
 }
 
+/// `v` divided by its length, and that length; `None` when the length is zero, tiny or not
+/// finite ([`QuatExt::try_normalize_quat`]'s test).
+#[inline]
+pub fn unit_with_length(v: Vec4) -> Option<(Vec4, f32)> {
+    let len = v.length();
+    (len.is_finite() && len > 1e-12).then(|| (v / len, len))
+}
+
 /// How far from length 1 a rotation given as input may be.
 pub const UNIT_QUAT_TOLERANCE: f32 = 1e-3;
 
 impl QuatExt for Quat {
     #[inline]
     fn try_normalize_quat(self) -> Option<Self> {
-        let v = Vec4::from(self);
-        let len = v.length();
-        (len.is_finite() && len > 1e-12).then(|| Quat::from_vec4(v / len))
+        unit_with_length(Vec4::from(self)).map(|(unit, _)| Quat::from_vec4(unit))
     }
 
     #[inline]

@@ -49,15 +49,14 @@ impl Component {
     /// One component as `f32` (normalized integers mapped to [0, 1] or [-1, 1]).
     #[inline]
     fn to_f32(self, b: &[u8], normalized: bool) -> f32 {
-        let (v, scale) = match self {
-            Self::F32 => return f32::from_le_bytes([b[0], b[1], b[2], b[3]]),
-            Self::U32 => return u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f32,
-            Self::I8 => (f32::from(b[0] as i8), 127.0),
-            Self::U8 => (f32::from(b[0]), 255.0),
-            Self::I16 => (f32::from(i16::from_le_bytes([b[0], b[1]])), 32767.0),
-            Self::U16 => (f32::from(u16::from_le_bytes([b[0], b[1]])), 65535.0),
-        };
-        scaled(v, scale, normalized)
+        match self {
+            Self::F32 => f32::from_le_bytes([b[0], b[1], b[2], b[3]]),
+            Self::U32 => u32_f32([b[0], b[1], b[2], b[3]]),
+            Self::I8 => i8_f32([b[0]], normalized),
+            Self::U8 => u8_f32([b[0]], normalized),
+            Self::I16 => i16_f32([b[0], b[1]], normalized),
+            Self::U16 => u16_f32([b[0], b[1]], normalized),
+        }
     }
 
     /// One unsigned component as `u32` (0 for signed or float types, which callers refuse).
@@ -77,6 +76,28 @@ impl Component {
 #[inline]
 fn scaled(v: f32, scale: f32, normalized: bool) -> f32 {
     if normalized { (v / scale).max(-1.0) } else { v }
+}
+
+// Each integer component type's bytes as `f32` ([`Component::to_f32`] and the whole-run reads).
+#[inline]
+fn i8_f32([b]: [u8; 1], normalized: bool) -> f32 {
+    scaled(f32::from(b as i8), 127.0, normalized)
+}
+#[inline]
+fn u8_f32([b]: [u8; 1], normalized: bool) -> f32 {
+    scaled(f32::from(b), 255.0, normalized)
+}
+#[inline]
+fn i16_f32(b: [u8; 2], normalized: bool) -> f32 {
+    scaled(f32::from(i16::from_le_bytes(b)), 32767.0, normalized)
+}
+#[inline]
+fn u16_f32(b: [u8; 2], normalized: bool) -> f32 {
+    scaled(f32::from(u16::from_le_bytes(b)), 65535.0, normalized)
+}
+#[inline]
+fn u32_f32(b: [u8; 4]) -> f32 {
+    u32::from_le_bytes(b) as f32
 }
 
 /// A validated buffer view.
@@ -582,24 +603,15 @@ impl<'a> Accessors<'a> {
             }
             return Ok(out);
         }
-        // Quantized (integer) attributes, finite whatever they hold: converted as one flat run
-        // (code for each component size, not for each size and element width), then grouped;
-        // only where that passing copy fits in what the budget has left (it is not kept).
-        if a.component != Component::F32
-            && a.count.saturating_mul(4 * N as u64) <= budget.left()
-            && self.dense_region(a, a.component.size() as usize * N)?.is_some()
-        {
-            // Its exact size up front: grown element by element (an interleaved view) it could
-            // hold up to twice that, and three times while it moves.
-            let mut flat = Vec::with_capacity(usize::try_from(a.count).unwrap_or(0).saturating_mul(N));
-            if self.dense_components(a, normalized, &mut flat)? {
-                out.extend(flat.chunks_exact(N).map(|c| {
-                    let mut e = [0.0; N];
-                    e.copy_from_slice(c);
-                    e
-                }));
+        // Quantized (integer) attributes, finite whatever they hold: filled as one flat run
+        // (code for each component type, not for each type and element width); `out` already
+        // has room for every element (charged to the budget above).
+        if a.component != Component::F32 {
+            out.resize(usize::try_from(a.count).unwrap_or(0), [0.0; N]);
+            if self.dense_components(a, normalized, out.as_flattened_mut())? {
                 return Ok(out);
             }
+            out.clear();
         }
         self.visit(
             index,
@@ -655,23 +667,33 @@ impl<'a> Accessors<'a> {
         Ok(true)
     }
 
-    /// [`Accessors::dense_elements`] for [`Accessors::read_flat`]: every component of every
-    /// element, one after the other, whatever the number of components.
+    /// [`Accessors::dense_elements`] for any number of components: every component of every
+    /// element, one after the other, into `out` (`count × components` values; `false`, `out`
+    /// untouched, for any other length).
     fn dense_flat<const S: usize>(
         &self,
         a: &Accessor,
         read: impl Fn([u8; S]) -> f32,
-        out: &mut Vec<f32>,
+        out: &mut [f32],
     ) -> Result<bool, ImportError> {
-        let element = S * a.components();
+        let n = a.components();
+        let element = S * n;
+        if u64::try_from(out.len()).ok() != a.count.checked_mul(n as u64) {
+            return Ok(false);
+        }
         let Some((region, stride)) = self.dense_region(a, element)? else {
             return Ok(false);
         };
         if stride == element {
-            out.extend(region.as_chunks::<S>().0.iter().map(|&b| read(b)));
+            for (v, &b) in out.iter_mut().zip(region.as_chunks::<S>().0) {
+                *v = read(b);
+            }
         } else {
-            for e in region.chunks(stride).filter_map(|c| c.get(..element)) {
-                out.extend(e.as_chunks::<S>().0.iter().map(|&b| read(b)));
+            let elements = region.chunks(stride).filter_map(|c| c.get(..element));
+            for (values, e) in out.chunks_exact_mut(n).zip(elements) {
+                for (v, &b) in values.iter_mut().zip(e.as_chunks::<S>().0) {
+                    *v = read(b);
+                }
             }
         }
         Ok(true)
@@ -687,16 +709,16 @@ impl<'a> Accessors<'a> {
 
     /// [`Accessors::dense_flat`] for any component type (`normalized`: integers mapped to
     /// [0, 1] or [-1, 1]).
-    fn dense_components(&self, a: &Accessor, normalized: bool, out: &mut Vec<f32>) -> Result<bool, ImportError> {
-        // One loop per component type (as `Component::to_f32` reads each).
+    fn dense_components(&self, a: &Accessor, normalized: bool, out: &mut [f32]) -> Result<bool, ImportError> {
+        // One loop per component type (its decoder known in the loop).
         let n = normalized;
         match a.component {
             Component::F32 => self.dense_flat::<4>(a, f32::from_le_bytes, out),
-            Component::U32 => self.dense_flat::<4>(a, |b| u32::from_le_bytes(b) as f32, out),
-            Component::I16 => self.dense_flat::<2>(a, |b| scaled(f32::from(i16::from_le_bytes(b)), 32767.0, n), out),
-            Component::U16 => self.dense_flat::<2>(a, |b| scaled(f32::from(u16::from_le_bytes(b)), 65535.0, n), out),
-            Component::I8 => self.dense_flat::<1>(a, |[b]| scaled(f32::from(b as i8), 127.0, n), out),
-            Component::U8 => self.dense_flat::<1>(a, |[b]| scaled(f32::from(b), 255.0, n), out),
+            Component::U32 => self.dense_flat::<4>(a, u32_f32, out),
+            Component::I16 => self.dense_flat::<2>(a, |b| i16_f32(b, n), out),
+            Component::U16 => self.dense_flat::<2>(a, |b| u16_f32(b, n), out),
+            Component::I8 => self.dense_flat::<1>(a, |b| i8_f32(b, n), out),
+            Component::U8 => self.dense_flat::<1>(a, |b| u8_f32(b, n), out),
         }
     }
 
@@ -731,10 +753,11 @@ impl<'a> Accessors<'a> {
         let normalized = a.normalized;
         let total = a.count.checked_mul(n as u64);
         let mut out = self.allocate::<f32>(index, total.unwrap_or(u64::MAX), budget)?;
-        let dense = self.dense_components(a, normalized, &mut out)?;
-        if dense {
+        out.resize(total.and_then(|t| usize::try_from(t).ok()).unwrap_or(0), 0.0);
+        if self.dense_components(a, normalized, &mut out)? {
             return Ok((out, n));
         }
+        out.clear();
         self.visit(
             index,
             |c, b| c.to_f32(b, normalized),

@@ -5,7 +5,7 @@ use super::json::{Ptr, child, items, member_error, opt_index, opt_object, opt_st
 use crate::asset::Node;
 use crate::clip::{Channel, ChannelTarget, Clip, Interpolation};
 use crate::error::ImportError;
-use crate::math::Vec4;
+use crate::math::{Vec4, unit_with_length};
 
 /// Parses every animation.
 pub(crate) fn clips(cx: &mut Cx<'_>, nodes: &[Node]) -> Result<Vec<Clip>, ImportError> {
@@ -122,14 +122,12 @@ fn channel_from_sampler(
         let range = k * per_key..(k + 1) * per_key;
         let mut ok = t.is_finite() && last.is_none_or(|l| t > l) && values[range.clone()].iter().all(|v| v.is_finite());
         if ok && normalize {
-            // As `QuatExt::try_normalize_quat`, its length taken once.
-            let q = Vec4::from_slice(&values[range.clone()]);
-            let len = q.length();
-            if len.is_finite() && len > 1e-12 {
-                renormalized += usize::from((len - 1.0).abs() > 1e-3);
-                values[range.clone()].copy_from_slice(&(q / len).to_array());
-            } else {
-                ok = false;
+            match unit_with_length(Vec4::from_slice(&values[range.clone()])) {
+                Some((unit, len)) => {
+                    renormalized += usize::from((len - 1.0).abs() > 1e-3);
+                    values[range.clone()].copy_from_slice(&unit.to_array());
+                }
+                None => ok = false,
             }
         }
         if !ok {

@@ -264,9 +264,8 @@ fn influences(cx: &mut Cx<'_>, attributes: &Obj, aptr: &str, vertex_count: usize
             _ => renormalize_eight(j, w),
         };
         repaired += usize::from(defect);
-        if let Some(most) = most {
-            max_joint = Some(max_joint.map_or(most, |m| m.max(most)));
-        }
+        // `None` (no weighted joint) orders below every joint.
+        max_joint = max_joint.max(most);
     }
     if repaired > 0 {
         cx.warn(
