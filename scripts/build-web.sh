@@ -35,10 +35,22 @@ build_one() { # name, cargo feature flags... (KLOUB_PACKAGE: the crate, default 
     "target/wasm32-unknown-unknown/$PROFILE/${package//-/_}.wasm"
   # wasm-opt is the slow step (~1.5 min cold for the full app): skip it when its input did not change.
   # The mode is part of the key: a quick KLOUB_WASM_OPT=0 build must not pass for an optimised one.
+  # KLOUB_SPLIT (webgpu or webgl2): the light widgets are split in two by scripts/wasm-split.mjs (what their first
+  # frames run, and the rest, fetched after), profiled on that backend; the split replaces wasm-opt's single run.
+  local split=${KLOUB_SPLIT:-}
+  [ "${KLOUB_WASM_OPT:-1}" = 1 ] || split=
   local sum stamp="$DIST/.wasm-opt-input-$name"
   sum="$(sha256sum "target/wasm-bindgen/${name}_bg.wasm" | cut -d' ' -f1) opt=${KLOUB_WASM_OPT:-1}"
-  if [ "$(cat "$stamp" 2>/dev/null || true)" != "$sum" ] || [ ! -f "$DIST/${name}_bg.wasm" ]; then
-    if [ "${KLOUB_WASM_OPT:-1}" = 1 ]; then
+  [ -z "$split" ] || sum="$sum split=$split names=${KLOUB_SPLIT_NAMES:-0} $(cat scripts/wasm-split.mjs web/kloub-viewer.js | sha256sum | cut -d' ' -f1)"
+  local glue="target/wasm-bindgen/$name.js"
+  [ -z "$split" ] || glue="target/wasm-bindgen/$name.split.js"
+  if [ "$(cat "$stamp" 2>/dev/null || true)" != "$sum" ] || [ ! -f "$DIST/${name}_bg.wasm" ] || [ ! -f "$glue" ] \
+    || { [ -n "$split" ] && [ ! -f "$DIST/${name}_rest_bg.wasm" ]; }; then
+    rm -f "$DIST/${name}_rest_bg.wasm" "$DIST/${name}_rest_bg.wasm".*
+    if [ -n "$split" ]; then
+      node scripts/wasm-split.mjs "$name" "$split" "target/wasm-bindgen/${name}_bg.wasm" \
+        "target/wasm-bindgen/$name.js" "$DIST" "$glue"
+    elif [ "${KLOUB_WASM_OPT:-1}" = 1 ]; then
       node_modules/.bin/wasm-opt -Oz --enable-bulk-memory --enable-nontrapping-float-to-int \
         --enable-sign-ext --enable-mutable-globals --enable-reference-types --enable-multivalue --enable-simd \
         "target/wasm-bindgen/${name}_bg.wasm" -o "$DIST/${name}_bg.wasm"
@@ -47,11 +59,11 @@ build_one() { # name, cargo feature flags... (KLOUB_PACKAGE: the crate, default 
     fi
     echo "$sum" > "$stamp"
   fi
-  minify "target/wasm-bindgen/$name.js" "$DIST/$name.js"
+  minify "$glue" "$DIST/$name.js"
 }
 build_one kloub_web
-build_one kloub_widget --no-default-features --features webgpu
-build_one kloub_widget_gl --no-default-features --features gl
+KLOUB_SPLIT=webgpu build_one kloub_widget --no-default-features --features webgpu
+KLOUB_SPLIT=webgl2 build_one kloub_widget_gl --no-default-features --features gl
 #   kloub_codecs     the Draco decoder and the zip reader (web/codecs), fetched by the widgets when a file needs them
 KLOUB_PACKAGE=kloub-codecs build_one kloub_codecs
 rm -f "$DIST/.wasm-opt-input"
@@ -86,8 +98,8 @@ cat > "$DIST/package.json.new" <<JSON
   "main": "./kloub-viewer.js",
   "module": "./kloub-viewer.js",
   "types": "./kloub-viewer.d.ts",
-  "exports": { ".": { "types": "./kloub-viewer.d.ts", "default": "./kloub-viewer.js" }, "./kloub_web_bg.wasm": "./kloub_web_bg.wasm", "./kloub_widget_bg.wasm": "./kloub_widget_bg.wasm", "./kloub_widget_gl_bg.wasm": "./kloub_widget_gl_bg.wasm", "./kloub_codecs_bg.wasm": "./kloub_codecs_bg.wasm" },
-  "files": ["kloub-viewer.js", "kloub-viewer.d.ts", "hash-state.js", "accessibility.js", "validator-worker.js", "gltf-validator.js", "gltf-validator.LICENSE.txt", "gltf-validator.NOTICES.txt", "kloub_web.js", "kloub_web_bg.wasm", "kloub_widget.js", "kloub_widget_bg.wasm", "kloub_widget_gl.js", "kloub_widget_gl_bg.wasm", "kloub_codecs.js", "kloub_codecs_bg.wasm", "environments/studio.hdr", "environments/outdoor.hdr", "environments/LICENSE.md"],
+  "exports": { ".": { "types": "./kloub-viewer.d.ts", "default": "./kloub-viewer.js" }, "./kloub_web_bg.wasm": "./kloub_web_bg.wasm", "./kloub_widget_bg.wasm": "./kloub_widget_bg.wasm", "./kloub_widget_rest_bg.wasm": "./kloub_widget_rest_bg.wasm", "./kloub_widget_gl_bg.wasm": "./kloub_widget_gl_bg.wasm", "./kloub_widget_gl_rest_bg.wasm": "./kloub_widget_gl_rest_bg.wasm", "./kloub_codecs_bg.wasm": "./kloub_codecs_bg.wasm" },
+  "files": ["kloub-viewer.js", "kloub-viewer.d.ts", "hash-state.js", "accessibility.js", "validator-worker.js", "gltf-validator.js", "gltf-validator.LICENSE.txt", "gltf-validator.NOTICES.txt", "kloub_web.js", "kloub_web_bg.wasm", "kloub_widget.js", "kloub_widget_bg.wasm", "kloub_widget_rest_bg.wasm", "kloub_widget_gl.js", "kloub_widget_gl_bg.wasm", "kloub_widget_gl_rest_bg.wasm", "kloub_codecs.js", "kloub_codecs_bg.wasm", "environments/studio.hdr", "environments/outdoor.hdr", "environments/LICENSE.md"],
   "sideEffects": ["./kloub-viewer.js"]
 }
 JSON
@@ -100,7 +112,7 @@ import { join } from 'node:path';
 import zlib from 'node:zlib';
 const [dist, quality] = process.argv.slice(2);
 const C = zlib.constants;
-for (const name of ['index.html', 'app.js', 'hash-state.js', 'accessibility.js', 'validator-worker.js', 'gltf-validator.js', 'kloub-viewer.js', 'embed.html', 'embed.js', 'style.css', 'kloub_web.js', 'kloub_web_bg.wasm', 'kloub_widget.js', 'kloub_widget_bg.wasm', 'kloub_widget_gl.js', 'kloub_widget_gl_bg.wasm', 'kloub_codecs.js', 'kloub_codecs_bg.wasm', 'environments/studio.hdr', 'environments/outdoor.hdr']) {
+for (const name of ['index.html', 'app.js', 'hash-state.js', 'accessibility.js', 'validator-worker.js', 'gltf-validator.js', 'kloub-viewer.js', 'embed.html', 'embed.js', 'style.css', 'kloub_web.js', 'kloub_web_bg.wasm', 'kloub_widget.js', 'kloub_widget_bg.wasm', 'kloub_widget_rest_bg.wasm', 'kloub_widget_gl.js', 'kloub_widget_gl_bg.wasm', 'kloub_widget_gl_rest_bg.wasm', 'kloub_codecs.js', 'kloub_codecs_bg.wasm', 'environments/studio.hdr', 'environments/outdoor.hdr']) {
   const file = join(dist, name);
   if (!existsSync(file)) continue;
   const mtime = statSync(file).mtimeMs;

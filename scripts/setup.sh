@@ -6,12 +6,15 @@ cd "$(dirname "$0")/.."
 
 log() { printf 'setup: %s\n' "$*" >&2; }
 
-# Debian packages: chromium for browser tests, Mesa lavapipe/llvmpipe for native rendering without a GPU.
+# Debian packages: chromium for browser tests (and the widgets' split profile), Mesa lavapipe/llvmpipe for native
+# rendering without a GPU.
 need_apt=()
 [ -x /usr/bin/chromium ] || need_apt+=(chromium)
 ls /usr/share/vulkan/icd.d/lvp_icd*.json >/dev/null 2>&1 || need_apt+=(mesa-vulkan-drivers)
 [ -e /usr/lib/x86_64-linux-gnu/libvulkan.so.1 ] || ldconfig -p 2>/dev/null | grep -q libvulkan.so.1 || need_apt+=(libvulkan1)
 ldconfig -p 2>/dev/null | grep -q libEGL.so.1 || need_apt+=(libegl1 libegl-mesa0 libgl1-mesa-dri)
+# binaryen's wasm-split (scripts/wasm-split.mjs splits the light widgets; npm's binaryen has no wasm-split).
+command -v wasm-split >/dev/null || need_apt+=(binaryen)
 if [ "${KLOUB_SETUP_APT:-1}" = 1 ] && [ ${#need_apt[@]} -gt 0 ]; then
   if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
     log "apt-get install ${need_apt[*]}"

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # First-load size of the <kloub-viewer> widget: what a page embedding it without `controls` downloads before its
-# model (the element module and the light build's wasm-bindgen glue and wasm; hash-state.js and accessibility.js
+# model (the element module and the light build's wasm-bindgen glue and the first half of its wasm: the second half,
+# what no first frame runs, comes after the first frame; hash-state.js and accessibility.js
 # are imported only when a viewer moves to another build or has `controls`), raw / gzip -9 /
 # brotli as `kloub serve` sends them; then what a browser without WebGPU downloads instead of the light wasm, and
 # what a Draco file or a zip adds (the decoders, web/codecs), what the full app (panels, ragdoll: loaded for `controls`)
@@ -27,6 +28,9 @@ table "widget (WebGPU): before the model" "${ELEMENT[@]}" kloub_widget.js kloub_
 widget=${total[1]}
 table "widget without WebGPU (WebGL2): before the model" "${ELEMENT[@]}" kloub_widget_gl.js kloub_widget_gl_bg.wasm
 widget_gl=${total[1]}
+# The light widgets' second halves (scripts/wasm-split.mjs): what no first frame runs, fetched after the first frame.
+table "widget's second half: after the first frame" kloub_widget_rest_bg.wasm
+table "widget with WebGL2, second half: after the first frame" kloub_widget_gl_rest_bg.wasm
 table "decoders (a Draco file or a zip in a widget): loaded on demand" kloub_codecs.js kloub_codecs_bg.wasm
 table "full app (controls, or a method that needs it): loaded on demand" kloub_web.js kloub_web_bg.wasm hash-state.js accessibility.js
 printf '\nwidget: %d B gzip of a budget of %d B (%s)\n' "$widget" "$BUDGET" "$([ "$widget" -le "$BUDGET" ] && [ "$widget_gl" -le "$BUDGET" ] && echo within || echo OVER)"

@@ -73,9 +73,46 @@ function loadRuntime() {
     await glue.default({ module_or_path: module });
     glue.setPanicHandler(onPanic);
     glue.setPrefetch(takePrefetch, takeImages, loadCodecs, loadEnvironment);
+    if (rest.wanted) startRest(glue);
+    else if (glue.loadRest) setTimeout(wantRest, REST_LATEST_MS);
     return glue;
   })();
   return runtime;
+}
+
+/**
+ * The light builds' second halves (scripts/wasm-split.mjs): the functions no first frame ran, a file of their own
+ * that the page fetches once a first frame is on screen or a model failed (or REST_LATEST_MS after the module
+ * started), so that it does not share the link with the model. A call that needs one before then loads it
+ * synchronously (the glue).
+ * `wanted`: the page asked for it; `compiled`: each build's compiled second half (a promise); `held`: a test hook.
+ */
+const rest = { wanted: false, held: false, compiled: {} };
+const REST_LATEST_MS = 10000;
+function wantRest() {
+  if (rest.wanted || rest.held) return;
+  rest.wanted = true;
+  runtime?.then(startRest, () => {});
+}
+function startRest(glue) {
+  // Not split, held (a test), or already loaded by a call that needed it.
+  if (!glue.loadRest || rest.held || glue.restState() !== null) return;
+  const name = build;
+  rest.compiled[name] ??= (async () => {
+    const url = new URL(`./${glue.REST_WASM}`, import.meta.url);
+    try {
+      return await WebAssembly.compileStreaming(fetch(url));
+    } catch {
+      const response = await fetch(url);
+      if (!response.ok) throw new Error(`${url}: HTTP ${response.status}`);
+      return WebAssembly.compile(await response.arrayBuffer());
+    }
+  })();
+  glue.loadRest(rest.compiled[name]).catch((e) => {
+    // Its functions still load when first called (synchronously); a later instance tries the download again.
+    delete rest.compiled[name];
+    console.warn(`kloub-viewer: the module's second half did not load: ${e instanceof Error ? e.message : e}`);
+  });
 }
 
 /**
@@ -1502,8 +1539,9 @@ class KloubViewer extends HTMLElement {
   #dispatch(type, detail) {
     let data;
     switch (type) {
-      case 'error': data = { message: detail }; break;
+      case 'error': wantRest(); data = { message: detail }; break;
       case 'load':
+        wantRest();
         if (this.#onModelBack) this.#onModelBack();
         if (this.#moving) {
           this.#moving = false;
@@ -2166,6 +2204,19 @@ class KloubViewer extends HTMLElement {
   _testAccessibilityControls() { return JSON.parse(this.#viewer?._testAccessibilityControls?.() ?? '[]'); }
   /** The build the page runs: 'widget', 'widget-gl' or 'full' (null before the first element mounted). */
   static _testBuild() { return build; }
+  /** The light build's second half: null before it is instantiated, 'async' (fetched after a first frame), 'sync'
+   *  (a call needed it first) or 'whole' (a build that is not split). */
+  static async _testRest() {
+    const glue = await loadRuntime();
+    return glue.restState ? glue.restState() : 'whole';
+  }
+  /** The table slot of the first of the second half's functions called before it was loaded (null if none). */
+  static async _testRestFirstCall() { return (await loadRuntime()).restFirstCall?.() ?? null; }
+  /** Holds the second half back (`true`) so that a call must load it synchronously, or lets it load (`false`). */
+  static _testHoldRest(held) {
+    rest.held = held;
+    if (!held) wantRest();
+  }
 
   /** Every mirrored state value (a copy of the data-* attributes). */
   get state() { return { ...this.dataset }; }

@@ -16,6 +16,8 @@ const FILES = {
   // Not a build: the decoders (Draco, zip) the widget builds fetch when a file needs them.
   codecs: ['kloub_codecs.js', 'kloub_codecs_bg.wasm'],
 };
+/** Each light build's second half (scripts/wasm-split.mjs), fetched once a first frame is on screen. */
+const REST = { widget: 'kloub_widget_rest_bg.wasm', 'widget-gl': 'kloub_widget_gl_rest_bg.wasm' };
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 function assert(cond, msg) { if (!cond) throw new Error(msg); }
 
@@ -23,14 +25,21 @@ function assert(cond, msg) { if (!cond) throw new Error(msg); }
  * Serves a page of the server's origin holding one `<kloub-viewer>` with `attrs` (nothing else loads the element
  * first) and records the file names the page fetches. Resolves to the list (it keeps growing).
  */
-async function widgetPage(page, url, attrs) {
+async function widgetPage(page, url, attrs, { holdRest = false } = {}) {
   const fetched = [];
   page.on('request', (r) => fetched.push(new URL(r.url()).pathname.split('/').pop()));
   const attributes = Object.entries(attrs).map(([k, v]) => (v === '' ? k : `${k}="${v}"`)).join(' ');
+  // The time of the element's first `load` (its model's first frame on screen), for what was fetched before it;
+  // `holdRest`: the light build's second half is held back (a test hook), so a call that needs it must load it.
   await page.route(`${url}/widget-test.html`, (route) => route.fulfill({
     contentType: 'text/html',
     body: `<!doctype html><html><head><meta charset="utf-8"><script type="module" src="/kloub-viewer.js"></script></head>
-<body style="margin:0"><kloub-viewer id="v" ${attributes} style="display:block;width:640px;height:420px"></kloub-viewer></body></html>`,
+<body style="margin:0"><kloub-viewer id="v" ${attributes} style="display:block;width:640px;height:420px"></kloub-viewer>
+<script type="module">
+import '/kloub-viewer.js';
+${holdRest ? "customElements.get('kloub-viewer')._testHoldRest(true);" : ''}
+document.getElementById('v').addEventListener('load', () => { window.__firstLoadAt ??= performance.now(); });
+</script></body></html>`,
   }));
   await page.goto(`${url}/widget-test.html`);
   return fetched;
@@ -45,6 +54,25 @@ const ready = (page) => waitFor(page, () => {
   const d = document.getElementById('v').dataset;
   return d.status === 'ready' && (d.model ?? '') !== '' && Number(d.frames) > 0;
 }, null, 'the model to be shown');
+
+/** The files the page requested before the element's first `load` and from then on (its resource timings). */
+const aroundLoad = (page) => page.evaluate(() => {
+  const at = window.__firstLoadAt ?? Infinity;
+  const name = (e) => new URL(e.name).pathname.split('/').pop();
+  const entries = performance.getEntriesByType('resource');
+  return { before: entries.filter((e) => e.startTime < at).map(name), after: entries.filter((e) => e.startTime >= at).map(name) };
+});
+const restState = (page) => page.evaluate(() => customElements.get('kloub-viewer')._testRest());
+/** Waits for the second half's state to be `state` (waitForFunction does not await a promise). */
+async function waitForRest(page, state, timeout = 30000) {
+  const end = Date.now() + timeout;
+  let now = await restState(page);
+  while (now !== state) {
+    if (Date.now() > end) throw new Error(`the second half: ${now}, not ${state}, after ${timeout} ms`);
+    await sleep(50);
+    now = await restState(page);
+  }
+}
 
 /** The build each fetched module file belongs to. */
 function buildsFetched(fetched) {
@@ -62,6 +90,9 @@ export function registerWidgetTests(test, backends) {
       await ready(page);
       const d0 = await ds(page);
       assert(d0.backend === backend, `backend ${d0.backend}`);
+      // The build's second half (what no first frame runs) is fetched after that frame, and instantiated (the test
+      // hooks below are in it: called sooner, they would load it themselves).
+      await waitForRest(page, 'async');
       // The element started the model's download while the module loaded, and had the browser decode Fox's
       // texture meanwhile: the viewer took both (one download, no second decode).
       assert(fetched.filter((f) => f === 'default.glb').length === 1, `the model was fetched ${fetched.filter((f) => f === 'default.glb').length} times`);
@@ -69,10 +100,14 @@ export function registerWidgetTests(test, backends) {
       assert(counters.predecoded === 1, `images taken from the prefetch: ${JSON.stringify(counters)}`);
       assert(await page.evaluate(() => customElements.get('kloub-viewer')._testBuild()) === light, 'the page runs the light build');
       assert(JSON.stringify(buildsFetched(fetched)) === JSON.stringify([light]), `module files fetched: ${fetched.filter((f) => /kloub_/.test(f))}`);
-      // What the page downloaded of Kloub's files (all before the model), as `kloub serve` sends them gzip: within
-      // the budget, on both backends (the WebGL2 widget draws through Kloub's own WebGL2 backend, web/src/gl).
-      const ours = [...new Set(fetched)].filter((f) => existsSync(join(ROOT, 'web/dist', `${f}.gz`)) && !f.endsWith('.html'));
-      for (const f of ['kloub-viewer.js', ...FILES[light]]) assert(ours.includes(f), `${f} was not fetched: ${ours}`);
+      // What the page downloaded of Kloub's files before the model's first frame, as `kloub serve` sends them gzip:
+      // within the budget, on both backends (the WebGL2 widget draws through Kloub's own WebGL2 backend, web/src/gl).
+      const { before, after } = await aroundLoad(page);
+      const ours = [...new Set(before)].filter((f) => existsSync(join(ROOT, 'web/dist', `${f}.gz`)) && !f.endsWith('.html'));
+      for (const f of ['kloub-viewer.js', ...FILES[light]]) assert(ours.includes(f), `${f} was not fetched before the first frame: ${ours}`);
+      assert(!before.includes(REST[light]) && after.filter((f) => f === REST[light]).length === 1,
+        `the second half: before ${before}, after ${after}; requests ${fetched.filter((f) => /kloub_/.test(f))}; `
+        + `first call into it before it came: slot ${await page.evaluate(() => customElements.get('kloub-viewer')._testRestFirstCall())}`);
       const bytes = ours.reduce((sum, f) => sum + statSync(join(ROOT, 'web/dist', `${f}.gz`)).size, 0);
       assert(bytes <= WIDGET_BUDGET, `the ${light} build is ${bytes} B gzip, over its budget of ${WIDGET_BUDGET} B`);
       // It animates: frames keep coming and the time moves.
@@ -126,6 +161,31 @@ export function registerWidgetTests(test, backends) {
       await page.keyboard.press('Home');
       await waitFor(page, () => document.getElementById('v').dataset.time === '0.000', null, 'Home to seek to the start');
       assert(buildsFetched(fetched).length === 1, `still only the light build: ${fetched.filter((f) => /kloub_/.test(f))}`);
+    });
+
+    test(`${backend}: a call that needs the light build's second half before it came loads it at once, and the view goes on`, async (ctx) => {
+      const { page } = ctx;
+      const fetched = await widgetPage(page, ctx.url, attrs, { holdRest: true });
+      await ready(page);
+      await sleep(500);
+      assert(await restState(page) === null && !fetched.includes(REST[light]), `held back: ${await restState(page)}, ${fetched}`);
+      // Dual quaternion skinning on the CPU path (SwiftShader's default): no profiled first frame ran it.
+      const frames = Number((await ds(page)).frames);
+      await page.evaluate(() => document.getElementById('v').setSkinning('dqs'));
+      await waitFor(page, (f) => {
+        const d = document.getElementById('v').dataset;
+        return d.skinning === 'dqs' && Number(d.frames) > f + 10;
+      }, frames, 'frames skinned with DQS');
+      assert(await restState(page) === 'sync', `the second half: ${await restState(page)}`);
+      assert(fetched.filter((f) => f === REST[light]).length === 1, `fetched ${fetched.filter((f) => f === REST[light]).length} times`);
+      const d = await ds(page);
+      assert(d.status === 'ready' && d.error === '', `after the call: ${d.status} ${d.error}`);
+      const shot = await viewportShot(page, '#v');
+      assert(nonBackgroundFraction(shot) > 0.02, 'the view shows nothing but background');
+      // Let go, the element asks for it as usual: no second download or instance.
+      await page.evaluate(() => customElements.get('kloub-viewer')._testHoldRest(false));
+      await sleep(500);
+      assert(await restState(page) === 'sync' && fetched.filter((f) => f === REST[light]).length === 1, 'one second half');
     });
 
     test(`${backend}: setting controls on a widget loads the full app: the panel appears with the same model, clip and time`, async (ctx) => {

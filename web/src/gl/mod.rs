@@ -20,6 +20,10 @@
 //! flip every frame).
 
 pub mod hash;
+
+/// What starts a module's source that is only its key (`render::pipelines::shader_source!`): a WGSL
+/// comment, then the key in hex.
+pub const KEYED: &str = "// kloub glsl ";
 #[cfg_attr(
     not(target_arch = "wasm32"),
     allow(dead_code, reason = "read by the wasm backend; natively only by the tests")

@@ -48,9 +48,13 @@ include!(concat!(env!("OUT_DIR"), "/gl_shaders.rs"));
 /// Every distinct line of the translated GLSL, one after the other (`GL_LINE_ENDS`).
 static GL_LINES: &str = include_str!(concat!(env!("OUT_DIR"), "/gl_lines.txt"));
 
-/// The module whose WGSL is `source`, if the build translated it.
+/// The module whose WGSL is `source`, or whose key `source` gives ([`super::KEYED`] and the key in
+/// hex: the WebGL2 widget hands over no WGSL), if the build translated it.
 pub(super) fn module_for(source: &str) -> Option<usize> {
-    let hash = super::hash::source_hash(source);
+    let hash = match source.strip_prefix(super::KEYED) {
+        Some(hex) => u64::from_str_radix(hex, 16).ok()?,
+        None => super::hash::source_hash(source),
+    };
     GL_MODULES.iter().position(|m| m.hash == hash)
 }
 
@@ -126,6 +130,18 @@ mod tests {
             "TEXTURES" => (0..16).map(f64::from).collect(),
             other => panic!("override {other}: the renderer's values are not known to this test (nor to web/build.rs)"),
         }
+    }
+
+    #[test]
+    fn a_module_handed_over_by_its_key_is_the_one_its_wgsl_names() {
+        for (name, source, webgl) in SHADER_MODULES {
+            let by_source = module_for(source);
+            assert_eq!(by_source.is_some(), webgl, "{name}");
+            let keyed = format!("{}{:016x}", super::super::KEYED, super::super::hash::source_hash(source));
+            assert_eq!(module_for(&keyed), by_source, "{name}: {keyed}");
+        }
+        assert_eq!(module_for(&format!("{}zz", super::super::KEYED)), None);
+        assert_eq!(module_for(&format!("{}{:016x}", super::super::KEYED, 1_u64)), None);
     }
 
     #[test]

@@ -954,7 +954,7 @@ impl IblKit {
         }
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("kloub ibl.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(super::pipelines::IBL_WGSL.into()),
+            source: super::pipelines::shader_source!(super::pipelines::IBL_WGSL),
         });
         let f = wgpu::ShaderStages::FRAGMENT;
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {

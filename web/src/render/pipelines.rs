@@ -47,6 +47,25 @@ pub const ENVIRONMENT_WGSL: &str = concat!(
 /// `shaders/mip.wgsl`: a mip level from the one above it, for images the browser decoded.
 pub const MIP_WGSL: &str = include_str!(concat!(env!("OUT_DIR"), "/mip.wgsl"));
 
+/// A shader module's source for `create_shader_module`: `$wgsl` (one of the consts above); in the
+/// WebGL2 widget (Kloub's WebGL2 backend without WebGPU: `gl` without `webgpu`) only the key its
+/// GLSL is filed under ([`crate::gl::hash::source_hash`], computed when the crate is compiled,
+/// after [`crate::gl::KEYED`]), so that the WGSL text is not in that module (its first download
+/// is ~12 KB gzip smaller).
+macro_rules! shader_source {
+    ($wgsl:expr) => {{
+        #[cfg(all(feature = "gl", not(feature = "webgpu")))]
+        let source = {
+            const KEY: u64 = $crate::gl::hash::source_hash($wgsl);
+            wgpu::ShaderSource::Wgsl(format!("{}{KEY:016x}", $crate::gl::KEYED).into())
+        };
+        #[cfg(not(all(feature = "gl", not(feature = "webgpu"))))]
+        let source = wgpu::ShaderSource::Wgsl($wgsl.into());
+        source
+    }};
+}
+pub(crate) use shader_source;
+
 /// Every shader module the renderer compiles: name, WGSL source, whether it runs on WebGL2.
 pub const SHADER_MODULES: [(&str, &str, bool); 5] = [
     ("mesh", MESH_WGSL, true),
@@ -473,11 +492,11 @@ impl Pipelines {
     pub fn new(device: &wgpu::Device, layouts: &Layouts, sample_count: u32, format: wgpu::TextureFormat) -> Self {
         let mesh_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("kloub mesh.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(MESH_WGSL.into()),
+            source: shader_source!(MESH_WGSL),
         });
         let env_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("kloub environment.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(ENVIRONMENT_WGSL.into()),
+            source: shader_source!(ENVIRONMENT_WGSL),
         });
         let mesh_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("kloub mesh"),
@@ -900,7 +919,7 @@ impl ComputeKit {
         });
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("kloub skin_compute.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(SKIN_COMPUTE_WGSL.into()),
+            source: shader_source!(SKIN_COMPUTE_WGSL),
         });
         let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
             label: Some("kloub compute skinning"),

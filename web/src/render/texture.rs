@@ -212,7 +212,7 @@ impl MipMaker {
     pub fn new(device: &wgpu::Device, format: wgpu::TextureFormat) -> Self {
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("kloub mip"),
-            source: wgpu::ShaderSource::Wgsl(super::pipelines::MIP_WGSL.into()),
+            source: super::pipelines::shader_source!(super::pipelines::MIP_WGSL),
         });
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("kloub mip"),

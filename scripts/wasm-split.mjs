@@ -1,0 +1,313 @@
+// Splits a light widget build's wasm in two: what a page runs until its viewers' first frames (the first download)
+// and the rest (`<name>_rest_bg.wasm`), which the element fetches once a first frame is on screen. Called by
+// scripts/build-web.sh for `kloub_widget` and `kloub_widget_gl` (issue 20: the bytes before the first frame).
+//
+//   node scripts/wasm-split.mjs <name> <backend: webgpu|webgl2> <bindgen wasm> <bindgen glue> <out dir> <glue out>
+//
+// 1. binaryen's `wasm-split --instrument` (Debian's binaryen; npm's has no wasm-split) marks each function when it
+//    first runs; the element (web/kloub-viewer.js) with that module shows, in the build's headless chromium (the
+//    browser tests' own, with their flags), one embedded Fox with camera controls, then six models of web/assets on
+//    one page, until each has drawn frames and two seconds more; each page's profile is read out of the module's
+//    memory, and they are merged. The embedded Fox is shown twice, its model served a second late (the module is
+//    ready first) and then the module a second late (the element has the model and its decoded images when the
+//    module starts): the two orders take different paths.
+// 2. `wasm-split --profile` keeps the functions that ran in the primary module and moves the others to the secondary.
+//    The primary imports a placeholder (namespace `placeholder`, named by its table slot) for each function moved:
+//    every call to one goes through the function table. The secondary imports the primary's memory, tables, globals
+//    and the functions it calls (exported with the prefix `%`), and its element segment writes its functions over the
+//    placeholders when it is instantiated. wasm-opt -Oz then runs on each (splitting the unoptimised module and
+//    optimising each half gives a primary ~60 KB gzip smaller than splitting the optimised one: the whole
+//    program's inlining merges functions a first frame needs with ones it does not).
+// 3. The glue (wasm-bindgen's) is given the placeholders: one called before the secondary is there (a function the
+//    profile did not see run, e.g. a message for a broken file) loads it synchronously (a synchronous request and
+//    compile, a few ms once the file is cached) and calls the real function; `loadRest(modulePromise)`, which the
+//    element calls once a first frame is shown, instantiates it in the background.
+//
+// binaryen 108's wasm-split writes the export `__wbindgen_externrefs` (wasm-bindgen's externref table) as the
+// function table's; `fixExternrefExport` points it back at the externref table, in the instrumented module and the
+// primary.
+import { execFileSync } from 'node:child_process';
+import { createServer } from 'node:http';
+import { mkdtempSync, readFileSync, rmSync, statSync, writeFileSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import { extname, join, resolve } from 'node:path';
+import { chromium } from 'playwright-core';
+
+const ROOT = resolve(import.meta.dirname, '..');
+const [name, backend, wasmIn, glueIn, outDir, glueOut] = process.argv.slice(2);
+if (!glueOut || !['webgpu', 'webgl2'].includes(backend)) {
+  console.error('usage: node scripts/wasm-split.mjs <name> <webgpu|webgl2> <bindgen wasm> <bindgen glue> <out dir> <glue out>');
+  process.exit(2);
+}
+const FEATURES = ['--enable-simd', '--enable-bulk-memory', '--enable-nontrapping-float-to-int', '--enable-sign-ext',
+  '--enable-mutable-globals', '--enable-multivalue', '--enable-reference-types'];
+// What the first frames are profiled on: skinned, textured (PNG, JPEG), morphed, many clips, a sidecar, normal maps.
+const MODELS = ['Fox.glb', 'CesiumMan/CesiumMan.glb', 'RobotExpressive/RobotExpressive.glb',
+  'AnimatedMorphSphere/AnimatedMorphSphere.glb', 'RiggedFigure/RiggedFigure.glb', 'Knight/Knight.glb'];
+const FLAGS = ['--headless', '--no-sandbox', '--disable-quic', '--no-first-run', '--disable-background-networking',
+  '--disable-component-update', '--disable-sync', '--enable-unsafe-swiftshader', '--enable-unsafe-webgpu',
+  '--use-angle=swiftshader', '--enable-features=Vulkan', '--use-vulkan=swiftshader'];
+
+const work = mkdtempSync(join(tmpdir(), `kloub-split-${name}-`));
+const run = (cmd, args) => execFileSync(cmd, args, { stdio: ['ignore', 'inherit', 'inherit'] });
+
+/** LEB128 (unsigned) at `i` of `b`: [value, next index]. */
+function leb(b, i) {
+  let value = 0;
+  let shift = 0;
+  for (;;) {
+    const byte = b[i++];
+    value += (byte & 0x7f) * 2 ** shift;
+    shift += 7;
+    if (byte < 0x80) return [value, i];
+  }
+}
+
+/** Points the export `__wbindgen_externrefs` at the module's externref table (see the header); the bytes, fixed. */
+function fixExternrefExport(path) {
+  const b = readFileSync(path);
+  const tables = [];
+  let fixed = false;
+  for (let i = 8; i < b.length;) {
+    const id = b[i++];
+    let size;
+    [size, i] = leb(b, i);
+    const end = i + size;
+    if (id === 2) { // imported tables come first in the table index space
+      let n, j;
+      [n, j] = leb(b, i);
+      for (let k = 0; k < n; k++) {
+        let len;
+        [len, j] = leb(b, j); j += len;
+        [len, j] = leb(b, j); j += len;
+        const kind = b[j++];
+        if (kind === 0) [, j] = leb(b, j);
+        else if (kind === 1) { tables.push(b[j++]); const flags = b[j++]; [, j] = leb(b, j); if (flags & 1) [, j] = leb(b, j); }
+        else if (kind === 2) { const flags = b[j++]; [, j] = leb(b, j); if (flags & 1) [, j] = leb(b, j); }
+        else if (kind === 3) j += 2;
+        else throw new Error(`${path}: import kind ${kind}`);
+      }
+    } else if (id === 4) {
+      let n, j;
+      [n, j] = leb(b, i);
+      for (let k = 0; k < n; k++) { tables.push(b[j++]); const flags = b[j++]; [, j] = leb(b, j); if (flags & 1) [, j] = leb(b, j); }
+    } else if (id === 7) {
+      let n, j;
+      [n, j] = leb(b, i);
+      for (let k = 0; k < n; k++) {
+        let len;
+        [len, j] = leb(b, j);
+        const exported = b.toString('latin1', j, j + len);
+        j += len;
+        const kind = b[j++];
+        const at = j;
+        let index;
+        [index, j] = leb(b, j);
+        if (exported === '__wbindgen_externrefs' && kind === 1) {
+          const want = tables.indexOf(0x6f);
+          if (want < 0 || want > 127 || j - at !== 1) throw new Error(`${path}: externref table ${want}, export at ${index}`);
+          b[at] = want;
+          fixed = true;
+        }
+      }
+    }
+    i = end;
+  }
+  if (!fixed) throw new Error(`${path}: no table export __wbindgen_externrefs`);
+  writeFileSync(path, b);
+}
+
+const TYPES = { '.js': 'text/javascript', '.wasm': 'application/wasm', '.html': 'text/html', '.json': 'application/json' };
+/** Serves `files` (URL path → file) and web/assets under /assets/; files ending in `late` a second late. */
+async function serve(files, late) {
+  const server = createServer(async (req, res) => {
+    const path = decodeURIComponent(new URL(req.url, 'http://x').pathname);
+    if (late && path.endsWith(late)) await new Promise((ok) => setTimeout(ok, 1000));
+    let file = files[path];
+    if (!file && path.startsWith('/assets/') && !path.includes('..')) file = join(ROOT, 'web', path);
+    try {
+      if (!file || !statSync(file).isFile()) throw new Error('none');
+      // As `kloub serve` answers (a Content-Length: the viewer reads it for its progress and budget).
+      const body = readFileSync(file);
+      res.writeHead(200, { 'content-type': TYPES[extname(file)] ?? 'application/octet-stream', 'content-length': body.length }).end(body);
+    } catch {
+      res.writeHead(404).end();
+    }
+  });
+  await new Promise((ok) => server.listen(0, '127.0.0.1', ok));
+  return { url: `http://127.0.0.1:${server.address().port}`, close: () => server.close() };
+}
+
+/**
+ * The pages profiled, each in a fresh page: one embedded viewer with camera controls, its model served late (the
+ * module is ready first) and then early (the module is last: the element has the model and its decoded images
+ * when the module starts), as the two orders take different paths; then the six models together.
+ */
+const attr = backend === 'webgl2' ? 'backend="webgl2"' : '';
+const ONE = `<kloub-viewer src="/assets/${MODELS[0]}" autoplay camera-controls ${attr} style="display:block;width:640px;height:420px"></kloub-viewer>`;
+const PAGES = [
+  { body: ONE, late: '.glb' },
+  { body: ONE, late: '.wasm' },
+  { body: MODELS.map((m) => `<kloub-viewer src="/assets/${m}" autoplay ${attr} style="display:inline-block;width:300px;height:200px"></kloub-viewer>`).join('\n') },
+];
+
+async function profile(instrumented, { body, late }) {
+  const page = join(work, 'page.html');
+  writeFileSync(page, `<!doctype html><meta charset="utf-8"><body style="margin:0">
+<script type="module" src="/kloub-viewer.js"></script>
+${body}`);
+  const server = await serve({
+    '/page.html': page,
+    '/kloub-viewer.js': join(ROOT, 'web/kloub-viewer.js'),
+    [`/${name}.js`]: glueIn,
+    [`/${name}_bg.wasm`]: instrumented,
+  }, late);
+  const browser = await chromium.launch({ executablePath: process.env.KLOUB_CHROMIUM ?? '/usr/bin/chromium', headless: true, args: FLAGS });
+  try {
+    const tab = await browser.newPage({ viewport: { width: 1024, height: 640 } });
+    const logs = [];
+    tab.on('console', (m) => logs.push(`[${m.type()}] ${m.text()}`));
+    tab.on('pageerror', (e) => logs.push(`[pageerror] ${e.message}`));
+    await tab.goto(`${server.url}/page.html`);
+    await tab.waitForFunction(() => {
+      const views = [...document.querySelectorAll('kloub-viewer')];
+      return views.every((v) => v.dataset.status === 'ready' && Number(v.dataset.frames) > 10);
+    }, null, { timeout: 180000 }).catch(async (e) => {
+      const states = await tab.evaluate(() => [...document.querySelectorAll('kloub-viewer')].map((v) => `${v.getAttribute('src')}: ${v.dataset.status} ${v.dataset.error ?? ''}`));
+      throw new Error(`${e.message}\n${states.join('\n')}\n${logs.join('\n')}`);
+    });
+    // Two seconds more: what the first seconds after a first frame run (the adaptive resolution's first change,
+    // events) is in the first half too; the second half is still downloading then on a slow link.
+    await tab.waitForTimeout(2000);
+    const bytes = await tab.evaluate(async (glue) => {
+      const exports = await (await import(glue)).default();
+      const memory = exports.memory;
+      const at = memory.buffer.byteLength;
+      memory.grow(4);
+      const length = exports.__write_profile(at, 4 * 65536);
+      return Array.from(new Uint8Array(memory.buffer, at, length));
+    }, `/${name}.js`);
+    return Buffer.from(bytes);
+  } finally {
+    await browser.close();
+    server.close();
+  }
+}
+
+/** wasm-bindgen's glue with the placeholders and `loadRest` (see the header). */
+function patchGlue(source) {
+  const marker = 'const imports = __wbg_get_imports();';
+  const count = source.split(marker).length - 1;
+  if (count !== 2) throw new Error(`${glueIn}: expected 2 × "${marker}", found ${count}`);
+  return `${source.replaceAll(marker, 'const imports = __kloubSplitImports(__wbg_get_imports());')}
+// ---- the module's second half (scripts/wasm-split.mjs) ----
+const __kloubRestUrl = new URL('${name}_rest_bg.wasm', import.meta.url);
+let __kloubRest = null;
+let __kloubRestModule = null;
+let __kloubRestSync = false;
+let __kloubRestFirst = null;
+function __kloubSplitImports(imports) {
+  imports.placeholder = new Proxy({}, {
+    get(_, slot) {
+      const index = Number(slot);
+      return (...args) => {
+        if (__kloubRest === null) __kloubRestFirst ??= index;
+        __kloubRestNow();
+        return wasm['%table'].get(index)(...args);
+      };
+    },
+  });
+  return imports;
+}
+function __kloubRestInstantiate(module) {
+  if (__kloubRest === null) __kloubRest = new WebAssembly.Instance(module, { primary: wasm });
+}
+/** A function of the second half was called before it was here: load it now (synchronously). */
+function __kloubRestNow() {
+  if (__kloubRest !== null) return;
+  if (__kloubRestModule === null) {
+    const request = new XMLHttpRequest();
+    request.open('GET', __kloubRestUrl, false);
+    request.overrideMimeType('text/plain; charset=x-user-defined');
+    request.send();
+    if (request.status !== 200) throw new Error(\`\${__kloubRestUrl}: HTTP \${request.status}\`);
+    const text = request.responseText;
+    const bytes = new Uint8Array(text.length);
+    for (let i = 0; i < text.length; i++) bytes[i] = text.charCodeAt(i) & 0xff;
+    __kloubRestModule = new WebAssembly.Module(bytes);
+  }
+  __kloubRestSync = true;
+  __kloubRestInstantiate(__kloubRestModule);
+}
+/** The second half's file name (beside this glue), for the element to fetch and compile. */
+export const REST_WASM = '${name}_rest_bg.wasm';
+/**
+ * Instantiates the second half from \`module\` (a promise of its compiled module) once it is here, unless a call
+ * needed it first (once: a second call gets the first one's promise). Resolves to how it came: 'async', or 'sync'
+ * when a call loaded it before.
+ */
+let __kloubRestLoading = null;
+export function loadRest(module) {
+  __kloubRestLoading ??= (async () => {
+    const compiled = await module;
+    if (wasm === undefined) throw new Error('loadRest before the module is initialised');
+    if (__kloubRest === null) {
+      __kloubRestModule ??= compiled;
+      const instance = await WebAssembly.instantiate(__kloubRestModule, { primary: wasm });
+      // A call may have instantiated it meanwhile: either instance's functions are the same code over the same
+      // memory, tables and globals (all the primary's); the table holds the last one's.
+      __kloubRest ??= instance;
+    }
+    return __kloubRestSync ? 'sync' : 'async';
+  })();
+  __kloubRestLoading.catch(() => { __kloubRestLoading = null; });
+  return __kloubRestLoading;
+}
+/** Whether the second half is instantiated, and how: null, 'async' or 'sync'. */
+export function restState() {
+  return __kloubRest === null ? null : __kloubRestSync ? 'sync' : 'async';
+}
+/** The table slot of the first placeholder called (null if none was): \`target/wasm-bindgen/<name>.placeholders\` names it. */
+export function restFirstCall() {
+  return __kloubRestFirst;
+}
+`;
+}
+
+try {
+  const bg = join(work, 'in.wasm');
+  writeFileSync(bg, readFileSync(wasmIn));
+  const instrumented = join(work, 'instrumented.wasm');
+  run('wasm-split', ['--instrument', bg, '-o', instrumented, ...FEATURES]);
+  fixExternrefExport(instrumented);
+  const profiles = [];
+  for (const [i, body] of PAGES.entries()) {
+    profiles.push(join(work, `profile${i}`));
+    writeFileSync(profiles[i], await profile(instrumented, body));
+  }
+  const prof = join(work, 'profile');
+  run('wasm-split', ['--merge-profiles', ...profiles, '-o', prof]);
+  const primary = join(work, 'primary.wasm');
+  const secondary = join(work, 'secondary.wasm');
+  // KLOUB_SPLIT_NAMES=1 keeps the functions' names in the first half (a page's stack traces then name them: for
+  // finding what a page ran before the second half came that the profile did not).
+  const names = process.env.KLOUB_SPLIT_NAMES === '1' ? ['-g'] : [];
+  run('wasm-split', ['--split', bg, `--profile=${prof}`, '--export-prefix=%', '-o1', primary, '-o2', secondary,
+    `--placeholdermap`, ...names, ...FEATURES]);
+  // Each placeholder's slot and function, for a page that had to load the second half early (`restFirstCall`).
+  writeFileSync(join(resolve(glueOut, '..'), `${name}.placeholders`), readFileSync(`${primary}.placeholders`));
+  const wasmOpt = join(ROOT, 'node_modules/.bin/wasm-opt');
+  run(wasmOpt, ['-Oz', ...names, ...FEATURES, primary, '-o', join(outDir, `${name}_bg.wasm`)]);
+  fixExternrefExport(join(outDir, `${name}_bg.wasm`));
+  run(wasmOpt, ['-Oz', ...FEATURES, secondary, '-o', join(outDir, `${name}_rest_bg.wasm`)]);
+  // A placeholder is a JS function: one taking or returning a v128 could not be called (a TypeError). Rust passes
+  // SIMD values through memory, so none has; a change that made one would fail here, not in a page.
+  const text = execFileSync(join(ROOT, 'node_modules/.bin/wasm-dis'), [...FEATURES, join(outDir, `${name}_bg.wasm`)], { maxBuffer: 1 << 30 }).toString();
+  const vector = text.split('\n').filter((line) => line.includes('(import "placeholder"') && line.includes('v128'));
+  if (vector.length > 0) throw new Error(`placeholders with v128 in their signature:\n${vector.slice(0, 5).join('\n')}`);
+  writeFileSync(glueOut, patchGlue(readFileSync(glueIn, 'utf8')));
+  const size = (f) => statSync(join(outDir, f)).size;
+  console.log(`wasm-split ${name}: ${size(`${name}_bg.wasm`)} B first, ${size(`${name}_rest_bg.wasm`)} B after the first frame`);
+} finally {
+  rmSync(work, { recursive: true, force: true });
+}
