@@ -56,6 +56,7 @@ function leb(b, i) {
   let value = 0;
   let shift = 0;
   for (;;) {
+    if (i >= b.length) throw new Error('truncated wasm');
     const byte = b[i++];
     value += (byte & 0x7f) * 2 ** shift;
     shift += 7;
@@ -117,6 +118,106 @@ function fixExternrefExport(path) {
   writeFileSync(path, b);
 }
 
+/** Each section of a module: [id, start, end] of its contents. */
+function sections(b) {
+  const out = [];
+  for (let i = 8; i < b.length;) {
+    const id = b[i++];
+    let size;
+    [size, i] = leb(b, i);
+    out.push([id, i, i + size]);
+    i += size;
+  }
+  return out;
+}
+
+/** The module's imported function count and its functions' names by index (the name section's). */
+function functionNames(b) {
+  let imported = 0;
+  const names = new Map();
+  for (const [id, start, end] of sections(b)) {
+    if (id === 2) {
+      let n, j;
+      [n, j] = leb(b, start);
+      for (let k = 0; k < n; k++) {
+        let len;
+        [len, j] = leb(b, j); j += len;
+        [len, j] = leb(b, j); j += len;
+        const kind = b[j++];
+        if (kind === 0) { imported++; [, j] = leb(b, j); }
+        else if (kind === 1) { j++; const flags = b[j++]; [, j] = leb(b, j); if (flags & 1) [, j] = leb(b, j); }
+        else if (kind === 2) { const flags = b[j++]; [, j] = leb(b, j); if (flags & 1) [, j] = leb(b, j); }
+        else if (kind === 3) j += 2;
+        else throw new Error(`import kind ${kind}`);
+      }
+    } else if (id === 0) {
+      let len, j;
+      [len, j] = leb(b, start);
+      if (b.toString('latin1', j, j + len) !== 'name') continue;
+      j += len;
+      while (j < end) {
+        const sub = b[j++];
+        let size;
+        [size, j] = leb(b, j);
+        const next = j + size;
+        if (sub === 1) {
+          let n;
+          [n, j] = leb(b, j);
+          for (let k = 0; k < n; k++) {
+            let index;
+            [index, j] = leb(b, j);
+            [len, j] = leb(b, j);
+            names.set(index, b.toString('utf8', j, j + len));
+            j += len;
+          }
+        }
+        j = next;
+      }
+    }
+  }
+  return { imported, names };
+}
+
+/**
+ * The profile with the functions KEEP names marked as run (binaryen's profile: the module's 8-byte hash, then a
+ * 32-bit first-call time per defined function, 0 for none), and how many were added.
+ */
+function keepByName(profileBytes, wasm) {
+  const { imported, names } = functionNames(wasm);
+  if (names.size === 0) throw new Error('the module has no function names (wasm-bindgen keeps them: was it stripped?)');
+  const out = Buffer.from(profileBytes);
+  const defined = (out.length - 8) / 4;
+  let added = 0;
+  for (let i = 0; i < defined; i++) {
+    const name = names.get(imported + i) ?? '';
+    if (out.readUInt32LE(8 + 4 * i) === 0 && KEEP.some((k) => k.test(name))) {
+      out.writeUInt32LE(1, 8 + 4 * i);
+      added++;
+    }
+  }
+  return { profile: out, added };
+}
+
+/** The name the secondary imports the primary's function table under (`primary`, a funcref table). */
+function tableImport(wasm) {
+  const modules = WebAssembly.Module.imports(new WebAssembly.Module(wasm));
+  const tables = modules.filter((i) => i.module === 'primary' && i.kind === 'table' && i.name !== '__wbindgen_externrefs');
+  if (tables.length !== 1) throw new Error(`the second half imports ${tables.length} function tables: ${tables.map((t) => t.name)}`);
+  return tables[0].name;
+}
+
+/** Instantiates the primary (every import a stub: it has no start function) and the secondary against it. */
+function checkLink(primaryBytes, secondaryBytes) {
+  const primary = new WebAssembly.Module(primaryBytes);
+  const imports = {};
+  for (const i of WebAssembly.Module.imports(primary)) {
+    if (i.kind !== 'function') throw new Error(`the first half imports a ${i.kind} (${i.module}.${i.name})`);
+    (imports[i.module] ??= {})[i.name] = () => { throw new Error(`stub ${i.module}.${i.name} called`); };
+  }
+  const exports = new WebAssembly.Instance(primary, imports).exports;
+  new WebAssembly.Instance(new WebAssembly.Module(secondaryBytes), { primary: exports });
+}
+
 const TYPES = { '.js': 'text/javascript', '.wasm': 'application/wasm', '.html': 'text/html', '.json': 'application/json' };
 /** Serves `files` (URL path → file) and web/assets under /assets/; files ending in `late` a second late. */
 async function serve(files, late) {
@@ -145,13 +246,31 @@ async function serve(files, late) {
  */
 const attr = backend === 'webgl2' ? 'backend="webgl2"' : '';
 const ONE = `<kloub-viewer src="/assets/${MODELS[0]}" autoplay camera-controls ${attr} style="display:block;width:640px;height:420px"></kloub-viewer>`;
+// What a page's viewers commonly set before their first frame, answered as on a hardware
+// adapter (`__kloubProfileHardware`: SwiftShader, which the profile runs on, is a CPU adapter, where the viewer skins
+// on the CPU without MSAA; a GPU skins in the vertex shader with 4× MSAA), then input over it and a second viewer
+// removed.
+const SET = `<script>window.__kloubProfileHardware = true;</script>
+<kloub-viewer id="a" src="/assets/CesiumMan/CesiumMan.glb" autoplay camera-controls ${attr}
+  exposure="1.2" tone-mapping="aces" shadow-intensity="0.4" shadow-softness="0.3" crossfade-duration="0.4" skinning="lbs"
+  speed="1.5" loop="repeat" background="#334455" camera-orbit="30deg 75deg auto" field-of-view="40deg" min-pixel-ratio="0.5"
+  alt="a walking man" poster="data:image/gif;base64,R0lGODlhAQABAAAAACw=" style="display:block;width:480px;height:320px"></kloub-viewer>
+<kloub-viewer id="b" src="/assets/${MODELS[0]}" autoplay ${attr} style="display:block;width:200px;height:150px"></kloub-viewer>
+`;
 const PAGES = [
   { body: ONE, late: '.glb' },
   { body: ONE, late: '.wasm' },
   { body: MODELS.map((m) => `<kloub-viewer src="/assets/${m}" autoplay ${attr} style="display:inline-block;width:300px;height:200px"></kloub-viewer>`).join('\n') },
+  { body: SET, input: true },
 ];
+/**
+ * Functions kept in the first half whether the profile saw them run or not (by name, wasm-bindgen's output keeps
+ * the names): every entry point of the element's calls into the module (the work behind each is in the half where
+ * the profile found it).
+ */
+const KEEP = [/^(__wbg_)?viewer_/];
 
-async function profile(instrumented, { body, late }) {
+async function profile(instrumented, { body, late, input = false }) {
   const page = join(work, 'page.html');
   writeFileSync(page, `<!doctype html><meta charset="utf-8"><body style="margin:0">
 <script type="module" src="/kloub-viewer.js"></script>
@@ -176,6 +295,18 @@ ${body}`);
       const states = await tab.evaluate(() => [...document.querySelectorAll('kloub-viewer')].map((v) => `${v.getAttribute('src')}: ${v.dataset.status} ${v.dataset.error ?? ''}`));
       throw new Error(`${e.message}\n${states.join('\n')}\n${logs.join('\n')}`);
     });
+    if (input) {
+      // A pointer over the view, a drag, the wheel, a key; then the second viewer removed.
+      const box = await tab.locator('#a').boundingBox();
+      await tab.mouse.move(box.x + box.width / 2, box.y + box.height / 2);
+      await tab.mouse.down();
+      for (let i = 1; i <= 4; i++) await tab.mouse.move(box.x + box.width / 2 + 15 * i, box.y + box.height / 2 + 5 * i);
+      await tab.mouse.up();
+      await tab.mouse.wheel(0, -120);
+      await tab.focus('#a');
+      await tab.keyboard.press('ArrowLeft');
+      await tab.evaluate(() => document.getElementById('b').remove());
+    }
     // Two seconds more: what the first seconds after a first frame run (the adaptive resolution's first change,
     // events) is in the first half too; the second half is still downloading then on a slow link.
     await tab.waitForTimeout(2000);
@@ -195,7 +326,7 @@ ${body}`);
 }
 
 /** wasm-bindgen's glue with the placeholders and `loadRest` (see the header). */
-function patchGlue(source) {
+function patchGlue(source, table) {
   const marker = 'const imports = __wbg_get_imports();';
   const count = source.split(marker).length - 1;
   if (count !== 2) throw new Error(`${glueIn}: expected 2 × "${marker}", found ${count}`);
@@ -213,7 +344,7 @@ function __kloubSplitImports(imports) {
       return (...args) => {
         if (__kloubRest === null) __kloubRestFirst ??= index;
         __kloubRestNow();
-        return wasm['%table'].get(index)(...args);
+        return wasm[${JSON.stringify(table)}].get(index)(...args);
       };
     },
   });
@@ -222,23 +353,41 @@ function __kloubSplitImports(imports) {
 function __kloubRestInstantiate(module) {
   if (__kloubRest === null) __kloubRest = new WebAssembly.Instance(module, { primary: wasm });
 }
-/** A function of the second half was called before it was here: load it now (synchronously). */
+let __kloubRestFailure = null;
+/**
+ * A function of the second half was called before it was here: load it now (synchronously). If that fails (no
+ * network, the file missing, a browser that compiles only small modules synchronously), the call cannot go on: the
+ * instance is given up as after a panic (the element makes a new one, which loads the second half before its
+ * viewers mount), then the error is thrown through the module's frames.
+ */
 function __kloubRestNow() {
   if (__kloubRest !== null) return;
-  if (__kloubRestModule === null) {
-    const request = new XMLHttpRequest();
-    request.open('GET', __kloubRestUrl, false);
-    request.overrideMimeType('text/plain; charset=x-user-defined');
-    request.send();
-    if (request.status !== 200) throw new Error(\`\${__kloubRestUrl}: HTTP \${request.status}\`);
-    const text = request.responseText;
-    const bytes = new Uint8Array(text.length);
-    for (let i = 0; i < text.length; i++) bytes[i] = text.charCodeAt(i) & 0xff;
-    __kloubRestModule = new WebAssembly.Module(bytes);
+  try {
+    if (__kloubRestModule === null) {
+      const request = new XMLHttpRequest();
+      request.open('GET', __kloubRestUrl, false);
+      request.overrideMimeType('text/plain; charset=x-user-defined');
+      request.send();
+      if (request.status !== 200) throw new Error(\`\${__kloubRestUrl}: HTTP \${request.status}\`);
+      const text = request.responseText;
+      const bytes = new Uint8Array(text.length);
+      for (let i = 0; i < text.length; i++) bytes[i] = text.charCodeAt(i) & 0xff;
+      __kloubRestModule = new WebAssembly.Module(bytes);
+    }
+    __kloubRestInstantiate(__kloubRestModule);
+    __kloubRestSync = true;
+  } catch (e) {
+    const message = \`the module's second half could not be loaded when first needed: \${e instanceof Error ? e.message : e}\`;
+    if (__kloubRestFailure !== null) __kloubRestFailure(message);
+    throw new Error(message);
   }
-  __kloubRestSync = true;
-  __kloubRestInstantiate(__kloubRestModule);
 }
+/** Called with a message when the second half could not be loaded synchronously (the instance is then dead). */
+export function setRestFailureHandler(handler) {
+  __kloubRestFailure = handler;
+}
+/** The second half's URL (beside this glue), for the element to fetch and compile. */
+export const REST_URL = __kloubRestUrl;
 /** The second half's file name (beside this glue), for the element to fetch and compile. */
 export const REST_WASM = '${name}_rest_bg.wasm';
 /**
@@ -263,6 +412,10 @@ export function loadRest(module) {
   __kloubRestLoading.catch(() => { __kloubRestLoading = null; });
   return __kloubRestLoading;
 }
+/** The second half's compiled module once here (null before), for a later instance of the page to reuse. */
+export function restModule() {
+  return __kloubRestModule;
+}
 /** Whether the second half is instantiated, and how: null, 'async' or 'sync'. */
 export function restState() {
   return __kloubRest === null ? null : __kloubRestSync ? 'sync' : 'async';
@@ -285,8 +438,11 @@ try {
     profiles.push(join(work, `profile${i}`));
     writeFileSync(profiles[i], await profile(instrumented, body));
   }
+  const merged = join(work, 'merged');
+  run('wasm-split', ['--merge-profiles', ...profiles, '-o', merged]);
   const prof = join(work, 'profile');
-  run('wasm-split', ['--merge-profiles', ...profiles, '-o', prof]);
+  const kept = keepByName(readFileSync(merged), readFileSync(bg));
+  writeFileSync(prof, kept.profile);
   const primary = join(work, 'primary.wasm');
   const secondary = join(work, 'secondary.wasm');
   // KLOUB_SPLIT_NAMES=1 keeps the functions' names in the first half (a page's stack traces then name them: for
@@ -305,9 +461,13 @@ try {
   const text = execFileSync(join(ROOT, 'node_modules/.bin/wasm-dis'), [...FEATURES, join(outDir, `${name}_bg.wasm`)], { maxBuffer: 1 << 30 }).toString();
   const vector = text.split('\n').filter((line) => line.includes('(import "placeholder"') && line.includes('v128'));
   if (vector.length > 0) throw new Error(`placeholders with v128 in their signature:\n${vector.slice(0, 5).join('\n')}`);
-  writeFileSync(glueOut, patchGlue(readFileSync(glueIn, 'utf8')));
-  const size = (f) => statSync(join(outDir, f)).size;
-  console.log(`wasm-split ${name}: ${size(`${name}_bg.wasm`)} B first, ${size(`${name}_rest_bg.wasm`)} B after the first frame`);
+  // The two halves link (what a page does), and the glue finds the table under the name the second half uses.
+  const first = readFileSync(join(outDir, `${name}_bg.wasm`));
+  const rest = readFileSync(join(outDir, `${name}_rest_bg.wasm`));
+  checkLink(first, rest);
+  writeFileSync(glueOut, patchGlue(readFileSync(glueIn, 'utf8'), tableImport(rest)));
+  console.log(`wasm-split ${name}: ${first.length} B first, ${rest.length} B after the first frame `
+    + `(${kept.added} functions kept by name beside the profile's)`);
 } finally {
   rmSync(work, { recursive: true, force: true });
 }

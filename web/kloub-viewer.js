@@ -73,8 +73,17 @@ function loadRuntime() {
     await glue.default({ module_or_path: module });
     glue.setPanicHandler(onPanic);
     glue.setPrefetch(takePrefetch, takeImages, loadCodecs, loadEnvironment);
-    if (rest.wanted) startRest(glue);
-    else if (glue.loadRest) setTimeout(wantRest, REST_LATEST_MS);
+    if (glue.loadRest) {
+      glue.setRestFailureHandler((message) => {
+        rest.syncFailed = true;
+        onPanic(message);
+      });
+      // The last instance could not load the second half when a call needed it: this one loads it before any
+      // viewer mounts (a failure here is the page's error).
+      if (rest.syncFailed) await glue.loadRest(compileRest(glue));
+      else if (rest.wanted) startRest(glue);
+      else setTimeout(restTimer, REST_LATEST_MS);
+    }
     return glue;
   })();
   return runtime;
@@ -87,19 +96,24 @@ function loadRuntime() {
  * synchronously (the glue).
  * `wanted`: the page asked for it; `compiled`: each build's compiled second half (a promise); `held`: a test hook.
  */
-const rest = { wanted: false, held: false, compiled: {} };
+const rest = { wanted: false, held: false, syncFailed: false, compiled: {} };
 const REST_LATEST_MS = 10000;
 function wantRest() {
   if (rest.wanted || rest.held) return;
   rest.wanted = true;
   runtime?.then(startRest, () => {});
 }
-function startRest(glue) {
-  // Not split, held (a test), or already loaded by a call that needed it.
-  if (!glue.loadRest || rest.held || glue.restState() !== null) return;
-  const name = build;
-  rest.compiled[name] ??= (async () => {
-    const url = new URL(`./${glue.REST_WASM}`, import.meta.url);
+/** The latest time for the second half, unless a viewer is still loading its model (then a while later). */
+function restTimer() {
+  if (rest.wanted) return;
+  if ([...mounted].some((element) => element.dataset.status === 'loading')) setTimeout(restTimer, REST_LATEST_MS);
+  else wantRest();
+}
+/** `glue`'s second half, downloaded and compiled once per page (a promise); a failure may be tried again. */
+function compileRest(glue) {
+  const url = glue.REST_URL;
+  const key = url.href;
+  rest.compiled[key] ??= (async () => {
     try {
       return await WebAssembly.compileStreaming(fetch(url));
     } catch {
@@ -107,10 +121,21 @@ function startRest(glue) {
       if (!response.ok) throw new Error(`${url}: HTTP ${response.status}`);
       return WebAssembly.compile(await response.arrayBuffer());
     }
-  })();
-  glue.loadRest(rest.compiled[name]).catch((e) => {
+  })().catch((e) => {
+    delete rest.compiled[key];
+    throw e;
+  });
+  return rest.compiled[key];
+}
+function startRest(glue) {
+  if (!glue.loadRest || rest.held) return; // not split, or held (a test)
+  if (glue.restState() !== null) {
+    // A call loaded it already: a later instance (after a panic) takes the same compiled module.
+    rest.compiled[glue.REST_URL.href] ??= Promise.resolve(glue.restModule());
+    return;
+  }
+  glue.loadRest(compileRest(glue)).catch((e) => {
     // Its functions still load when first called (synchronously); a later instance tries the download again.
-    delete rest.compiled[name];
     console.warn(`kloub-viewer: the module's second half did not load: ${e instanceof Error ? e.message : e}`);
   });
 }

@@ -92,7 +92,8 @@ export function registerWidgetTests(test, backends) {
       assert(d0.backend === backend, `backend ${d0.backend}`);
       // The build's second half (what no first frame runs) is fetched after that frame, and instantiated (the test
       // hooks below are in it: called sooner, they would load it themselves).
-      await waitForRest(page, 'async');
+      const split = (await restState(page)) !== 'whole'; // a KLOUB_WASM_OPT=0 build is not split
+      if (split) await waitForRest(page, 'async');
       // The element started the model's download while the module loaded, and had the browser decode Fox's
       // texture meanwhile: the viewer took both (one download, no second decode).
       assert(fetched.filter((f) => f === 'default.glb').length === 1, `the model was fetched ${fetched.filter((f) => f === 'default.glb').length} times`);
@@ -105,7 +106,7 @@ export function registerWidgetTests(test, backends) {
       const { before, after } = await aroundLoad(page);
       const ours = [...new Set(before)].filter((f) => existsSync(join(ROOT, 'web/dist', `${f}.gz`)) && !f.endsWith('.html'));
       for (const f of ['kloub-viewer.js', ...FILES[light]]) assert(ours.includes(f), `${f} was not fetched before the first frame: ${ours}`);
-      assert(!before.includes(REST[light]) && after.filter((f) => f === REST[light]).length === 1,
+      assert(!split || (!before.includes(REST[light]) && after.filter((f) => f === REST[light]).length === 1),
         `the second half: before ${before}, after ${after}; requests ${fetched.filter((f) => /kloub_/.test(f))}; `
         + `first call into it before it came: slot ${await page.evaluate(() => customElements.get('kloub-viewer')._testRestFirstCall())}`);
       const bytes = ours.reduce((sum, f) => sum + statSync(join(ROOT, 'web/dist', `${f}.gz`)).size, 0);
@@ -161,12 +162,19 @@ export function registerWidgetTests(test, backends) {
       await page.keyboard.press('Home');
       await waitFor(page, () => document.getElementById('v').dataset.time === '0.000', null, 'Home to seek to the start');
       assert(buildsFetched(fetched).length === 1, `still only the light build: ${fetched.filter((f) => /kloub_/.test(f))}`);
+      // A panic: the new instance takes the compiled second half (no second download) and the viewer comes back.
+      const loads = fetched.filter((f) => f === REST[light]).length;
+      await page.evaluate(() => customElements.get('kloub-viewer')._testPanic('test'));
+      await waitFor(page, () => document.getElementById('v').dataset.status === 'ready', null, 'the viewer back after a panic');
+      if (split) await waitForRest(page, 'async');
+      assert(fetched.filter((f) => f === REST[light]).length === loads, 'the second half was downloaded again after the panic');
     });
 
     test(`${backend}: a call that needs the light build's second half before it came loads it at once, and the view goes on`, async (ctx) => {
       const { page } = ctx;
       const fetched = await widgetPage(page, ctx.url, attrs, { holdRest: true });
       await ready(page);
+      if ((await restState(page)) === 'whole') return; // a KLOUB_WASM_OPT=0 build is not split
       await sleep(500);
       assert(await restState(page) === null && !fetched.includes(REST[light]), `held back: ${await restState(page)}, ${fetched}`);
       // Dual quaternion skinning on the CPU path (SwiftShader's default): no profiled first frame ran it.
@@ -186,6 +194,33 @@ export function registerWidgetTests(test, backends) {
       await page.evaluate(() => customElements.get('kloub-viewer')._testHoldRest(false));
       await sleep(500);
       assert(await restState(page) === 'sync' && fetched.filter((f) => f === REST[light]).length === 1, 'one second half');
+    });
+
+    test(`${backend}: when the second half cannot be loaded as a call needs it, the page recovers as from a panic`, async (ctx) => {
+      const { page } = ctx;
+      // The first request for the second half fails; the next ones are answered.
+      let refused = 0;
+      await page.route(new RegExp(`/${REST[light]}$`), (route) => (refused++ === 0 ? route.fulfill({ status: 503, body: 'busy' }) : route.continue()));
+      await widgetPage(page, ctx.url, attrs, { holdRest: true });
+      await ready(page);
+      if ((await restState(page)) === 'whole') return;
+      await page.evaluate(() => {
+        window.__errors = [];
+        document.getElementById('v').addEventListener('error', (e) => window.__errors.push(e.detail.message));
+        document.getElementById('v').setSkinning('dqs');
+      }).catch(() => {}); // the call itself throws: the instance is given up
+      await waitFor(page, () => window.__errors.length > 0, null, 'an error event');
+      const errors = await page.evaluate(() => window.__errors);
+      assert(errors.some((m) => /second half could not be loaded/.test(m)), `errors: ${errors}`);
+      // The new instance loaded the second half before mounting the viewer; the model is back and draws.
+      await waitFor(page, () => {
+        const d = document.getElementById('v').dataset;
+        return d.status === 'ready' && d.model === 'default.glb' && Number(d.frames) > 5;
+      }, null, 'the viewer back');
+      assert(await restState(page) === 'async', `the second half: ${await restState(page)}`);
+      assert(refused >= 2, `requests for the second half: ${refused}`);
+      const shot = await viewportShot(page, '#v');
+      assert(nonBackgroundFraction(shot) > 0.02, 'the view shows nothing but background');
     });
 
     test(`${backend}: setting controls on a widget loads the full app: the panel appears with the same model, clip and time`, async (ctx) => {

@@ -87,11 +87,7 @@ const HEATMAP_FULL_SCALE: f32 = 0.02;
 /// every frame and the page's frame rate matters more (measured in BENCHMARKS.md, "Frame
 /// cost"). Native rendering (the golden images on lavapipe) keeps 4×.
 pub fn display_msaa(adapter: &wgpu::Adapter) -> u32 {
-    if cfg!(target_arch = "wasm32") && adapter.get_info().device_type == wgpu::DeviceType::Cpu {
-        1
-    } else {
-        msaa_samples(adapter)
-    }
+    if cpu_in_browser(adapter) { 1 } else { msaa_samples(adapter) }
 }
 
 /// Where a viewer deforms skinned vertices until its user chooses: on the CPU
@@ -102,10 +98,24 @@ pub fn display_msaa(adapter: &wgpu::Adapter) -> u32 {
 /// waits; the GPU's vertex shader everywhere else (never the compute pass, which not every
 /// device has). Measured in BENCHMARKS.md, "Frame cost".
 pub fn default_skinning_path(adapter: &wgpu::Adapter) -> SkinningPath {
-    if cfg!(target_arch = "wasm32") && adapter.get_info().device_type == wgpu::DeviceType::Cpu {
-        SkinningPath::Cpu
-    } else {
-        SkinningPath::Gpu
+    if cpu_in_browser(adapter) { SkinningPath::Cpu } else { SkinningPath::Gpu }
+}
+
+/// Whether `adapter` is a CPU adapter in the browser: what [`display_msaa`] and
+/// [`default_skinning_path`] choose by. A page that sets `__kloubProfileHardware` (the build's
+/// profile of what first frames run, `scripts/wasm-split.mjs`, on SwiftShader) is answered as on a
+/// hardware adapter, so that the profile sees the paths a GPU takes.
+fn cpu_in_browser(adapter: &wgpu::Adapter) -> bool {
+    #[cfg(target_arch = "wasm32")]
+    {
+        let profiled =
+            js_sys::Reflect::get(&js_sys::global(), &"__kloubProfileHardware".into()).is_ok_and(|v| v.is_truthy());
+        adapter.get_info().device_type == wgpu::DeviceType::Cpu && !profiled
+    }
+    #[cfg(not(target_arch = "wasm32"))]
+    {
+        let _ = adapter;
+        false
     }
 }
 
