@@ -41,7 +41,9 @@ build_one() { # name, cargo feature flags... (KLOUB_PACKAGE: the crate, default 
   [ "${KLOUB_WASM_OPT:-1}" = 1 ] || split=
   local sum stamp="$DIST/.wasm-opt-input-$name"
   sum="$(sha256sum "target/wasm-bindgen/${name}_bg.wasm" | cut -d' ' -f1) opt=${KLOUB_WASM_OPT:-1}"
-  [ -z "$split" ] || sum="$sum split=$split names=${KLOUB_SPLIT_NAMES:-0} $(cat scripts/wasm-split.mjs web/kloub-viewer.js | sha256sum | cut -d' ' -f1)"
+  # The split also depends on the glue it patches, the element and profile pages that run, and binaryen's version.
+  [ -z "$split" ] || sum="$sum split=$split names=${KLOUB_SPLIT_NAMES:-0} $(cat scripts/wasm-split.mjs web/kloub-viewer.js \
+    "target/wasm-bindgen/$name.js" | sha256sum | cut -d' ' -f1) $(wasm-split --version 2>/dev/null | head -1 || true)"
   local glue="target/wasm-bindgen/$name.js"
   [ -z "$split" ] || glue="target/wasm-bindgen/$name.split.js"
   if [ "$(cat "$stamp" 2>/dev/null || true)" != "$sum" ] || [ ! -f "$DIST/${name}_bg.wasm" ] || [ ! -f "$glue" ] \

@@ -64,6 +64,24 @@ function leb(b, i) {
   }
 }
 
+/** Calls `visit(kind, at)` for each import of the import section starting at `start` (`at`: where its type begins). */
+function eachImport(b, start, visit) {
+  let n, j;
+  [n, j] = leb(b, start);
+  for (let k = 0; k < n; k++) {
+    let len;
+    [len, j] = leb(b, j); j += len;
+    [len, j] = leb(b, j); j += len;
+    const kind = b[j++];
+    visit(kind, j);
+    if (kind === 0) [, j] = leb(b, j);
+    else if (kind === 1) { j++; const flags = b[j++]; [, j] = leb(b, j); if (flags & 1) [, j] = leb(b, j); }
+    else if (kind === 2) { const flags = b[j++]; [, j] = leb(b, j); if (flags & 1) [, j] = leb(b, j); }
+    else if (kind === 3) j += 2;
+    else throw new Error(`import kind ${kind}`);
+  }
+}
+
 /** Points the export `__wbindgen_externrefs` at the module's externref table (see the header); the bytes, fixed. */
 function fixExternrefExport(path) {
   const b = readFileSync(path);
@@ -75,19 +93,7 @@ function fixExternrefExport(path) {
     [size, i] = leb(b, i);
     const end = i + size;
     if (id === 2) { // imported tables come first in the table index space
-      let n, j;
-      [n, j] = leb(b, i);
-      for (let k = 0; k < n; k++) {
-        let len;
-        [len, j] = leb(b, j); j += len;
-        [len, j] = leb(b, j); j += len;
-        const kind = b[j++];
-        if (kind === 0) [, j] = leb(b, j);
-        else if (kind === 1) { tables.push(b[j++]); const flags = b[j++]; [, j] = leb(b, j); if (flags & 1) [, j] = leb(b, j); }
-        else if (kind === 2) { const flags = b[j++]; [, j] = leb(b, j); if (flags & 1) [, j] = leb(b, j); }
-        else if (kind === 3) j += 2;
-        else throw new Error(`${path}: import kind ${kind}`);
-      }
+      eachImport(b, i, (kind, at) => { if (kind === 1) tables.push(b[at]); });
     } else if (id === 4) {
       let n, j;
       [n, j] = leb(b, i);
@@ -137,19 +143,7 @@ function functionNames(b) {
   const names = new Map();
   for (const [id, start, end] of sections(b)) {
     if (id === 2) {
-      let n, j;
-      [n, j] = leb(b, start);
-      for (let k = 0; k < n; k++) {
-        let len;
-        [len, j] = leb(b, j); j += len;
-        [len, j] = leb(b, j); j += len;
-        const kind = b[j++];
-        if (kind === 0) { imported++; [, j] = leb(b, j); }
-        else if (kind === 1) { j++; const flags = b[j++]; [, j] = leb(b, j); if (flags & 1) [, j] = leb(b, j); }
-        else if (kind === 2) { const flags = b[j++]; [, j] = leb(b, j); if (flags & 1) [, j] = leb(b, j); }
-        else if (kind === 3) j += 2;
-        else throw new Error(`import kind ${kind}`);
-      }
+      eachImport(b, start, (kind) => { if (kind === 0) imported++; });
     } else if (id === 0) {
       let len, j;
       [len, j] = leb(b, start);

@@ -46,18 +46,20 @@ const NEAR = Symbol('near');
  * The wasm module's exports, instantiated once per page (and again after a panic: a new instance from the same
  * compiled module, so no download).
  */
+/** The wasm at `url`, compiled while it streams in (or once downloaded, where the server's MIME type is not wasm's). */
+async function compileWasm(url) {
+  try {
+    return await WebAssembly.compileStreaming(fetch(url));
+  } catch {
+    const response = await fetch(url);
+    if (!response.ok) throw new Error(`${url}: HTTP ${response.status}`);
+    return WebAssembly.compile(await response.arrayBuffer());
+  }
+}
+
 /** A build's wasm, downloaded and compiled once (compiled while it streams in); a failure may be tried again. */
 function compileBuild(name) {
-  compiled[name] ??= (async () => {
-    const wasmUrl = new URL(`./${WASM[name]}`, import.meta.url);
-    try {
-      return await WebAssembly.compileStreaming(fetch(wasmUrl));
-    } catch {
-      const response = await fetch(wasmUrl);
-      if (!response.ok) throw new Error(`${wasmUrl}: HTTP ${response.status}`);
-      return WebAssembly.compile(await response.arrayBuffer());
-    }
-  })().catch((e) => {
+  compiled[name] ??= compileWasm(new URL(`./${WASM[name]}`, import.meta.url)).catch((e) => {
     delete compiled[name];
     throw e;
   });
@@ -111,17 +113,8 @@ function restTimer() {
 }
 /** `glue`'s second half, downloaded and compiled once per page (a promise); a failure may be tried again. */
 function compileRest(glue) {
-  const url = glue.REST_URL;
-  const key = url.href;
-  rest.compiled[key] ??= (async () => {
-    try {
-      return await WebAssembly.compileStreaming(fetch(url));
-    } catch {
-      const response = await fetch(url);
-      if (!response.ok) throw new Error(`${url}: HTTP ${response.status}`);
-      return WebAssembly.compile(await response.arrayBuffer());
-    }
-  })().catch((e) => {
+  const key = glue.REST_URL.href;
+  rest.compiled[key] ??= compileWasm(glue.REST_URL).catch((e) => {
     delete rest.compiled[key];
     throw e;
   });
