@@ -6,22 +6,26 @@
 //
 // 1. binaryen's `wasm-split --instrument` (Debian's binaryen; npm's has no wasm-split) marks each function when it
 //    first runs; the element (web/kloub-viewer.js) with that module shows, in the build's headless chromium (the
-//    browser tests' own, with their flags), one embedded Fox with camera controls, then six models of web/assets on
-//    one page, until each has drawn frames and two seconds more; each page's profile is read out of the module's
-//    memory, and they are merged. The embedded Fox is shown twice, its model served a second late (the module is
-//    ready first) and then the module a second late (the element has the model and its decoded images when the
-//    module starts): the two orders take different paths.
+//    browser tests' own, with their flags), one page at a time (PAGES): one embedded Fox with camera controls, twice
+//    (its model served a second late, so the module is ready first, then the module a second late, so the element
+//    has the model and its decoded images when the module starts: the two orders take different paths); six models
+//    of web/assets on one page; and a page with the attributes viewers commonly set, answered as on a hardware
+//    adapter (`__kloubProfileHardware`: SwiftShader is a CPU adapter, where the viewer takes other paths), with
+//    input and a viewer removed. Each runs until its viewers drew frames and two seconds more; each page's profile
+//    is read out of the module's memory, and they are merged, with every `viewer_*` entry point added (KEEP).
 // 2. `wasm-split --profile` keeps the functions that ran in the primary module and moves the others to the secondary.
 //    The primary imports a placeholder (namespace `placeholder`, named by its table slot) for each function moved:
 //    every call to one goes through the function table. The secondary imports the primary's memory, tables, globals
 //    and the functions it calls (exported with the prefix `%`), and its element segment writes its functions over the
 //    placeholders when it is instantiated. wasm-opt -Oz then runs on each (splitting the unoptimised module and
 //    optimising each half gives a primary ~60 KB gzip smaller than splitting the optimised one: the whole
-//    program's inlining merges functions a first frame needs with ones it does not).
+//    program's inlining merges functions a first frame needs with ones it does not). Both halves are then
+//    instantiated together here: a build whose halves do not link fails.
 // 3. The glue (wasm-bindgen's) is given the placeholders: one called before the secondary is there (a function the
 //    profile did not see run, e.g. a message for a broken file) loads it synchronously (a synchronous request and
-//    compile, a few ms once the file is cached) and calls the real function; `loadRest(modulePromise)`, which the
-//    element calls once a first frame is shown, instantiates it in the background.
+//    compile) and calls the real function, or, if that fails, gives the instance up as a panic would (the element's
+//    handler, `setRestFailureHandler`); `loadRest(modulePromise)`, which the element calls once a first frame is
+//    shown, instantiates it in the background.
 //
 // binaryen 108's wasm-split writes the export `__wbindgen_externrefs` (wasm-bindgen's externref table) as the
 // function table's; `fixExternrefExport` points it back at the externref table, in the instrumented module and the

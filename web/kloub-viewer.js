@@ -96,7 +96,9 @@ function loadRuntime() {
  * that the page fetches once a first frame is on screen or a model failed (or REST_LATEST_MS after the module
  * started), so that it does not share the link with the model. A call that needs one before then loads it
  * synchronously (the glue).
- * `wanted`: the page asked for it; `compiled`: each build's compiled second half (a promise); `held`: a test hook.
+ * `wanted`: the page asked for it; `held`: a test hook; `syncFailed`: an instance could not load it when a call
+ * needed it (each later instance loads it before its viewers mount); `compiled`: each second half's compiled
+ * module (a promise), by URL, shared by the page's instances.
  */
 const rest = { wanted: false, held: false, syncFailed: false, compiled: {} };
 const REST_LATEST_MS = 10000;
