@@ -36,6 +36,7 @@ import { mkdtempSync, readFileSync, rmSync, statSync, writeFileSync } from 'node
 import { tmpdir } from 'node:os';
 import { extname, join, resolve } from 'node:path';
 import { chromium } from 'playwright-core';
+import { BASE_FLAGS, WEBGPU_FLAGS } from '../tests/browser/lib.mjs';
 
 const ROOT = resolve(import.meta.dirname, '..');
 const [name, backend, wasmIn, glueIn, outDir, glueOut] = process.argv.slice(2);
@@ -48,9 +49,6 @@ const FEATURES = ['--enable-simd', '--enable-bulk-memory', '--enable-nontrapping
 // What the first frames are profiled on: skinned, textured (PNG, JPEG), morphed, many clips, a sidecar, normal maps.
 const MODELS = ['Fox.glb', 'CesiumMan/CesiumMan.glb', 'RobotExpressive/RobotExpressive.glb',
   'AnimatedMorphSphere/AnimatedMorphSphere.glb', 'RiggedFigure/RiggedFigure.glb', 'Knight/Knight.glb'];
-const FLAGS = ['--headless', '--no-sandbox', '--disable-quic', '--no-first-run', '--disable-background-networking',
-  '--disable-component-update', '--disable-sync', '--enable-unsafe-swiftshader', '--enable-unsafe-webgpu',
-  '--use-angle=swiftshader', '--enable-features=Vulkan', '--use-vulkan=swiftshader'];
 
 const work = mkdtempSync(join(tmpdir(), `kloub-split-${name}-`));
 const run = (cmd, args) => execFileSync(cmd, args, { stdio: ['ignore', 'inherit', 'inherit'] });
@@ -91,11 +89,7 @@ function fixExternrefExport(path) {
   const b = readFileSync(path);
   const tables = [];
   let fixed = false;
-  for (let i = 8; i < b.length;) {
-    const id = b[i++];
-    let size;
-    [size, i] = leb(b, i);
-    const end = i + size;
+  for (const [id, i] of sections(b)) {
     if (id === 2) { // imported tables come first in the table index space
       eachImport(b, i, (kind, at) => { if (kind === 1) tables.push(b[at]); });
     } else if (id === 4) {
@@ -122,7 +116,6 @@ function fixExternrefExport(path) {
         }
       }
     }
-    i = end;
   }
   if (!fixed) throw new Error(`${path}: no table export __wbindgen_externrefs`);
   writeFileSync(path, b);
@@ -279,7 +272,7 @@ ${body}`);
     [`/${name}.js`]: glueIn,
     [`/${name}_bg.wasm`]: instrumented,
   }, late);
-  const browser = await chromium.launch({ executablePath: process.env.KLOUB_CHROMIUM ?? '/usr/bin/chromium', headless: true, args: FLAGS });
+  const browser = await chromium.launch({ executablePath: process.env.KLOUB_CHROMIUM ?? '/usr/bin/chromium', headless: true, args: [...BASE_FLAGS, ...WEBGPU_FLAGS] });
   try {
     const tab = await browser.newPage({ viewport: { width: 1024, height: 640 } });
     const logs = [];
