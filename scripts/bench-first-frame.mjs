@@ -17,7 +17,8 @@
 // inclusive time per run: keep the names in the wasm to read Kloub's, see BENCHMARKS.md),
 // KLOUB_BENCH_FOCUS=name (with KLOUB_BENCH_PROFILE=1: what the functions whose name contains it called, directly
 // or not, by inclusive time per run), KLOUB_BENCH_ATTRS (more attributes on the <kloub-viewer>, e.g. 'shadow-intensity="0"' to compare with
-// model-viewer's defaults, which draw no ground shadow).
+// model-viewer's defaults, which draw no ground shadow), KLOUB_BENCH_SIDECAR=1 (CesiumMan with its sidecar for Kloub,
+// without it for model-viewer, which has none: what a sidecar costs the first frame).
 import { createServer } from 'node:http';
 import { readFileSync, statSync } from 'node:fs';
 import { extname, resolve } from 'node:path';
@@ -45,16 +46,23 @@ const ROOTS = {
 const STYLE = 'display:block;width:640px;height:480px';
 /** KLOUB_BENCH_ATTRS: more attributes on the <kloub-viewer> (its defaults otherwise). */
 const ATTRS = process.env.KLOUB_BENCH_ATTRS ?? '';
+/**
+ * KLOUB_BENCH_SIDECAR=1: CesiumMan with its sidecar (web/assets/CesiumMan, 210 KB of example poses, which only the
+ * widget's second half reads) instead of Fox; model-viewer shows the same model without it.
+ */
+const SIDECAR = process.env.KLOUB_BENCH_SIDECAR === '1';
+const MODEL = SIDECAR ? '/assets/CesiumMan/CesiumMan.glb' : '/assets/Fox.glb';
+const KLOUB_SRC = SIDECAR ? `${MODEL}#sidecar=CesiumMan.kloub.json` : MODEL;
 // The `load` event's time, and that of the first animation frame callback after it: model-viewer fires `load` when
 // its model is loaded and draws it (compiling its shaders) in its next animation frame, whose callback runs before
 // this later-registered one; Kloub fires `load` once the model's first frame is drawn.
 const ON_LOAD = `() => { window.__firstFrame = performance.now(); requestAnimationFrame(() => { window.__painted = performance.now(); }); }`;
 const PAGES = {
   '/kloub.html': (q) => `<!doctype html><meta charset="utf-8"><script type="module" src="/dist/kloub-viewer.js"></script>
-<kloub-viewer src="/assets/Fox.glb" autoplay ${q.get('backend') === 'webgl2' ? 'backend="webgl2"' : ''} ${ATTRS} style="${STYLE}"></kloub-viewer>
+<kloub-viewer src="${KLOUB_SRC}" autoplay ${q.get('backend') === 'webgl2' ? 'backend="webgl2"' : ''} ${ATTRS} style="${STYLE}"></kloub-viewer>
 <script>document.querySelector('kloub-viewer').addEventListener('load', ${ON_LOAD});</script>`,
   '/mv.html': () => `<!doctype html><meta charset="utf-8"><script type="module" src="/mv/model-viewer.min.js"></script>
-<model-viewer src="/assets/Fox.glb" autoplay style="${STYLE}"></model-viewer>
+<model-viewer src="${MODEL}" autoplay style="${STYLE}"></model-viewer>
 <script>document.querySelector('model-viewer').addEventListener('load', ${ON_LOAD});</script>`,
 };
 
@@ -242,7 +250,7 @@ try {
   }
   const mv = rows.at(-1)[1];
   const mvPainted = rows.at(-1)[5];
-  console.log(`Fox, cold cache, 9 Mbit/s, 170 ms RTT, ${ENCODING}; median of ${RUNS} runs\n`);
+  console.log(`${SIDECAR ? 'CesiumMan (Kloub with its sidecar)' : 'Fox'}, cold cache, 9 Mbit/s, 170 ms RTT, ${ENCODING}; median of ${RUNS} runs\n`);
   console.log('| viewer | `load` (median) | min–max | transferred by then | vs model-viewer | next frame after `load` | vs model-viewer |');
   console.log('|---|---:|---:|---:|---:|---:|---:|');
   for (const [name, med, min, max, bytes, frame] of rows) {

@@ -71,7 +71,14 @@ function loadRuntime() {
   runtime ??= (async () => {
     // Each instance needs its own copy of the glue module (it keeps the instance in a module variable); fetched
     // while the wasm downloads and compiles.
-    const [module, glue] = await Promise.all([compileBuild(build), GLUE[build](instance)]);
+    const [module, glue] = await Promise.all([
+      compileBuild(build),
+      // A model with a sidecar needs the second half before its first frame: downloaded beside the first.
+      GLUE[build](instance).then((g) => {
+        if (rest.early && g.loadRest && !rest.held) compileRest(g).catch(() => {});
+        return g;
+      }),
+    ]);
     await glue.default({ module_or_path: module });
     glue.setPanicHandler(onPanic);
     glue.setPrefetch(takePrefetch, takeImages, loadCodecs, loadEnvironment);
@@ -96,11 +103,13 @@ function loadRuntime() {
  * that the page fetches once a first frame is on screen or a model failed (or REST_LATEST_MS after the module
  * started), so that it does not share the link with the model. A call that needs one before then loads it
  * synchronously (the glue).
- * `wanted`: the page asked for it; `held`: a test hook; `syncFailed`: an instance could not load it when a call
- * needed it (each later instance loads it before its viewers mount); `compiled`: each second half's compiled
- * module (a promise), by URL, shared by the page's instances.
+ * `wanted`: the page asked for it; `early`: a viewer's model comes with a sidecar, which only the second half reads,
+ * so it is downloaded beside the first half and loaded before that viewer mounts (no synchronous load on its way
+ * to a first frame); `held`: a test hook; `syncFailed`: an instance could not load it when a call needed it (each
+ * later instance loads it before its viewers mount); `compiled`: each second half's compiled module (a promise),
+ * by URL, shared by the page's instances.
  */
-const rest = { wanted: false, held: false, syncFailed: false, compiled: {} };
+const rest = { wanted: false, early: false, held: false, syncFailed: false, compiled: {} };
 const REST_LATEST_MS = 10000;
 function wantRest() {
   if (rest.wanted || rest.held) return;
@@ -236,7 +245,24 @@ function modelHref(url) {
   return u.href;
 }
 
-/** `full`: the element will run the full app (which decodes Draco and zips itself). */
+/**
+ * The sidecar's absolute URL in a `model.glb#sidecar=model.kloub.json` src (relative to the model's, as the viewer
+ * resolves it: `web/src/load.rs`, `split_sidecar`), or null for a src without one.
+ */
+function sidecarHref(src) {
+  const at = src.indexOf('#sidecar=');
+  if (at < 0 || at + 9 === src.length) return null;
+  try {
+    return new URL(src.slice(at + 9), new URL(src.slice(0, at), document.baseURI)).href;
+  } catch {
+    return null;
+  }
+}
+
+/**
+ * `full`: the element will run the full app (which decodes Draco and zips itself). A sidecar named in `src` is
+ * fetched beside the model, and the light build's second half (which reads sidecars) beside the module.
+ */
 function prefetchModel(src, full = false) {
   let href;
   try {
@@ -244,21 +270,35 @@ function prefetchModel(src, full = false) {
   } catch {
     return;
   }
+  const sidecar = sidecarHref(src);
+  if (sidecar !== null) {
+    rest.early = true;
+    prefetch(sidecar, null);
+  }
+  prefetch(href, full);
+}
+
+/**
+ * Starts downloading `href` (once per page); `full`: as for `prefetchModel`, or null for a file that is not a model
+ * (no images to decode).
+ */
+function prefetch(href, full) {
   if (!/^https?:/.test(href) || prefetched.has(href)) return;
   prefetched.add(href);
   const controller = new AbortController();
   // What the viewer's own fetch would send: CORS, credentials for the same origin only.
   const response = fetch(href, { mode: 'cors', credentials: 'same-origin', signal: controller.signal });
   // Registered before the viewer can read the body: the clone is made first.
-  const images = response.then((r) => (r.ok ? decodeGlbImages(r.clone(), full) : null)).catch(() => null);
+  const images = full === null ? null
+    : response.then((r) => (r.ok ? decodeGlbImages(r.clone(), full) : null)).catch(() => null);
   response.catch(() => {});
   // `decoded`: the bitmaps once settled, so a viewer whose module arrives after them shows the model in the frame
   // that imports it (a promise would wait for another animation frame, which a busy GPU process delays).
   const entry = { response, abort: () => controller.abort(), images, decoded: undefined };
-  images.then((bitmaps) => { entry.decoded = bitmaps; });
+  images?.then((bitmaps) => { entry.decoded = bitmaps; });
   prefetches.set(href, entry);
   // A zip needs the codecs module in the widget builds: fetched beside the model.
-  if (!full && build !== 'full' && /\.zip$/i.test(new URL(href).pathname)) loadCodecs().catch(() => {});
+  if (full === false && build !== 'full' && /\.zip$/i.test(new URL(href).pathname)) loadCodecs().catch(() => {});
   setTimeout(() => {
     if (prefetches.get(href) !== entry) return;
     prefetches.delete(href);
@@ -1128,6 +1168,12 @@ class KloubViewer extends HTMLElement {
       await ensureBuild(await buildFor(this));
       const onBuild = build;
       const glue = await loadRuntime();
+      const src = revive ? (revive.src || (this.#files ? null : this.getAttribute('src'))) : this.getAttribute('src');
+      // A sidecar is read by the second half: loaded before the viewer asks for it (downloaded since the module
+      // was; a failure here leaves it to the synchronous load, which reports it).
+      if (src && sidecarHref(src) !== null && glue.loadRest && glue.restState() === null && !rest.held) {
+        await glue.loadRest(compileRest(glue)).catch(() => {});
+      }
       const viewer = new glue.Viewer();
       this.#viewer = viewer;
       this.#configure();
@@ -1148,7 +1194,6 @@ class KloubViewer extends HTMLElement {
       if (this.hasAttribute('environment-image')) this.#applyEnvironment(viewer);
       if (this.hasAttribute('shadow-intensity') || this.hasAttribute('shadow-softness')) viewer.setShadow(this.shadowIntensity, this.shadowSoftness);
       this.#applyLimits();
-      const src = revive ? (revive.src || (this.#files ? null : this.getAttribute('src'))) : this.getAttribute('src');
       if (revive && src) this.#reviveOnLoad(revive);
       await viewer.mount(this.#canvas, this, this.shadowRoot, emit, backend === 'auto' ? null : backend, src);
       // Removed from the page while starting: stop now (disconnectedCallback found nothing to stop).

@@ -223,6 +223,44 @@ export function registerWidgetTests(test, backends) {
       assert(nonBackgroundFraction(shot) > 0.02, 'the view shows nothing but background');
     });
 
+    test(`${backend}: a model with a sidecar on the light build: the second half comes beside the first, no synchronous load; the sidecar is fetched once and read`, async (ctx) => {
+      const { page } = ctx;
+      const model = '/assets/CesiumMan/CesiumMan.glb';
+      const fetched = await widgetPage(page, ctx.url, { ...attrs, src: `${model}#sidecar=CesiumMan.kloub.json` });
+      await waitFor(page, () => {
+        const d = document.getElementById('v').dataset;
+        return d.status === 'ready' && d.model === 'CesiumMan.glb' && Number(d.frames) > 0;
+      }, null, 'CesiumMan with its sidecar');
+      const state = await restState(page);
+      if (state === 'whole') return; // a KLOUB_WASM_OPT=0 build is not split
+      // Loaded before the viewer asked for it: no call waited for a synchronous download.
+      assert(state === 'async', `the second half: ${state}`);
+      const first = await page.evaluate(() => customElements.get('kloub-viewer')._testRestFirstCall());
+      assert(first === null, `a call into the second half before it came: slot ${first}`);
+      const { before } = await aroundLoad(page);
+      assert(before.includes(REST[light]) && before.includes('CesiumMan.kloub.json'), `before the first frame: ${before}`);
+      for (const f of [REST[light], 'CesiumMan.kloub.json', 'CesiumMan.glb']) {
+        assert(fetched.filter((g) => g === f).length === 1, `${f} fetched ${fetched.filter((g) => g === f).length} times`);
+      }
+      // The sidecar is read: a broken one fails the load with its JSON pointer, and the model stays.
+      await page.route('**/broken.kloub.json', (route) => route.fulfill({
+        contentType: 'application/json',
+        body: '{"examples": {"Skeleton_arm_joint_L__3_": [{"rotation": [0, 0, 0, 2], "offsets": ""}]}}',
+      }));
+      await page.evaluate((src) => {
+        window.__errors = [];
+        const v = document.getElementById('v');
+        v.addEventListener('error', (e) => window.__errors.push(e.detail.message));
+        v.src = src;
+      }, `${model}#sidecar=broken.kloub.json`);
+      await waitFor(page, () => window.__errors.length > 0, null, 'an error event for the broken sidecar');
+      const errors = await page.evaluate(() => window.__errors);
+      assert(errors.some((m) => m.includes('/examples/Skeleton_arm_joint_L__3_/0')), `errors: ${errors}`);
+      const d = await ds(page);
+      assert(d.model === 'CesiumMan.glb' && Number(d.frames) > 0, `after the broken sidecar: ${JSON.stringify(d)}`);
+      assert(await restState(page) === 'async', 'the second half stayed as it came');
+    });
+
     test(`${backend}: setting controls on a widget loads the full app: the panel appears with the same model, clip and time`, async (ctx) => {
       const { page } = ctx;
       const fetched = await widgetPage(page, ctx.url, attrs);
