@@ -1,5 +1,6 @@
 // Splits a light widget build's wasm in two: what a page runs until its viewers' first frames (the first download)
-// and the rest (`<name>_rest_bg.wasm`), which the element fetches once a first frame is on screen. Called by
+// and the rest (`<name>_rest_bg.wasm`), which the element fetches once a first frame is on screen (at once for a
+// model with a sidecar, which only the rest reads). Called by
 // scripts/build-web.sh for `kloub_widget` and `kloub_widget_gl` (issue 20: the bytes before the first frame).
 //
 //   node scripts/wasm-split.mjs <name> <backend: webgpu|webgl2> <bindgen wasm> <bindgen glue> <out dir> <glue out>
@@ -25,7 +26,7 @@
 //    profile did not see run, e.g. a message for a broken file) loads it synchronously (a synchronous request and
 //    compile) and calls the real function, or, if that fails, gives the instance up as a panic would (the element's
 //    handler, `setRestFailureHandler`); `loadRest(modulePromise)`, which the element calls once a first frame is
-//    shown, instantiates it in the background.
+//    shown (before a viewer whose model has a sidecar mounts), instantiates it in the background.
 //
 // binaryen 108's wasm-split writes the export `__wbindgen_externrefs` (wasm-bindgen's externref table) as the
 // function table's; `fixExternrefExport` points it back at the externref table, in the instrumented module and the

@@ -104,8 +104,8 @@ function loadRuntime() {
  * started), so that it does not share the link with the model. A call that needs one before then loads it
  * synchronously (the glue).
  * `wanted`: the page asked for it; `early`: a viewer's model comes with a sidecar, which only the second half reads,
- * so it is downloaded beside the first half and loaded before that viewer mounts (no synchronous load on its way
- * to a first frame); `held`: a test hook; `syncFailed`: an instance could not load it when a call needed it (each
+ * so it is downloaded as soon as the glue is imported (beside the first half, for the page's first viewers) and
+ * loaded before that viewer mounts (no synchronous load on its way to a first frame); `held`: a test hook; `syncFailed`: an instance could not load it when a call needed it (each
  * later instance loads it before its viewers mount); `compiled`: each second half's compiled module (a promise),
  * by URL, shared by the page's instances.
  */
@@ -246,8 +246,10 @@ function modelHref(url) {
 }
 
 /**
- * The sidecar's absolute URL in a `model.glb#sidecar=model.kloub.json` src (relative to the model's, as the viewer
- * resolves it: `web/src/load.rs`, `split_sidecar`), or null for a src without one.
+ * The sidecar's absolute URL in a `model.glb#sidecar=model.kloub.json` src (split as `web/src/load.rs`'s
+ * `split_sidecar` splits it, relative to the model's URL), or null for a src without one. The viewer makes the
+ * model's URL absolute against the page's address, this against the document's base URL: the two differ only
+ * under a `<base>` element (then the viewer downloads the sidecar itself).
  */
 function sidecarHref(src) {
   const at = src.indexOf('#sidecar=');
@@ -1106,7 +1108,12 @@ class KloubViewer extends HTMLElement {
     try {
       this.#configure();
       switch (name) {
-        case 'src': if (value) viewer.loadUrl(value); break;
+        case 'src':
+          if (value) {
+            if (sidecarHref(value) !== null) wantRest(); // its sidecar is read by the second half
+            viewer.loadUrl(value);
+          }
+          break;
         // Before a model is shown the names cannot resolve: configure() above makes the next model start so.
         case 'animation-name': if (value && this.loaded) this.crossfadeTo(value, this.#crossfadeSeconds()); break;
         case 'speed': viewer.setSpeed(this.speed); break;
@@ -1167,13 +1174,24 @@ class KloubViewer extends HTMLElement {
       if (!revive && this.getAttribute('src')) prefetchModel(this.getAttribute('src'), this.hasAttribute('controls') || this[NEEDS_FULL]);
       await ensureBuild(await buildFor(this));
       const onBuild = build;
-      const glue = await loadRuntime();
-      const src = revive ? (revive.src || (this.#files ? null : this.getAttribute('src'))) : this.getAttribute('src');
+      let glue = await loadRuntime();
+      const source = () => (revive ? (revive.src || (this.#files ? null : this.getAttribute('src'))) : this.getAttribute('src'));
       // A sidecar is read by the second half: loaded before the viewer asks for it (downloaded since the module
-      // was; a failure here leaves it to the synchronous load, which reports it).
-      if (src && sidecarHref(src) !== null && glue.loadRest && glue.restState() === null && !rest.held) {
+      // was; a failure here leaves it to the synchronous load, which reports it). Removed meanwhile: stop; the
+      // page's instance replaced meanwhile (a panic): the new one's.
+      for (let src = source(); src && sidecarHref(src) !== null && glue.loadRest && glue.restState() === null && !rest.held;) {
         await glue.loadRest(compileRest(glue)).catch(() => {});
+        if (!this.isConnected) {
+          this.#mounting = null;
+          return;
+        }
+        const now = await loadRuntime();
+        if (now === glue) break;
+        glue = now;
+        src = source();
       }
+      // Read after the wait: a src set meanwhile (the viewer did not exist to take it) is the one shown.
+      const src = source();
       const viewer = new glue.Viewer();
       this.#viewer = viewer;
       this.#configure();
@@ -1882,6 +1900,7 @@ class KloubViewer extends HTMLElement {
       this.addEventListener('error', bad);
     });
     if (files === null) {
+      if (sidecarHref(String(urlOrFiles)) !== null) wantRest(); // its sidecar is read by the second half
       viewer.loadUrl(String(urlOrFiles));
     } else {
       const entries = files.map((file) => ({ name: file.webkitRelativePath || file.name, file }));
