@@ -105,9 +105,10 @@ function loadRuntime() {
  * synchronously (the glue).
  * `wanted`: the page asked for it; `early`: a viewer's model comes with a sidecar, which only the second half reads,
  * so it is downloaded as soon as the glue is imported (beside the first half, for the page's first viewers) and
- * loaded before that viewer mounts (no synchronous load on its way to a first frame); `held`: a test hook; `syncFailed`: an instance could not load it when a call needed it (each
- * later instance loads it before its viewers mount); `compiled`: each second half's compiled module (a promise),
- * by URL, shared by the page's instances.
+ * loaded before that viewer mounts (no synchronous load on its way to a first frame); `held`: a test hook;
+ * `syncFailed`: an instance could not load it when a call needed it (each later instance loads it before its
+ * viewers mount); `compiled`: each second half's compiled module (a promise), by URL, shared by the page's
+ * instances.
  */
 const rest = { wanted: false, early: false, held: false, syncFailed: false, compiled: {} };
 const REST_LATEST_MS = 10000;
@@ -1109,10 +1110,7 @@ class KloubViewer extends HTMLElement {
       this.#configure();
       switch (name) {
         case 'src':
-          if (value) {
-            if (sidecarHref(value) !== null) wantRest(); // its sidecar is read by the second half
-            viewer.loadUrl(value);
-          }
+          if (value) this.#loadUrl(value);
           break;
         // Before a model is shown the names cannot resolve: configure() above makes the next model start so.
         case 'animation-name': if (value && this.loaded) this.crossfadeTo(value, this.#crossfadeSeconds()); break;
@@ -1179,7 +1177,7 @@ class KloubViewer extends HTMLElement {
       // A sidecar is read by the second half: loaded before the viewer asks for it (downloaded since the module
       // was; a failure here leaves it to the synchronous load, which reports it). Removed meanwhile: stop; the
       // page's instance replaced meanwhile (a panic): the new one's.
-      for (let src = source(); src && sidecarHref(src) !== null && glue.loadRest && glue.restState() === null && !rest.held;) {
+      while (glue.loadRest && glue.restState() === null && !rest.held && sidecarHref(source() ?? '') !== null) {
         await glue.loadRest(compileRest(glue)).catch(() => {});
         if (!this.isConnected) {
           this.#mounting = null;
@@ -1188,7 +1186,6 @@ class KloubViewer extends HTMLElement {
         const now = await loadRuntime();
         if (now === glue) break;
         glue = now;
-        src = source();
       }
       // Read after the wait: a src set meanwhile (the viewer did not exist to take it) is the one shown.
       const src = source();
@@ -1597,6 +1594,12 @@ class KloubViewer extends HTMLElement {
     this.#wake(0);
   }
 
+  /** Loads the model at `url` in the mounted viewer; one with a sidecar asks for the second half now (it reads it). */
+  #loadUrl(url) {
+    if (sidecarHref(url) !== null) wantRest();
+    this.#viewer?.loadUrl(url);
+  }
+
   #remount() {
     this.#unmount();
     // A fresh canvas: a context of the other backend cannot be created on the old one.
@@ -1900,8 +1903,7 @@ class KloubViewer extends HTMLElement {
       this.addEventListener('error', bad);
     });
     if (files === null) {
-      if (sidecarHref(String(urlOrFiles)) !== null) wantRest(); // its sidecar is read by the second half
-      viewer.loadUrl(String(urlOrFiles));
+      this.#loadUrl(String(urlOrFiles));
     } else {
       const entries = files.map((file) => ({ name: file.webkitRelativePath || file.name, file }));
       this.#loadFiles(entries).catch((e) => this.#fail(String(e)));
