@@ -248,9 +248,8 @@ function modelHref(url) {
 
 /**
  * The sidecar's absolute URL in a `model.glb#sidecar=model.kloub.json` src (split as `web/src/load.rs`'s
- * `split_sidecar` splits it, relative to the model's URL), or null for a src without one. The viewer makes the
- * model's URL absolute against the page's address, this against the document's base URL: the two differ only
- * under a `<base>` element (then the viewer downloads the sidecar itself).
+ * `split_sidecar` splits it, relative to the model's URL, both against the document's base URL), or null for a
+ * src without one.
  */
 function sidecarHref(src) {
   const at = src.indexOf('#sidecar=');
@@ -1935,7 +1934,7 @@ class KloubViewer extends HTMLElement {
         const response = await fetch(src);
         if (!response.ok) throw new Error(`${src}: HTTP ${response.status}`);
         const bytes = await response.arrayBuffer();
-        request = { name: shown, bytes, files: null, base: new URL(src, location.href).href };
+        request = { name: shown, bytes, files: null, base: new URL(src, document.baseURI).href };
         transfer = [bytes];
       } else {
         const entries = this.#files ?? [];

@@ -25,15 +25,16 @@ function assert(cond, msg) { if (!cond) throw new Error(msg); }
  * Serves a page of the server's origin holding one `<kloub-viewer>` with `attrs` (nothing else loads the element
  * first) and records the file names the page fetches. Resolves to the list (it keeps growing).
  */
-async function widgetPage(page, url, attrs, { holdRest = false } = {}) {
+async function widgetPage(page, url, attrs, { holdRest = false, base = null } = {}) {
   const fetched = [];
   page.on('request', (r) => fetched.push(new URL(r.url()).pathname.split('/').pop()));
   const attributes = Object.entries(attrs).map(([k, v]) => (v === '' ? k : `${k}="${v}"`)).join(' ');
   // The time of the element's first `load` (its model's first frame on screen), for what was fetched before it;
-  // `holdRest`: the light build's second half is held back (a test hook), so a call that needs it must load it.
+  // `holdRest`: the light build's second half is held back (a test hook), so a call that needs it must load it;
+  // `base`: the document's base URL (a `<base href>`), against which relative URLs resolve.
   await page.route(`${url}/widget-test.html`, (route) => route.fulfill({
     contentType: 'text/html',
-    body: `<!doctype html><html><head><meta charset="utf-8"><script type="module" src="/kloub-viewer.js"></script></head>
+    body: `<!doctype html><html><head><meta charset="utf-8">${base ? `<base href="${base}">` : ''}<script type="module" src="/kloub-viewer.js"></script></head>
 <body style="margin:0"><kloub-viewer id="v" ${attributes} style="display:block;width:640px;height:420px"></kloub-viewer>
 <script type="module">
 import '/kloub-viewer.js';
@@ -223,10 +224,11 @@ export function registerWidgetTests(test, backends) {
       assert(nonBackgroundFraction(shot) > 0.02, 'the view shows nothing but background');
     });
 
-    test(`${backend}: a model with a sidecar on the light build: the second half comes beside the first, no synchronous load; the sidecar is fetched once and read`, async (ctx) => {
+    test(`${backend}: a model with a sidecar on the light build: the second half comes beside the first, no synchronous load; the sidecar is fetched once and read, both relative to the page's <base>`, async (ctx) => {
       const { page } = ctx;
-      const model = '/assets/CesiumMan/CesiumMan.glb';
-      const fetched = await widgetPage(page, ctx.url, { ...attrs, src: `${model}#sidecar=CesiumMan.kloub.json` });
+      // Relative to the document's base URL, as the element and fetch() resolve them (the viewer too).
+      const model = 'CesiumMan.glb';
+      const fetched = await widgetPage(page, ctx.url, { ...attrs, src: `${model}#sidecar=CesiumMan.kloub.json` }, { base: '/assets/CesiumMan/' });
       await waitFor(page, () => {
         const d = document.getElementById('v').dataset;
         return d.status === 'ready' && d.model === 'CesiumMan.glb' && Number(d.frames) > 0;

@@ -314,10 +314,13 @@ async fn fetch_sidecar(
 #[cfg(target_arch = "wasm32")]
 const MAX_SIDECAR_BYTES: u64 = 64 << 20;
 
-/// `url` made absolute against the page's address.
+/// `url` made absolute against the document's base URL (its `<base href>`, else the page's
+/// address), as `fetch` and the element resolve it.
 #[cfg(target_arch = "wasm32")]
 fn absolute_url(url: &str) -> Result<String, String> {
-    let page = web_sys::window().and_then(|w| w.location().href().ok()).unwrap_or_default();
+    let window = web_sys::window();
+    let base = window.as_ref().and_then(web_sys::Window::document).and_then(|d| d.base_uri().ok().flatten());
+    let page = base.or_else(|| window.and_then(|w| w.location().href().ok())).unwrap_or_default();
     web_sys::Url::new_with_base(url, &page).map(|u| u.href()).map_err(|_| format!("{url}: not a valid URL"))
 }
 
