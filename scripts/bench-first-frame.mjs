@@ -18,10 +18,15 @@
 // KLOUB_BENCH_FOCUS=name (with KLOUB_BENCH_PROFILE=1: what the functions whose name contains it called, directly
 // or not, by inclusive time per run), KLOUB_BENCH_ATTRS (more attributes on the <kloub-viewer>, e.g. 'shadow-intensity="0"' to compare with
 // model-viewer's defaults, which draw no ground shadow), KLOUB_BENCH_SIDECAR=1 (CesiumMan with its sidecar for Kloub,
-// without it for model-viewer, which has none: what a sidecar costs the first frame).
+// without it for model-viewer, which has none: what a sidecar costs the first frame), KLOUB_BENCH_WASM=1 (each run's
+// WebAssembly compilation until `load`, from a Chrome trace: V8 compiles a function with its baseline compiler,
+// Liftoff, when it is first called, on the thread that calls it, and recompiles the hot ones with TurboFan in the
+// background; Kloub only), KLOUB_BENCH_FLAGS (more chromium flags, space-separated, e.g.
+// '--js-flags=--no-wasm-lazy-compilation'), KLOUB_DIST (another build's web/dist: two builds, one run after the other).
 import { createServer } from 'node:http';
-import { readFileSync, statSync } from 'node:fs';
-import { extname, resolve } from 'node:path';
+import { mkdtempSync, readFileSync, rmSync, statSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import { extname, join, resolve } from 'node:path';
 import { brotliCompressSync, constants, gzipSync } from 'node:zlib';
 import { chromium } from 'playwright-core';
 import { BASE_FLAGS, ROOT, WEBGPU_FLAGS, median } from '../tests/browser/lib.mjs';
@@ -34,12 +39,17 @@ const ENCODING = process.env.KLOUB_BENCH_ENCODING ?? 'gzip';
 const TRACE = process.env.KLOUB_BENCH_TRACE === '1';
 /** KLOUB_BENCH_PROFILE=1: the main thread's CPU profile of each run, its heaviest functions (self time) up to `load`. */
 const PROFILE_CPU = process.env.KLOUB_BENCH_PROFILE === '1';
+/** KLOUB_BENCH_WASM=1: each Kloub run's WebAssembly compilation until `load` (a Chrome trace's v8.wasm events). */
+const WASM = process.env.KLOUB_BENCH_WASM === '1';
+/** KLOUB_BENCH_FLAGS: more chromium flags (space-separated), e.g. V8's through --js-flags=. */
+const FLAGS = (process.env.KLOUB_BENCH_FLAGS ?? '').split(' ').filter(Boolean);
 /** KLOUB_BENCH_FOCUS: with the profile, the callees of the functions whose name contains this, inclusive. */
 const FOCUS = process.env.KLOUB_BENCH_FOCUS;
 const PROFILE = { offline: false, latency: 170, downloadThroughput: (9e6 / 8), uploadThroughput: (9e6 / 8) };
 const MIME = { '.html': 'text/html', '.js': 'text/javascript', '.wasm': 'application/wasm', '.glb': 'model/gltf-binary' };
 const ROOTS = {
-  '/dist/': resolve(ROOT, 'web/dist'),
+  // KLOUB_DIST: another build's web/dist (an earlier build against this one).
+  '/dist/': resolve(process.env.KLOUB_DIST ?? resolve(ROOT, 'web/dist')),
   '/assets/': resolve(ROOT, 'web/assets'),
   '/mv/': resolve(ROOT, 'node_modules/@google/model-viewer/dist'),
 };
@@ -105,7 +115,7 @@ async function run(url) {
   // A browser of its own per run: its GPU process (SwiftShader) may still be busy with the previous page's work.
   // Warmed as a user's browser is (its GPU process up, WebGL2 and WebGPU started once) on a blank page of
   // another context, so that neither viewer pays for starting the browser's GPU stack.
-  const browser = await chromium.launch({ executablePath: process.env.KLOUB_CHROMIUM ?? '/usr/bin/chromium', headless: true, args: [...BASE_FLAGS, ...WEBGPU_FLAGS] });
+  const browser = await chromium.launch({ executablePath: process.env.KLOUB_CHROMIUM ?? '/usr/bin/chromium', headless: true, args: [...BASE_FLAGS, ...WEBGPU_FLAGS, ...FLAGS] });
   const warm = await browser.newContext();
   const blank = await warm.newPage();
   await blank.evaluate(async () => {
@@ -149,6 +159,8 @@ async function run(url) {
     await cdp.send('Profiler.setSamplingInterval', { interval: 200 });
     await cdp.send('Profiler.start');
   }
+  const trace = WASM && url.includes('/kloub.html') ? join(mkdtempSync(join(tmpdir(), 'kloub-trace-')), 'trace.json') : null;
+  if (trace) await browser.startTracing(page, { path: trace, categories: ['v8.wasm', 'devtools.timeline'] });
   await page.goto(url);
   await page.waitForFunction(() => window.__painted !== undefined, null, { timeout: 120000, polling: 50 });
   const [ms, painted] = await page.evaluate(() => [window.__firstFrame, window.__painted]);
@@ -164,9 +176,38 @@ async function run(url) {
     }
     console.error(`  first frame: ${ms.toFixed(0)} ms`);
   }
+  if (trace) {
+    await browser.stopTracing();
+    printWasm(JSON.parse(readFileSync(trace, 'utf8')), ms);
+    rmSync(resolve(trace, '..'), { recursive: true, force: true });
+  }
   await context.close();
   await browser.close();
   return [ms, bytes, painted];
+}
+
+/**
+ * The WebAssembly compilation in a Chrome trace until `untilMs` after the page's first request (within a few ms of the
+ * navigation's start, the page clock's zero): when the module's compilation finished (its last byte arrived), and, on
+ * the page's main thread and in the background, how long V8's compilers ran (wall clock, and the thread's CPU time:
+ * on a busy machine a thread waits for a core), with the functions TurboFan took longest on.
+ */
+function printWasm(json, untilMs) {
+  const events = Array.isArray(json) ? json : json.traceEvents;
+  const start = Math.min(...events.filter((e) => e.name === 'ResourceSendRequest').map((e) => e.ts));
+  const main = events.find((e) => e.ph === 'M' && e.name === 'thread_name' && e.args?.name === 'CrRendererMain');
+  const until = start + untilMs * 1000;
+  const sums = new Map();
+  for (const e of events) {
+    if (e.ph !== 'X' || e.ts > until || !['wasm.CompileLazy', 'wasm.TopTierCompilation'].includes(e.name)) continue;
+    const where = main && e.pid === main.pid && e.tid === main.tid ? 'main thread' : 'background';
+    const key = `${e.name === 'wasm.CompileLazy' ? 'Liftoff on first call' : 'TurboFan'} (${where})`;
+    const [wall, cpu, n] = sums.get(key) ?? [0, 0, 0];
+    sums.set(key, [wall + e.dur / 1000, cpu + (e.tdur ?? 0) / 1000, n + 1]);
+  }
+  const finished = events.filter((e) => e.name === 'wasm.FinishStreaming' && e.ts <= until).map((e) => ((e.ts - start) / 1000).toFixed(0));
+  console.error(`  wasm: streaming compilation finished at ${finished.join(', ')} ms; until \`load\` at ${untilMs.toFixed(0)} ms:`);
+  for (const [key, [wall, cpu, n]] of sums) console.error(`    ${key}: ${n} tasks, ${wall.toFixed(0)} ms wall, ${cpu.toFixed(0)} ms CPU`);
 }
 
 /** Per viewer, the inclusive time of each function over its runs' profiles (printed at the end). */
