@@ -18,7 +18,8 @@
 //    The primary imports a placeholder (namespace `placeholder`, named by its table slot) for each function moved:
 //    every call to one goes through the function table. The secondary imports the primary's memory, tables, globals
 //    and the functions it calls (exported with the prefix `%`), and its element segment writes its functions over the
-//    placeholders when it is instantiated. wasm-opt -Oz then runs on each (splitting the unoptimised module and
+//    placeholders when it is instantiated. wasm-opt -Oz (large functions with one caller not inlined: ONE_CALLER)
+//    then runs on each (splitting the unoptimised module and
 //    optimising each half gives a primary ~60 KB gzip smaller than splitting the optimised one: the whole
 //    program's inlining merges functions a first frame needs with ones it does not). Both halves are then
 //    instantiated together here: a build whose halves do not link fails.
@@ -47,6 +48,14 @@ if (!glueOut || !['webgpu', 'webgl2'].includes(backend)) {
 }
 const FEATURES = ['--enable-simd', '--enable-bulk-memory', '--enable-nontrapping-float-to-int', '--enable-sign-ext',
   '--enable-mutable-globals', '--enable-multivalue', '--enable-reference-types'];
+// binaryen inlines every function that has one caller, whatever its size (`-ocimfs` -1): the whole importer became
+// one 99 KB function, the upload of a model's buffers and textures another 24 KB. V8 compiles a function with its
+// optimising compiler (TurboFan) once it has run long enough, and a loop inlined into it counts: those two, each run
+// once per model, were recompiled while the first frame was being made — ~300 ms of a core on a 2-core machine
+// before `load`, the rest of the page waiting for that core. Functions of over 2,000 expressions keep a body of
+// their own: the loops that get hot are compiled alone, in smaller pieces (~70 ms; the first download 3.5 KB gzip
+// smaller; BENCHMARKS.md "Time to first frame", stop 58).
+const ONE_CALLER = ['--one-caller-inline-max-function-size=2000'];
 // What the first frames are profiled on: skinned, textured (PNG, JPEG), morphed, many clips, a sidecar, normal maps.
 const MODELS = ['Fox.glb', 'CesiumMan/CesiumMan.glb', 'RobotExpressive/RobotExpressive.glb',
   'AnimatedMorphSphere/AnimatedMorphSphere.glb', 'RiggedFigure/RiggedFigure.glb', 'Knight/Knight.glb'];
@@ -445,9 +454,9 @@ try {
   // Each placeholder's slot and function, for a page that had to load the second half early (`restFirstCall`).
   writeFileSync(join(resolve(glueOut, '..'), `${name}.placeholders`), readFileSync(`${primary}.placeholders`));
   const wasmOpt = join(ROOT, 'node_modules/.bin/wasm-opt');
-  run(wasmOpt, ['-Oz', ...names, ...FEATURES, primary, '-o', join(outDir, `${name}_bg.wasm`)]);
+  run(wasmOpt, ['-Oz', ...ONE_CALLER, ...names, ...FEATURES, primary, '-o', join(outDir, `${name}_bg.wasm`)]);
   fixExternrefExport(join(outDir, `${name}_bg.wasm`));
-  run(wasmOpt, ['-Oz', ...FEATURES, secondary, '-o', join(outDir, `${name}_rest_bg.wasm`)]);
+  run(wasmOpt, ['-Oz', ...ONE_CALLER, ...FEATURES, secondary, '-o', join(outDir, `${name}_rest_bg.wasm`)]);
   // A placeholder is a JS function: one taking or returning a v128 could not be called (a TypeError). Rust passes
   // SIMD values through memory, so none has; a change that made one would fail here, not in a page.
   const text = execFileSync(join(ROOT, 'node_modules/.bin/wasm-dis'), [...FEATURES, join(outDir, `${name}_bg.wasm`)], { maxBuffer: 1 << 30 }).toString();
