@@ -21,8 +21,10 @@
 // without it for model-viewer, which has none: what a sidecar costs the first frame), KLOUB_BENCH_WASM=1 (each run's
 // WebAssembly compilation until `load`, from a Chrome trace: V8 compiles a function with its baseline compiler,
 // Liftoff, when it is first called, on the thread that calls it, and recompiles the hot ones with TurboFan in the
-// background; Kloub only), KLOUB_BENCH_FLAGS (more chromium flags, space-separated, e.g.
-// '--js-flags=--no-wasm-lazy-compilation'), KLOUB_DIST (another build's web/dist: two builds, one run after the other).
+// background; Kloub only, and tracing slows its runs: read the ratios from runs without it), KLOUB_BENCH_FLAGS (more
+// chromium flags, separated by ';', e.g. '--js-flags=--no-wasm-lazy-compilation --trace-wasm-compilation-times': a
+// switch given twice keeps its last value, so an --enable-features= here replaces the WebGPU flags' own), KLOUB_DIST
+// (another build's web/dist: two builds, one run after the other).
 import { createServer } from 'node:http';
 import { mkdtempSync, readFileSync, rmSync, statSync } from 'node:fs';
 import { tmpdir } from 'node:os';
@@ -41,8 +43,8 @@ const TRACE = process.env.KLOUB_BENCH_TRACE === '1';
 const PROFILE_CPU = process.env.KLOUB_BENCH_PROFILE === '1';
 /** KLOUB_BENCH_WASM=1: each Kloub run's WebAssembly compilation until `load` (a Chrome trace's v8.wasm events). */
 const WASM = process.env.KLOUB_BENCH_WASM === '1';
-/** KLOUB_BENCH_FLAGS: more chromium flags (space-separated), e.g. V8's through --js-flags=. */
-const FLAGS = (process.env.KLOUB_BENCH_FLAGS ?? '').split(' ').filter(Boolean);
+/** KLOUB_BENCH_FLAGS: more chromium flags, separated by ';' (V8's go in one --js-flags=, separated by spaces). */
+const FLAGS = (process.env.KLOUB_BENCH_FLAGS ?? '').split(';').map((f) => f.trim()).filter(Boolean);
 /** KLOUB_BENCH_FOCUS: with the profile, the callees of the functions whose name contains this, inclusive. */
 const FOCUS = process.env.KLOUB_BENCH_FOCUS;
 const PROFILE = { offline: false, latency: 170, downloadThroughput: (9e6 / 8), uploadThroughput: (9e6 / 8) };
@@ -160,7 +162,18 @@ async function run(url) {
     await cdp.send('Profiler.start');
   }
   const trace = WASM && url.includes('/kloub.html') ? join(mkdtempSync(join(tmpdir(), 'kloub-trace-')), 'trace.json') : null;
-  if (trace) await browser.startTracing(page, { path: trace, categories: ['v8.wasm', 'devtools.timeline'] });
+  try {
+    if (trace) await browser.startTracing(page, { path: trace, categories: ['v8.wasm', 'devtools.timeline'] });
+    return await measure(browser, page, cdp, url, trace, () => bytes);
+  } finally {
+    if (trace) rmSync(resolve(trace, '..'), { recursive: true, force: true });
+    await context.close();
+    await browser.close();
+  }
+}
+
+/** The part of `run` between the navigation and the browser's closing: [ms to `load`, bytes, ms to the next frame]. */
+async function measure(browser, page, cdp, url, trace, bytes) {
   await page.goto(url);
   await page.waitForFunction(() => window.__painted !== undefined, null, { timeout: 120000, polling: 50 });
   const [ms, painted] = await page.evaluate(() => [window.__firstFrame, window.__painted]);
@@ -179,23 +192,22 @@ async function run(url) {
   if (trace) {
     await browser.stopTracing();
     printWasm(JSON.parse(readFileSync(trace, 'utf8')), ms);
-    rmSync(resolve(trace, '..'), { recursive: true, force: true });
   }
-  await context.close();
-  await browser.close();
-  return [ms, bytes, painted];
+  return [ms, bytes(), painted];
 }
 
 /**
  * The WebAssembly compilation in a Chrome trace until `untilMs` after the page's first request (within a few ms of the
  * navigation's start, the page clock's zero): when the module's compilation finished (its last byte arrived), and, on
  * the page's main thread and in the background, how long V8's compilers ran (wall clock, and the thread's CPU time:
- * on a busy machine a thread waits for a core), with the functions TurboFan took longest on.
+ * on a busy machine a thread waits for a core), in trace events (one may compile several functions).
  */
 function printWasm(json, untilMs) {
   const events = Array.isArray(json) ? json : json.traceEvents;
   const start = Math.min(...events.filter((e) => e.name === 'ResourceSendRequest').map((e) => e.ts));
-  const main = events.find((e) => e.ph === 'M' && e.name === 'thread_name' && e.args?.name === 'CrRendererMain');
+  // The page's renderer: the process that compiled its module (a trace holds every process's threads).
+  const renderer = events.find((e) => e.name === 'wasm.StartStreamingCompilation')?.pid;
+  const main = events.find((e) => e.ph === 'M' && e.name === 'thread_name' && e.pid === renderer && e.args?.name === 'CrRendererMain');
   const until = start + untilMs * 1000;
   const sums = new Map();
   for (const e of events) {

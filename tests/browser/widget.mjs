@@ -245,7 +245,8 @@ export function registerWidgetTests(test, backends) {
         assert(fetched.filter((g) => g === f).length === 1, `${f} fetched ${fetched.filter((g) => g === f).length} times`);
       }
       // The sidecar is read: a broken one fails the load with its JSON pointer, and the model stays.
-      await page.route('**/broken.kloub.json', (route) => route.fulfill({
+      // Only at the address relative to the model under the page's <base>: one resolved otherwise finds nothing.
+      await page.route(`${ctx.url}/assets/CesiumMan/broken.kloub.json`, (route) => route.fulfill({
         contentType: 'application/json',
         body: '{"examples": {"Skeleton_arm_joint_L__3_": [{"rotation": [0, 0, 0, 2], "offsets": ""}]}}',
       }));
