@@ -54,7 +54,7 @@ const FEATURES = ['--enable-simd', '--enable-bulk-memory', '--enable-nontrapping
 // once per model, were recompiled while the first frame was being made — ~300 ms of a core on a 2-core machine
 // before `load`, the rest of the page waiting for that core. Functions of over 2,000 expressions keep a body of
 // their own: the loops that get hot are compiled alone, in smaller pieces (~70 ms; each first half 2–3 KB gzip
-// smaller; BENCHMARKS.md "Time to first frame", stop 58).
+// smaller; BENCHMARKS.md "Time to first frame", stop 58). scripts/build-web.sh gives the full app and the codecs the same.
 const ONE_CALLER = ['--one-caller-inline-max-function-size=2000'];
 // What the first frames are profiled on: skinned, textured (PNG, JPEG), morphed, many clips, a sidecar, normal maps.
 const MODELS = ['Fox.glb', 'CesiumMan/CesiumMan.glb', 'RobotExpressive/RobotExpressive.glb',
