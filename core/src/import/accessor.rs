@@ -595,7 +595,12 @@ impl<'a> Accessors<'a> {
         let normalized = a.normalized;
         let mut out = self.allocate::<[f32; N]>(index, a.count, budget)?;
         if a.component == Component::F32 && self.dense_elements::<N, 4, _>(a, f32::from_le_bytes, &mut out)? {
-            if finite && let Some((i, e)) = out.iter().enumerate().find(|(_, e)| !e.iter().all(|x| x.is_finite())) {
+            // One pass without a branch a value; the element is looked for only to name it.
+            let all_finite = || out.as_flattened().iter().fold(true, |ok, x| ok & x.is_finite());
+            if finite
+                && !all_finite()
+                && let Some((i, e)) = out.iter().enumerate().find(|(_, e)| !e.iter().all(|x| x.is_finite()))
+            {
                 return Err(ImportError::new(
                     format!("/accessors/{index}"),
                     format!("element {i} is not finite: {e:?}"),
@@ -650,19 +655,24 @@ impl<'a> Accessors<'a> {
         let Some((region, stride)) = self.dense_region(a, S * N)? else {
             return Ok(false);
         };
-        // Each chunk below is one element's `S · N` bytes.
-        let convert = |bytes: &[u8]| {
-            let mut e = [T::default(); N];
-            for (v, &b) in e.iter_mut().zip(bytes.as_chunks::<S>().0) {
+        // The region holds `count` elements, `stride` bytes apart, the last one ending it. They
+        // are written over zeros as one flat run of components (a plain loop the compiler turns
+        // into a copy where `read` is one, as for little-endian floats; pushing element by
+        // element cost wasm a capacity check and a store per element).
+        let start = out.len();
+        out.resize(start + (region.len() - S * N) / stride + 1, [T::default(); N]);
+        let values = out[start..].as_flattened_mut();
+        if stride == S * N {
+            for (v, &b) in values.iter_mut().zip(region.as_chunks::<S>().0) {
                 *v = read(b);
             }
-            e
-        };
-        if stride == S * N {
-            out.extend(region.chunks_exact(S * N).map(convert));
         } else {
             // Interleaved: each chunk starts an element (the last may stop at its end).
-            out.extend(region.chunks(stride).filter_map(|c| c.get(..S * N)).map(convert));
+            for (e, c) in values.chunks_exact_mut(N).zip(region.chunks(stride)) {
+                for (v, &b) in e.iter_mut().zip(c.as_chunks::<S>().0) {
+                    *v = read(b);
+                }
+            }
         }
         Ok(true)
     }

@@ -186,8 +186,14 @@ fn parse_primitive(
         });
     }
     let material = opt_index(prim, "material", ptr, material_count, "material")?;
+    // Positions are finite (read so): a comparison, not `f32::min`, whose NaN rule wasm has no
+    // instruction for (a call a component).
+    let (lesser, greater) = (|a: f32, b: f32| if b < a { b } else { a }, |a: f32, b: f32| if b > a { b } else { a });
     let bounds = positions.iter().fold(([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]), |(lo, hi), p| {
-        ([lo[0].min(p[0]), lo[1].min(p[1]), lo[2].min(p[2])], [hi[0].max(p[0]), hi[1].max(p[1]), hi[2].max(p[2])])
+        (
+            [lesser(lo[0], p[0]), lesser(lo[1], p[1]), lesser(lo[2], p[2])],
+            [greater(hi[0], p[0]), greater(hi[1], p[1]), greater(hi[2], p[2])],
+        )
     });
     let primitive = Primitive {
         topology,

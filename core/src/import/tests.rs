@@ -770,6 +770,46 @@ fn skin_weights_are_renormalized_with_one_warning() {
 
 #[cfg_attr(not(target_arch = "wasm32"), test)]
 #[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+fn float_attributes_read_tight_and_interleaved_and_non_finite_ones_are_refused() {
+    // Positions and normals interleaved in one view (24-byte stride), the base's own positions
+    // tight: both read whole, in order, with their bounds.
+    let (mut doc, mut bin) = base();
+    let interleaved = f32s(&[
+        0.0, 0.0, 0.0, 0.0, 0.0, 1.0, //
+        2.0, -1.0, 0.5, 0.0, 0.0, 1.0, //
+        -3.0, 4.0, 0.25, 0.0, 1.0, 0.0,
+    ]);
+    let view = add_view(&mut doc, &mut bin, &interleaved, Some(24));
+    let p = add_accessor(&mut doc, json!({"bufferView": view, "componentType": 5126, "count": 3, "type": "VEC3"}));
+    let n = add_accessor(
+        &mut doc,
+        json!({"bufferView": view, "byteOffset": 12, "componentType": 5126, "count": 3, "type": "VEC3"}),
+    );
+    let mut two = doc.clone();
+    two["meshes"][0]["primitives"][0]["attributes"] = json!({"POSITION": p, "NORMAL": n});
+    let imported = run(&two, &bin).expect("interleaved");
+    let prim = &imported.asset.meshes[0].primitives[0];
+    assert_eq!(prim.positions, [[0.0, 0.0, 0.0], [2.0, -1.0, 0.5], [-3.0, 4.0, 0.25]]);
+    assert_eq!(prim.normals, [[0.0, 0.0, 1.0], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0]]);
+    assert_eq!(prim.bounds, ([-3.0, -1.0, 0.0], [2.0, 4.0, 0.5]));
+    let imported = run(&doc, &bin).expect("tight");
+    assert_eq!(imported.asset.meshes[0].primitives[0].positions, [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
+
+    // A NaN or an infinity in a vertex attribute would be drawn as nothing or everywhere:
+    // refused, naming the accessor and the element.
+    for (value, attribute) in [(f32::NAN, "POSITION"), (f32::INFINITY, "NORMAL")] {
+        let mut bad = bin.clone();
+        let at = bin.len() - interleaved.len() + 24 + if attribute == "NORMAL" { 16 } else { 4 };
+        bad[at..at + 4].copy_from_slice(&value.to_le_bytes());
+        let e = refused(&two, &bad);
+        let accessor = if attribute == "NORMAL" { n } else { p };
+        assert_eq!(e.pointer, format!("/accessors/{accessor}"), "{e}");
+        assert!(e.message.contains("element 1 is not finite"), "{e}");
+    }
+}
+
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
 fn nan_and_non_increasing_keys_are_dropped_with_a_warning() {
     let (doc, mut bin) = base();
     bin[48..52].copy_from_slice(&f32::NAN.to_le_bytes());
