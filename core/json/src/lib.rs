@@ -1,0 +1,343 @@
+//! The glTF JSON document as a tree that borrows its strings from the file's bytes.
+//!
+//! serde_json parses it (its recursion limit, its errors with line and column); this tree
+//! replaces `serde_json::Value`, which allocated a `String` for every key and string and a
+//! B-tree for every object: for a 2 MB JSON chunk (KayKit's Knight, 8,839 accessors) that was
+//! most of the import's time. Objects are sorted by key with duplicates resolved to the last
+//! (the reads and iteration order of `serde_json::Map`), and looked up by binary search.
+//!
+//! A crate of its own: serde_json's parser is generic, so its code is made in the crate that
+//! calls it, and the web bundle builds this one at opt-level 3 (the importer at "s"): the parse
+//! is a quarter of a small character's import (BENCHMARKS.md, "Import and decoding", stop 59).
+
+use serde::de::{Deserialize, DeserializeSeed, Deserializer, MapAccess, SeqAccess, Visitor};
+use std::borrow::Cow;
+use std::fmt;
+
+/// A JSON value whose strings borrow from the parsed bytes where they have no escapes.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Value<'j> {
+    Null,
+    Bool(bool),
+    Number(Number),
+    String(Cow<'j, str>),
+    Array(Vec<Value<'j>>),
+    Object(Map<'j>),
+}
+
+/// A JSON number as serde_json reads it: a non-negative integer, a negative one, or a float.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Number {
+    U(u64),
+    I(i64),
+    F(f64),
+}
+
+/// A JSON object: its members sorted by key, each key once.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Map<'j>(Vec<(Cow<'j, str>, Value<'j>)>);
+
+/// Parses `bytes` as one JSON value.
+pub fn parse(bytes: &[u8]) -> Result<Value<'_>, serde_json::Error> {
+    parse_counted(bytes).map(|(value, _)| value)
+}
+
+/// Parses `bytes` as one JSON value; also returns how many values were parsed (the root and
+/// every item and member, a repeated key's dropped values included: they were held while
+/// parsing).
+pub fn parse_counted(bytes: &[u8]) -> Result<(Value<'_>, u64), serde_json::Error> {
+    // Valid UTF-8 as a whole (checked in one vectorized pass): the parser need not check each
+    // string again. Anything else goes through the byte reader, which says where it fails.
+    match std::str::from_utf8(bytes) {
+        Ok(text) => parse_with(&mut serde_json::Deserializer::from_str(text)),
+        Err(_) => parse_with(&mut serde_json::Deserializer::from_slice(bytes)),
+    }
+}
+
+fn parse_with<'j, R: serde_json::de::Read<'j>>(
+    deserializer: &mut serde_json::Deserializer<R>,
+) -> Result<(Value<'j>, u64), serde_json::Error> {
+    let mut scratch = Scratch::default();
+    let value = Seed(&mut scratch).deserialize(&mut *deserializer)?;
+    deserializer.end()?;
+    Ok((value, 1 + scratch.nested))
+}
+
+impl<'j> Value<'j> {
+    /// The object, if this is one.
+    pub fn as_object(&self) -> Option<&Map<'j>> {
+        match self {
+            Value::Object(m) => Some(m),
+            _ => None,
+        }
+    }
+
+    /// The items, if this is an array.
+    pub fn as_array(&self) -> Option<&[Value<'j>]> {
+        match self {
+            Value::Array(items) => Some(items),
+            _ => None,
+        }
+    }
+
+    /// The string, if this is one.
+    pub fn as_str(&self) -> Option<&str> {
+        match self {
+            Value::String(s) => Some(s),
+            _ => None,
+        }
+    }
+
+    /// The boolean, if this is one.
+    pub fn as_bool(&self) -> Option<bool> {
+        match *self {
+            Value::Bool(b) => Some(b),
+            _ => None,
+        }
+    }
+
+    /// The number, if it is an integer from 0 to `u64::MAX` written without a fraction or
+    /// exponent (as `serde_json::Value::as_u64`).
+    pub fn as_u64(&self) -> Option<u64> {
+        match *self {
+            Value::Number(Number::U(n)) => Some(n),
+            _ => None,
+        }
+    }
+
+    /// Any number as `f64`.
+    pub fn as_f64(&self) -> Option<f64> {
+        match *self {
+            Value::Number(Number::U(n)) => Some(n as f64),
+            Value::Number(Number::I(n)) => Some(n as f64),
+            Value::Number(Number::F(x)) => Some(x),
+            _ => None,
+        }
+    }
+}
+
+impl<'j> Map<'j> {
+    /// The member `key`.
+    pub fn get(&self, key: &str) -> Option<&Value<'j>> {
+        if self.0.len() <= 12 {
+            // glTF's objects are small: comparing lengths first beats a binary search's memcmps.
+            return self.0.iter().find(|(k, _)| k.len() == key.len() && k.as_bytes() == key.as_bytes()).map(|(_, v)| v);
+        }
+        self.0.binary_search_by(|(k, _)| k.as_ref().cmp(key)).ok().map(|i| &self.0[i].1)
+    }
+
+    /// Whether the object has a member `key`.
+    pub fn contains_key(&self, key: &str) -> bool {
+        self.get(key).is_some()
+    }
+
+    /// The members in key order.
+    pub fn iter(&self) -> impl Iterator<Item = (&str, &Value<'j>)> {
+        self.0.iter().map(|(k, v)| (k.as_ref(), v))
+    }
+
+    /// The members as written, sorted by key, a repeated key's last value kept.
+    fn from_members(mut members: Vec<(Cow<'j, str>, Value<'j>)>) -> Self {
+        if members.windows(2).any(|w| w[0].0 >= w[1].0) {
+            // Stable: of equal keys the last written stays last, and is the one kept.
+            members.sort_by(|a, b| a.0.cmp(&b.0));
+            let mut kept = 0;
+            for i in 0..members.len() {
+                if members.get(i + 1).is_some_and(|next| next.0 == members[i].0) {
+                    continue;
+                }
+                members.swap(kept, i);
+                kept += 1;
+            }
+            members.truncate(kept);
+        }
+        Map(members)
+    }
+}
+
+impl<'a, 'j> IntoIterator for &'a Map<'j> {
+    type Item = (&'a str, &'a Value<'j>);
+    type IntoIter = std::iter::Map<
+        std::slice::Iter<'a, (Cow<'j, str>, Value<'j>)>,
+        fn(&'a (Cow<'j, str>, Value<'j>)) -> (&'a str, &'a Value<'j>),
+    >;
+    fn into_iter(self) -> Self::IntoIter {
+        self.0.iter().map(|(k, v)| (k.as_ref(), v))
+    }
+}
+
+/// Compact JSON, as `serde_json::Value` writes itself (used in messages: "got {v}").
+impl fmt::Display for Value<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Value::Null => f.write_str("null"),
+            Value::Bool(b) => write!(f, "{b}"),
+            Value::Number(Number::U(n)) => write!(f, "{n}"),
+            Value::Number(Number::I(n)) => write!(f, "{n}"),
+            Value::Number(Number::F(x)) => write!(f, "{x:?}"),
+            Value::String(s) => write_string(f, s),
+            Value::Array(items) => {
+                f.write_str("[")?;
+                for (i, item) in items.iter().enumerate() {
+                    if i > 0 {
+                        f.write_str(",")?;
+                    }
+                    write!(f, "{item}")?;
+                }
+                f.write_str("]")
+            }
+            Value::Object(map) => {
+                f.write_str("{")?;
+                for (i, (k, v)) in map.iter().enumerate() {
+                    if i > 0 {
+                        f.write_str(",")?;
+                    }
+                    write_string(f, k)?;
+                    write!(f, ":{v}")?;
+                }
+                f.write_str("}")
+            }
+        }
+    }
+}
+
+/// `s` as a JSON string literal.
+fn write_string(f: &mut fmt::Formatter<'_>, s: &str) -> fmt::Result {
+    f.write_str("\"")?;
+    for c in s.chars() {
+        match c {
+            '"' => f.write_str("\\\"")?,
+            '\\' => f.write_str("\\\\")?,
+            '\n' => f.write_str("\\n")?,
+            '\r' => f.write_str("\\r")?,
+            '\t' => f.write_str("\\t")?,
+            c if u32::from(c) < 0x20 => write!(f, "\\u{:04x}", u32::from(c))?,
+            c => write!(f, "{c}")?,
+        }
+    }
+    f.write_str("\"")
+}
+
+/// A key or string: borrowed where the file has it without escapes.
+struct Str<'j>(Cow<'j, str>);
+
+impl<'de> Deserialize<'de> for Str<'de> {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct StrVisitor;
+        impl<'de> Visitor<'de> for StrVisitor {
+            type Value = Str<'de>;
+            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str("a string")
+            }
+            fn visit_borrowed_str<E: serde::de::Error>(self, v: &'de str) -> Result<Str<'de>, E> {
+                Ok(Str(Cow::Borrowed(v)))
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<Str<'de>, E> {
+                Ok(Str(Cow::Owned(v.to_owned())))
+            }
+        }
+        d.deserialize_str(StrVisitor)
+    }
+}
+
+/// The items and members of the arrays and objects being parsed, as a stack: each array or
+/// object is moved out into a vector of its exact size once complete (no vector grows item by
+/// item, which for a large document was a good part of its parse).
+#[derive(Default)]
+struct Scratch<'de> {
+    items: Vec<Value<'de>>,
+    members: Vec<(Cow<'de, str>, Value<'de>)>,
+    /// The items and members parsed so far (every value but the root).
+    nested: u64,
+}
+
+/// Deserializes one value with the shared scratch stacks.
+struct Seed<'s, 'de>(&'s mut Scratch<'de>);
+
+impl<'de> DeserializeSeed<'de> for Seed<'_, 'de> {
+    type Value = Value<'de>;
+    fn deserialize<D: Deserializer<'de>>(self, d: D) -> Result<Value<'de>, D::Error> {
+        d.deserialize_any(self)
+    }
+}
+
+impl<'de> Visitor<'de> for Seed<'_, 'de> {
+    type Value = Value<'de>;
+
+    fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("any JSON value")
+    }
+    fn visit_unit<E: serde::de::Error>(self) -> Result<Value<'de>, E> {
+        Ok(Value::Null)
+    }
+    fn visit_bool<E: serde::de::Error>(self, v: bool) -> Result<Value<'de>, E> {
+        Ok(Value::Bool(v))
+    }
+    fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<Value<'de>, E> {
+        Ok(Value::Number(Number::U(v)))
+    }
+    fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<Value<'de>, E> {
+        // serde_json hands non-negative integers to visit_u64; this keeps `as_u64` alike anyway.
+        Ok(Value::Number(u64::try_from(v).map_or(Number::I(v), Number::U)))
+    }
+    fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<Value<'de>, E> {
+        if v.is_finite() { Ok(Value::Number(Number::F(v))) } else { Err(E::custom("a number out of range")) }
+    }
+    fn visit_borrowed_str<E: serde::de::Error>(self, v: &'de str) -> Result<Value<'de>, E> {
+        Ok(Value::String(Cow::Borrowed(v)))
+    }
+    fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<Value<'de>, E> {
+        Ok(Value::String(Cow::Owned(v.to_owned())))
+    }
+    fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Value<'de>, A::Error> {
+        let start = self.0.items.len();
+        while let Some(item) = seq.next_element_seed(Seed(&mut *self.0))? {
+            self.0.items.push(item);
+        }
+        self.0.nested += (self.0.items.len() - start) as u64;
+        Ok(Value::Array(self.0.items.drain(start..).collect()))
+    }
+    fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Value<'de>, A::Error> {
+        let start = self.0.members.len();
+        while let Some(Str(key)) = map.next_key()? {
+            let value = map.next_value_seed(Seed(&mut *self.0))?;
+            self.0.members.push((key, value));
+        }
+        self.0.nested += (self.0.members.len() - start) as u64;
+        Ok(Value::Object(Map::from_members(self.0.members.drain(start..).collect())))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reads_like_serde_json() {
+        let text = br#"{"b": [1, -2, 1.5, "x\"y", null, true], "a": {"k": 1, "k": 2}, "c": "plain"}"#;
+        let v = parse(text).expect("parses");
+        let expected: serde_json::Value = serde_json::from_slice(text).expect("parses");
+        assert_eq!(v.to_string(), expected.to_string());
+        let o = v.as_object().expect("object");
+        assert_eq!(o.iter().map(|(k, _)| k).collect::<Vec<_>>(), ["a", "b", "c"]);
+        assert_eq!(o.get("a").and_then(Value::as_object).and_then(|a| a.get("k")).and_then(Value::as_u64), Some(2));
+        assert!(matches!(o.get("c"), Some(Value::String(Cow::Borrowed("plain")))), "not borrowed");
+        let b = o.get("b").and_then(Value::as_array).expect("array");
+        assert_eq!((b[0].as_u64(), b[1].as_u64(), b[1].as_f64(), b[2].as_u64()), (Some(1), None, Some(-2.0), None));
+        assert_eq!(b[3].as_str(), Some("x\"y"));
+        assert!(parse(b"{\"a\": 1e400}").is_err());
+        let deep = format!("{}{}", "[".repeat(200), "]".repeat(200));
+        assert!(parse(deep.as_bytes()).is_err(), "serde_json's recursion limit");
+        assert!(parse(b"{\"a\": 1,}").expect_err("trailing comma").to_string().contains("line 1"));
+    }
+
+    #[test]
+    fn counts_every_value() {
+        // The root, "a" and its two items, "b", "c" and its item: 7 values.
+        let (_, values) = parse_counted(br#"{"a": [1, "x"], "b": {}, "c": {"d": null}}"#).expect("parses");
+        assert_eq!(values, 7);
+        assert_eq!(parse_counted(b"3").expect("parses").1, 1);
+        assert_eq!(parse_counted(b"[[], [[]]]").expect("parses").1, 4);
+        assert_eq!(parse_counted(br#"{"a": 1, "a": [2]}"#).expect("parses").1, 4);
+    }
+}
