@@ -27,9 +27,8 @@ minify() { # source, destination
   node_modules/.bin/esbuild "$1" --minify --format=esm --log-level=warning --legal-comments=inline > "$2.new"
   if cmp -s "$2.new" "$2"; then rm "$2.new"; else mv "$2.new" "$2"; fi
 }
-# Large functions with one caller are not inlined, as in the light widgets' halves (scripts/wasm-split.mjs, ONE_CALLER,
-# says why): the same setting for every module.
-ONE_CALLER=--one-caller-inline-max-function-size=2000
+# wasm-opt's flags after -Oz, the same for every module (scripts/wasm-opt.flags says why each).
+mapfile -t WASM_OPT_FLAGS < <(grep -v '^#' scripts/wasm-opt.flags | grep .)
 build_one() { # name, cargo feature flags... (KLOUB_PACKAGE: the crate, default kloub-web)
   local name=$1; shift
   local package=${KLOUB_PACKAGE:-kloub-web}
@@ -43,7 +42,7 @@ build_one() { # name, cargo feature flags... (KLOUB_PACKAGE: the crate, default 
   local split=${KLOUB_SPLIT:-}
   [ "${KLOUB_WASM_OPT:-1}" = 1 ] || split=
   local sum stamp="$DIST/.wasm-opt-input-$name"
-  sum="$(sha256sum "target/wasm-bindgen/${name}_bg.wasm" | cut -d' ' -f1) opt=${KLOUB_WASM_OPT:-1} $ONE_CALLER"
+  sum="$(sha256sum "target/wasm-bindgen/${name}_bg.wasm" | cut -d' ' -f1) opt=${KLOUB_WASM_OPT:-1} ${WASM_OPT_FLAGS[*]}"
   # The split also depends on the glue it patches, the element and profile pages that run, and binaryen's version.
   [ -z "$split" ] || sum="$sum split=$split names=${KLOUB_SPLIT_NAMES:-0} $(cat scripts/wasm-split.mjs web/kloub-viewer.js \
     "target/wasm-bindgen/$name.js" | sha256sum | cut -d' ' -f1) $(wasm-split --version 2>/dev/null | head -1 || true)"
@@ -56,9 +55,7 @@ build_one() { # name, cargo feature flags... (KLOUB_PACKAGE: the crate, default 
       node scripts/wasm-split.mjs "$name" "$split" "target/wasm-bindgen/${name}_bg.wasm" \
         "target/wasm-bindgen/$name.js" "$DIST" "$glue"
     elif [ "${KLOUB_WASM_OPT:-1}" = 1 ]; then
-      node_modules/.bin/wasm-opt -Oz "$ONE_CALLER" --enable-bulk-memory --enable-nontrapping-float-to-int \
-        --enable-sign-ext --enable-mutable-globals --enable-reference-types --enable-multivalue --enable-simd \
-        "target/wasm-bindgen/${name}_bg.wasm" -o "$DIST/${name}_bg.wasm"
+      node_modules/.bin/wasm-opt -Oz "${WASM_OPT_FLAGS[@]}" "target/wasm-bindgen/${name}_bg.wasm" -o "$DIST/${name}_bg.wasm"
     else
       cp "target/wasm-bindgen/${name}_bg.wasm" "$DIST/${name}_bg.wasm"
     fi

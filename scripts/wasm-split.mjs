@@ -18,7 +18,7 @@
 //    The primary imports a placeholder (namespace `placeholder`, named by its table slot) for each function moved:
 //    every call to one goes through the function table. The secondary imports the primary's memory, tables, globals
 //    and the functions it calls (exported with the prefix `%`), and its element segment writes its functions over the
-//    placeholders when it is instantiated. wasm-opt -Oz (large functions with one caller not inlined: ONE_CALLER)
+//    placeholders when it is instantiated. wasm-opt -Oz (with scripts/wasm-opt.flags: large functions with one caller not inlined)
 //    then runs on each (splitting the unoptimised module and
 //    optimising each half gives a primary ~60 KB gzip smaller than splitting the optimised one: the whole
 //    program's inlining merges functions a first frame needs with ones it does not). Both halves are then
@@ -46,16 +46,11 @@ if (!glueOut || !['webgpu', 'webgl2'].includes(backend)) {
   console.error('usage: node scripts/wasm-split.mjs <name> <webgpu|webgl2> <bindgen wasm> <bindgen glue> <out dir> <glue out>');
   process.exit(2);
 }
-const FEATURES = ['--enable-simd', '--enable-bulk-memory', '--enable-nontrapping-float-to-int', '--enable-sign-ext',
-  '--enable-mutable-globals', '--enable-multivalue', '--enable-reference-types'];
-// binaryen inlines every function that has one caller, whatever its size (`-ocimfs` -1): the whole importer became
-// one 99 KB function, the upload of a model's buffers and textures another 24 KB. V8 compiles a function with its
-// optimising compiler (TurboFan) once it has run long enough, and a loop inlined into it counts: those two, each run
-// once per model, were recompiled while the first frame was being made — ~300 ms of a core on a 2-core machine
-// before `load`, the rest of the page waiting for that core. Functions of over 2,000 expressions keep a body of
-// their own: the loops that get hot are compiled alone, in smaller pieces (~70 ms; each first half 2–3 KB gzip
-// smaller; BENCHMARKS.md "Time to first frame", stop 58). scripts/build-web.sh gives the full app and the codecs the same.
-const ONE_CALLER = ['--one-caller-inline-max-function-size=2000'];
+// wasm-opt's flags after -Oz (scripts/wasm-opt.flags, shared with build-web.sh, says why each); the WebAssembly
+// features among them also for wasm-split and wasm-dis.
+const OPT_FLAGS = readFileSync(join(ROOT, 'scripts/wasm-opt.flags'), 'utf8').split('\n').map((l) => l.trim())
+  .filter((l) => l && !l.startsWith('#'));
+const FEATURES = OPT_FLAGS.filter((f) => f.startsWith('--enable-'));
 // What the first frames are profiled on: skinned, textured (PNG, JPEG), morphed, many clips, a sidecar, normal maps.
 const MODELS = ['Fox.glb', 'CesiumMan/CesiumMan.glb', 'RobotExpressive/RobotExpressive.glb',
   'AnimatedMorphSphere/AnimatedMorphSphere.glb', 'RiggedFigure/RiggedFigure.glb', 'Knight/Knight.glb'];
@@ -454,9 +449,9 @@ try {
   // Each placeholder's slot and function, for a page that had to load the second half early (`restFirstCall`).
   writeFileSync(join(resolve(glueOut, '..'), `${name}.placeholders`), readFileSync(`${primary}.placeholders`));
   const wasmOpt = join(ROOT, 'node_modules/.bin/wasm-opt');
-  run(wasmOpt, ['-Oz', ...ONE_CALLER, ...names, ...FEATURES, primary, '-o', join(outDir, `${name}_bg.wasm`)]);
+  run(wasmOpt, ['-Oz', ...OPT_FLAGS, ...names, primary, '-o', join(outDir, `${name}_bg.wasm`)]);
   fixExternrefExport(join(outDir, `${name}_bg.wasm`));
-  run(wasmOpt, ['-Oz', ...ONE_CALLER, ...FEATURES, secondary, '-o', join(outDir, `${name}_rest_bg.wasm`)]);
+  run(wasmOpt, ['-Oz', ...OPT_FLAGS, secondary, '-o', join(outDir, `${name}_rest_bg.wasm`)]);
   // A placeholder is a JS function: one taking or returning a v128 could not be called (a TypeError). Rust passes
   // SIMD values through memory, so none has; a change that made one would fail here, not in a page.
   const text = execFileSync(join(ROOT, 'node_modules/.bin/wasm-dis'), [...FEATURES, join(outDir, `${name}_bg.wasm`)], { maxBuffer: 1 << 30 }).toString();
