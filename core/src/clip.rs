@@ -181,13 +181,20 @@ struct Plan {
 
 impl Plan {
     fn new(channels: &[Channel]) -> Self {
-        let mut targets = std::collections::HashMap::new();
-        for c in channels {
-            *targets.entry((c.node, c.target as u8)).or_insert(0u32) += 1;
-        }
         // A property animated by several channels (the spec forbids it; files do it): the last
         // one wins, as in the file's order, so those are sampled one at a time, in that order.
-        let alone: Vec<bool> = channels.iter().map(|c| targets.get(&(c.node, c.target as u8)) == Some(&1)).collect();
+        // Found by sorting the channels by their property (neighbours then share it).
+        let mut by_target: Vec<(NodeIndex, u8, u32)> =
+            channels.iter().enumerate().map(|(i, c)| (c.node, c.target as u8, i as u32)).collect();
+        by_target.sort_unstable();
+        let mut alone = vec![true; channels.len()];
+        for pair in by_target.windows(2) {
+            let [(node_a, target_a, a), (node_b, target_b, b)] = [pair[0], pair[1]];
+            if (node_a, target_a) == (node_b, target_b) {
+                alone[a as usize] = false;
+                alone[b as usize] = false;
+            }
+        }
         // A malformed channel is never "constant": sampling it must report it.
         let constant: Vec<bool> =
             channels.iter().zip(&alone).map(|(c, &alone)| alone && c.is_well_formed() && is_constant(c)).collect();
@@ -225,22 +232,36 @@ fn group(channels: &[Channel], packable: &[bool]) -> (Vec<Members>, Vec<u32>) {
     let mut reps: HashMap<u64, Vec<u32>> = HashMap::new();
     let mut index: HashMap<(u8, u32), usize> = HashMap::new();
     let (mut groups, mut singles): (Vec<Members>, Vec<u32>) = (Vec::new(), Vec::new());
+    // The last channel's `times_of`: files mostly give the channels of an animation one key-time
+    // accessor, so a comparison with it mostly spares the hash.
+    let mut last: Option<u32> = None;
     for (i, c) in channels.iter().enumerate() {
         let i = i as u32;
         if !packable[i as usize] {
             singles.push(i);
             continue;
         }
-        let mut hasher = std::collections::hash_map::DefaultHasher::new();
-        c.times.iter().for_each(|t| t.to_bits().hash(&mut hasher));
-        let candidates = reps.entry(hasher.finish()).or_default();
-        let times_of = match candidates.iter().find(|&&r| channels[r as usize].times == c.times) {
-            Some(&r) => r,
+        let times_of = match last.filter(|&r| channels[r as usize].times == c.times) {
+            Some(r) => r,
             None => {
-                candidates.push(i);
-                i
+                let mut hasher = std::collections::hash_map::DefaultHasher::new();
+                c.times.iter().for_each(|t| t.to_bits().hash(&mut hasher));
+                let candidates = reps.entry(hasher.finish()).or_default();
+                match candidates.iter().find(|&&r| channels[r as usize].times == c.times) {
+                    Some(&r) => r,
+                    None => {
+                        candidates.push(i);
+                        i
+                    }
+                }
             }
         };
+        last = Some(times_of);
+        // Channels of one property and key times mostly come one after another.
+        if let Some(g) = groups.last_mut().filter(|g| g.target == c.target && g.times_of == times_of) {
+            g.list.push(i);
+            continue;
+        }
         match index.entry((c.target as u8, times_of)) {
             Entry::Occupied(g) => groups[*g.get()].list.push(i),
             Entry::Vacant(slot) => {
@@ -262,12 +283,16 @@ fn pack(channels: &[Channel], members: Vec<Members>) -> Vec<LaneGroup> {
             let keys = channels[times_of as usize].times.len();
             let blocks = list.len().div_ceil(4);
             let mut values = vec![glam::Vec4::ZERO; keys * blocks * width];
-            for (m, &c) in list.iter().enumerate() {
-                let (block, lane) = (m / 4, m % 4);
-                for (k, element) in channels[c as usize].values.chunks_exact(width).enumerate() {
-                    for (component, &x) in element.iter().enumerate() {
-                        values[(k * blocks + block) * width + component][lane] = x;
-                    }
+            for (block, members) in list.chunks(4).enumerate() {
+                // The members' values, a lane each (the last block's missing lanes stay zero).
+                let mut lanes: [&[f32]; 4] = [&[]; 4];
+                for (lane, &c) in lanes.iter_mut().zip(members) {
+                    *lane = &channels[c as usize].values;
+                }
+                if target == ChannelTarget::Rotation {
+                    pack_block::<4>(&mut values, blocks, block, lanes, glam::Vec4::from_array);
+                } else {
+                    pack_block::<3>(&mut values, blocks, block, lanes, |e| glam::Vec3::from_array(e).extend(0.0));
                 }
             }
             let nodes = list.iter().map(|&c| channels[c as usize].node).collect();
@@ -277,6 +302,29 @@ fn pack(channels: &[Channel], members: Vec<Members>) -> Vec<LaneGroup> {
         .collect();
     groups.sort_by_key(|g| g.times_of);
     groups
+}
+
+/// Lays out block `block` of a group of `W`-float elements (of `blocks`) in `values`
+/// ([`LaneGroup::values`]): `lanes` holds its members' values, a member a lane (empty for a
+/// padding lane, which stays zero); `vec4` widens an element to four floats.
+fn pack_block<const W: usize>(
+    values: &mut [glam::Vec4],
+    blocks: usize,
+    block: usize,
+    lanes: [&[f32]; 4],
+    vec4: impl Fn([f32; W]) -> glam::Vec4,
+) {
+    let lanes = lanes.map(|values| values.as_chunks::<W>().0);
+    for (k, key) in values.chunks_exact_mut(blocks * W).enumerate() {
+        let element = |lane: &[[f32; W]]| lane.get(k).map_or(glam::Vec4::ZERO, |&e| vec4(e));
+        let [a, b, c, d] = lanes;
+        // Members as columns, transposed: the rows are the components of the four members.
+        let rows = glam::Mat4::from_cols(element(a), element(b), element(c), element(d)).transpose();
+        let rows = [rows.x_axis, rows.y_axis, rows.z_axis, rows.w_axis];
+        for (out, row) in key.iter_mut().skip(block * W).take(W).zip(rows) {
+            *out = row;
+        }
+    }
 }
 
 /// [`LaneGroup::angles`] of rotation values laid out as in [`LaneGroup::values`].

@@ -113,11 +113,82 @@ fn channel_from_sampler(
         ));
     }
 
-    // Compact the keys in place, dropping bad ones.
     let normalize = target == ChannelTarget::Rotation && interpolation != Interpolation::CubicSpline;
-    let (mut kept, mut dropped, mut renormalized) = (0usize, 0usize, 0usize);
-    let mut last: Option<f32> = None;
-    for k in 0..keys {
+    // Files as exporters write them keep every key: times and values are checked in one pass
+    // each, the rotations made unit in another; a key to drop sends the rest to `compact_keys`.
+    let (kept, dropped, renormalized) = match keys_are_sound(&times, &values) {
+        true if normalize => match normalize_rotations(&mut values) {
+            Ok(renormalized) => (keys, 0, renormalized),
+            Err((start, renormalized)) => compact_keys(&mut times, &mut values, per_key, true, start, renormalized),
+        },
+        true => (keys, 0, 0),
+        false => compact_keys(&mut times, &mut values, per_key, normalize, 0, 0),
+    };
+    times.truncate(kept);
+    values.truncate(kept * per_key);
+    if renormalized > 0 {
+        cx.warn(optr, format!("{renormalized} rotation keyframes were not unit quaternions; normalized"));
+    }
+    if dropped > 0 {
+        cx.warn(
+            *sptr,
+            format!("dropped {dropped} of {keys} keyframes (non-finite or non-increasing time, or non-finite value)"),
+        );
+    }
+    if kept == 0 {
+        cx.warn(*sptr, "no usable keyframes; channel ignored");
+        return Ok(None);
+    }
+    if interpolation == Interpolation::CubicSpline && kept < 2 {
+        cx.warn(*sptr, "CUBICSPLINE needs at least 2 keyframes; the one key's value is held");
+    }
+    Ok(Some(Channel { node, target, interpolation, times, values, width: width as u32 }))
+}
+
+/// Whether the times are finite and strictly increasing and the values finite: one pass over
+/// each, without a branch a value.
+fn keys_are_sound(times: &[f32], values: &[f32]) -> bool {
+    let mut sound = true;
+    let mut last = f32::NEG_INFINITY;
+    for &t in times {
+        // NaN is not greater than anything; +∞ is greater but not finite.
+        sound &= (t > last) & t.is_finite();
+        last = t;
+    }
+    sound & values.iter().fold(true, |ok, v| ok & v.is_finite())
+}
+
+/// Divides each rotation (four finite floats) by its length, as [`unit_with_length`] does: how
+/// many were more than 1e-3 from unit; or, at the first one with no direction, its index and that
+/// count so far (the rotations before it made unit).
+fn normalize_rotations(values: &mut [f32]) -> Result<usize, (usize, usize)> {
+    let mut renormalized = 0;
+    for (i, q) in values.as_chunks_mut::<4>().0.iter_mut().enumerate() {
+        let Some((unit, len)) = unit_with_length(Vec4::from_array(*q)) else {
+            return Err((i, renormalized));
+        };
+        *q = unit.to_array();
+        renormalized += usize::from((len - 1.0).abs() > 1e-3);
+    }
+    Ok(renormalized)
+}
+
+/// Compacts the keys in place, dropping bad ones (see [`channel_from_sampler`]) and making
+/// rotations unit where `normalize`: (kept, dropped, renormalized). `values` holds `per_key`
+/// floats a key. The first `start` keys are already kept (and made unit: `renormalized` of them
+/// were not).
+fn compact_keys(
+    times: &mut [f32],
+    values: &mut [f32],
+    per_key: usize,
+    normalize: bool,
+    start: usize,
+    renormalized: usize,
+) -> (usize, usize, usize) {
+    let keys = times.len();
+    let (mut kept, mut dropped, mut renormalized) = (start, 0usize, renormalized);
+    let mut last: Option<f32> = start.checked_sub(1).and_then(|k| times.get(k).copied());
+    for k in start..keys {
         let t = times[k];
         let range = k * per_key..(k + 1) * per_key;
         let mut ok = t.is_finite() && last.is_none_or(|l| t > l) && values[range.clone()].iter().all(|v| v.is_finite());
@@ -141,23 +212,5 @@ fn channel_from_sampler(
         kept += 1;
         last = Some(t);
     }
-    times.truncate(kept);
-    values.truncate(kept * per_key);
-    if renormalized > 0 {
-        cx.warn(optr, format!("{renormalized} rotation keyframes were not unit quaternions; normalized"));
-    }
-    if dropped > 0 {
-        cx.warn(
-            *sptr,
-            format!("dropped {dropped} of {keys} keyframes (non-finite or non-increasing time, or non-finite value)"),
-        );
-    }
-    if kept == 0 {
-        cx.warn(*sptr, "no usable keyframes; channel ignored");
-        return Ok(None);
-    }
-    if interpolation == Interpolation::CubicSpline && kept < 2 {
-        cx.warn(*sptr, "CUBICSPLINE needs at least 2 keyframes; the one key's value is held");
-    }
-    Ok(Some(Channel { node, target, interpolation, times, values, width: width as u32 }))
+    (kept, dropped, renormalized)
 }

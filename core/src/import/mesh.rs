@@ -299,8 +299,8 @@ fn renormalize_four(j: &mut [u16; 8], w: &mut [f32; 8]) -> (bool, Option<u16>) {
         defect |= (sum - 1.0).abs() > WEIGHT_SUM_TOLERANCE;
         v / sum
     };
-    w[..4].copy_from_slice(&v.to_array());
-    (defect, weighted_joints(&mut j[..4], &w[..4]))
+    [w[0], w[1], w[2], w[3]] = v.to_array();
+    (defect, weighted_joints::<4>(j, w))
 }
 
 /// Renormalizes one vertex's eight weights (negative or non-finite ones zeroed; all zero:
@@ -325,13 +325,14 @@ fn renormalize_eight(j: &mut [u16; 8], w: &mut [f32; 8]) -> (bool, Option<u16>) 
             *x /= sum;
         }
     }
-    (defect, weighted_joints(j, w))
+    (defect, weighted_joints::<8>(j, w))
 }
 
-/// Points the zero-weight slots at joint 0; returns the largest joint with a weight.
-fn weighted_joints(j: &mut [u16], w: &[f32]) -> Option<u16> {
+/// Points the zero-weight slots among the first `N` at joint 0; returns the largest joint with
+/// a weight.
+fn weighted_joints<const N: usize>(j: &mut [u16; 8], w: &[f32; 8]) -> Option<u16> {
     let mut most: Option<u16> = None;
-    for (joint, &weight) in j.iter_mut().zip(w) {
+    for (joint, &weight) in j.iter_mut().zip(w).take(N) {
         if weight == 0.0 {
             *joint = 0;
         } else {

@@ -847,6 +847,66 @@ fn nan_and_non_increasing_keys_are_dropped_with_a_warning() {
 
 #[cfg_attr(not(target_arch = "wasm32"), test)]
 #[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+fn rotation_keys_are_made_unit_and_those_with_no_direction_dropped() {
+    // Each rotation divided by its length (the reader's rule); a key with no direction, zero or
+    // too long for f32, is dropped wherever it is (first, between, last) and the keys after it
+    // move up.
+    let unit = |q: [f32; 4]| {
+        let v = crate::math::Vec4::from_array(q);
+        (v / v.length()).to_array()
+    };
+    let keys: [[f32; 4]; 6] = [
+        [0.0, 0.0, 0.0, 1.0],
+        [0.0, 0.0, 0.0, 0.0],
+        [0.0, 2.0, 0.0, 0.0],
+        [0.6, 0.0, 0.0, 0.8],
+        [1e30, 1e30, 0.0, 0.0],
+        [0.0, 0.0, 0.5, 0.5],
+    ];
+    for (skipped, kept, renormalized) in [
+        (vec![], vec![0, 2, 3, 5], 2),
+        (vec![1, 4], vec![0, 2, 3, 5], 2),
+        (vec![0, 2, 3, 5], vec![], 0),
+        (vec![1, 4, 5], vec![0, 2, 3], 1),
+        (vec![0, 1, 4, 5], vec![2, 3], 1),
+        (vec![0, 2, 4, 5], vec![3], 0),
+    ] {
+        let listed: Vec<usize> = (0..keys.len()).filter(|k| !skipped.contains(k)).collect();
+        let (mut doc, mut bin) = base();
+        let times: Vec<f32> = listed.iter().map(|&k| k as f32).collect();
+        let values: Vec<f32> = listed.iter().flat_map(|&k| keys[k]).collect();
+        let tv = add_view(&mut doc, &mut bin, &f32s(&times), None);
+        let vv = add_view(&mut doc, &mut bin, &f32s(&values), None);
+        let count = listed.len();
+        let t =
+            add_accessor(&mut doc, json!({"bufferView": tv, "componentType": 5126, "count": count, "type": "SCALAR"}));
+        let v =
+            add_accessor(&mut doc, json!({"bufferView": vv, "componentType": 5126, "count": count, "type": "VEC4"}));
+        doc["animations"][0]["samplers"][0] = json!({"input": t, "output": v});
+        doc["animations"][0]["channels"][0]["target"]["path"] = json!("rotation");
+        let imported = run(&doc, &bin).expect("repaired");
+        let messages: Vec<&str> = imported.warnings.iter().map(|w| w.message.as_str()).collect();
+        let Some(c) = imported.asset.clips[0].channels().first() else {
+            assert!(kept.is_empty() && messages.iter().any(|m| m.contains("no usable keyframes")), "{messages:?}");
+            continue;
+        };
+        let expected_times: Vec<f32> = kept.iter().map(|&k| k as f32).collect();
+        let expected_values: Vec<f32> = kept.iter().flat_map(|&k| unit(keys[k])).collect();
+        assert_eq!(c.times, expected_times, "{listed:?}");
+        assert_eq!(c.values, expected_values, "{listed:?}");
+        let dropped = count - kept.len();
+        assert_eq!(
+            messages.iter().any(|m| m.contains(&format!("dropped {dropped} of {count}"))),
+            dropped > 0,
+            "{messages:?}"
+        );
+        let normalized = format!("{renormalized} rotation keyframes were not unit quaternions");
+        assert_eq!(messages.iter().any(|m| m.contains(&normalized)), renormalized > 0, "{messages:?}");
+    }
+}
+
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
 fn infinite_key_times_and_nan_values_are_dropped_with_a_warning() {
     let (mut doc, mut bin) = base();
     let times = [f32::NEG_INFINITY, 0.0, f32::INFINITY, 1.0, 2.0, f32::NAN];
