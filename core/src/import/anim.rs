@@ -145,17 +145,26 @@ fn channel_from_sampler(
     Ok(Some(Channel { node, target, interpolation, times, values, width: width as u32 }))
 }
 
-/// Whether the times are finite and strictly increasing and the values finite: one pass over
-/// each, without a branch a value.
+/// Whether the times are finite and strictly increasing and the values finite: four at a time,
+/// without a branch a value.
 fn keys_are_sound(times: &[f32], values: &[f32]) -> bool {
-    let mut sound = true;
-    let mut last = f32::NEG_INFINITY;
-    for &t in times {
-        // NaN is not greater than anything; +∞ is greater but not finite.
-        sound &= (t > last) & t.is_finite();
-        last = t;
-    }
-    sound & values.iter().fold(true, |ok, v| ok & v.is_finite())
+    use glam::BVec4A;
+    let finite = |xs: &[f32]| {
+        let (fours, rest) = xs.as_chunks::<4>();
+        let lanes = fours.iter().fold(BVec4A::splat(true), |ok, &x| ok & Vec4::from_array(x).is_finite_mask());
+        lanes.all() & rest.iter().fold(true, |ok, x| ok & x.is_finite())
+    };
+    // Each time against the one before it (NaN is greater than nothing).
+    let (earlier, later) = (times.get(..times.len().saturating_sub(1)).unwrap_or(&[]), times.get(1..).unwrap_or(&[]));
+    let (earlier_fours, earlier_rest) = earlier.as_chunks::<4>();
+    let (later_fours, later_rest) = later.as_chunks::<4>();
+    let increasing = earlier_fours
+        .iter()
+        .zip(later_fours)
+        .fold(BVec4A::splat(true), |ok, (&a, &b)| ok & Vec4::from_array(b).cmpgt(Vec4::from_array(a)))
+        .all()
+        & earlier_rest.iter().zip(later_rest).fold(true, |ok, (a, b)| ok & (b > a));
+    finite(times) & increasing & finite(values)
 }
 
 /// Divides each rotation (four finite floats) by its length, as [`unit_with_length`] does: how
@@ -213,4 +222,37 @@ fn compact_keys(
         last = Some(t);
     }
     (kept, dropped, renormalized)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn keys_are_sound_as_checked_one_at_a_time() {
+        let naive = |times: &[f32], values: &[f32]| {
+            times.iter().all(|t| t.is_finite())
+                && times.windows(2).all(|w| w[1] > w[0])
+                && values.iter().all(|v| v.is_finite())
+        };
+        for len in 0..13 {
+            let times: Vec<f32> = (0..len).map(|k| k as f32 * 0.5).collect();
+            let values: Vec<f32> = (0..len * 3).map(|k| k as f32 - 4.0).collect();
+            assert!(keys_are_sound(&times, &values), "{len}");
+            for at in 0..len {
+                for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, -1.0, 0.5 * at as f32 - 0.5] {
+                    let mut t = times.clone();
+                    t[at] = bad;
+                    assert_eq!(keys_are_sound(&t, &values), naive(&t, &values), "times {t:?}");
+                }
+            }
+            for at in 0..values.len() {
+                for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+                    let mut v = values.clone();
+                    v[at] = bad;
+                    assert!(!keys_are_sound(&times, &v), "values {v:?}");
+                }
+            }
+        }
+    }
 }
