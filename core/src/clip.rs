@@ -321,8 +321,10 @@ fn pack_block<const W: usize>(
         // Members as columns, transposed: the rows are the components of the four members.
         let rows = glam::Mat4::from_cols(element(a), element(b), element(c), element(d)).transpose();
         let rows = [rows.x_axis, rows.y_axis, rows.z_axis, rows.w_axis];
-        for (out, row) in key.iter_mut().skip(block * W).take(W).zip(rows) {
-            *out = row;
+        if let Some(out) = key.chunks_exact_mut(W).nth(block) {
+            for (out, row) in out.iter_mut().zip(rows) {
+                *out = row;
+            }
         }
     }
 }

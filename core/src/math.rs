@@ -51,6 +51,14 @@ pub trait QuatExt: Sized {
     fn check_unit(self) -> Result<Self, f32>;
 }
 
+/// Whether every value is finite: four at a time, without a branch a value (the importer's
+/// checks of float attributes and keyframes).
+pub(crate) fn all_finite(xs: &[f32]) -> bool {
+    let (fours, rest) = xs.as_chunks::<4>();
+    let lanes = fours.iter().fold(glam::BVec4A::splat(true), |ok, &x| ok & Vec4::from_array(x).is_finite_mask());
+    lanes.all() & rest.iter().fold(true, |ok, x| ok & x.is_finite())
+}
+
 /// `v` divided by its length, and that length; `None` when the length is zero, tiny or not
 /// finite ([`QuatExt::try_normalize_quat`]'s test).
 #[inline]

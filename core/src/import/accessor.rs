@@ -596,9 +596,8 @@ impl<'a> Accessors<'a> {
         let mut out = self.allocate::<[f32; N]>(index, a.count, budget)?;
         if a.component == Component::F32 && self.dense_elements::<N, 4, _>(a, f32::from_le_bytes, &mut out)? {
             // One pass without a branch a value; the element is looked for only to name it.
-            let all_finite = || out.as_flattened().iter().fold(true, |ok, x| ok & x.is_finite());
             if finite
-                && !all_finite()
+                && !crate::math::all_finite(out.as_flattened())
                 && let Some((i, e)) = out.iter().enumerate().find(|(_, e)| !e.iter().all(|x| x.is_finite()))
             {
                 return Err(ImportError::new(

@@ -5,7 +5,7 @@ use super::json::{Ptr, child, items, member_error, opt_index, opt_object, opt_st
 use crate::asset::Node;
 use crate::clip::{Channel, ChannelTarget, Clip, Interpolation};
 use crate::error::ImportError;
-use crate::math::{Vec4, unit_with_length};
+use crate::math::{Vec4, all_finite, unit_with_length};
 
 /// Parses every animation.
 pub(crate) fn clips(cx: &mut Cx<'_>, nodes: &[Node]) -> Result<Vec<Clip>, ImportError> {
@@ -148,23 +148,17 @@ fn channel_from_sampler(
 /// Whether the times are finite and strictly increasing and the values finite: four at a time,
 /// without a branch a value.
 fn keys_are_sound(times: &[f32], values: &[f32]) -> bool {
-    use glam::BVec4A;
-    let finite = |xs: &[f32]| {
-        let (fours, rest) = xs.as_chunks::<4>();
-        let lanes = fours.iter().fold(BVec4A::splat(true), |ok, &x| ok & Vec4::from_array(x).is_finite_mask());
-        lanes.all() & rest.iter().fold(true, |ok, x| ok & x.is_finite())
-    };
     // Each time against the one before it (NaN is greater than nothing).
-    let (earlier, later) = (times.get(..times.len().saturating_sub(1)).unwrap_or(&[]), times.get(1..).unwrap_or(&[]));
-    let (earlier_fours, earlier_rest) = earlier.as_chunks::<4>();
+    let later = times.get(1..).unwrap_or(&[]);
+    let (earlier_fours, earlier_rest) = times[..later.len()].as_chunks::<4>();
     let (later_fours, later_rest) = later.as_chunks::<4>();
     let increasing = earlier_fours
         .iter()
         .zip(later_fours)
-        .fold(BVec4A::splat(true), |ok, (&a, &b)| ok & Vec4::from_array(b).cmpgt(Vec4::from_array(a)))
+        .fold(glam::BVec4A::splat(true), |ok, (&a, &b)| ok & Vec4::from_array(b).cmpgt(Vec4::from_array(a)))
         .all()
         & earlier_rest.iter().zip(later_rest).fold(true, |ok, (a, b)| ok & (b > a));
-    finite(times) & increasing & finite(values)
+    all_finite(times) & increasing & all_finite(values)
 }
 
 /// Divides each rotation (four finite floats) by its length, as [`unit_with_length`] does: how
