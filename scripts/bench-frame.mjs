@@ -16,6 +16,7 @@
 // every copy casting, a ShadowMaterial ground of opacity 0.6). With both, three.js draws the same kinds of light and
 // shadow as Kloub's defaults (not from the same directions: Kloub's key light follows its camera).
 // KLOUB_BENCH_SHOTS=<folder>: a screenshot of each page after it is measured.
+// KLOUB_BENCH_PERF=<folder>: `perf record` of the GPU process over each measured window, a file per page (gpu-1.data, ...).
 // KLOUB_BENCH_AB=<rounds>: Kloub alone, A against B, alternated for that many rounds in the same browser (each round
 // measures both, A first in odd rounds and B first in even ones, each page loaded afresh), so that the shared
 // machine's slow drifts fall on both alike; prints each round's GPU-process and all-process CPU ms per frame, each
@@ -23,6 +24,7 @@
 // KLOUB_DIST) with KLOUB_BENCH_EVAL; A is KLOUB_BENCH_AB_DIST (another build's web/dist; default B's) with
 // KLOUB_BENCH_AB_EVAL (default none). E.g. what the ground shadow costs: KLOUB_BENCH_AB=6 KLOUB_BENCH_AB_EVAL='v.shadowIntensity = 0'.
 // KLOUB_BACKENDS (webgl2,webgpu), KLOUB_BENCH_CASES ("Fox:1,Fox:10,Fox:50,CesiumMan:1,CesiumMan:10,CesiumMan:50").
+import { spawn } from 'node:child_process';
 import { createServer } from 'node:http';
 import { readFileSync, readdirSync, statSync } from 'node:fs';
 import { extname, join, resolve } from 'node:path';
@@ -164,6 +166,24 @@ function browserCpuMs() {
 }
 
 /**
+ * With KLOUB_BENCH_PERF=<folder>: `perf record` of the GPU process (where SwiftShader draws) over the measured window,
+ * one file per page measured (`perf report -i <file> --sort dso` says where its CPU time went).
+ */
+let perfRuns = 0;
+function perfGpuProcess() {
+  const dir = process.env.KLOUB_BENCH_PERF;
+  if (!dir) return Promise.resolve();
+  const gpu = readdirSync('/proc').filter((pid) => /^[0-9]+$/.test(pid)).find((pid) => {
+    try { return readFileSync(`/proc/${pid}/cmdline`, 'utf8').includes('--type=gpu-process'); } catch { return false; }
+  });
+  if (!gpu) return Promise.resolve();
+  perfRuns += 1;
+  const out = join(dir, `gpu-${perfRuns}.data`);
+  const child = spawn('perf', ['record', '-q', '-e', 'cpu-clock', '-F', '999', '-p', gpu, '-o', out, '--', 'sleep', String(SECONDS)], { stdio: 'ignore' });
+  return new Promise((ok) => child.on('exit', () => { console.error(`bench-frame: perf of the GPU process in ${out}`); ok(); }));
+}
+
+/**
  * Frames counted by `count()` (in the page) over SECONDS after the warm-up: wall ms per frame, and CPU ms per frame
  * summed over the browser's processes (what the frame costs the machine, including SwiftShader's GPU work; unlike
  * the wall time it is not rounded up to the 16.7 ms vsync).
@@ -172,7 +192,9 @@ async function measure(page, count) {
   await sleep(2000);
   const [t0, f0] = await page.evaluate(count);
   const c0 = browserCpuMs();
+  const perf = perfGpuProcess();
   await sleep(SECONDS * 1000);
+  await perf;
   const [t1, f1] = await page.evaluate(count);
   const c1 = browserCpuMs();
   const frames = f1 - f0;

@@ -34,3 +34,30 @@ fn equirect_direction(uv: vec2<f32>) -> vec3<f32> {
     let theta = uv.y * EQUIRECT_PI;
     return vec3<f32>(sin(theta) * sin(phi), cos(theta), -sin(theta) * cos(phi));
 }
+
+// The specular chain's texels (rgba8unorm; ibl.wgsl writes them, mesh.wgsl reads them): RGB
+// divided by a power of two shared by the texel, 2^(32·a − 16) with `a` in alpha, the smallest
+// of 256 steps (each 2^(1/8) ≈ 1.09× the last) at or above the texel's largest channel: every
+// value of the half-float source from 2^-16 to its largest keeps its largest channel within
+// 0.4 %, and an 8-bit texel is filtered by a CPU rasterizer (SwiftShader) in a fraction of a
+// half-float one's time (BENCHMARKS.md, "Frame cost", stop 61). The sampler interpolates RGB
+// and the exponent apart: within smooth light (neighbours with equal or adjacent exponents, the
+// mantissas making up the step) that is the radiance's own average; across an edge between a
+// bright and a dark texel (a lamp mirrored by the smoothest levels) the result falls short of
+// it, and the lamp's image ends up to half a texel of the level smaller.
+const RADIANCE_EXPONENT_RANGE: f32 = 32.0;
+const RADIANCE_EXPONENT_BIAS: f32 = 16.0;
+
+/// `rgb` (non-negative linear radiance) as a texel of the specular chain.
+fn encode_radiance(rgb: vec3<f32>) -> vec4<f32> {
+    let c = max(rgb, vec3<f32>(0.0));
+    let m = max(max(c.r, c.g), max(c.b, 1e-30));
+    let code = clamp(ceil((log2(m) + RADIANCE_EXPONENT_BIAS) * (255.0 / RADIANCE_EXPONENT_RANGE)), 0.0, 255.0);
+    let scale = exp2(code * (RADIANCE_EXPONENT_RANGE / 255.0) - RADIANCE_EXPONENT_BIAS);
+    return vec4<f32>(min(c / scale, vec3<f32>(1.0)), code / 255.0);
+}
+
+/// The radiance of a (filtered) texel of the specular chain.
+fn decode_radiance(texel: vec4<f32>) -> vec3<f32> {
+    return texel.rgb * exp2(texel.a * RADIANCE_EXPONENT_RANGE - RADIANCE_EXPONENT_BIAS);
+}

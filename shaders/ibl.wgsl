@@ -1,6 +1,7 @@
 // Kloub image-based lighting: prefiltering an equirectangular HDR environment once per device
-// (web/src/render/environment.rs), each entry point one full-screen pass into an rgba16float
-// target (valid on WebGL2: fragment shaders, 2D textures).
+// (web/src/render/environment.rs), each entry point one full-screen pass (valid on WebGL2:
+// fragment shaders, 2D textures) from the rgba16float source into the rgba8unorm specular
+// chain, its texels encoded by `encode_radiance` (equirect.wgsl).
 //
 //   fs_specular:   one mip of the specular chain: the environment through glTF's GGX lobe at
 //                  `params.x` roughness (N = V = R), importance sampled, each sample read from
@@ -73,7 +74,7 @@ fn fs_specular(in: FullOut) -> @location(0) vec4<f32> {
     let levels = prefilter.params.z;
     let width = prefilter.params.w;
     if roughness <= 0.0 {
-        return vec4<f32>(textureSampleLevel(source, source_sampler, in.uv, prefilter.params.y).rgb, 1.0);
+        return encode_radiance(textureSampleLevel(source, source_sampler, in.uv, prefilter.params.y).rgb);
     }
     let alpha = roughness * roughness;
     // Solid angle of one source texel (the average over the sphere).
@@ -95,5 +96,5 @@ fn fs_specular(in: FullOut) -> @location(0) vec4<f32> {
             weight += nl;
         }
     }
-    return vec4<f32>(sum / max(weight, 1e-6), 1.0);
+    return encode_radiance(sum / max(weight, 1e-6));
 }

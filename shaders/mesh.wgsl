@@ -340,7 +340,7 @@ fn environment_light(n: vec3<f32>, v: vec3<f32>, base: vec3<f32>, metallic: f32,
     let nv = clamp(dot(n, v), 1e-4, 1.0);
     let r = reflect(-v, n);
     let lod = roughness * (frame.environment.w - 1.0);
-    let radiance = textureSampleLevel(environment_specular, environment_sampler, equirect_uv(environment_direction(r)), lod).rgb;
+    let radiance = decode_radiance(textureSampleLevel(environment_specular, environment_sampler, equirect_uv(environment_direction(r)), lod));
     let irradiance = sh_irradiance(environment_direction(n));
     let ab = environment_ab(roughness, nv);
     let dielectric = scattering(vec3<f32>(0.04), ab);

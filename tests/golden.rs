@@ -376,6 +376,74 @@ fn plain_target_encodes_srgb_like_the_srgb_target_and_transparent_leaves_alpha()
     }
 }
 
+/// The specular chain (`rgba8unorm`, texels encoded by `encode_radiance` in
+/// shaders/equirect.wgsl) holds radiance over half floats' range: its finest level, a copy of
+/// a source as wide as it, decodes to every source texel within the encoding's rounding (under
+/// 0.27 % of the texel's largest channel: half an 8-bit step of a scale up to 2^(1/8) times that
+/// channel, 0.21 %, and the source's half-float rounding, 0.05 %), and each texel takes
+/// the smallest exponent that holds it (its largest channel in the top step of the mantissa).
+#[test]
+fn the_specular_chain_holds_radiance_over_half_floats_range() {
+    use kloub_web::render::environment::{HdrImage, IblKit, SPECULAR_FORMAT, SPECULAR_WIDTH};
+    let offscreen = Offscreen::new().expect("a wgpu adapter");
+    let (device, queue) = (offscreen.device(), offscreen.queue());
+    let kit = IblKit::new(device, true).expect("the adapter prefilters environments");
+    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("test environment"),
+        entries: &[
+            wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                    view_dimension: wgpu::TextureViewDimension::D2,
+                    multisampled: false,
+                },
+                count: None,
+            },
+            wgpu::BindGroupLayoutEntry {
+                binding: 1,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                count: None,
+            },
+        ],
+    });
+    // Magnitudes from 2^-14 to 2^15.9 along u, the hue turning along v (each channel's share of
+    // the largest from 1 down to 0.05).
+    let (width, height) = (SPECULAR_WIDTH, SPECULAR_WIDTH / 2);
+    let rgb: Vec<[f32; 3]> = (0..width * height)
+        .map(|i| {
+            let (x, y) = ((i % width) as f32 / (width - 1) as f32, (i / width) as f32 / (height - 1) as f32);
+            let m = (-14.0 + 29.9 * x).exp2();
+            [m, m * (0.05 + 0.95 * y), m * (1.0 - 0.95 * y)]
+        })
+        .collect();
+    let image = HdrImage { width, height, rgb };
+    let environment = kit.environment(device, queue, &layout, &image).expect("prefiltering");
+    let chain = environment.specular.as_ref().expect("a specular chain");
+    assert_eq!(chain.format(), SPECULAR_FORMAT);
+    let texels = offscreen.read_texture(chain).expect("reading the chain back");
+    assert_eq!(texels.dimensions(), (width, height));
+    let (mut worst, mut worst_at) = (0.0f32, (0, 0));
+    for (x, y, texel) in texels.enumerate_pixels() {
+        let [r, g, b, a] = texel.0;
+        let scale = (f32::from(a) / 255.0 * 32.0 - 16.0).exp2();
+        let decoded = [r, g, b].map(|c| f32::from(c) / 255.0 * scale);
+        let expected = image.rgb[(y * width + x) as usize];
+        let largest = expected.iter().fold(0.0f32, |m, &c| m.max(c));
+        for (d, e) in decoded.iter().zip(expected) {
+            let error = (d - e).abs() / largest;
+            if error > worst {
+                (worst, worst_at) = (error, (x, y));
+            }
+        }
+        assert!(r.max(g).max(b) >= 233, "texel ({x}, {y}) {:?}: not the smallest exponent", texel.0);
+    }
+    eprintln!("specular chain: largest error {:.4} % of a texel's largest channel, at {worst_at:?}", worst * 100.0);
+    assert!(worst < 0.0027, "texel {worst_at:?} is off by {:.3} % of its largest channel", worst * 100.0);
+}
+
 /// The GPU mip chain (images the browser decodes: `MipMaker`, `shaders/mip.wgsl`) gives the
 /// CPU mip chain's levels (images the importer decodes) within a step per channel and level:
 /// box filter in linear light for colour, plain average for alpha and for data textures

@@ -2,7 +2,8 @@
 //! presets, or read from a Radiance `.hdr` file), prefiltered once per device on the GPU
 //! (`shaders/ibl.wgsl`) into what `shaders/mesh.wgsl` samples for its ambient light:
 //!
-//! - a specular chain: [`SPECULAR_LEVELS`] mips of an equirectangular `rgba16float` texture,
+//! - a specular chain: [`SPECULAR_LEVELS`] mips of an equirectangular texture
+//!   ([`SPECULAR_FORMAT`]: 8-bit RGB with a shared power of two, `encode_radiance`),
 //!   level `k` the environment seen through glTF's GGX lobe at roughness `k / (levels − 1)`
 //!   (importance sampled, with the source's own mips taken by each sample's solid angle);
 //! - diffuse irradiance as nine spherical-harmonic coefficients ([`HdrImage::irradiance_sh`],
@@ -16,8 +17,9 @@
 //! down −Z, u grows towards +X; v = 0 is straight up.
 //!
 //! Everything stays within WebGL2's limits: 2D textures only, fragment shaders, `rgba16float`
-//! render targets (EXT_color_buffer_float, which WebGL2 browsers have). Where a device cannot
-//! render to `rgba16float` ([`supports_ibl`]) the meshes keep the hemisphere's ambient.
+//! render targets for the source's mips (EXT_color_buffer_float, which WebGL2 browsers have)
+//! and `rgba8unorm` ones for the chain. Where a device cannot render to `rgba16float`
+//! ([`supports_ibl`]) the meshes keep the hemisphere's ambient.
 
 use std::f32::consts::PI;
 
@@ -28,8 +30,13 @@ pub const SPECULAR_WIDTH: u32 = 256;
 /// The widest image the spherical-harmonic irradiance is summed over (wider ones are averaged
 /// down first: nine coefficients hold nothing finer).
 pub const SH_SOURCE_WIDTH: u32 = 128;
-/// The texture format of every prefiltered texture.
+/// The texture format of the environment's source image and its mips (the prefilter's input).
 pub const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+/// The texture format of the specular chain: 8-bit RGB with a shared power of two in alpha
+/// (`encode_radiance` in shaders/equirect.wgsl). A CPU rasterizer filters it in a fraction of a
+/// half-float texel's time (SwiftShader: 11 % of CesiumMan's frame; BENCHMARKS.md, "Frame cost",
+/// stop 61), and it takes half the memory.
+pub const SPECULAR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 /// The most pixels an `.hdr` file given to the viewer may have (2048 × 1024).
 pub const MAX_HDR_PIXELS: u64 = 2048 * 1024;
 /// The largest environment image taken as it is: larger ones are averaged down to this width
@@ -915,11 +922,15 @@ pub struct GpuEnvironment {
     pub bind_group: wgpu::BindGroup,
     /// The irradiance's spherical-harmonic coefficients (rgb; w unused).
     pub irradiance: [[f32; 4]; 9],
+    /// The specular chain ([`SPECULAR_FORMAT`]; tests read it back); `None` on a device
+    /// without [`IblKit`].
+    pub specular: Option<wgpu::Texture>,
 }
 
 fn hdr_texture(
     device: &wgpu::Device,
     label: &str,
+    format: wgpu::TextureFormat,
     width: u32,
     height: u32,
     mips: u32,
@@ -931,7 +942,7 @@ fn hdr_texture(
         mip_level_count: mips,
         sample_count: 1,
         dimension: wgpu::TextureDimension::D2,
-        format: HDR_FORMAT,
+        format,
         usage,
         view_formats: &[],
     })
@@ -976,7 +987,7 @@ impl IblKit {
             &pipeline_layout,
             &module,
             ("vs_full", "fs_specular"),
-            HDR_FORMAT,
+            SPECULAR_FORMAT,
         );
         let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
             label: Some("kloub environment"),
@@ -1045,7 +1056,15 @@ impl IblKit {
             return Err(format!("{width}×{height} pixels: this device takes at most {max}×{max}"));
         }
         let levels = super::texture::mip_count(width, height);
-        let source = hdr_texture(device, "kloub environment source", width, height, levels, super::texture::GPU_MIPPED);
+        let source = hdr_texture(
+            device,
+            "kloub environment source",
+            HDR_FORMAT,
+            width,
+            height,
+            levels,
+            super::texture::GPU_MIPPED,
+        );
         queue.write_texture(
             source.as_image_copy(),
             bytemuck::cast_slice(&image.rgba16f()),
@@ -1054,10 +1073,14 @@ impl IblKit {
         );
         self.mips.generate(device, queue, &source);
         let source_view = source.create_view(&wgpu::TextureViewDescriptor::default());
-        let usage = wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::RENDER_ATTACHMENT;
+        // Copied from by tests (`GpuEnvironment::specular`).
+        let usage = wgpu::TextureUsages::TEXTURE_BINDING
+            | wgpu::TextureUsages::RENDER_ATTACHMENT
+            | wgpu::TextureUsages::COPY_SRC;
         let specular = hdr_texture(
             device,
             "kloub environment specular",
+            SPECULAR_FORMAT,
             SPECULAR_WIDTH,
             SPECULAR_WIDTH / 2,
             SPECULAR_LEVELS,
@@ -1089,7 +1112,7 @@ impl IblKit {
             ],
         });
         let irradiance = image.irradiance_sh().map(|[r, g, b]| [r, g, b, 0.0]);
-        Ok(GpuEnvironment { bind_group, irradiance })
+        Ok(GpuEnvironment { bind_group, irradiance, specular: Some(specular) })
     }
 }
 
@@ -1110,5 +1133,5 @@ pub fn fallback_environment(
             wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::Sampler(&sampler) },
         ],
     });
-    GpuEnvironment { bind_group, irradiance: [[0.0; 4]; 9] }
+    GpuEnvironment { bind_group, irradiance: [[0.0; 4]; 9], specular: None }
 }
