@@ -6,22 +6,50 @@
 //! most of the import's time. Objects are sorted by key with duplicates resolved to the last
 //! (the reads and iteration order of `serde_json::Map`), and looked up by binary search.
 //!
+//! The tree lives in an [`Arena`] the caller keeps beside the bytes: each array and object is
+//! one exact-size slice in it and each escaped string a copy, so parsing makes no allocation of
+//! its own per value and dropping the tree is freeing the arena's few blocks (a malloc and a
+//! free for every array, object and key were a tenth of a small character's import in wasm;
+//! BENCHMARKS.md, "Import and decoding", stop 61).
+//!
 //! A crate of its own: serde_json's parser is generic, so its code is made in the crate that
 //! calls it, and the web bundle builds this one at opt-level 3 (the importer at "s"): the parse
 //! is a quarter of a small character's import (BENCHMARKS.md, "Import and decoding", stop 59).
 
-use serde::de::{Deserialize, DeserializeSeed, Deserializer, MapAccess, SeqAccess, Visitor};
-use std::borrow::Cow;
+use serde::de::{DeserializeSeed, Deserializer, MapAccess, SeqAccess, Visitor};
 use std::fmt;
 
-/// A JSON value whose strings borrow from the parsed bytes where they have no escapes.
-#[derive(Debug, Clone, PartialEq)]
+/// Where a parsed tree's arrays, objects and escaped strings are kept: made by the caller,
+/// outliving the tree ([`parse`]).
+#[derive(Default)]
+pub struct Arena(bumpalo::Bump);
+
+impl Arena {
+    /// An empty arena.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// An arena with room for the tree of a document of `bytes` bytes before it grows.
+    pub fn for_document(bytes: usize) -> Self {
+        Self(bumpalo::Bump::with_capacity(bytes))
+    }
+
+    /// Bytes the arena holds (its blocks, used or not).
+    pub fn allocated_bytes(&self) -> usize {
+        self.0.allocated_bytes()
+    }
+}
+
+/// A JSON value whose strings borrow from the parsed bytes where they have no escapes (from
+/// the arena where they have).
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Value<'j> {
     Null,
     Bool(bool),
     Number(Number),
-    String(Cow<'j, str>),
-    Array(Vec<Value<'j>>),
+    String(&'j str),
+    Array(&'j [Value<'j>]),
     Object(Map<'j>),
 }
 
@@ -34,30 +62,31 @@ pub enum Number {
 }
 
 /// A JSON object: its members sorted by key, each key once.
-#[derive(Debug, Clone, PartialEq, Default)]
-pub struct Map<'j>(Vec<(Cow<'j, str>, Value<'j>)>);
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Map<'j>(&'j [(&'j str, Value<'j>)]);
 
-/// Parses `bytes` as one JSON value.
-pub fn parse(bytes: &[u8]) -> Result<Value<'_>, serde_json::Error> {
-    parse_counted(bytes).map(|(value, _)| value)
+/// Parses `bytes` as one JSON value, its arrays, objects and escaped strings kept in `arena`.
+pub fn parse<'j>(bytes: &'j [u8], arena: &'j Arena) -> Result<Value<'j>, serde_json::Error> {
+    parse_counted(bytes, arena).map(|(value, _)| value)
 }
 
-/// Parses `bytes` as one JSON value; also returns how many values were parsed (the root and
-/// every item and member, a repeated key's dropped values included: they were held while
-/// parsing).
-pub fn parse_counted(bytes: &[u8]) -> Result<(Value<'_>, u64), serde_json::Error> {
+/// Parses `bytes` as one JSON value (as [`parse`]); also returns how many values were parsed
+/// (the root and every item and member, a repeated key's dropped values included: they were
+/// held while parsing).
+pub fn parse_counted<'j>(bytes: &'j [u8], arena: &'j Arena) -> Result<(Value<'j>, u64), serde_json::Error> {
     // Valid UTF-8 as a whole (checked in one vectorized pass): the parser need not check each
     // string again. Anything else goes through the byte reader, which says where it fails.
     match std::str::from_utf8(bytes) {
-        Ok(text) => parse_with(&mut serde_json::Deserializer::from_str(text)),
-        Err(_) => parse_with(&mut serde_json::Deserializer::from_slice(bytes)),
+        Ok(text) => parse_with(&mut serde_json::Deserializer::from_str(text), arena),
+        Err(_) => parse_with(&mut serde_json::Deserializer::from_slice(bytes), arena),
     }
 }
 
 fn parse_with<'j, R: serde_json::de::Read<'j>>(
     deserializer: &mut serde_json::Deserializer<R>,
+    arena: &'j Arena,
 ) -> Result<(Value<'j>, u64), serde_json::Error> {
-    let mut scratch = Scratch::default();
+    let mut scratch = Scratch { arena: &arena.0, items: Vec::new(), members: Vec::new(), nested: 0 };
     let value = Seed(&mut scratch).deserialize(&mut *deserializer)?;
     deserializer.end()?;
     Ok((value, 1 + scratch.nested))
@@ -118,12 +147,16 @@ impl<'j> Value<'j> {
 
 impl<'j> Map<'j> {
     /// The member `key`.
-    pub fn get(&self, key: &str) -> Option<&Value<'j>> {
-        if self.0.len() <= 12 {
+    pub fn get(&self, key: &str) -> Option<&'j Value<'j>> {
+        let members = self.0;
+        if members.len() <= 12 {
             // glTF's objects are small: comparing lengths first beats a binary search's memcmps.
-            return self.0.iter().find(|(k, _)| k.len() == key.len() && k.as_bytes() == key.as_bytes()).map(|(_, v)| v);
+            return members
+                .iter()
+                .find(|(k, _)| k.len() == key.len() && k.as_bytes() == key.as_bytes())
+                .map(|(_, v)| v);
         }
-        self.0.binary_search_by(|(k, _)| k.as_ref().cmp(key)).ok().map(|i| &self.0[i].1)
+        members.binary_search_by(|(k, _)| (*k).cmp(key)).ok().map(|i| &members[i].1)
     }
 
     /// Whether the object has a member `key`.
@@ -132,16 +165,18 @@ impl<'j> Map<'j> {
     }
 
     /// The members in key order.
-    pub fn iter(&self) -> impl Iterator<Item = (&str, &Value<'j>)> {
-        self.0.iter().map(|(k, v)| (k.as_ref(), v))
+    pub fn iter(&self) -> impl Iterator<Item = (&'j str, &'j Value<'j>)> {
+        self.0.iter().map(|(k, v)| (*k, v))
     }
 
-    /// The members as written, sorted by key, a repeated key's last value kept.
-    fn from_members(mut members: Vec<(Cow<'j, str>, Value<'j>)>) -> Self {
+    /// The members as written (`members`, the end of the scratch stack), sorted by key, a
+    /// repeated key's last value kept, copied into `arena`.
+    fn from_members(members: &mut [(&'j str, Value<'j>)], arena: &'j bumpalo::Bump) -> Self {
+        let mut kept = members.len();
         if members.windows(2).any(|w| w[0].0 >= w[1].0) {
             // Stable: of equal keys the last written stays last, and is the one kept.
-            members.sort_by(|a, b| a.0.cmp(&b.0));
-            let mut kept = 0;
+            members.sort_by(|a, b| a.0.cmp(b.0));
+            kept = 0;
             for i in 0..members.len() {
                 if members.get(i + 1).is_some_and(|next| next.0 == members[i].0) {
                     continue;
@@ -149,20 +184,19 @@ impl<'j> Map<'j> {
                 members.swap(kept, i);
                 kept += 1;
             }
-            members.truncate(kept);
         }
-        Map(members)
+        Map(arena.alloc_slice_copy(&members[..kept]))
     }
 }
 
-impl<'a, 'j> IntoIterator for &'a Map<'j> {
-    type Item = (&'a str, &'a Value<'j>);
+impl<'j> IntoIterator for &Map<'j> {
+    type Item = (&'j str, &'j Value<'j>);
     type IntoIter = std::iter::Map<
-        std::slice::Iter<'a, (Cow<'j, str>, Value<'j>)>,
-        fn(&'a (Cow<'j, str>, Value<'j>)) -> (&'a str, &'a Value<'j>),
+        std::slice::Iter<'j, (&'j str, Value<'j>)>,
+        fn(&'j (&'j str, Value<'j>)) -> (&'j str, &'j Value<'j>),
     >;
     fn into_iter(self) -> Self::IntoIter {
-        self.0.iter().map(|(k, v)| (k.as_ref(), v))
+        self.0.iter().map(|(k, v)| (*k, v))
     }
 }
 
@@ -218,35 +252,36 @@ fn write_string(f: &mut fmt::Formatter<'_>, s: &str) -> fmt::Result {
     f.write_str("\"")
 }
 
-/// A key or string: borrowed where the file has it without escapes.
-struct Str<'j>(Cow<'j, str>);
+/// A key: borrowed where the file has it without escapes, copied into the arena where not.
+struct Key<'de>(&'de bumpalo::Bump);
 
-impl<'de> Deserialize<'de> for Str<'de> {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        struct StrVisitor;
-        impl<'de> Visitor<'de> for StrVisitor {
-            type Value = Str<'de>;
-            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-                f.write_str("a string")
-            }
-            fn visit_borrowed_str<E: serde::de::Error>(self, v: &'de str) -> Result<Str<'de>, E> {
-                Ok(Str(Cow::Borrowed(v)))
-            }
-            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<Str<'de>, E> {
-                Ok(Str(Cow::Owned(v.to_owned())))
-            }
-        }
-        d.deserialize_str(StrVisitor)
+impl<'de> DeserializeSeed<'de> for Key<'de> {
+    type Value = &'de str;
+    fn deserialize<D: Deserializer<'de>>(self, d: D) -> Result<&'de str, D::Error> {
+        d.deserialize_str(self)
+    }
+}
+
+impl<'de> Visitor<'de> for Key<'de> {
+    type Value = &'de str;
+    fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("a string")
+    }
+    fn visit_borrowed_str<E: serde::de::Error>(self, v: &'de str) -> Result<&'de str, E> {
+        Ok(v)
+    }
+    fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<&'de str, E> {
+        Ok(self.0.alloc_str(v))
     }
 }
 
 /// The items and members of the arrays and objects being parsed, as a stack: each array or
-/// object is moved out into a vector of its exact size once complete (no vector grows item by
-/// item, which for a large document was a good part of its parse).
-#[derive(Default)]
+/// object is copied out into a slice of its exact size in the arena once complete (no vector
+/// grows item by item, which for a large document was a good part of its parse).
 struct Scratch<'de> {
+    arena: &'de bumpalo::Bump,
     items: Vec<Value<'de>>,
-    members: Vec<(Cow<'de, str>, Value<'de>)>,
+    members: Vec<(&'de str, Value<'de>)>,
     /// The items and members parsed so far (every value but the root).
     nested: u64,
 }
@@ -284,10 +319,10 @@ impl<'de> Visitor<'de> for Seed<'_, 'de> {
         if v.is_finite() { Ok(Value::Number(Number::F(v))) } else { Err(E::custom("a number out of range")) }
     }
     fn visit_borrowed_str<E: serde::de::Error>(self, v: &'de str) -> Result<Value<'de>, E> {
-        Ok(Value::String(Cow::Borrowed(v)))
+        Ok(Value::String(v))
     }
     fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<Value<'de>, E> {
-        Ok(Value::String(Cow::Owned(v.to_owned())))
+        Ok(Value::String(self.0.arena.alloc_str(v)))
     }
     fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Value<'de>, A::Error> {
         let start = self.0.items.len();
@@ -295,16 +330,21 @@ impl<'de> Visitor<'de> for Seed<'_, 'de> {
             self.0.items.push(item);
         }
         self.0.nested += (self.0.items.len() - start) as u64;
-        Ok(Value::Array(self.0.items.drain(start..).collect()))
+        let items = self.0.arena.alloc_slice_copy(self.0.items.get(start..).unwrap_or_default());
+        self.0.items.truncate(start);
+        Ok(Value::Array(items))
     }
     fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Value<'de>, A::Error> {
         let start = self.0.members.len();
-        while let Some(Str(key)) = map.next_key()? {
+        while let Some(key) = map.next_key_seed(Key(self.0.arena))? {
             let value = map.next_value_seed(Seed(&mut *self.0))?;
             self.0.members.push((key, value));
         }
         self.0.nested += (self.0.members.len() - start) as u64;
-        Ok(Value::Object(Map::from_members(self.0.members.drain(start..).collect())))
+        let arena = self.0.arena;
+        let map = Map::from_members(self.0.members.get_mut(start..).unwrap_or_default(), arena);
+        self.0.members.truncate(start);
+        Ok(Value::Object(map))
     }
 }
 
@@ -315,29 +355,35 @@ mod tests {
     #[test]
     fn reads_like_serde_json() {
         let text = br#"{"b": [1, -2, 1.5, "x\"y", null, true], "a": {"k": 1, "k": 2}, "c": "plain"}"#;
-        let v = parse(text).expect("parses");
+        let arena = Arena::new();
+        let v = parse(text, &arena).expect("parses");
         let expected: serde_json::Value = serde_json::from_slice(text).expect("parses");
         assert_eq!(v.to_string(), expected.to_string());
         let o = v.as_object().expect("object");
         assert_eq!(o.iter().map(|(k, _)| k).collect::<Vec<_>>(), ["a", "b", "c"]);
         assert_eq!(o.get("a").and_then(Value::as_object).and_then(|a| a.get("k")).and_then(Value::as_u64), Some(2));
-        assert!(matches!(o.get("c"), Some(Value::String(Cow::Borrowed("plain")))), "not borrowed");
+        let inside = text.as_ptr_range();
+        assert!(
+            matches!(o.get("c"), Some(Value::String(s)) if *s == "plain" && inside.contains(&s.as_ptr())),
+            "not borrowed"
+        );
         let b = o.get("b").and_then(Value::as_array).expect("array");
         assert_eq!((b[0].as_u64(), b[1].as_u64(), b[1].as_f64(), b[2].as_u64()), (Some(1), None, Some(-2.0), None));
         assert_eq!(b[3].as_str(), Some("x\"y"));
-        assert!(parse(b"{\"a\": 1e400}").is_err());
+        assert!(parse(b"{\"a\": 1e400}", &arena).is_err());
         let deep = format!("{}{}", "[".repeat(200), "]".repeat(200));
-        assert!(parse(deep.as_bytes()).is_err(), "serde_json's recursion limit");
-        assert!(parse(b"{\"a\": 1,}").expect_err("trailing comma").to_string().contains("line 1"));
+        assert!(parse(deep.as_bytes(), &arena).is_err(), "serde_json's recursion limit");
+        assert!(parse(b"{\"a\": 1,}", &arena).expect_err("trailing comma").to_string().contains("line 1"));
     }
 
     #[test]
     fn counts_every_value() {
         // The root, "a" and its two items, "b", "c" and its item: 7 values.
-        let (_, values) = parse_counted(br#"{"a": [1, "x"], "b": {}, "c": {"d": null}}"#).expect("parses");
+        let arena = Arena::new();
+        let (_, values) = parse_counted(br#"{"a": [1, "x"], "b": {}, "c": {"d": null}}"#, &arena).expect("parses");
         assert_eq!(values, 7);
-        assert_eq!(parse_counted(b"3").expect("parses").1, 1);
-        assert_eq!(parse_counted(b"[[], [[]]]").expect("parses").1, 4);
-        assert_eq!(parse_counted(br#"{"a": 1, "a": [2]}"#).expect("parses").1, 4);
+        assert_eq!(parse_counted(b"3", &arena).expect("parses").1, 1);
+        assert_eq!(parse_counted(b"[[], [[]]]", &arena).expect("parses").1, 4);
+        assert_eq!(parse_counted(br#"{"a": 1, "a": [2]}"#, &arena).expect("parses").1, 4);
     }
 }

@@ -252,7 +252,8 @@ mod tests {
     #[test]
     fn readers_name_the_member() {
         let text = br#"{"a": -1, "b": [1, 2], "c": 1e300, "d": "x", "i": 5}"#;
-        let v = super::super::tree::parse(text).expect("JSON");
+        let arena = super::super::tree::Arena::new();
+        let v = super::super::tree::parse(text, &arena).expect("JSON");
         let o = v.as_object().expect("object");
         assert_eq!(opt_u64(o, "a", "/x").expect_err("negative").pointer, "/x/a");
         assert_eq!(opt_f32(o, "c", "/x").expect_err("too large").pointer, "/x/c");

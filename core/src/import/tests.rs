@@ -1526,7 +1526,8 @@ fn a_matrix_accessor_needs_no_padding_after_its_last_column() {
         "accessors": [{"bufferView": 0, "componentType": 5121, "count": 2, "type": "MAT2"}]
     });
     let text = doc.to_string();
-    let tree = super::tree::parse(text.as_bytes()).expect("JSON");
+    let arena = super::tree::Arena::new();
+    let tree = super::tree::parse(text.as_bytes(), &arena).expect("JSON");
     let root = tree.as_object().expect("object");
     let mut budget = Budget::new(1 << 20);
     let accessors = accessor::Accessors::new(root, vec![Some(std::borrow::Cow::Owned(bytes))], &mut budget)
@@ -1540,7 +1541,8 @@ fn a_matrix_accessor_needs_no_padding_after_its_last_column() {
         "accessors": [{"bufferView": 0, "componentType": 5121, "count": 2, "type": "MAT2"}]
     });
     let text = doc.to_string();
-    let tree = super::tree::parse(text.as_bytes()).expect("JSON");
+    let arena = super::tree::Arena::new();
+    let tree = super::tree::parse(text.as_bytes(), &arena).expect("JSON");
     let root = tree.as_object().expect("object");
     let short = accessor::Accessors::new(root, vec![Some(std::borrow::Cow::Owned(vec![0; 14]))], &mut budget)
         .expect("refused where it is read");
@@ -1756,7 +1758,8 @@ fn whole_run_reads_equal_the_element_by_element_reads() {
                     "accessors": [accessor, twin]
                 });
                 let text = doc.to_string();
-                let tree = super::tree::parse(text.as_bytes()).expect("JSON");
+                let arena = super::tree::Arena::new();
+                let tree = super::tree::parse(text.as_bytes(), &arena).expect("JSON");
                 let root = tree.as_object().expect("object");
                 let mut budget = Budget::new(1 << 20);
                 let accessors =

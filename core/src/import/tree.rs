@@ -4,4 +4,4 @@
 
 #[cfg(test)]
 pub(crate) use kloub_json::parse;
-pub(crate) use kloub_json::{Map, Value, parse_counted};
+pub(crate) use kloub_json::{Arena, Map, Value, parse_counted};
