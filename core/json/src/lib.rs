@@ -34,11 +34,6 @@ impl Arena {
     pub fn for_document(bytes: usize) -> Self {
         Self(bumpalo::Bump::with_capacity(bytes))
     }
-
-    /// Bytes the arena holds (its blocks, used or not).
-    pub fn allocated_bytes(&self) -> usize {
-        self.0.allocated_bytes()
-    }
 }
 
 /// A JSON value whose strings borrow from the parsed bytes where they have no escapes (from

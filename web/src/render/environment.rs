@@ -927,7 +927,7 @@ pub struct GpuEnvironment {
     pub specular: Option<wgpu::Texture>,
 }
 
-fn hdr_texture(
+fn environment_texture(
     device: &wgpu::Device,
     label: &str,
     format: wgpu::TextureFormat,
@@ -1056,7 +1056,7 @@ impl IblKit {
             return Err(format!("{width}×{height} pixels: this device takes at most {max}×{max}"));
         }
         let levels = super::texture::mip_count(width, height);
-        let source = hdr_texture(
+        let source = environment_texture(
             device,
             "kloub environment source",
             HDR_FORMAT,
@@ -1077,7 +1077,7 @@ impl IblKit {
         let usage = wgpu::TextureUsages::TEXTURE_BINDING
             | wgpu::TextureUsages::RENDER_ATTACHMENT
             | wgpu::TextureUsages::COPY_SRC;
-        let specular = hdr_texture(
+        let specular = environment_texture(
             device,
             "kloub environment specular",
             SPECULAR_FORMAT,
