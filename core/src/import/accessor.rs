@@ -84,7 +84,7 @@ fn i8_f32([b]: [u8; 1], normalized: bool) -> f32 {
     scaled(f32::from(b as i8), 127.0, normalized)
 }
 #[inline]
-fn u8_f32([b]: [u8; 1], normalized: bool) -> f32 {
+pub(crate) fn u8_f32([b]: [u8; 1], normalized: bool) -> f32 {
     scaled(f32::from(b), 255.0, normalized)
 }
 #[inline]
@@ -92,13 +92,17 @@ fn i16_f32(b: [u8; 2], normalized: bool) -> f32 {
     scaled(f32::from(i16::from_le_bytes(b)), 32767.0, normalized)
 }
 #[inline]
-fn u16_f32(b: [u8; 2], normalized: bool) -> f32 {
+pub(crate) fn u16_f32(b: [u8; 2], normalized: bool) -> f32 {
     scaled(f32::from(u16::from_le_bytes(b)), 65535.0, normalized)
 }
 #[inline]
 fn u32_f32(b: [u8; 4]) -> f32 {
     u32::from_le_bytes(b) as f32
 }
+
+/// A dense accessor's elements as one run of bytes, their stride and whether they are normalized
+/// ([`Accessors::dense_vec4`]).
+pub(crate) type DenseRun<'a> = (&'a [u8], usize, bool);
 
 /// A validated buffer view.
 #[derive(Clone, Copy, Debug)]
@@ -814,6 +818,18 @@ impl<'a> Accessors<'a> {
             },
         )?;
         Ok(out)
+    }
+
+    /// Accessor `index`'s elements as one run of bytes where it is a dense `VEC4` of
+    /// `component` ([`Accessors::dense_region`]): the run (from the first element to the end of
+    /// the last, so `count` chunks of `stride` bytes, the last possibly just one element long),
+    /// the stride and whether the components are normalized. `None` for anything else.
+    pub(crate) fn dense_vec4(&self, index: u32, component: Component) -> Result<Option<DenseRun<'_>>, ImportError> {
+        let a = self.get(index)?;
+        if a.type_name != "VEC4" || a.component != component {
+            return Ok(None);
+        }
+        Ok(self.dense_region(a, 4 * component.size() as usize)?.map(|(run, stride)| (run, stride, a.normalized)))
     }
 
     /// Whether the accessor holds 8- or 16-bit unsigned integers (JOINTS_n).

@@ -2,6 +2,7 @@
 //! (strips, fans and loops converted to lists), morph targets, bounds.
 
 use super::Cx;
+use super::accessor::Accessors;
 use super::json::Value;
 use super::json::{Obj, child, member_error, objects, opt_f32_list, opt_index, opt_object, opt_u64};
 use crate::asset::{Mesh, MorphTarget, Primitive, Topology};
@@ -217,6 +218,8 @@ fn parse_primitive(
 
 /// Joints and weights per vertex, and the largest weighted joint index.
 type Influences = (Vec<[u16; 8]>, Vec<[f32; 8]>, Option<u16>);
+/// [`Influences`] with how many vertices needed repair (what is warned about).
+type Repaired = (Vec<[u16; 8]>, Vec<[f32; 8]>, Option<u16>, usize);
 
 /// Skin influences from JOINTS_0/WEIGHTS_0 (and _1): up to 8 per vertex, renormalized
 /// (one warning per primitive), zero-weight slots pointing at joint 0. Returns the largest
@@ -245,6 +248,15 @@ fn influences(cx: &mut Cx<'_>, attributes: &Obj, aptr: &str, vertex_count: usize
         }
         if set == 0 {
             cx.budget.take_items(vertex_count as u64, 64, aptr, "skin influences")?;
+            // The common skin, one set of dense VEC4s, read and renormalized in one pass (both
+            // members looked up as the loop's next round would, a second set or any error there
+            // leaving it to the loop).
+            let second = |name: &str| opt_index(attributes, name, aptr, cx.accessors.len(), "accessor");
+            if matches!((second("JOINTS_1"), second("WEIGHTS_1")), (Ok(None), Ok(None)))
+                && let Some(found) = one_dense_set(&cx.accessors, j, w, vertex_count)?
+            {
+                return Ok(warn_repaired(cx, aptr, vertex_count, found));
+            }
         }
         let js = cx.accessors.read_u32::<4>(j, &jptr, &["VEC4"], &mut cx.budget)?;
         let ws = cx.accessors.read_f32::<4>(w, &wptr, &["VEC4"], false, &mut cx.budget)?;
@@ -273,6 +285,16 @@ fn influences(cx: &mut Cx<'_>, attributes: &Obj, aptr: &str, vertex_count: usize
         // `None` (no weighted joint) orders below every joint.
         max_joint = max_joint.max(most);
     }
+    Ok(warn_repaired(cx, aptr, vertex_count, (joints, weights, max_joint, repaired)))
+}
+
+/// The influences with how many vertices needed repair, which is warned about.
+fn warn_repaired(
+    cx: &mut Cx<'_>,
+    aptr: &str,
+    vertex_count: usize,
+    (joints, weights, max_joint, repaired): Repaired,
+) -> Influences {
     if repaired > 0 {
         cx.warn(
             child(aptr, "WEIGHTS_0"),
@@ -281,26 +303,130 @@ fn influences(cx: &mut Cx<'_>, attributes: &Obj, aptr: &str, vertex_count: usize
             ),
         );
     }
-    Ok((joints, weights, max_joint))
+    (joints, weights, max_joint)
+}
+
+/// [`influences`] of one set (JOINTS_0 and WEIGHTS_0 of `vertex_count` elements each, checked)
+/// where both are tightly packed VEC4s, the joints unnormalized 8- or 16-bit integers: each
+/// vertex read, renormalized ([`renormalize_four`]) and stored in one pass, with the same
+/// results as reading both accessors whole first; with how many vertices needed repair. `None`
+/// for anything else (the general path reads it, or names what is wrong).
+pub(super) fn one_dense_set(
+    accessors: &Accessors,
+    j: u32,
+    w: u32,
+    vertex_count: usize,
+) -> Result<Option<Repaired>, ImportError> {
+    use super::accessor::{Component, u8_f32, u16_f32};
+    let joints = match accessors.dense_vec4(j, Component::U8)? {
+        Some(found) => Some((found, 4)),
+        None => accessors.dense_vec4(j, Component::U16)?.map(|found| (found, 8)),
+    };
+    let Some(((joint_run, joint_stride, false), joint_size)) = joints else { return Ok(None) };
+    let mut weight = None;
+    for (c, size) in [(Component::F32, 16), (Component::U8, 4), (Component::U16, 8)] {
+        if let Some(found) = accessors.dense_vec4(w, c)? {
+            weight = Some((c, size, found));
+            break;
+        }
+    }
+    let Some((component, weight_size, (weight_run, weight_stride, n))) = weight else { return Ok(None) };
+    if joint_stride != joint_size || weight_stride != weight_size {
+        return Ok(None);
+    }
+    let mut out = (vec![[0_u16; 8]; vertex_count], vec![[0.0_f32; 8]; vertex_count], None, 0);
+    let (narrow, wide) = (joint_run.as_chunks::<4>().0, joint_run.as_chunks::<8>().0);
+    let (floats, bytes, shorts) =
+        (weight_run.as_chunks::<16>().0, weight_run.as_chunks::<4>().0, weight_run.as_chunks::<8>().0);
+    // One loop for each layout (its reads known in the loop).
+    match (joint_size, component) {
+        (4, Component::F32) => fill_one_set(&mut out, narrow, floats, joints_u8, weights_f32),
+        (_, Component::F32) => fill_one_set(&mut out, wide, floats, joints_u16, weights_f32),
+        (4, Component::U8) => fill_one_set(&mut out, narrow, bytes, joints_u8, |b| b.map(|x| u8_f32([x], n))),
+        (_, Component::U8) => fill_one_set(&mut out, wide, bytes, joints_u16, |b| b.map(|x| u8_f32([x], n))),
+        (4, _) => fill_one_set(&mut out, narrow, shorts, joints_u8, |b| pairs(b).map(|x| u16_f32(x, n))),
+        (_, _) => fill_one_set(&mut out, wide, shorts, joints_u16, |b| pairs(b).map(|x| u16_f32(x, n))),
+    }
+    Ok(Some(out))
+}
+
+/// The pass of [`one_dense_set`]: element `i` of both runs into vertex `i`.
+#[inline(always)]
+fn fill_one_set<const J: usize, const W: usize>(
+    (joints, weights, most, repaired): &mut Repaired,
+    joint_elements: &[[u8; J]],
+    weight_elements: &[[u8; W]],
+    read_joints: impl Fn(&[u8; J]) -> [u16; 4],
+    read_weights: impl Fn(&[u8; W]) -> [f32; 4],
+) {
+    for ((j, w), (jb, wb)) in joints.iter_mut().zip(weights.iter_mut()).zip(joint_elements.iter().zip(weight_elements))
+    {
+        let (vertex_joints, vertex_weights, defect, vertex_most) =
+            renormalized(read_joints(jb), Vec4::from_array(read_weights(wb)));
+        [j[0], j[1], j[2], j[3]] = vertex_joints;
+        [w[0], w[1], w[2], w[3]] = vertex_weights.to_array();
+        *repaired += usize::from(defect);
+        *most = (*most).max(vertex_most);
+    }
+}
+
+/// Four 8-bit joints.
+#[inline(always)]
+fn joints_u8(b: &[u8; 4]) -> [u16; 4] {
+    [u16::from(b[0]), u16::from(b[1]), u16::from(b[2]), u16::from(b[3])]
+}
+
+/// The four little-endian pairs of eight bytes.
+#[inline(always)]
+fn pairs(b: &[u8; 8]) -> [[u8; 2]; 4] {
+    [[b[0], b[1]], [b[2], b[3]], [b[4], b[5]], [b[6], b[7]]]
+}
+
+/// Four 16-bit little-endian joints.
+#[inline(always)]
+fn joints_u16(b: &[u8; 8]) -> [u16; 4] {
+    let [x, y, z, w] = pairs(b);
+    [u16::from_le_bytes(x), u16::from_le_bytes(y), u16::from_le_bytes(z), u16::from_le_bytes(w)]
+}
+
+/// Four little-endian floats.
+#[inline(always)]
+fn weights_f32(b: &[u8; 16]) -> [f32; 4] {
+    [
+        f32::from_le_bytes([b[0], b[1], b[2], b[3]]),
+        f32::from_le_bytes([b[4], b[5], b[6], b[7]]),
+        f32::from_le_bytes([b[8], b[9], b[10], b[11]]),
+        f32::from_le_bytes([b[12], b[13], b[14], b[15]]),
+    ]
 }
 
 /// [`renormalize_eight`] of the first four slots in one vector: the same results (each lane's
 /// division is correctly rounded, the sum is taken in the same order).
 fn renormalize_four(j: &mut [u16; 8], w: &mut [f32; 8]) -> (bool, Option<u16>) {
-    let v = Vec4::new(w[0], w[1], w[2], w[3]);
+    let (joints, weights, defect, most) = renormalized([j[0], j[1], j[2], j[3]], Vec4::new(w[0], w[1], w[2], w[3]));
+    [j[0], j[1], j[2], j[3]] = joints;
+    [w[0], w[1], w[2], w[3]] = weights.to_array();
+    (defect, most)
+}
+
+/// [`renormalize_four`] of one vertex's four joints and weights, without a branch but the rare
+/// repair's: the joints (zero-weight ones pointed at joint 0), the weights, whether they needed
+/// repair and the largest weighted joint.
+#[inline(always)]
+fn renormalized(joints: [u16; 4], v: Vec4) -> ([u16; 4], Vec4, bool, Option<u16>) {
     let bad = !v.is_finite_mask() | v.cmplt(Vec4::ZERO);
     let v = Vec4::select(bad, Vec4::ZERO, v);
-    let mut defect = bad.any();
     let sum = v.x + v.y + v.z + v.w;
-    let v = if sum <= 0.0 || !sum.is_finite() {
-        defect = true;
-        Vec4::X
+    let (v, defect) = if sum > 0.0 && sum.is_finite() {
+        (v / sum, bad.any() | ((sum - 1.0).abs() > WEIGHT_SUM_TOLERANCE))
     } else {
-        defect |= (sum - 1.0).abs() > WEIGHT_SUM_TOLERANCE;
-        v / sum
+        (Vec4::X, true)
     };
-    [w[0], w[1], w[2], w[3]] = v.to_array();
-    (defect, weighted_joints::<4>(j, w))
+    let weighted = v.cmpne(Vec4::ZERO).bitmask();
+    let keep = |i: u32, joint: u16| if weighted & (1 << i) != 0 { joint } else { 0 };
+    let joints = [keep(0, joints[0]), keep(1, joints[1]), keep(2, joints[2]), keep(3, joints[3])];
+    let most = joints[0].max(joints[1]).max(joints[2].max(joints[3]));
+    (joints, v, defect, (weighted != 0).then_some(most))
 }
 
 /// Renormalizes one vertex's eight weights (negative or non-finite ones zeroed; all zero:

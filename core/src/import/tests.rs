@@ -768,6 +768,124 @@ fn skin_weights_are_renormalized_with_one_warning() {
     assert_eq!(p.weights[2][..2], [0.3, 0.7]);
 }
 
+/// One set of skin influences packed as VEC4s is read in one pass (`mesh::one_dense_set`) with
+/// the results of the general path, which reads the same values interleaved: joints of 8 and 16
+/// bits, float and normalized 8- and 16-bit weights, weights to repair among them.
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+fn packed_skin_influences_read_in_one_pass_as_interleaved_ones_do() {
+    // Three vertices at a time (the base's triangle): weights in [0, 1] as codes scale them.
+    let weights: [[f32; 4]; 12] = [
+        [0.5, 0.25, 0.125, 0.125],
+        [0.1, 0.2, 0.3, 0.4],
+        [0.3, 0.3, 0.3, 0.3],
+        [0.0; 4],
+        [0.0, 1.0, 0.0, 0.0],
+        [0.2, 0.0, 0.0, 0.0],
+        [1.0, 1.0, 1.0, 1.0],
+        [0.0, 0.0, 0.0, 0.6],
+        [0.999, 0.001, 0.0, 0.0],
+        [0.7, 0.1, 0.1, 0.1],
+        [0.0, 0.0, 0.5, 0.0],
+        [0.25, 0.25, 0.25, 0.25],
+    ];
+    let joints: [[u16; 4]; 12] = std::array::from_fn(|i| [(i % 2) as u16, 1, ((i / 2) % 2) as u16, (i / 3 % 2) as u16]);
+    // Float weights the file may hold besides: non-finite and negative ones.
+    let odd: [[f32; 4]; 3] = [[f32::NAN, 0.5, 0.5, 0.0], [-0.5, 0.6, 0.4, 0.0], [f32::INFINITY, 1.0, 0.0, 0.0]];
+    let mut checked = 0;
+    for joint_type in [5121, 5123] {
+        for weight_type in [5126, 5121, 5123] {
+            type Group = ([[u16; 4]; 3], [[f32; 4]; 3]);
+            let groups: Vec<Group> = (0..5)
+                .map(|g| match g {
+                    4 if weight_type == 5126 => ([joints[0], joints[1], joints[2]], odd),
+                    4 => ([joints[3], joints[4], joints[5]], [weights[3], weights[4], weights[5]]),
+                    g => (
+                        [joints[3 * g % 12], joints[(3 * g + 1) % 12], joints[(3 * g + 2) % 12]],
+                        [weights[3 * g % 12], weights[(3 * g + 1) % 12], weights[(3 * g + 2) % 12]],
+                    ),
+                })
+                .collect();
+            for (js, ws) in groups {
+                let encode = |component: u32, values: Vec<f32>| -> Vec<u8> {
+                    match component {
+                        5126 => f32s(&values),
+                        5121 => values.iter().map(|&v| (v * 255.0).round() as u8).collect(),
+                        _ => values.iter().flat_map(|&v| ((v * 65535.0).round() as u16).to_le_bytes()).collect(),
+                    }
+                };
+                let joint_bytes: Vec<Vec<u8>> = js
+                    .iter()
+                    .map(|j| match joint_type {
+                        5121 => j.iter().map(|&x| x as u8).collect(),
+                        _ => j.iter().flat_map(|x| x.to_le_bytes()).collect(),
+                    })
+                    .collect();
+                let weight_bytes: Vec<Vec<u8>> = ws.iter().map(|w| encode(weight_type, w.to_vec())).collect();
+                let mut results = Vec::new();
+                for packed in [true, false] {
+                    let (mut doc, mut bin) = base();
+                    // Interleaved: each element followed by four bytes of padding (another attribute's).
+                    let layout = |elements: &[Vec<u8>]| -> (Vec<u8>, Option<u32>) {
+                        if packed {
+                            (elements.concat(), None)
+                        } else {
+                            let stride = elements[0].len() + 4;
+                            (
+                                elements.iter().flat_map(|e| e.iter().copied().chain([0xAB; 4])).collect(),
+                                Some(stride as u32),
+                            )
+                        }
+                    };
+                    let (jb, js) = layout(&joint_bytes);
+                    let (wb, ws) = layout(&weight_bytes);
+                    let jv = add_view(&mut doc, &mut bin, &jb, js);
+                    let wv = add_view(&mut doc, &mut bin, &wb, ws);
+                    let j = add_accessor(
+                        &mut doc,
+                        json!({"bufferView": jv, "componentType": joint_type, "count": 3, "type": "VEC4"}),
+                    );
+                    let mut w = json!({"bufferView": wv, "componentType": weight_type, "count": 3, "type": "VEC4"});
+                    if weight_type != 5126 {
+                        w["normalized"] = json!(true);
+                    }
+                    let w = add_accessor(&mut doc, w);
+                    doc["meshes"][0]["primitives"][0]["attributes"]["JOINTS_0"] = json!(j);
+                    doc["meshes"][0]["primitives"][0]["attributes"]["WEIGHTS_0"] = json!(w);
+                    doc["nodes"] = json!([{"mesh": 0, "skin": 0}, {"children": [2]}, {}]);
+                    doc["scenes"] = json!([{"nodes": [0, 1]}]);
+                    doc["skins"] = json!([{"joints": [1, 2]}]);
+                    // Which path reads it.
+                    let text = doc.to_string();
+                    let arena = super::tree::Arena::new();
+                    let tree = super::tree::parse(text.as_bytes(), &arena).expect("JSON");
+                    let mut budget = Budget::new(1 << 20);
+                    let accessors = accessor::Accessors::new(
+                        tree.as_object().expect("object"),
+                        vec![Some(std::borrow::Cow::Owned(bin.clone()))],
+                        &mut budget,
+                    )
+                    .expect("valid");
+                    let one_pass = mesh::one_dense_set(&accessors, j as u32, w as u32, 3).expect("readable");
+                    assert_eq!(one_pass.is_some(), packed, "{joint_type} {weight_type}");
+                    let imported = run(&doc, &bin).expect("valid");
+                    let p = &imported.asset.meshes[0].primitives[0];
+                    let messages: Vec<String> =
+                        imported.warnings.iter().map(|w| format!("{} {}", w.pointer, w.message)).collect();
+                    results.push((
+                        p.joints.clone(),
+                        p.weights.iter().map(|w| w.map(f32::to_bits)).collect::<Vec<_>>(),
+                        messages,
+                    ));
+                }
+                assert_eq!(results[0], results[1], "joints {joint_type}, weights {weight_type}: {js:?} {ws:?}");
+                checked += 1;
+            }
+        }
+    }
+    assert_eq!(checked, 30);
+}
+
 #[cfg_attr(not(target_arch = "wasm32"), test)]
 #[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
 fn float_attributes_read_tight_and_interleaved_and_non_finite_ones_are_refused() {
