@@ -317,7 +317,7 @@ pub(super) fn one_dense_set(
     w: u32,
     vertex_count: usize,
 ) -> Result<Option<Repaired>, ImportError> {
-    use super::accessor::{Component, u8_f32, u16_f32};
+    use super::accessor::Component;
     let joints = match accessors.dense_vec4(j, Component::U8)? {
         Some(found) => Some((found, 4)),
         None => accessors.dense_vec4(j, Component::U16)?.map(|found| (found, 8)),
@@ -342,10 +342,10 @@ pub(super) fn one_dense_set(
     match (joint_size, component) {
         (4, Component::F32) => fill_one_set(&mut out, narrow, floats, joints_u8, weights_f32),
         (_, Component::F32) => fill_one_set(&mut out, wide, floats, joints_u16, weights_f32),
-        (4, Component::U8) => fill_one_set(&mut out, narrow, bytes, joints_u8, |b| b.map(|x| u8_f32([x], n))),
-        (_, Component::U8) => fill_one_set(&mut out, wide, bytes, joints_u16, |b| b.map(|x| u8_f32([x], n))),
-        (4, _) => fill_one_set(&mut out, narrow, shorts, joints_u8, |b| pairs(b).map(|x| u16_f32(x, n))),
-        (_, _) => fill_one_set(&mut out, wide, shorts, joints_u16, |b| pairs(b).map(|x| u16_f32(x, n))),
+        (4, Component::U8) => fill_one_set(&mut out, narrow, bytes, joints_u8, |b| weights_int(joints_u8(b), n, 255.0)),
+        (_, Component::U8) => fill_one_set(&mut out, wide, bytes, joints_u16, |b| weights_int(joints_u8(b), n, 255.0)),
+        (4, _) => fill_one_set(&mut out, narrow, shorts, joints_u8, |b| weights_int(joints_u16(b), n, 65535.0)),
+        (_, _) => fill_one_set(&mut out, wide, shorts, joints_u16, |b| weights_int(joints_u16(b), n, 65535.0)),
     }
     Ok(Some(out))
 }
@@ -387,6 +387,14 @@ fn pairs(b: &[u8; 8]) -> [[u8; 2]; 4] {
 fn joints_u16(b: &[u8; 8]) -> [u16; 4] {
     let [x, y, z, w] = pairs(b);
     [u16::from_le_bytes(x), u16::from_le_bytes(y), u16::from_le_bytes(z), u16::from_le_bytes(w)]
+}
+
+/// Four unsigned integer weights as floats, divided by their type's largest value (`scale`)
+/// where `normalized`, four lanes at once (each as the accessor's reads divide one).
+#[inline(always)]
+fn weights_int(v: [u16; 4], normalized: bool, scale: f32) -> [f32; 4] {
+    let v = Vec4::new(f32::from(v[0]), f32::from(v[1]), f32::from(v[2]), f32::from(v[3]));
+    if normalized { (v / Vec4::splat(scale)).to_array() } else { v.to_array() }
 }
 
 /// Four little-endian floats.
