@@ -42,6 +42,18 @@ impl Component {
         }
     }
 
+    /// What a normalized integer of this type is divided by, its largest value; `None` for the
+    /// types glTF never normalizes.
+    pub(crate) fn normalized_scale(self) -> Option<f32> {
+        match self {
+            Self::I8 => Some(I8_SCALE),
+            Self::U8 => Some(U8_SCALE),
+            Self::I16 => Some(I16_SCALE),
+            Self::U16 => Some(U16_SCALE),
+            Self::U32 | Self::F32 => None,
+        }
+    }
+
     /// Whether this is an unsigned integer type (indices, joints).
     fn is_unsigned_int(self) -> bool {
         matches!(self, Self::U8 | Self::U16 | Self::U32)
@@ -78,12 +90,11 @@ impl Component {
 /// quantized file, a call for every component: 8 % of its import).
 #[inline]
 fn scaled(v: f32, scale: f32, normalized: bool) -> f32 {
-    let x = v / scale;
-    match normalized {
-        true if x < -1.0 => -1.0,
-        true => x,
-        false => v,
+    if !normalized {
+        return v;
     }
+    let x = v / scale;
+    if x < -1.0 { -1.0 } else { x }
 }
 
 /// [`scaled`] of every value of `values` (integers as floats), normalized: four at a time, each
@@ -102,31 +113,44 @@ fn normalize_run(values: &mut [f32], scale: f32) {
     }
 }
 
+// Each integer type's largest value, what a normalized one is divided by.
+const I8_SCALE: f32 = i8::MAX as f32;
+const U8_SCALE: f32 = u8::MAX as f32;
+const I16_SCALE: f32 = i16::MAX as f32;
+const U16_SCALE: f32 = u16::MAX as f32;
+
 // Each integer component type's bytes as `f32` ([`Component::to_f32`] and the whole-run reads).
 #[inline]
 fn i8_f32([b]: [u8; 1], normalized: bool) -> f32 {
-    scaled(f32::from(b as i8), 127.0, normalized)
+    scaled(f32::from(b as i8), I8_SCALE, normalized)
 }
 #[inline]
 fn u8_f32([b]: [u8; 1], normalized: bool) -> f32 {
-    scaled(f32::from(b), 255.0, normalized)
+    scaled(f32::from(b), U8_SCALE, normalized)
 }
 #[inline]
 fn i16_f32(b: [u8; 2], normalized: bool) -> f32 {
-    scaled(f32::from(i16::from_le_bytes(b)), 32767.0, normalized)
+    scaled(f32::from(i16::from_le_bytes(b)), I16_SCALE, normalized)
 }
 #[inline]
 fn u16_f32(b: [u8; 2], normalized: bool) -> f32 {
-    scaled(f32::from(u16::from_le_bytes(b)), 65535.0, normalized)
+    scaled(f32::from(u16::from_le_bytes(b)), U16_SCALE, normalized)
 }
 #[inline]
 fn u32_f32(b: [u8; 4]) -> f32 {
     u32::from_le_bytes(b) as f32
 }
 
-/// A dense accessor's elements as one run of bytes, their stride and whether they are normalized
-/// ([`Accessors::dense_vec4`]).
-pub(crate) type DenseRun<'a> = (&'a [u8], usize, bool);
+/// A dense `VEC4` accessor's elements as one run of bytes ([`Accessors::dense_vec4`]).
+pub(crate) struct DenseRun<'a> {
+    pub component: Component,
+    pub normalized: bool,
+    /// From the first element to the end of the last: `count` chunks of `stride` bytes, the
+    /// last possibly just one element long.
+    pub bytes: &'a [u8],
+    /// Whether the elements lie side by side (the stride is an element's size).
+    pub packed: bool,
+}
 
 /// A validated buffer view.
 #[derive(Clone, Copy, Debug)]
@@ -757,14 +781,10 @@ impl<'a> Accessors<'a> {
             Component::I8 => self.dense_flat::<1>(a, |b| i8_f32(b, false), out),
             Component::U8 => self.dense_flat::<1>(a, |b| u8_f32(b, false), out),
         }?;
-        let scale = match a.component {
-            Component::I8 => 127.0,
-            Component::U8 => 255.0,
-            Component::I16 => 32767.0,
-            Component::U16 => 65535.0,
-            Component::U32 | Component::F32 => return Ok(read),
-        };
-        if read && normalized {
+        if let Some(scale) = a.component.normalized_scale()
+            && read
+            && normalized
+        {
             normalize_run(out, scale);
         }
         Ok(read)
@@ -855,16 +875,20 @@ impl<'a> Accessors<'a> {
         Ok(out)
     }
 
-    /// Accessor `index`'s elements as one run of bytes where it is a dense `VEC4` of
-    /// `component` ([`Accessors::dense_region`]): the run (from the first element to the end of
-    /// the last, so `count` chunks of `stride` bytes, the last possibly just one element long),
-    /// the stride and whether the components are normalized. `None` for anything else.
-    pub(crate) fn dense_vec4(&self, index: u32, component: Component) -> Result<Option<DenseRun<'_>>, ImportError> {
+    /// Accessor `index`'s elements as one run of bytes where it is a dense `VEC4`
+    /// ([`Accessors::dense_region`]); `None` for anything else.
+    pub(crate) fn dense_vec4(&self, index: u32) -> Result<Option<DenseRun<'_>>, ImportError> {
         let a = self.get(index)?;
-        if a.type_name != "VEC4" || a.component != component {
+        if a.type_name != "VEC4" {
             return Ok(None);
         }
-        Ok(self.dense_region(a, 4 * component.size() as usize)?.map(|(run, stride)| (run, stride, a.normalized)))
+        let element = 4 * a.component.size() as usize;
+        Ok(self.dense_region(a, element)?.map(|(bytes, stride)| DenseRun {
+            component: a.component,
+            normalized: a.normalized,
+            bytes,
+            packed: stride == element,
+        }))
     }
 
     /// Whether the accessor holds 8- or 16-bit unsigned integers (JOINTS_n).

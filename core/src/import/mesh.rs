@@ -317,35 +317,35 @@ pub(super) fn one_dense_set(
     w: u32,
     vertex_count: usize,
 ) -> Result<Option<Repaired>, ImportError> {
-    use super::accessor::Component;
-    let joints = match accessors.dense_vec4(j, Component::U8)? {
-        Some(found) => Some((found, 4)),
-        None => accessors.dense_vec4(j, Component::U16)?.map(|found| (found, 8)),
+    use super::accessor::{Component, DenseRun};
+    let (Some(joints), Some(weights)) = (accessors.dense_vec4(j)?, accessors.dense_vec4(w)?) else {
+        return Ok(None);
     };
-    let Some(((joint_run, joint_stride, false), joint_size)) = joints else { return Ok(None) };
-    let mut weight = None;
-    for (c, size) in [(Component::F32, 16), (Component::U8, 4), (Component::U16, 8)] {
-        if let Some(found) = accessors.dense_vec4(w, c)? {
-            weight = Some((c, size, found));
-            break;
-        }
-    }
-    let Some((component, weight_size, (weight_run, weight_stride, n))) = weight else { return Ok(None) };
-    if joint_stride != joint_size || weight_stride != weight_size {
+    let (
+        DenseRun { component: jc, normalized: false, bytes: jb, packed: true },
+        DenseRun { component: wc, normalized: n, bytes: wb, packed: true },
+    ) = (joints, weights)
+    else {
+        return Ok(None);
+    };
+    if !matches!(jc, Component::U8 | Component::U16) || !matches!(wc, Component::F32 | Component::U8 | Component::U16) {
         return Ok(None);
     }
     let mut out = (vec![[0_u16; 8]; vertex_count], vec![[0.0_f32; 8]; vertex_count], None, 0);
-    let (narrow, wide) = (joint_run.as_chunks::<4>().0, joint_run.as_chunks::<8>().0);
-    let (floats, bytes, shorts) =
-        (weight_run.as_chunks::<16>().0, weight_run.as_chunks::<4>().0, weight_run.as_chunks::<8>().0);
+    let (narrow, wide) = (jb.as_chunks::<4>().0, jb.as_chunks::<8>().0);
+    let (floats, bytes, shorts) = (wb.as_chunks::<16>().0, wb.as_chunks::<4>().0, wb.as_chunks::<8>().0);
+    let scale = wc.normalized_scale().filter(|_| n);
     // One loop for each layout (its reads known in the loop).
-    match (joint_size, component) {
-        (4, Component::F32) => fill_one_set(&mut out, narrow, floats, joints_u8, weights_f32),
-        (_, Component::F32) => fill_one_set(&mut out, wide, floats, joints_u16, weights_f32),
-        (4, Component::U8) => fill_one_set(&mut out, narrow, bytes, joints_u8, |b| weights_int(joints_u8(b), n, 255.0)),
-        (_, Component::U8) => fill_one_set(&mut out, wide, bytes, joints_u16, |b| weights_int(joints_u8(b), n, 255.0)),
-        (4, _) => fill_one_set(&mut out, narrow, shorts, joints_u8, |b| weights_int(joints_u16(b), n, 65535.0)),
-        (_, _) => fill_one_set(&mut out, wide, shorts, joints_u16, |b| weights_int(joints_u16(b), n, 65535.0)),
+    match (jc, wc) {
+        (Component::U8, Component::F32) => fill_one_set(&mut out, narrow, floats, u8x4, weights_f32),
+        (Component::U16, Component::F32) => fill_one_set(&mut out, wide, floats, u16x4, weights_f32),
+        (Component::U8, Component::U8) => fill_one_set(&mut out, narrow, bytes, u8x4, |b| weights_int(u8x4(b), scale)),
+        (Component::U16, Component::U8) => fill_one_set(&mut out, wide, bytes, u16x4, |b| weights_int(u8x4(b), scale)),
+        (Component::U8, Component::U16) => {
+            fill_one_set(&mut out, narrow, shorts, u8x4, |b| weights_int(u16x4(b), scale))
+        }
+        // Both 16-bit (the types are checked above).
+        _ => fill_one_set(&mut out, wide, shorts, u16x4, |b| weights_int(u16x4(b), scale)),
     }
     Ok(Some(out))
 }
@@ -370,9 +370,9 @@ fn fill_one_set<const J: usize, const W: usize>(
     }
 }
 
-/// Four 8-bit joints.
+/// Four 8-bit unsigned integers (joints, or weights before [`weights_int`]).
 #[inline(always)]
-fn joints_u8(b: &[u8; 4]) -> [u16; 4] {
+fn u8x4(b: &[u8; 4]) -> [u16; 4] {
     [u16::from(b[0]), u16::from(b[1]), u16::from(b[2]), u16::from(b[3])]
 }
 
@@ -382,19 +382,19 @@ fn pairs(b: &[u8; 8]) -> [[u8; 2]; 4] {
     [[b[0], b[1]], [b[2], b[3]], [b[4], b[5]], [b[6], b[7]]]
 }
 
-/// Four 16-bit little-endian joints.
+/// Four 16-bit little-endian unsigned integers (as [`u8x4`]).
 #[inline(always)]
-fn joints_u16(b: &[u8; 8]) -> [u16; 4] {
+fn u16x4(b: &[u8; 8]) -> [u16; 4] {
     let [x, y, z, w] = pairs(b);
     [u16::from_le_bytes(x), u16::from_le_bytes(y), u16::from_le_bytes(z), u16::from_le_bytes(w)]
 }
 
-/// Four unsigned integer weights as floats, divided by their type's largest value (`scale`)
-/// where `normalized`, four lanes at once (each as the accessor's reads divide one).
+/// Four unsigned integer weights as floats, divided by `scale` (their type's largest value)
+/// where they are normalized, four lanes at once (each as the accessor's reads divide one).
 #[inline(always)]
-fn weights_int(v: [u16; 4], normalized: bool, scale: f32) -> [f32; 4] {
+fn weights_int(v: [u16; 4], scale: Option<f32>) -> [f32; 4] {
     let v = Vec4::new(f32::from(v[0]), f32::from(v[1]), f32::from(v[2]), f32::from(v[3]));
-    if normalized { (v / Vec4::splat(scale)).to_array() } else { v.to_array() }
+    scale.map_or(v, |s| v / Vec4::splat(s)).to_array()
 }
 
 /// Four little-endian floats.

@@ -664,17 +664,49 @@ fn uris_outside_the_folder_are_never_resolved() {
 
 /// The base document with a 2-joint skin; JOINTS_0 (u8) and WEIGHTS_0 (float) given per vertex.
 fn skinned(joints: [[u8; 4]; 3], weights: [[f32; 4]; 3]) -> (Value, Vec<u8>) {
+    let (doc, bin, _, _) = skinned_by((5121, &joints.concat(), None), (5126, &f32s(&weights.concat()), None));
+    (doc, bin)
+}
+
+/// The base document with a 2-joint skin whose JOINTS_0 and WEIGHTS_0 are VEC4 accessors of three
+/// elements, each `(componentType, bytes, byteStride)` in a view of its own (integer weights
+/// normalized); with the two accessors' indices.
+fn skinned_by(joints: (u32, &[u8], Option<u32>), weights: (u32, &[u8], Option<u32>)) -> (Value, Vec<u8>, u32, u32) {
     let (mut doc, mut bin) = base();
-    let jv = add_view(&mut doc, &mut bin, &joints.concat(), None);
-    let wv = add_view(&mut doc, &mut bin, &f32s(&weights.concat()), None);
-    let j = add_accessor(&mut doc, json!({"bufferView": jv, "componentType": 5121, "count": 3, "type": "VEC4"}));
-    let w = add_accessor(&mut doc, json!({"bufferView": wv, "componentType": 5126, "count": 3, "type": "VEC4"}));
+    let mut attribute = |(component, bytes, stride): (u32, &[u8], Option<u32>), normalized: bool| {
+        let view = add_view(&mut doc, &mut bin, bytes, stride);
+        let mut accessor = json!({"bufferView": view, "componentType": component, "count": 3, "type": "VEC4"});
+        if normalized {
+            accessor["normalized"] = json!(true);
+        }
+        add_accessor(&mut doc, accessor)
+    };
+    let j = attribute(joints, false);
+    let w = attribute(weights, weights.0 != 5126);
     doc["meshes"][0]["primitives"][0]["attributes"]["JOINTS_0"] = json!(j);
     doc["meshes"][0]["primitives"][0]["attributes"]["WEIGHTS_0"] = json!(w);
     doc["nodes"] = json!([{"mesh": 0, "skin": 0}, {"children": [2]}, {}]);
     doc["scenes"] = json!([{"nodes": [0, 1]}]);
     doc["skins"] = json!([{"joints": [1, 2]}]);
-    (doc, bin)
+    (doc, bin, j as u32, w as u32)
+}
+
+/// `f` of `doc`'s accessors over the one buffer `bin`, as the importer makes them, and a budget.
+fn with_accessors<R>(
+    doc: &Value,
+    bin: Vec<u8>,
+    f: impl FnOnce(&accessor::Accessors<'_>, &mut Budget) -> R,
+) -> Result<R, ImportError> {
+    let text = doc.to_string();
+    let arena = super::tree::Arena::new();
+    let tree = super::tree::parse(text.as_bytes(), &arena).expect("JSON");
+    let mut budget = Budget::new(1 << 20);
+    let accessors = accessor::Accessors::new(
+        tree.as_object().expect("object"),
+        vec![Some(std::borrow::Cow::Owned(bin))],
+        &mut budget,
+    )?;
+    Ok(f(&accessors, &mut budget))
 }
 
 #[cfg_attr(not(target_arch = "wasm32"), test)]
@@ -824,7 +856,6 @@ fn packed_skin_influences_read_in_one_pass_as_interleaved_ones_do() {
                 let weight_bytes: Vec<Vec<u8>> = ws.iter().map(|w| encode(weight_type, w.to_vec())).collect();
                 let mut results = Vec::new();
                 for packed in [true, false] {
-                    let (mut doc, mut bin) = base();
                     // Interleaved: each element followed by four bytes of padding (another attribute's).
                     let layout = |elements: &[Vec<u8>]| -> (Vec<u8>, Option<u32>) {
                         if packed {
@@ -837,36 +868,13 @@ fn packed_skin_influences_read_in_one_pass_as_interleaved_ones_do() {
                             )
                         }
                     };
-                    let (jb, js) = layout(&joint_bytes);
-                    let (wb, ws) = layout(&weight_bytes);
-                    let jv = add_view(&mut doc, &mut bin, &jb, js);
-                    let wv = add_view(&mut doc, &mut bin, &wb, ws);
-                    let j = add_accessor(
-                        &mut doc,
-                        json!({"bufferView": jv, "componentType": joint_type, "count": 3, "type": "VEC4"}),
-                    );
-                    let mut w = json!({"bufferView": wv, "componentType": weight_type, "count": 3, "type": "VEC4"});
-                    if weight_type != 5126 {
-                        w["normalized"] = json!(true);
-                    }
-                    let w = add_accessor(&mut doc, w);
-                    doc["meshes"][0]["primitives"][0]["attributes"]["JOINTS_0"] = json!(j);
-                    doc["meshes"][0]["primitives"][0]["attributes"]["WEIGHTS_0"] = json!(w);
-                    doc["nodes"] = json!([{"mesh": 0, "skin": 0}, {"children": [2]}, {}]);
-                    doc["scenes"] = json!([{"nodes": [0, 1]}]);
-                    doc["skins"] = json!([{"joints": [1, 2]}]);
+                    let ((jb, js), (wb, ws)) = (layout(&joint_bytes), layout(&weight_bytes));
+                    let (doc, bin, j, w) = skinned_by((joint_type, &jb, js), (weight_type, &wb, ws));
                     // Which path reads it.
-                    let text = doc.to_string();
-                    let arena = super::tree::Arena::new();
-                    let tree = super::tree::parse(text.as_bytes(), &arena).expect("JSON");
-                    let mut budget = Budget::new(1 << 20);
-                    let accessors = accessor::Accessors::new(
-                        tree.as_object().expect("object"),
-                        vec![Some(std::borrow::Cow::Owned(bin.clone()))],
-                        &mut budget,
-                    )
-                    .expect("valid");
-                    let one_pass = mesh::one_dense_set(&accessors, j as u32, w as u32, 3).expect("readable");
+                    let one_pass =
+                        with_accessors(&doc, bin.clone(), |accessors, _| mesh::one_dense_set(accessors, j, w, 3))
+                            .expect("valid")
+                            .expect("readable");
                     assert_eq!(one_pass.is_some(), packed, "{joint_type} {weight_type}");
                     let imported = run(&doc, &bin).expect("valid");
                     let p = &imported.asset.meshes[0].primitives[0];
@@ -1643,14 +1651,9 @@ fn a_matrix_accessor_needs_no_padding_after_its_last_column() {
         "bufferViews": [{"buffer": 0, "byteLength": 14}],
         "accessors": [{"bufferView": 0, "componentType": 5121, "count": 2, "type": "MAT2"}]
     });
-    let text = doc.to_string();
-    let arena = super::tree::Arena::new();
-    let tree = super::tree::parse(text.as_bytes(), &arena).expect("JSON");
-    let root = tree.as_object().expect("object");
-    let mut budget = Budget::new(1 << 20);
-    let accessors = accessor::Accessors::new(root, vec![Some(std::borrow::Cow::Owned(bytes))], &mut budget)
-        .expect("the view holds both elements");
-    let (values, components) = accessors.read_flat(0, &mut budget).expect("read");
+    let (values, components) = with_accessors(&doc, bytes, |accessors, budget| accessors.read_flat(0, budget))
+        .expect("the view holds both elements")
+        .expect("read");
     assert_eq!(components, 4);
     assert_eq!(values, [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0]);
     // One byte fewer and the last column does not fit.
@@ -1658,13 +1661,9 @@ fn a_matrix_accessor_needs_no_padding_after_its_last_column() {
         "bufferViews": [{"buffer": 0, "byteLength": 13}],
         "accessors": [{"bufferView": 0, "componentType": 5121, "count": 2, "type": "MAT2"}]
     });
-    let text = doc.to_string();
-    let arena = super::tree::Arena::new();
-    let tree = super::tree::parse(text.as_bytes(), &arena).expect("JSON");
-    let root = tree.as_object().expect("object");
-    let short = accessor::Accessors::new(root, vec![Some(std::borrow::Cow::Owned(vec![0; 14]))], &mut budget)
+    let short = with_accessors(&doc, vec![0; 14], |short, budget| short.read_flat(0, budget).err().map(|e| e.pointer))
         .expect("refused where it is read");
-    assert_eq!(short.read_flat(0, &mut budget).err().map(|e| e.pointer), Some("/accessors/0".to_owned()));
+    assert_eq!(short, Some("/accessors/0".to_owned()));
 }
 
 #[cfg_attr(not(target_arch = "wasm32"), test)]
@@ -1875,26 +1874,21 @@ fn whole_run_reads_equal_the_element_by_element_reads() {
                         {"buffer": 0, "byteOffset": values_at, "byteLength": element}],
                     "accessors": [accessor, twin]
                 });
-                let text = doc.to_string();
-                let arena = super::tree::Arena::new();
-                let tree = super::tree::parse(text.as_bytes(), &arena).expect("JSON");
-                let root = tree.as_object().expect("object");
-                let mut budget = Budget::new(1 << 20);
-                let accessors =
-                    accessor::Accessors::new(root, vec![Some(std::borrow::Cow::Owned(data.clone()))], &mut budget)
-                        .expect("valid");
-                assert!(accessors.reads_as_one_run(0) && !accessors.reads_as_one_run(1), "the two paths");
-                let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-                let case = format!("type {ctype}, stride {stride:?}, normalized {normalized}");
-                let (run, n) = accessors.read_flat(0, &mut budget).expect("read");
-                let (each, m) = accessors.read_flat(1, &mut budget).expect("read");
-                assert_eq!((n, bits(&run)), (m, bits(&each)), "read_flat, {case}");
-                let run = accessors.read_f32::<2>(0, "", &["VEC2"], false, &mut budget).expect("read");
-                let each = accessors.read_f32::<2>(1, "", &["VEC2"], false, &mut budget).expect("read");
-                assert_eq!(bits(run.as_flattened()), bits(each.as_flattened()), "read_f32, {case}");
-                if normalized {
-                    assert!(run.as_flattened().iter().all(|x| (-1.0..=1.0).contains(x)), "{case}: {run:?}");
-                }
+                with_accessors(&doc, data.clone(), |accessors, budget| {
+                    assert!(accessors.reads_as_one_run(0) && !accessors.reads_as_one_run(1), "the two paths");
+                    let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                    let case = format!("type {ctype}, stride {stride:?}, normalized {normalized}");
+                    let (run, n) = accessors.read_flat(0, budget).expect("read");
+                    let (each, m) = accessors.read_flat(1, budget).expect("read");
+                    assert_eq!((n, bits(&run)), (m, bits(&each)), "read_flat, {case}");
+                    let run = accessors.read_f32::<2>(0, "", &["VEC2"], false, budget).expect("read");
+                    let each = accessors.read_f32::<2>(1, "", &["VEC2"], false, budget).expect("read");
+                    assert_eq!(bits(run.as_flattened()), bits(each.as_flattened()), "read_f32, {case}");
+                    if normalized {
+                        assert!(run.as_flattened().iter().all(|x| (-1.0..=1.0).contains(x)), "{case}: {run:?}");
+                    }
+                })
+                .expect("valid");
             }
         }
     }
