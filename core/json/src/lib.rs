@@ -1,7 +1,7 @@
 //! The glTF JSON document as a tree that borrows its strings from the file's bytes.
 //!
-//! serde_json parses it (its recursion limit, its errors with line and column); this tree
-//! replaces `serde_json::Value`, which allocated a `String` for every key and string and a
+//! Its parser ([`parse`]) reads and refuses what serde_json does, with its messages' words and
+//! positions, and is written for this tree alone. The tree replaces `serde_json::Value`, which allocated a `String` for every key and string and a
 //! B-tree for every object: for a 2 MB JSON chunk (KayKit's Knight, 8,839 accessors) that was
 //! most of the import's time. Objects are sorted by key with duplicates resolved to the last
 //! (the reads and iteration order of `serde_json::Map`), and looked up by binary search.
@@ -12,11 +12,13 @@
 //! free for every array, object and key were a tenth of a small character's import in wasm;
 //! BENCHMARKS.md, "Import and decoding", stop 61).
 //!
-//! A crate of its own: serde_json's parser is generic, so its code is made in the crate that
-//! calls it, and the web bundle builds this one at opt-level 3 (the importer at "s"): the parse
-//! is a quarter of a small character's import (BENCHMARKS.md, "Import and decoding", stop 59).
+//! A crate of its own so that the web bundle builds it at opt-level 3 (the importer at "s"): the
+//! parse is a large part of a small character's import (BENCHMARKS.md, "Import and decoding",
+//! stops 59 and 63).
 
-use serde::de::{DeserializeSeed, Deserializer, MapAccess, SeqAccess, Visitor};
+mod parse;
+
+pub use parse::Error;
 use std::fmt;
 
 /// Where a parsed tree's arrays, objects and escaped strings are kept: made by the caller,
@@ -42,18 +44,37 @@ impl Arena {
 pub enum Value<'j> {
     Null,
     Bool(bool),
-    Number(Number),
+    Number(Number<'j>),
     String(&'j str),
     Array(&'j [Value<'j>]),
     Object(Map<'j>),
 }
 
 /// A JSON number as serde_json reads it: a non-negative integer, a negative one, or a float.
+///
+/// A float that is not one operation to read (more than 15 digits, or a large power of ten:
+/// most of a file's bounds, which the importer never reads) is kept as its text, checked to be
+/// within `f64`'s range, and read when asked for ([`Value::as_f64`]): the nearest `f64` either way.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Number {
+pub enum Number<'j> {
     U(u64),
     I(i64),
     F(f64),
+    /// A float's text, as written in the document.
+    Decimal(&'j str),
+}
+
+impl Number<'_> {
+    /// The nearest `f64` (exact for an integer up to 2^53).
+    pub fn as_f64(&self) -> f64 {
+        match *self {
+            Number::U(n) => n as f64,
+            Number::I(n) => n as f64,
+            Number::F(x) => x,
+            // Checked to be a JSON number within range when parsed: this cannot fail.
+            Number::Decimal(text) => text.parse().unwrap_or(f64::NAN),
+        }
+    }
 }
 
 /// A JSON object: its members sorted by key, each key once.
@@ -61,30 +82,15 @@ pub enum Number {
 pub struct Map<'j>(&'j [(&'j str, Value<'j>)]);
 
 /// Parses `bytes` as one JSON value, its arrays, objects and escaped strings kept in `arena`.
-pub fn parse<'j>(bytes: &'j [u8], arena: &'j Arena) -> Result<Value<'j>, serde_json::Error> {
+pub fn parse<'j>(bytes: &'j [u8], arena: &'j Arena) -> Result<Value<'j>, Error> {
     parse_counted(bytes, arena).map(|(value, _)| value)
 }
 
 /// Parses `bytes` as one JSON value (as [`parse`]); also returns how many values were parsed
 /// (the root and every item and member, a repeated key's dropped values included: they were
 /// held while parsing).
-pub fn parse_counted<'j>(bytes: &'j [u8], arena: &'j Arena) -> Result<(Value<'j>, u64), serde_json::Error> {
-    // Valid UTF-8 as a whole (checked in one vectorized pass): the parser need not check each
-    // string again. Anything else goes through the byte reader, which says where it fails.
-    match std::str::from_utf8(bytes) {
-        Ok(text) => parse_with(&mut serde_json::Deserializer::from_str(text), arena),
-        Err(_) => parse_with(&mut serde_json::Deserializer::from_slice(bytes), arena),
-    }
-}
-
-fn parse_with<'j, R: serde_json::de::Read<'j>>(
-    deserializer: &mut serde_json::Deserializer<R>,
-    arena: &'j Arena,
-) -> Result<(Value<'j>, u64), serde_json::Error> {
-    let mut scratch = Scratch { arena: &arena.0, items: Vec::new(), members: Vec::new(), nested: 0 };
-    let value = Seed(&mut scratch).deserialize(&mut *deserializer)?;
-    deserializer.end()?;
-    Ok((value, 1 + scratch.nested))
+pub fn parse_counted<'j>(bytes: &'j [u8], arena: &'j Arena) -> Result<(Value<'j>, u64), Error> {
+    parse::parse(bytes, &arena.0)
 }
 
 impl<'j> Value<'j> {
@@ -132,9 +138,7 @@ impl<'j> Value<'j> {
     /// Any number as `f64`.
     pub fn as_f64(&self) -> Option<f64> {
         match *self {
-            Value::Number(Number::U(n)) => Some(n as f64),
-            Value::Number(Number::I(n)) => Some(n as f64),
-            Value::Number(Number::F(x)) => Some(x),
+            Value::Number(n) => Some(n.as_f64()),
             _ => None,
         }
     }
@@ -164,9 +168,10 @@ impl<'j> Map<'j> {
         self.0.iter().map(|(k, v)| (*k, v))
     }
 
-    /// The members as written (`members`, the end of the scratch stack), sorted by key, a
-    /// repeated key's last value kept, copied into `arena`.
-    fn from_members(members: &mut [(&'j str, Value<'j>)], arena: &'j bumpalo::Bump) -> Self {
+    /// The members as written (`keys` and `values` in pairs), sorted by key, a repeated key's
+    /// last value kept, in `arena`.
+    fn from_members(keys: &[&'j str], values: &[Value<'j>], arena: &'j bumpalo::Bump) -> Self {
+        let members = arena.alloc_slice_fill_iter(keys.iter().copied().zip(values.iter().copied()));
         let mut kept = members.len();
         if members.windows(2).any(|w| w[0].0 >= w[1].0) {
             // Stable: of equal keys the last written stays last, and is the one kept.
@@ -180,7 +185,8 @@ impl<'j> Map<'j> {
                 kept += 1;
             }
         }
-        Map(arena.alloc_slice_copy(&members[..kept]))
+        let members: &'j [(&'j str, Value<'j>)] = members;
+        Map(members.get(..kept).unwrap_or_default())
     }
 }
 
@@ -203,7 +209,7 @@ impl fmt::Display for Value<'_> {
             Value::Bool(b) => write!(f, "{b}"),
             Value::Number(Number::U(n)) => write!(f, "{n}"),
             Value::Number(Number::I(n)) => write!(f, "{n}"),
-            Value::Number(Number::F(x)) => write!(f, "{x:?}"),
+            Value::Number(n) => write!(f, "{:?}", n.as_f64()),
             Value::String(s) => write_string(f, s),
             Value::Array(items) => {
                 f.write_str("[")?;
@@ -245,102 +251,6 @@ fn write_string(f: &mut fmt::Formatter<'_>, s: &str) -> fmt::Result {
         }
     }
     f.write_str("\"")
-}
-
-/// A key: borrowed where the file has it without escapes, copied into the arena where not.
-struct Key<'de>(&'de bumpalo::Bump);
-
-impl<'de> DeserializeSeed<'de> for Key<'de> {
-    type Value = &'de str;
-    fn deserialize<D: Deserializer<'de>>(self, d: D) -> Result<&'de str, D::Error> {
-        d.deserialize_str(self)
-    }
-}
-
-impl<'de> Visitor<'de> for Key<'de> {
-    type Value = &'de str;
-    fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str("a string")
-    }
-    fn visit_borrowed_str<E: serde::de::Error>(self, v: &'de str) -> Result<&'de str, E> {
-        Ok(v)
-    }
-    fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<&'de str, E> {
-        Ok(self.0.alloc_str(v))
-    }
-}
-
-/// The items and members of the arrays and objects being parsed, as a stack: each array or
-/// object is copied out into a slice of its exact size in the arena once complete (no vector
-/// grows item by item, which for a large document was a good part of its parse).
-struct Scratch<'de> {
-    arena: &'de bumpalo::Bump,
-    items: Vec<Value<'de>>,
-    members: Vec<(&'de str, Value<'de>)>,
-    /// The items and members parsed so far (every value but the root).
-    nested: u64,
-}
-
-/// Deserializes one value with the shared scratch stacks.
-struct Seed<'s, 'de>(&'s mut Scratch<'de>);
-
-impl<'de> DeserializeSeed<'de> for Seed<'_, 'de> {
-    type Value = Value<'de>;
-    fn deserialize<D: Deserializer<'de>>(self, d: D) -> Result<Value<'de>, D::Error> {
-        d.deserialize_any(self)
-    }
-}
-
-impl<'de> Visitor<'de> for Seed<'_, 'de> {
-    type Value = Value<'de>;
-
-    fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str("any JSON value")
-    }
-    fn visit_unit<E: serde::de::Error>(self) -> Result<Value<'de>, E> {
-        Ok(Value::Null)
-    }
-    fn visit_bool<E: serde::de::Error>(self, v: bool) -> Result<Value<'de>, E> {
-        Ok(Value::Bool(v))
-    }
-    fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<Value<'de>, E> {
-        Ok(Value::Number(Number::U(v)))
-    }
-    fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<Value<'de>, E> {
-        // serde_json hands non-negative integers to visit_u64; this keeps `as_u64` alike anyway.
-        Ok(Value::Number(u64::try_from(v).map_or(Number::I(v), Number::U)))
-    }
-    fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<Value<'de>, E> {
-        if v.is_finite() { Ok(Value::Number(Number::F(v))) } else { Err(E::custom("a number out of range")) }
-    }
-    fn visit_borrowed_str<E: serde::de::Error>(self, v: &'de str) -> Result<Value<'de>, E> {
-        Ok(Value::String(v))
-    }
-    fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<Value<'de>, E> {
-        Ok(Value::String(self.0.arena.alloc_str(v)))
-    }
-    fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Value<'de>, A::Error> {
-        let start = self.0.items.len();
-        while let Some(item) = seq.next_element_seed(Seed(&mut *self.0))? {
-            self.0.items.push(item);
-        }
-        self.0.nested += (self.0.items.len() - start) as u64;
-        let items = self.0.arena.alloc_slice_copy(self.0.items.get(start..).unwrap_or_default());
-        self.0.items.truncate(start);
-        Ok(Value::Array(items))
-    }
-    fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Value<'de>, A::Error> {
-        let start = self.0.members.len();
-        while let Some(key) = map.next_key_seed(Key(self.0.arena))? {
-            let value = map.next_value_seed(Seed(&mut *self.0))?;
-            self.0.members.push((key, value));
-        }
-        self.0.nested += (self.0.members.len() - start) as u64;
-        let arena = self.0.arena;
-        let map = Map::from_members(self.0.members.get_mut(start..).unwrap_or_default(), arena);
-        self.0.members.truncate(start);
-        Ok(Value::Object(map))
-    }
 }
 
 #[cfg(test)]

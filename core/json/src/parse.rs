@@ -1,0 +1,651 @@
+//! The parser: RFC 8259 JSON, recursive descent over the bytes, into the arena's tree.
+//!
+//! It reads what serde_json reads and refuses what it refuses (127 nested arrays and objects at
+//! most, lone surrogates, numbers beyond `f64`), with its messages' words and positions ("… at
+//! line L column C"); `tests/serde_agreement.rs` holds it to that. It was written for speed in
+//! wasm, where serde_json's parse of a small character's JSON into this tree was a fifth of its
+//! import (BENCHMARKS.md, "Import and decoding", stop 63): each value is pushed where it is read,
+//! an error stops the parse without being carried back through every call, short integers are
+//! read in one pass and long floats when asked for, and a string's plain bytes eight at a time.
+
+use crate::{Map, Number, Value};
+use std::cell::Cell;
+use std::fmt;
+
+/// Why a document is not JSON, and where: the byte, its line and column.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Error {
+    message: &'static str,
+    /// The byte's offset in the document.
+    offset: usize,
+    line: usize,
+    column: usize,
+}
+
+impl Error {
+    /// What is wrong ("expected value", "trailing comma", …).
+    pub fn message(&self) -> &'static str {
+        self.message
+    }
+
+    /// The line (from 1).
+    pub fn line(&self) -> usize {
+        self.line
+    }
+
+    /// The column in bytes, as serde_json counts it: that of the byte's end (so 0 for an empty
+    /// document).
+    pub fn column(&self) -> usize {
+        self.column
+    }
+
+    /// The offset of the byte where it was found.
+    pub fn offset(&self) -> usize {
+        self.offset
+    }
+
+    /// An error at the byte at `offset`, written as serde_json writes it: the line and column
+    /// of its end (so column 0 for an empty document, and the line after a newline).
+    fn at(bytes: &[u8], offset: usize, message: &'static str) -> Self {
+        let end = (offset + 1).min(bytes.len());
+        let before = bytes.get(..end).unwrap_or(bytes);
+        let line = 1 + before.iter().filter(|&&b| b == b'\n').count();
+        let line_start = before.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+        Error { message, offset, line, column: end - line_start }
+    }
+}
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{} at line {} column {}", self.message, self.line, self.column)
+    }
+}
+
+impl std::error::Error for Error {}
+
+/// serde_json's: 127 arrays and objects nested at most (a parser that recurses needs a bound).
+const RECURSION_LIMIT: u32 = 127;
+
+/// Parses `bytes` (as `crate::parse_counted`).
+pub(crate) fn parse<'j>(bytes: &'j [u8], arena: &'j bumpalo::Bump) -> Result<(Value<'j>, u64), Error> {
+    // Valid UTF-8 as a whole (checked in one vectorized pass): a string is then a slice of the
+    // text wherever it starts and ends at a quote. Otherwise each string is checked as it is
+    // read, so that the first error in the document is the one reported.
+    let text = std::str::from_utf8(bytes).ok();
+    let mut parser = Parser {
+        text,
+        bytes,
+        pos: 0,
+        arena,
+        items: Vec::new(),
+        keys: Vec::new(),
+        fault: Cell::default(),
+        unescaped: Vec::new(),
+        nested: 0,
+        depth_left: RECURSION_LIMIT,
+    };
+    let parsed = parser.value().and_then(|()| {
+        parser.skip_whitespace();
+        match parser.items.pop() {
+            Some(value) if parser.pos == bytes.len() => Ok(value),
+            _ => Err(parser.error("trailing characters")),
+        }
+    });
+    match parsed {
+        Ok(value) => Ok((value, 1 + parser.nested)),
+        Err(Stop) => {
+            let Fault { message, offset, back } = parser.fault.get();
+            let mut e = Error::at(bytes, offset, message);
+            e.column = e.column.saturating_sub(back);
+            Err(e)
+        }
+    }
+}
+
+/// The parse has stopped: why is in [`Parser::fault`] (a result of nothing but this is returned
+/// in a register at every value, where one carrying the error was written to memory and read
+/// back).
+struct Stop;
+
+/// An [`Error`] as the parser keeps it: its line and column are counted once, at the top.
+#[derive(Clone, Copy, Default)]
+struct Fault {
+    message: &'static str,
+    offset: usize,
+    /// Bytes back from the offset's column ([`Parser::invalid_utf8`]).
+    back: usize,
+}
+
+/// Whether a byte ends a string's plain run: a quote, a backslash or a control character.
+static STRING_STOP: [bool; 256] = {
+    let mut stop = [false; 256];
+    let mut b = 0;
+    while b < 0x20 {
+        stop[b] = true;
+        b += 1;
+    }
+    stop[b'"' as usize] = true;
+    stop[b'\\' as usize] = true;
+    stop
+};
+
+/// Where the run of a string's bytes from `pos` that need no attention ends: eight bytes at a
+/// time while none of them is a quote, a backslash or a control character.
+fn plain_run(bytes: &[u8], mut pos: usize) -> usize {
+    const ONES: u64 = 0x0101_0101_0101_0101;
+    const HIGHS: u64 = 0x8080_8080_8080_8080;
+    while let Some(chunk) = bytes.get(pos..pos + 8) {
+        let mut eight = [0; 8];
+        eight.copy_from_slice(chunk);
+        let x = u64::from_le_bytes(eight);
+        // A byte below 0x20, or equal to '"' or '\\', sets its high bit in one of these (the
+        // classic "has a zero byte" test; a byte of 0x80 or more sets none, as it must).
+        let control = x.wrapping_sub(ONES * 0x20);
+        let quote = (x ^ (ONES * u64::from(b'"'))).wrapping_sub(ONES);
+        let backslash = (x ^ (ONES * u64::from(b'\\'))).wrapping_sub(ONES);
+        if (control | quote | backslash) & !x & HIGHS != 0 {
+            break;
+        }
+        pos += 8;
+    }
+    pos
+}
+
+/// 10^0 ..= 10^22, every one exact in `f64`.
+static POW10: [f64; 23] = [
+    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20,
+    1e21, 1e22,
+];
+
+struct Parser<'j> {
+    /// The document, where it is valid UTF-8 as a whole.
+    text: Option<&'j str>,
+    bytes: &'j [u8],
+    pos: usize,
+    arena: &'j bumpalo::Bump,
+    /// The values of the arrays and objects being parsed, and the objects' keys, as stacks: each
+    /// value is pushed where it is parsed (a value returned through memory and then pushed was
+    /// read back before its last store had landed, a stall per value) and each array or object
+    /// is copied out into a slice of its exact size in the arena once complete (no vector grows
+    /// item by item).
+    items: Vec<Value<'j>>,
+    keys: Vec<&'j str>,
+    /// Why the parse stopped, once it has ([`Stop`]).
+    fault: Cell<Fault>,
+    /// A string with escapes, as it is unescaped (then copied into the arena).
+    unescaped: Vec<u8>,
+    /// The items and members parsed so far (every value but the root).
+    nested: u64,
+    depth_left: u32,
+}
+
+impl<'j> Parser<'j> {
+    /// Stops the parse for `message` at the byte at `offset`.
+    #[cold]
+    fn fail(&self, offset: usize, message: &'static str) -> Stop {
+        self.fault.set(Fault { message, offset, back: 0 });
+        Stop
+    }
+
+    /// Stops the parse for `message` at the current byte.
+    fn error(&self, message: &'static str) -> Stop {
+        self.fail(self.pos, message)
+    }
+
+    /// A string's text is not UTF-8: reported at its closing quote (at `self.pos`), `back` bytes
+    /// before it in the column (serde_json's "first invalid byte", approximate after escapes).
+    fn invalid_utf8(&self, back: usize) -> Stop {
+        self.fault.set(Fault { message: "invalid unicode code point", offset: self.pos, back });
+        Stop
+    }
+
+    fn peek(&self) -> Option<u8> {
+        self.bytes.get(self.pos).copied()
+    }
+
+    fn skip_whitespace(&mut self) {
+        while let Some(b' ' | b'\n' | b'\r' | b'\t') = self.bytes.get(self.pos) {
+            self.pos += 1;
+        }
+    }
+
+    /// One value, after any whitespace, pushed onto `items`.
+    fn value(&mut self) -> Result<(), Stop> {
+        self.skip_whitespace();
+        let value = match self.peek() {
+            Some(b'"') => {
+                self.pos += 1;
+                Value::String(self.string()?)
+            }
+            Some(b'-' | b'0'..=b'9') => Value::Number(self.number()?),
+            Some(b'{') => return self.object(),
+            Some(b'[') => return self.array(),
+            Some(b't') => self.literal(b"true", Value::Bool(true))?,
+            Some(b'f') => self.literal(b"false", Value::Bool(false))?,
+            Some(b'n') => self.literal(b"null", Value::Null)?,
+            Some(_) => return Err(self.error("expected value")),
+            None => return Err(self.error("EOF while parsing a value")),
+        };
+        self.items.push(value);
+        Ok(())
+    }
+
+    fn literal(&mut self, word: &[u8], value: Value<'j>) -> Result<Value<'j>, Stop> {
+        for &expected in word {
+            match self.peek() {
+                Some(b) if b == expected => self.pos += 1,
+                Some(_) => return Err(self.error("expected ident")),
+                None => return Err(self.error("EOF while parsing a value")),
+            }
+        }
+        Ok(value)
+    }
+
+    fn enter(&mut self) -> Result<(), Stop> {
+        self.depth_left = self.depth_left.checked_sub(1).ok_or_else(|| self.error("recursion limit exceeded"))?;
+        self.pos += 1;
+        Ok(())
+    }
+
+    #[inline(never)]
+    fn array(&mut self) -> Result<(), Stop> {
+        self.enter()?;
+        let start = self.items.len();
+        self.skip_whitespace();
+        if self.peek() == Some(b']') {
+            self.pos += 1;
+        } else {
+            loop {
+                self.value()?;
+                self.skip_whitespace();
+                match self.peek() {
+                    Some(b',') => {
+                        self.pos += 1;
+                        self.skip_whitespace();
+                        if self.peek() == Some(b']') {
+                            return Err(self.error("trailing comma"));
+                        }
+                    }
+                    Some(b']') => {
+                        self.pos += 1;
+                        break;
+                    }
+                    Some(_) => return Err(self.error("expected `,` or `]`")),
+                    None => return Err(self.error("EOF while parsing a list")),
+                }
+            }
+        }
+        self.depth_left += 1;
+        let parsed = self.items.get(start..).unwrap_or_default();
+        self.nested += parsed.len() as u64;
+        let items = self.arena.alloc_slice_copy(parsed);
+        self.items.truncate(start);
+        self.items.push(Value::Array(items));
+        Ok(())
+    }
+
+    #[inline(never)]
+    fn object(&mut self) -> Result<(), Stop> {
+        self.enter()?;
+        let (start, keys_start) = (self.items.len(), self.keys.len());
+        self.skip_whitespace();
+        if self.peek() == Some(b'}') {
+            self.pos += 1;
+        } else {
+            loop {
+                match self.peek() {
+                    Some(b'"') => self.pos += 1,
+                    Some(_) => return Err(self.error("key must be a string")),
+                    None => return Err(self.error("EOF while parsing an object")),
+                }
+                let key = self.string()?;
+                self.keys.push(key);
+                self.skip_whitespace();
+                match self.peek() {
+                    Some(b':') => self.pos += 1,
+                    Some(_) => return Err(self.error("expected `:`")),
+                    None => return Err(self.error("EOF while parsing an object")),
+                }
+                self.value()?;
+                self.skip_whitespace();
+                match self.peek() {
+                    Some(b',') => {
+                        self.pos += 1;
+                        self.skip_whitespace();
+                        if self.peek() == Some(b'}') {
+                            return Err(self.error("trailing comma"));
+                        }
+                    }
+                    Some(b'}') => {
+                        self.pos += 1;
+                        break;
+                    }
+                    Some(_) => return Err(self.error("expected `,` or `}`")),
+                    None => return Err(self.error("EOF while parsing an object")),
+                }
+            }
+        }
+        self.depth_left += 1;
+        let keys = self.keys.get(keys_start..).unwrap_or_default();
+        let values = self.items.get(start..).unwrap_or_default();
+        self.nested += values.len() as u64;
+        let map = Map::from_members(keys, values, self.arena);
+        self.items.truncate(start);
+        self.keys.truncate(keys_start);
+        self.items.push(Value::Object(map));
+        Ok(())
+    }
+
+    /// A string, its opening quote read: borrowed from the text where it has no escapes.
+    fn string(&mut self) -> Result<&'j str, Stop> {
+        let start = self.pos;
+        self.pos = plain_run(self.bytes, start);
+        loop {
+            let Some(&b) = self.bytes.get(self.pos) else {
+                return Err(self.error("EOF while parsing a string"));
+            };
+            if !STRING_STOP[usize::from(b)] {
+                self.pos += 1;
+                continue;
+            }
+            return match b {
+                b'"' => {
+                    let s = match self.text {
+                        Some(text) => text.get(start..self.pos).ok_or_else(|| self.error("invalid unicode code point")),
+                        None => {
+                            let raw = self.bytes.get(start..self.pos).unwrap_or_default();
+                            std::str::from_utf8(raw).map_err(|e| self.invalid_utf8(raw.len() - e.valid_up_to()))
+                        }
+                    }?;
+                    self.pos += 1;
+                    Ok(s)
+                }
+                b'\\' => self.escaped_string(start),
+                _ => Err(self.error("control character (\\u0000-\\u001F) found while parsing a string")),
+            };
+        }
+    }
+
+    /// The rest of a string that has an escape at `self.pos` (its text from `start`), unescaped
+    /// and copied into the arena.
+    fn escaped_string(&mut self, start: usize) -> Result<&'j str, Stop> {
+        self.unescaped.clear();
+        self.unescaped.extend_from_slice(self.bytes.get(start..self.pos).unwrap_or_default());
+        loop {
+            let Some(&b) = self.bytes.get(self.pos) else {
+                return Err(self.error("EOF while parsing a string"));
+            };
+            self.pos += 1;
+            match b {
+                b'"' => break,
+                b'\\' => self.escape()?,
+                b if b < 0x20 => {
+                    self.pos -= 1;
+                    return Err(self.error("control character (\\u0000-\\u001F) found while parsing a string"));
+                }
+                b => self.unescaped.push(b),
+            }
+        }
+        // Escapes write whole characters and the rest is copied from valid UTF-8 between ASCII
+        // bytes, so this holds; checked anyway rather than assumed.
+        match std::str::from_utf8(&self.unescaped) {
+            Ok(s) => Ok(self.arena.alloc_str(s)),
+            Err(e) => {
+                let back = self.unescaped.len() - e.valid_up_to();
+                self.pos -= 1;
+                Err(self.invalid_utf8(back))
+            }
+        }
+    }
+
+    /// One escape, its backslash read.
+    fn escape(&mut self) -> Result<(), Stop> {
+        let Some(&b) = self.bytes.get(self.pos) else {
+            return Err(self.error("EOF while parsing a string"));
+        };
+        self.pos += 1;
+        let byte = match b {
+            b'"' => b'"',
+            b'\\' => b'\\',
+            b'/' => b'/',
+            b'b' => 0x08,
+            b'f' => 0x0c,
+            b'n' => b'\n',
+            b'r' => b'\r',
+            b't' => b'\t',
+            b'u' => return self.unicode_escape(),
+            _ => {
+                self.pos -= 1;
+                return Err(self.error("invalid escape"));
+            }
+        };
+        self.unescaped.push(byte);
+        Ok(())
+    }
+
+    /// `\uXXXX`, its `\u` read: a character, or a surrogate pair's two escapes (serde_json's
+    /// reading, its errors and where it reports them).
+    fn unicode_escape(&mut self) -> Result<(), Stop> {
+        let first = self.hex4()?;
+        let code = match first {
+            0xD800..=0xDBFF => {
+                for expected in [b'\\', b'u'] {
+                    match self.peek() {
+                        Some(b) => {
+                            self.pos += 1;
+                            if b != expected {
+                                return Err(self.fail(self.pos - 1, "unexpected end of hex escape"));
+                            }
+                        }
+                        None => return Err(self.error("EOF while parsing a string")),
+                    }
+                }
+                let second = self.hex4()?;
+                if !(0xDC00..=0xDFFF).contains(&second) {
+                    return Err(self.fail(self.pos - 1, "lone leading surrogate in hex escape"));
+                }
+                0x10000 + ((u32::from(first) - 0xD800) << 10) + (u32::from(second) - 0xDC00)
+            }
+            0xDC00..=0xDFFF => return Err(self.fail(self.pos - 1, "lone leading surrogate in hex escape")),
+            _ => u32::from(first),
+        };
+        let c = char::from_u32(code).ok_or_else(|| self.fail(self.pos - 1, "invalid unicode code point"))?;
+        let mut utf8 = [0; 4];
+        self.unescaped.extend_from_slice(c.encode_utf8(&mut utf8).as_bytes());
+        Ok(())
+    }
+
+    /// Four hex digits (an error at the fourth where any is not one).
+    fn hex4(&mut self) -> Result<u16, Stop> {
+        let Some(digits) = self.bytes.get(self.pos..self.pos + 4) else {
+            self.pos = self.bytes.len();
+            return Err(self.error("EOF while parsing a string"));
+        };
+        self.pos += 4;
+        let mut n = 0u16;
+        for &b in digits {
+            let digit = match b {
+                b'0'..=b'9' => b - b'0',
+                b'a'..=b'f' => b - b'a' + 10,
+                b'A'..=b'F' => b - b'A' + 10,
+                _ => return Err(self.fail(self.pos - 1, "invalid escape")),
+            };
+            n = (n << 4) | u16::from(digit);
+        }
+        Ok(n)
+    }
+
+    fn digits(&mut self) -> usize {
+        let start = self.pos;
+        while let Some(b'0'..=b'9') = self.bytes.get(self.pos) {
+            self.pos += 1;
+        }
+        self.pos - start
+    }
+
+    /// A number, at its first character (`-` or a digit): an integer as `U` (from 0) or `I`
+    /// (below 0) where it fits 64 bits, anything else (a fraction, an exponent, a larger
+    /// integer, `-0`) as a float (`F` or `Decimal`), refused beyond `f64`'s range (serde_json's
+    /// reading).
+    fn number(&mut self) -> Result<Number<'j>, Stop> {
+        // Most of a file's numbers are short integers (indices, counts, types): read in one pass
+        // where the number is one.
+        let start = self.pos;
+        let digits_start = start + usize::from(self.peek() == Some(b'-'));
+        let (mut end, mut n) = (digits_start, 0u64);
+        while let Some(&d @ b'0'..=b'9') = self.bytes.get(end) {
+            n = n.wrapping_mul(10).wrapping_add(u64::from(d - b'0'));
+            end += 1;
+        }
+        let count = end - digits_start;
+        let integer = (1..=19).contains(&count)
+            && (count == 1 || self.bytes.get(digits_start) != Some(&b'0'))
+            && !matches!(self.bytes.get(end), Some(b'.' | b'e' | b'E'));
+        if integer {
+            if digits_start == start {
+                self.pos = end;
+                return Ok(Number::U(n));
+            } else if n != 0 && n <= 1 << 63 {
+                self.pos = end;
+                return Ok(Number::I(0i64.wrapping_sub_unsigned(n)));
+            }
+        }
+        self.any_number()
+    }
+
+    /// A number as [`Parser::number`] reads it, whatever its form.
+    fn any_number(&mut self) -> Result<Number<'j>, Stop> {
+        let start = self.pos;
+        let negative = self.peek() == Some(b'-');
+        if negative {
+            self.pos += 1;
+        }
+        // The integer part: `0` or a digit 1–9 and more digits.
+        let int_start = self.pos;
+        match self.peek() {
+            Some(b'0') => self.pos += 1,
+            Some(b'1'..=b'9') => {
+                self.digits();
+            }
+            Some(_) => return Err(self.error("invalid number")),
+            None => return Err(self.error("EOF while parsing a value")),
+        }
+        let int_digits = self.bytes.get(int_start..self.pos).unwrap_or_default();
+        let mut fraction: &[u8] = &[];
+        if self.peek() == Some(b'.') {
+            self.pos += 1;
+            let fraction_start = self.pos;
+            if self.digits() == 0 {
+                return Err(self.error(if self.pos < self.bytes.len() {
+                    "invalid number"
+                } else {
+                    "EOF while parsing a value"
+                }));
+            }
+            fraction = self.bytes.get(fraction_start..self.pos).unwrap_or_default();
+        }
+        let mut exponent: Option<i64> = None;
+        if let Some(b'e' | b'E') = self.peek() {
+            self.pos += 1;
+            let exponent_negative = match self.peek() {
+                Some(b'-') => {
+                    self.pos += 1;
+                    true
+                }
+                Some(b'+') => {
+                    self.pos += 1;
+                    false
+                }
+                _ => false,
+            };
+            let exponent_start = self.pos;
+            if self.digits() == 0 {
+                return Err(self.error(if self.pos < self.bytes.len() {
+                    "invalid number"
+                } else {
+                    "EOF while parsing a value"
+                }));
+            }
+            // An exponent past i32's range: a non-zero number is out of range (refused at that
+            // digit, as serde_json does), any other is zero (the saturated exponent gives it).
+            let mut magnitude = 0i64;
+            let nonzero = int_digits.iter().chain(fraction).any(|&d| d != b'0');
+            for (i, &d) in self.bytes.get(exponent_start..self.pos).unwrap_or_default().iter().enumerate() {
+                magnitude = magnitude * 10 + i64::from(d - b'0');
+                if magnitude > i64::from(i32::MAX) {
+                    if nonzero && !exponent_negative {
+                        return Err(self.fail(exponent_start + i, "number out of range"));
+                    }
+                    magnitude = i64::from(i32::MAX);
+                    break;
+                }
+            }
+            exponent = Some(if exponent_negative { -magnitude } else { magnitude });
+        }
+        if fraction.is_empty() && exponent.is_none() {
+            // Up to 19 digits cannot overflow u64; 20 may (a multiplication checked for overflow
+            // is a call to a 128-bit multiply in wasm, once per digit).
+            let n = if int_digits.len() <= 19 {
+                Some(int_digits.iter().fold(0u64, |n, &d| n * 10 + u64::from(d - b'0')))
+            } else {
+                int_digits.iter().try_fold(0u64, |n, &d| n.checked_mul(10)?.checked_add(u64::from(d - b'0')))
+            };
+            match n {
+                Some(n) if !negative => return Ok(Number::U(n)),
+                Some(n) if n != 0 && n <= 1 << 63 => return Ok(Number::I(0i64.wrapping_sub_unsigned(n))),
+                _ => {}
+            }
+        }
+        self.float(start, negative, int_digits, fraction, exponent.unwrap_or(0))
+    }
+
+    /// The number written from `start` to here: as the nearest `f64` where that is one
+    /// operation, as its text (read when asked for, [`Number::Decimal`]) where it is known to be
+    /// within `f64`'s range, refused where it is known not to be.
+    fn float(
+        &self,
+        start: usize,
+        negative: bool,
+        int_digits: &[u8],
+        fraction: &[u8],
+        exponent: i64,
+    ) -> Result<Number<'j>, Stop> {
+        // Clinger's fast path: a significand below 2^53 and a power of ten up to 10^22 are both
+        // exact, so one multiplication or division rounds once, correctly.
+        let digits = int_digits.len() + fraction.len();
+        if digits <= 19 {
+            let significand = int_digits.iter().chain(fraction).fold(0u64, |n, &d| n * 10 + u64::from(d - b'0'));
+            let scale = exponent - fraction.len() as i64;
+            if significand < 1 << 53 && (-22..=22).contains(&scale) {
+                let m = significand as f64;
+                let power = POW10[scale.unsigned_abs() as usize];
+                let x = if scale < 0 { m / power } else { m * power };
+                return Ok(Number::F(if negative { -x } else { x }));
+            }
+        }
+        // The number's characters are ASCII whether the document is UTF-8 or not.
+        let written = self
+            .bytes
+            .get(start..self.pos)
+            .and_then(|b| std::str::from_utf8(b).ok())
+            .ok_or_else(|| self.error("invalid number"))?;
+        let out_of_range = || self.fail(self.pos - 1, "number out of range");
+        // The number is in [10^e, 10^(e + 1)) for the decimal exponent e of its first digit that
+        // is not 0: below 10^308 it is finite (f64's largest is 1.797e308), from 10^309 it is
+        // not, and in between it is read now to tell.
+        let Some(first) = int_digits.iter().chain(fraction).position(|&d| d != b'0') else {
+            return Ok(Number::F(if negative { -0.0 } else { 0.0 }));
+        };
+        let e = int_digits.len() as i64 - 1 - first as i64 + exponent;
+        if e < 308 {
+            Ok(Number::Decimal(written))
+        } else if e > 308 {
+            Err(out_of_range())
+        } else {
+            match written.parse::<f64>() {
+                Ok(x) if x.is_finite() => Ok(Number::F(x)),
+                _ => Err(out_of_range()),
+            }
+        }
+    }
+}
