@@ -498,17 +498,46 @@ impl<'j> Parser<'j> {
             end += 1;
         }
         let count = end - digits_start;
-        let integer = (1..=19).contains(&count)
-            && (count == 1 || self.bytes.get(digits_start) != Some(&b'0'))
-            && !matches!(self.bytes.get(end), Some(b'.' | b'e' | b'E'));
-        if integer {
-            if digits_start == start {
-                self.pos = end;
-                return Ok(Number::U(n));
-            } else if n != 0 && n <= 1 << 63 {
-                self.pos = end;
-                return Ok(Number::I(0i64.wrapping_sub_unsigned(n)));
+        let negative = digits_start != start;
+        if count == 0 || (count > 1 && self.bytes.get(digits_start) == Some(&b'0')) {
+            return self.any_number();
+        }
+        match self.bytes.get(end) {
+            Some(b'e' | b'E') => {}
+            // And most of the rest are fractions without an exponent, as exporters write them.
+            Some(b'.') => {
+                let fraction_start = end + 1;
+                let mut fraction_end = fraction_start;
+                while let Some(&d @ b'0'..=b'9') = self.bytes.get(fraction_end) {
+                    n = n.wrapping_mul(10).wrapping_add(u64::from(d - b'0'));
+                    fraction_end += 1;
+                }
+                let fraction = fraction_end - fraction_start;
+                // Below 10^300 (any such number is finite), not cut short, no exponent.
+                if count <= 300 && fraction > 0 && !matches!(self.bytes.get(fraction_end), Some(b'e' | b'E')) {
+                    self.pos = fraction_end;
+                    // Clinger's fast path (as in `float`).
+                    if count + fraction <= 19 && n < 1 << 53 && fraction <= 22 {
+                        let x = n as f64 / POW10[fraction];
+                        return Ok(Number::F(if negative { -x } else { x }));
+                    }
+                    let text = match self.text {
+                        Some(text) => text.get(start..fraction_end),
+                        None => self.bytes.get(start..fraction_end).and_then(|b| std::str::from_utf8(b).ok()),
+                    };
+                    return text.map(Number::Decimal).ok_or_else(|| self.error("invalid number"));
+                }
             }
+            _ if count <= 19 => {
+                if !negative {
+                    self.pos = end;
+                    return Ok(Number::U(n));
+                } else if n != 0 && n <= 1 << 63 {
+                    self.pos = end;
+                    return Ok(Number::I(0i64.wrapping_sub_unsigned(n)));
+                }
+            }
+            _ => {}
         }
         self.any_number()
     }
