@@ -4,9 +4,10 @@
 //! most, lone surrogates, numbers beyond `f64`), with its messages' words and positions ("… at
 //! line L column C"); `tests/serde_agreement.rs` holds it to that. It was written for speed in
 //! wasm, where serde_json's parse of a small character's JSON into this tree was a fifth of its
-//! import (BENCHMARKS.md, "Import and decoding", stop 63): each value is pushed where it is read,
-//! an error stops the parse without being carried back through every call, short integers are
-//! read in one pass and long floats when asked for, and a string's plain bytes eight at a time.
+//! import (BENCHMARKS.md, "Import and decoding", stop 63): one loop over the values (no call and
+//! no recursion per value), each value pushed where it is read, an error kept in the parser
+//! instead of carried back through every call, integers and plain fractions read in one pass (a
+//! long float kept as its text, read when asked for), a string's plain bytes eight at a time.
 
 use crate::{Map, Number, Value};
 use std::cell::Cell;
@@ -64,7 +65,7 @@ impl fmt::Display for Error {
 impl std::error::Error for Error {}
 
 /// serde_json's: 127 arrays and objects nested at most (a parser that recurses needs a bound).
-const RECURSION_LIMIT: u32 = 127;
+const RECURSION_LIMIT: usize = 127;
 
 /// Parses `bytes` (as `crate::parse_counted`).
 pub(crate) fn parse<'j>(bytes: &'j [u8], arena: &'j bumpalo::Bump) -> Result<(Value<'j>, u64), Error> {
@@ -82,9 +83,8 @@ pub(crate) fn parse<'j>(bytes: &'j [u8], arena: &'j bumpalo::Bump) -> Result<(Va
         fault: Cell::default(),
         unescaped: Vec::new(),
         nested: 0,
-        depth_left: RECURSION_LIMIT,
     };
-    let parsed = parser.value().and_then(|()| {
+    let parsed = parser.document().and_then(|()| {
         parser.skip_whitespace();
         match parser.items.pop() {
             Some(value) if parser.pos == bytes.len() => Ok(value),
@@ -103,8 +103,7 @@ pub(crate) fn parse<'j>(bytes: &'j [u8], arena: &'j bumpalo::Bump) -> Result<(Va
 }
 
 /// The parse has stopped: why is in [`Parser::fault`] (a result of nothing but this is returned
-/// in a register at every value, where one carrying the error was written to memory and read
-/// back).
+/// in a register, where one carrying the error was written to memory and read back).
 struct Stop;
 
 /// An [`Error`] as the parser keeps it: its line and column are counted once, at the top.
@@ -164,10 +163,8 @@ struct Parser<'j> {
     pos: usize,
     arena: &'j bumpalo::Bump,
     /// The values of the arrays and objects being parsed, and the objects' keys, as stacks: each
-    /// value is pushed where it is parsed (a value returned through memory and then pushed was
-    /// read back before its last store had landed, a stall per value) and each array or object
-    /// is copied out into a slice of its exact size in the arena once complete (no vector grows
-    /// item by item).
+    /// value is pushed where it is parsed, and each array or object is copied out into a slice
+    /// of its exact size in the arena once complete (no vector grows item by item).
     items: Vec<Value<'j>>,
     keys: Vec<&'j str>,
     /// Why the parse stopped, once it has ([`Stop`]).
@@ -176,7 +173,14 @@ struct Parser<'j> {
     unescaped: Vec<u8>,
     /// The items and members parsed so far (every value but the root).
     nested: u64,
-    depth_left: u32,
+}
+
+/// An array or object being parsed: where its items (and keys) start on the stacks.
+#[derive(Clone, Copy)]
+struct Open {
+    object: bool,
+    items: usize,
+    keys: usize,
 }
 
 impl<'j> Parser<'j> {
@@ -209,25 +213,111 @@ impl<'j> Parser<'j> {
         }
     }
 
-    /// One value, after any whitespace, pushed onto `items`.
-    fn value(&mut self) -> Result<(), Stop> {
-        self.skip_whitespace();
-        let value = match self.peek() {
-            Some(b'"') => {
+    /// The document's value, pushed onto `items`: one loop over the values, the arrays and
+    /// objects open around the one being read kept in `open` (a call per value, recursing
+    /// into each array and object, was a good part of the parse in wasm).
+    fn document(&mut self) -> Result<(), Stop> {
+        let mut open: Vec<Open> = Vec::new();
+        'value: loop {
+            self.skip_whitespace();
+            let value = match self.peek() {
+                Some(b'"') => {
+                    self.pos += 1;
+                    Value::String(self.string()?)
+                }
+                Some(b'-' | b'0'..=b'9') => Value::Number(self.number()?),
+                Some(bracket @ (b'{' | b'[')) => {
+                    if open.len() >= RECURSION_LIMIT {
+                        return Err(self.error("recursion limit exceeded"));
+                    }
+                    self.pos += 1;
+                    let object = bracket == b'{';
+                    open.push(Open { object, items: self.items.len(), keys: self.keys.len() });
+                    self.skip_whitespace();
+                    if self.peek() != Some(if object { b'}' } else { b']' }) {
+                        if object {
+                            self.key()?;
+                        }
+                        continue 'value;
+                    }
+                    self.pos += 1;
+                    self.close(&mut open)
+                }
+                Some(b't') => self.literal(b"true", Value::Bool(true))?,
+                Some(b'f') => self.literal(b"false", Value::Bool(false))?,
+                Some(b'n') => self.literal(b"null", Value::Null)?,
+                Some(_) => return Err(self.error("expected value")),
+                None => return Err(self.error("EOF while parsing a value")),
+            };
+            self.items.push(value);
+            // A value is complete: what follows it in the array or object around it, where
+            // each that it closes is complete in turn.
+            loop {
+                let Some(&Open { object, .. }) = open.last() else { return Ok(()) };
+                self.skip_whitespace();
+                match self.peek() {
+                    Some(b',') => {
+                        self.pos += 1;
+                        self.skip_whitespace();
+                        if self.peek() == Some(if object { b'}' } else { b']' }) {
+                            return Err(self.error("trailing comma"));
+                        }
+                        if object {
+                            self.key()?;
+                        }
+                        continue 'value;
+                    }
+                    Some(b']') if !object => {}
+                    Some(b'}') if object => {}
+                    Some(_) if object => return Err(self.error("expected `,` or `}`")),
+                    Some(_) => return Err(self.error("expected `,` or `]`")),
+                    None if object => return Err(self.error("EOF while parsing an object")),
+                    None => return Err(self.error("EOF while parsing a list")),
+                }
                 self.pos += 1;
-                Value::String(self.string()?)
+                let closed = self.close(&mut open);
+                self.items.push(closed);
             }
-            Some(b'-' | b'0'..=b'9') => Value::Number(self.number()?),
-            Some(b'{') => return self.object(),
-            Some(b'[') => return self.array(),
-            Some(b't') => self.literal(b"true", Value::Bool(true))?,
-            Some(b'f') => self.literal(b"false", Value::Bool(false))?,
-            Some(b'n') => self.literal(b"null", Value::Null)?,
-            Some(_) => return Err(self.error("expected value")),
-            None => return Err(self.error("EOF while parsing a value")),
+        }
+    }
+
+    /// An object's member's key and colon, up to its value.
+    #[inline(always)]
+    fn key(&mut self) -> Result<(), Stop> {
+        match self.peek() {
+            Some(b'"') => self.pos += 1,
+            Some(_) => return Err(self.error("key must be a string")),
+            None => return Err(self.error("EOF while parsing an object")),
+        }
+        let key = self.string()?;
+        self.keys.push(key);
+        self.skip_whitespace();
+        match self.peek() {
+            Some(b':') => {
+                self.pos += 1;
+                Ok(())
+            }
+            Some(_) => Err(self.error("expected `:`")),
+            None => Err(self.error("EOF while parsing an object")),
+        }
+    }
+
+    /// The innermost open array or object, its closing bracket read: its items (and keys) taken
+    /// off the stacks into the arena.
+    #[inline(always)]
+    fn close(&mut self, open: &mut Vec<Open>) -> Value<'j> {
+        let Some(Open { object, items, keys }) = open.pop() else { return Value::Null };
+        let values = self.items.get(items..).unwrap_or_default();
+        self.nested += values.len() as u64;
+        let value = if object {
+            let names = self.keys.get(keys..).unwrap_or_default();
+            Value::Object(Map::from_members(names, values, self.arena))
+        } else {
+            Value::Array(self.arena.alloc_slice_copy(values))
         };
-        self.items.push(value);
-        Ok(())
+        self.items.truncate(items);
+        self.keys.truncate(keys);
+        value
     }
 
     fn literal(&mut self, word: &[u8], value: Value<'j>) -> Result<Value<'j>, Stop> {
@@ -239,101 +329,6 @@ impl<'j> Parser<'j> {
             }
         }
         Ok(value)
-    }
-
-    fn enter(&mut self) -> Result<(), Stop> {
-        self.depth_left = self.depth_left.checked_sub(1).ok_or_else(|| self.error("recursion limit exceeded"))?;
-        self.pos += 1;
-        Ok(())
-    }
-
-    #[inline(never)]
-    fn array(&mut self) -> Result<(), Stop> {
-        self.enter()?;
-        let start = self.items.len();
-        self.skip_whitespace();
-        if self.peek() == Some(b']') {
-            self.pos += 1;
-        } else {
-            loop {
-                self.value()?;
-                self.skip_whitespace();
-                match self.peek() {
-                    Some(b',') => {
-                        self.pos += 1;
-                        self.skip_whitespace();
-                        if self.peek() == Some(b']') {
-                            return Err(self.error("trailing comma"));
-                        }
-                    }
-                    Some(b']') => {
-                        self.pos += 1;
-                        break;
-                    }
-                    Some(_) => return Err(self.error("expected `,` or `]`")),
-                    None => return Err(self.error("EOF while parsing a list")),
-                }
-            }
-        }
-        self.depth_left += 1;
-        let parsed = self.items.get(start..).unwrap_or_default();
-        self.nested += parsed.len() as u64;
-        let items = self.arena.alloc_slice_copy(parsed);
-        self.items.truncate(start);
-        self.items.push(Value::Array(items));
-        Ok(())
-    }
-
-    #[inline(never)]
-    fn object(&mut self) -> Result<(), Stop> {
-        self.enter()?;
-        let (start, keys_start) = (self.items.len(), self.keys.len());
-        self.skip_whitespace();
-        if self.peek() == Some(b'}') {
-            self.pos += 1;
-        } else {
-            loop {
-                match self.peek() {
-                    Some(b'"') => self.pos += 1,
-                    Some(_) => return Err(self.error("key must be a string")),
-                    None => return Err(self.error("EOF while parsing an object")),
-                }
-                let key = self.string()?;
-                self.keys.push(key);
-                self.skip_whitespace();
-                match self.peek() {
-                    Some(b':') => self.pos += 1,
-                    Some(_) => return Err(self.error("expected `:`")),
-                    None => return Err(self.error("EOF while parsing an object")),
-                }
-                self.value()?;
-                self.skip_whitespace();
-                match self.peek() {
-                    Some(b',') => {
-                        self.pos += 1;
-                        self.skip_whitespace();
-                        if self.peek() == Some(b'}') {
-                            return Err(self.error("trailing comma"));
-                        }
-                    }
-                    Some(b'}') => {
-                        self.pos += 1;
-                        break;
-                    }
-                    Some(_) => return Err(self.error("expected `,` or `}`")),
-                    None => return Err(self.error("EOF while parsing an object")),
-                }
-            }
-        }
-        self.depth_left += 1;
-        let keys = self.keys.get(keys_start..).unwrap_or_default();
-        let values = self.items.get(start..).unwrap_or_default();
-        self.nested += values.len() as u64;
-        let map = Map::from_members(keys, values, self.arena);
-        self.items.truncate(start);
-        self.keys.truncate(keys_start);
-        self.items.push(Value::Object(map));
-        Ok(())
     }
 
     /// A string, its opening quote read: borrowed from the text where it has no escapes.
