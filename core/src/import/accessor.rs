@@ -706,23 +706,20 @@ impl<'a> Accessors<'a> {
         let Some((region, stride)) = self.dense_region(a, S * N)? else {
             return Ok(false);
         };
-        // The region holds `count` elements, `stride` bytes apart, the last one ending it. They
-        // are written over zeros as one flat run of components (a plain loop the compiler turns
-        // into a copy where `read` is one, as for little-endian floats; pushing element by
-        // element cost wasm a capacity check and a store per element).
+        // The region holds `count` elements, `stride` bytes apart, the last one ending it.
+        if stride == S * N {
+            // Packed: extended by an iterator of known length (room made once, no check per
+            // element; pushing element by element cost wasm a capacity check and a store per
+            // element, and writing over zeros a pass to zero them first).
+            out.extend(region.as_chunks::<S>().0.as_chunks::<N>().0.iter().map(|e| e.map(&read)));
+            return Ok(true);
+        }
         let start = out.len();
         out.resize(start + (region.len() - S * N) / stride + 1, [T::default(); N]);
-        let values = out[start..].as_flattened_mut();
-        if stride == S * N {
-            for (v, &b) in values.iter_mut().zip(region.as_chunks::<S>().0) {
+        // Interleaved: each chunk starts an element (the last may stop at its end).
+        for (e, c) in out[start..].iter_mut().zip(region.chunks(stride)) {
+            for (v, &b) in e.iter_mut().zip(c.as_chunks::<S>().0) {
                 *v = read(b);
-            }
-        } else {
-            // Interleaved: each chunk starts an element (the last may stop at its end).
-            for (e, c) in values.chunks_exact_mut(N).zip(region.chunks(stride)) {
-                for (v, &b) in e.iter_mut().zip(c.as_chunks::<S>().0) {
-                    *v = read(b);
-                }
             }
         }
         Ok(true)
@@ -821,6 +818,15 @@ impl<'a> Accessors<'a> {
         let normalized = a.normalized;
         let total = a.count.checked_mul(n as u64);
         let mut out = self.allocate::<f32>(index, total.unwrap_or(u64::MAX), budget)?;
+        // Packed floats (most animation outputs): extended straight from the bytes, without
+        // zeroing room for them first.
+        if a.component == Component::F32
+            && let Some((region, stride)) = self.dense_region(a, 4 * n)?
+            && stride == 4 * n
+        {
+            out.extend(region.as_chunks::<4>().0.iter().map(|&b| f32::from_le_bytes(b)));
+            return Ok((out, n));
+        }
         out.resize(total.and_then(|t| usize::try_from(t).ok()).unwrap_or(0), 0.0);
         if self.dense_components(a, normalized, &mut out)? {
             return Ok((out, n));
