@@ -148,8 +148,19 @@ fn parse_primitive(
     let raw: Vec<u32> = match opt_index(prim, "indices", ptr, cx.accessors.len(), "accessor")? {
         Some(a) => {
             let list = cx.accessors.read_u32::<1>(a, &indices_ptr, &["SCALAR"], &mut cx.budget)?;
-            let list: Vec<u32> = list.into_iter().map(|[i]| i).collect();
-            if let Some((k, &i)) = list.iter().enumerate().find(|&(_, &i)| i >= vertex_count_u32) {
+            // The largest index found in the same pass (the one out of range looked for only
+            // to name it).
+            let mut largest = 0;
+            let list: Vec<u32> = list
+                .into_iter()
+                .map(|[i]| {
+                    largest = largest.max(i);
+                    i
+                })
+                .collect();
+            if largest >= vertex_count_u32
+                && let Some((k, &i)) = list.iter().enumerate().find(|&(_, &i)| i >= vertex_count_u32)
+            {
                 return Err(ImportError::new(
                     indices_ptr,
                     format!("index {i} at position {k} is out of range (vertex count {vertex_count})"),
@@ -187,15 +198,13 @@ fn parse_primitive(
         });
     }
     let material = opt_index(prim, "material", ptr, material_count, "material")?;
-    // Positions are finite (read so): a comparison, not `f32::min`, whose NaN rule wasm has no
-    // instruction for (a call a component).
-    let (lesser, greater) = (|a: f32, b: f32| if b < a { b } else { a }, |a: f32, b: f32| if b > a { b } else { a });
-    let bounds = positions.iter().fold(([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]), |(lo, hi), p| {
-        (
-            [lesser(lo[0], p[0]), lesser(lo[1], p[1]), lesser(lo[2], p[2])],
-            [greater(hi[0], p[0]), greater(hi[1], p[1]), greater(hi[2], p[2])],
-        )
+    // Positions are finite (read so): a comparison and a select, all three axes at once (not
+    // `f32::min`, whose NaN rule wasm has no instruction for: a call a component).
+    let (lo, hi) = positions.iter().fold((Vec4::INFINITY, Vec4::NEG_INFINITY), |(lo, hi), &[x, y, z]| {
+        let p = Vec4::new(x, y, z, 0.0);
+        (Vec4::select(p.cmplt(lo), p, lo), Vec4::select(p.cmpgt(hi), p, hi))
     });
+    let bounds = (lo.truncate().to_array(), hi.truncate().to_array());
     let primitive = Primitive {
         topology,
         vertex_count: vertex_count_u32,
