@@ -150,10 +150,7 @@ impl<'j> Map<'j> {
         let members = self.0;
         if members.len() <= 12 {
             // glTF's objects are small: comparing lengths first beats a binary search's memcmps.
-            return members
-                .iter()
-                .find(|(k, _)| k.len() == key.len() && k.as_bytes() == key.as_bytes())
-                .map(|(_, v)| v);
+            return members.iter().find(|(k, _)| same_key(k.as_bytes(), key.as_bytes())).map(|(_, v)| v);
         }
         members.binary_search_by(|(k, _)| (*k).cmp(key)).ok().map(|i| &members[i].1)
     }
@@ -187,6 +184,23 @@ impl<'j> Map<'j> {
         }
         let members: &'j [(&'j str, Value<'j>)] = members;
         Map(members.get(..kept).unwrap_or_default())
+    }
+}
+
+/// Whether two keys are the same: for the lengths of glTF's keys, as two eight-byte words or
+/// byte by byte rather than a memcmp (a call in wasm, made for every member of the key's length
+/// a lookup passes: most of an accessor's and a buffer view's are ten bytes long).
+fn same_key(a: &[u8], b: &[u8]) -> bool {
+    if a.len() != b.len() {
+        return false;
+    }
+    let word =
+        |s: &[u8], at: usize| s.get(at..at + 8).and_then(|w| <[u8; 8]>::try_from(w).ok()).map(u64::from_le_bytes);
+    match a.len() {
+        0..8 => a.iter().zip(b).all(|(x, y)| x == y),
+        // The first eight bytes and the last eight (overlapping where shorter than 16).
+        n @ 8..=16 => word(a, 0) == word(b, 0) && word(a, n - 8) == word(b, n - 8),
+        _ => a == b,
     }
 }
 
@@ -279,6 +293,20 @@ mod tests {
         let deep = format!("{}{}", "[".repeat(200), "]".repeat(200));
         assert!(parse(deep.as_bytes(), &arena).is_err(), "serde_json's recursion limit");
         assert!(parse(b"{\"a\": 1,}", &arena).expect_err("trailing comma").to_string().contains("line 1"));
+    }
+
+    #[test]
+    fn keys_compare_as_bytes_do() {
+        for len in 0..24 {
+            let a: Vec<u8> = (0..len).map(|i| b'a' + (i % 26) as u8).collect();
+            assert!(same_key(&a, &a.clone()), "{len}");
+            for at in 0..len {
+                let mut b = a.clone();
+                b[at] ^= 0x20;
+                assert!(!same_key(&a, &b), "{len}: byte {at}");
+            }
+            assert!(!same_key(&a, &a[..len.saturating_sub(1)]) || len == 0, "{len}: shorter");
+        }
     }
 
     #[test]
