@@ -623,8 +623,8 @@ impl<'j> Parser<'j> {
         self.float(start, negative, int_digits, fraction, exponent.unwrap_or(0))
     }
 
-    /// The number written from `start` to here: as the nearest `f64` where that is one
-    /// operation, as its text (read when asked for, [`Number::Decimal`]) where it is known to be
+    /// The number written from `start` to here: as `f64` where that is one exact operation (as
+    /// serde_json reads it), as its text (read when asked for, [`Number::Decimal`]) where it is known to be
     /// within `f64`'s range, refused where it is known not to be.
     fn float(
         &self,
@@ -666,8 +666,8 @@ impl<'j> Parser<'j> {
         } else if e > 308 {
             Err(out_of_range())
         } else {
-            match written.parse::<f64>() {
-                Ok(x) if x.is_finite() => Ok(Number::F(x)),
+            match crate::read_decimal(written) {
+                Some(x) if x.is_finite() => Ok(Number::F(x)),
                 _ => Err(out_of_range()),
             }
         }
