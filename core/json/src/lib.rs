@@ -52,12 +52,12 @@ pub enum Value<'j> {
 
 /// A JSON number as serde_json reads it: a non-negative integer, a negative one, or a float.
 ///
-/// A float that is not one operation to read (more than 15 digits, or a large power of ten:
-/// most of a file's bounds, which the importer never reads) is kept as its text, checked to be
-/// within `f64`'s range, and read when asked for ([`Value::as_f64`]). Either way the float is
-/// serde_json's reading: the one operation where that is exact, serde_json's own reader on the
-/// text otherwise (core's correctly rounded one, not otherwise in the web bundle, added 11 KB
-/// gzip to it, most of it its tables).
+/// A float that is not one exact operation to read (a significand of 2^53 or more, as most
+/// exporters' 17 digits are, or a power of ten beyond 10^22: most of them a file's bounds, which
+/// the importer never reads) is kept as its text, checked to be within `f64`'s range, and read
+/// when asked for ([`Value::as_f64`]). Either way the float is serde_json's reading: the one
+/// operation where that is exact, serde_json's own reader on the text otherwise (core's correctly
+/// rounded one, not otherwise in the web bundle, added 11 KB gzip to it, most of it its tables).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Number<'j> {
     U(u64),

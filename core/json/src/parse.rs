@@ -1,4 +1,4 @@
-//! The parser: RFC 8259 JSON, recursive descent over the bytes, into the arena's tree.
+//! The parser: RFC 8259 JSON, one pass over the bytes, into the arena's tree.
 //!
 //! It reads what serde_json reads and refuses what it refuses (127 nested arrays and objects at
 //! most, lone surrogates, numbers beyond `f64`), with its messages' words and positions ("… at
@@ -64,8 +64,9 @@ impl fmt::Display for Error {
 
 impl std::error::Error for Error {}
 
-/// serde_json's: 127 arrays and objects nested at most (a parser that recurses needs a bound).
-const RECURSION_LIMIT: usize = 127;
+/// serde_json's recursion limit: 127 arrays and objects nested at most (this parser keeps them
+/// on a stack, not the call stack, and refuses what serde_json refuses).
+const NESTING_LIMIT: usize = 127;
 
 /// Parses `bytes` (as `crate::parse_counted`).
 pub(crate) fn parse<'j>(bytes: &'j [u8], arena: &'j bumpalo::Bump) -> Result<(Value<'j>, u64), Error> {
@@ -150,6 +151,20 @@ fn plain_run(bytes: &[u8], mut pos: usize) -> usize {
     pos
 }
 
+/// `significand × 10^scale` (negated where `negative`) where Clinger's fast path reads it: a
+/// significand below 2^53 and a power of ten up to 10^22 are both exact in `f64`, so one
+/// multiplication or division rounds once, correctly (serde_json reads such a number the same
+/// way).
+fn exact(significand: u64, scale: i64, negative: bool) -> Option<f64> {
+    if significand >= 1 << 53 {
+        return None;
+    }
+    let power = POW10.get(usize::try_from(scale.unsigned_abs()).ok()?)?;
+    let m = significand as f64;
+    let x = if scale < 0 { m / power } else { m * power };
+    Some(if negative { -x } else { x })
+}
+
 /// 10^0 ..= 10^22, every one exact in `f64`.
 static POW10: [f64; 23] = [
     1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20,
@@ -227,7 +242,7 @@ impl<'j> Parser<'j> {
                 }
                 Some(b'-' | b'0'..=b'9') => Value::Number(self.number()?),
                 Some(bracket @ (b'{' | b'[')) => {
-                    if open.len() >= RECURSION_LIMIT {
+                    if open.len() >= NESTING_LIMIT {
                         return Err(self.error("recursion limit exceeded"));
                     }
                     self.pos += 1;
@@ -470,6 +485,17 @@ impl<'j> Parser<'j> {
         Ok(n)
     }
 
+    /// One digit or more (a fraction's or an exponent's).
+    fn required_digits(&mut self) -> Result<(), Stop> {
+        if self.digits() > 0 {
+            Ok(())
+        } else if self.pos < self.bytes.len() {
+            Err(self.error("invalid number"))
+        } else {
+            Err(self.error("EOF while parsing a value"))
+        }
+    }
+
     fn digits(&mut self) -> usize {
         let start = self.pos;
         while let Some(b'0'..=b'9') = self.bytes.get(self.pos) {
@@ -511,10 +537,11 @@ impl<'j> Parser<'j> {
                 // Below 10^300 (any such number is finite), not cut short, no exponent.
                 if count <= 300 && fraction > 0 && !matches!(self.bytes.get(fraction_end), Some(b'e' | b'E')) {
                     self.pos = fraction_end;
-                    // Clinger's fast path (as in `float`).
-                    if count + fraction <= 19 && n < 1 << 53 && fraction <= 22 {
-                        let x = n as f64 / POW10[fraction];
-                        return Ok(Number::F(if negative { -x } else { x }));
+                    // `n` holds every digit where there are at most 19.
+                    if count + fraction <= 19
+                        && let Some(x) = exact(n, -(fraction as i64), negative)
+                    {
+                        return Ok(Number::F(x));
                     }
                     let text = match self.text {
                         Some(text) => text.get(start..fraction_end),
@@ -559,13 +586,7 @@ impl<'j> Parser<'j> {
         if self.peek() == Some(b'.') {
             self.pos += 1;
             let fraction_start = self.pos;
-            if self.digits() == 0 {
-                return Err(self.error(if self.pos < self.bytes.len() {
-                    "invalid number"
-                } else {
-                    "EOF while parsing a value"
-                }));
-            }
+            self.required_digits()?;
             fraction = self.bytes.get(fraction_start..self.pos).unwrap_or_default();
         }
         let mut exponent: Option<i64> = None;
@@ -583,13 +604,7 @@ impl<'j> Parser<'j> {
                 _ => false,
             };
             let exponent_start = self.pos;
-            if self.digits() == 0 {
-                return Err(self.error(if self.pos < self.bytes.len() {
-                    "invalid number"
-                } else {
-                    "EOF while parsing a value"
-                }));
-            }
+            self.required_digits()?;
             // An exponent past i32's range: a non-zero number is out of range (refused at that
             // digit, as serde_json does), any other is zero (the saturated exponent gives it).
             let mut magnitude = 0i64;
@@ -634,17 +649,10 @@ impl<'j> Parser<'j> {
         fraction: &[u8],
         exponent: i64,
     ) -> Result<Number<'j>, Stop> {
-        // Clinger's fast path: a significand below 2^53 and a power of ten up to 10^22 are both
-        // exact, so one multiplication or division rounds once, correctly.
-        let digits = int_digits.len() + fraction.len();
-        if digits <= 19 {
+        if int_digits.len() + fraction.len() <= 19 {
             let significand = int_digits.iter().chain(fraction).fold(0u64, |n, &d| n * 10 + u64::from(d - b'0'));
-            let scale = exponent - fraction.len() as i64;
-            if significand < 1 << 53 && (-22..=22).contains(&scale) {
-                let m = significand as f64;
-                let power = POW10[scale.unsigned_abs() as usize];
-                let x = if scale < 0 { m / power } else { m * power };
-                return Ok(Number::F(if negative { -x } else { x }));
+            if let Some(x) = exact(significand, exponent - fraction.len() as i64, negative) {
+                return Ok(Number::F(x));
             }
         }
         // The number's characters are ASCII whether the document is UTF-8 or not.
