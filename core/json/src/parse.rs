@@ -151,6 +151,16 @@ fn plain_run(bytes: &[u8], mut pos: usize) -> usize {
     pos
 }
 
+/// An integer of magnitude `n` as serde_json reads it: `U` from 0, `I` below 0; `None` where it
+/// is a float (`-0`, or below `i64`).
+fn integer(n: u64, negative: bool) -> Option<Number<'static>> {
+    match (negative, n) {
+        (false, n) => Some(Number::U(n)),
+        (true, 1..=0x8000_0000_0000_0000) => Some(Number::I(0i64.wrapping_sub_unsigned(n))),
+        (true, _) => None,
+    }
+}
+
 /// `significand × 10^scale` (negated where `negative`) where Clinger's fast path reads it: a
 /// significand below 2^53 and a power of ten up to 10^22 are both exact in `f64`, so one
 /// multiplication or division rounds once, correctly (serde_json reads such a number the same
@@ -485,6 +495,16 @@ impl<'j> Parser<'j> {
         Ok(n)
     }
 
+    /// The number's text, from `start` to here (its characters are ASCII whether the document is
+    /// UTF-8 or not).
+    fn written(&self, start: usize) -> Result<&'j str, Stop> {
+        let text = match self.text {
+            Some(text) => text.get(start..self.pos),
+            None => self.bytes.get(start..self.pos).and_then(|b| std::str::from_utf8(b).ok()),
+        };
+        text.ok_or_else(|| self.error("invalid number"))
+    }
+
     /// One digit or more (a fraction's or an exponent's).
     fn required_digits(&mut self) -> Result<(), Stop> {
         if self.digits() > 0 {
@@ -543,20 +563,14 @@ impl<'j> Parser<'j> {
                     {
                         return Ok(Number::F(x));
                     }
-                    let text = match self.text {
-                        Some(text) => text.get(start..fraction_end),
-                        None => self.bytes.get(start..fraction_end).and_then(|b| std::str::from_utf8(b).ok()),
-                    };
-                    return text.map(Number::Decimal).ok_or_else(|| self.error("invalid number"));
+                    return self.written(start).map(Number::Decimal);
                 }
             }
+            // At most 19 digits: `n` holds them all.
             _ if count <= 19 => {
-                if !negative {
+                if let Some(integer) = integer(n, negative) {
                     self.pos = end;
-                    return Ok(Number::U(n));
-                } else if n != 0 && n <= 1 << 63 {
-                    self.pos = end;
-                    return Ok(Number::I(0i64.wrapping_sub_unsigned(n)));
+                    return Ok(integer);
                 }
             }
             _ => {}
@@ -621,19 +635,16 @@ impl<'j> Parser<'j> {
             }
             exponent = Some(if exponent_negative { -magnitude } else { magnitude });
         }
-        if fraction.is_empty() && exponent.is_none() {
-            // Up to 19 digits cannot overflow u64; 20 may (a multiplication checked for overflow
-            // is a call to a 128-bit multiply in wasm, once per digit).
-            let n = if int_digits.len() <= 19 {
-                Some(int_digits.iter().fold(0u64, |n, &d| n * 10 + u64::from(d - b'0')))
-            } else {
-                int_digits.iter().try_fold(0u64, |n, &d| n.checked_mul(10)?.checked_add(u64::from(d - b'0')))
-            };
-            match n {
-                Some(n) if !negative => return Ok(Number::U(n)),
-                Some(n) if n != 0 && n <= 1 << 63 => return Ok(Number::I(0i64.wrapping_sub_unsigned(n))),
-                _ => {}
-            }
+        // An integer here is one `number` did not take (20 digits or more, `-0`, below i64):
+        // checked for overflow (a call in wasm, once per digit, on this rare path only).
+        if fraction.is_empty()
+            && exponent.is_none()
+            && let Some(integer) = int_digits
+                .iter()
+                .try_fold(0u64, |n, &d| n.checked_mul(10)?.checked_add(u64::from(d - b'0')))
+                .and_then(|n| integer(n, negative))
+        {
+            return Ok(integer);
         }
         self.float(start, negative, int_digits, fraction, exponent.unwrap_or(0))
     }
@@ -655,12 +666,7 @@ impl<'j> Parser<'j> {
                 return Ok(Number::F(x));
             }
         }
-        // The number's characters are ASCII whether the document is UTF-8 or not.
-        let written = self
-            .bytes
-            .get(start..self.pos)
-            .and_then(|b| std::str::from_utf8(b).ok())
-            .ok_or_else(|| self.error("invalid number"))?;
+        let written = self.written(start)?;
         let out_of_range = || self.fail(self.pos - 1, "number out of range");
         // The number is in [10^e, 10^(e + 1)) for the decimal exponent e of its first digit that
         // is not 0: below 10^308 it is finite (f64's largest is 1.797e308), from 10^309 it is
