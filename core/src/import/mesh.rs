@@ -346,15 +346,19 @@ pub(super) fn one_dense_set(
     let scale = wc.normalized_scale().filter(|_| n);
     // One loop for each layout (its reads known in the loop).
     match (jc, wc) {
-        (Component::U8, Component::F32) => fill_one_set(&mut out, narrow, floats, u8x4, weights_f32),
-        (Component::U16, Component::F32) => fill_one_set(&mut out, wide, floats, u16x4, weights_f32),
-        (Component::U8, Component::U8) => fill_one_set(&mut out, narrow, bytes, u8x4, |b| weights_int(u8x4(b), scale)),
-        (Component::U16, Component::U8) => fill_one_set(&mut out, wide, bytes, u16x4, |b| weights_int(u8x4(b), scale)),
+        (Component::U8, Component::F32) => fill_one_set(&mut out, narrow, floats, lanes_u8, weights_f32),
+        (Component::U16, Component::F32) => fill_one_set(&mut out, wide, floats, lanes_u16, weights_f32),
+        (Component::U8, Component::U8) => {
+            fill_one_set(&mut out, narrow, bytes, lanes_u8, |b| weights_int(u8x4(b), scale))
+        }
+        (Component::U16, Component::U8) => {
+            fill_one_set(&mut out, wide, bytes, lanes_u16, |b| weights_int(u8x4(b), scale))
+        }
         (Component::U8, Component::U16) => {
-            fill_one_set(&mut out, narrow, shorts, u8x4, |b| weights_int(u16x4(b), scale))
+            fill_one_set(&mut out, narrow, shorts, lanes_u8, |b| weights_int(u16x4(b), scale))
         }
         // Both 16-bit (the types are checked above).
-        _ => fill_one_set(&mut out, wide, shorts, u16x4, |b| weights_int(u16x4(b), scale)),
+        _ => fill_one_set(&mut out, wide, shorts, lanes_u16, |b| weights_int(u16x4(b), scale)),
     }
     Ok(Some(out))
 }
@@ -365,19 +369,73 @@ fn fill_one_set<const J: usize, const W: usize>(
     (joints, weights, most, repaired): &mut Repaired,
     joint_elements: &[[u8; J]],
     weight_elements: &[[u8; W]],
-    read_joints: impl Fn(&[u8; J]) -> [u16; 4],
+    read_joints: impl Fn(&[u8; J]) -> u64,
     read_weights: impl Fn(&[u8; W]) -> [f32; 4],
 ) {
+    // Every vertex has a weighted joint ([`renormalized`]), so the largest is `Some` as soon as
+    // there is a vertex.
+    let mut largest = 0_u16;
     for ((j, w), (jb, wb)) in joints.iter_mut().zip(weights.iter_mut()).zip(joint_elements.iter().zip(weight_elements))
     {
-        let (vertex_joints, vertex_weights, defect, vertex_most) =
-            renormalized(read_joints(jb), Vec4::from_array(read_weights(wb)));
+        let (vertex_joints, vertex_weights, defect) = renormalized(read_joints(jb), Vec4::from_array(read_weights(wb)));
+        let vertex_joints = unlaned(vertex_joints);
         [j[0], j[1], j[2], j[3]] = vertex_joints;
         [w[0], w[1], w[2], w[3]] = vertex_weights.to_array();
         *repaired += usize::from(defect);
-        *most = (*most).max(vertex_most);
+        largest = largest.max(largest_of(vertex_joints));
+    }
+    if !joints.is_empty() {
+        *most = (*most).max(Some(largest));
     }
 }
+
+/// The largest of four joints (two comparisons deep).
+#[inline(always)]
+fn largest_of(j: [u16; 4]) -> u16 {
+    j[0].max(j[1]).max(j[2].max(j[3]))
+}
+
+/// Four joints in the 16-bit lanes of a word, the first lowest (as [`renormalized`] keeps them).
+#[inline(always)]
+fn laned(j: [u16; 4]) -> u64 {
+    u64::from(j[0]) | u64::from(j[1]) << 16 | u64::from(j[2]) << 32 | u64::from(j[3]) << 48
+}
+
+/// The four joints of [`laned`].
+#[inline(always)]
+fn unlaned(j: u64) -> [u16; 4] {
+    // Truncations: each takes its lane.
+    [j as u16, (j >> 16) as u16, (j >> 32) as u16, (j >> 48) as u16]
+}
+
+/// Four 8-bit joints as [`laned`].
+#[inline(always)]
+fn lanes_u8(b: &[u8; 4]) -> u64 {
+    laned(u8x4(b))
+}
+
+/// Four 16-bit little-endian joints as [`laned`]: the bytes as they are.
+#[inline(always)]
+fn lanes_u16(b: &[u8; 8]) -> u64 {
+    u64::from_le_bytes(*b)
+}
+
+/// The lanes of [`laned`] joints kept for each four-bit mask of weighted slots.
+const KEPT_LANES: [u64; 16] = {
+    let mut masks = [0_u64; 16];
+    let mut i = 0;
+    while i < 16 {
+        let mut lane = 0;
+        while lane < 4 {
+            if i & (1 << lane) != 0 {
+                masks[i] |= 0xffff << (16 * lane);
+            }
+            lane += 1;
+        }
+        i += 1;
+    }
+    masks
+};
 
 /// Four 8-bit unsigned integers (joints, or weights before [`weights_int`]).
 #[inline(always)]
@@ -420,30 +478,39 @@ fn weights_f32(b: &[u8; 16]) -> [f32; 4] {
 /// [`renormalize_eight`] of the first four slots in one vector: the same results (each lane's
 /// division is correctly rounded, the sum is taken in the same order).
 fn renormalize_four(j: &mut [u16; 8], w: &mut [f32; 8]) -> (bool, Option<u16>) {
-    let (joints, weights, defect, most) = renormalized([j[0], j[1], j[2], j[3]], Vec4::new(w[0], w[1], w[2], w[3]));
+    let (joints, weights, defect) = renormalized(laned([j[0], j[1], j[2], j[3]]), Vec4::new(w[0], w[1], w[2], w[3]));
+    let joints = unlaned(joints);
     [j[0], j[1], j[2], j[3]] = joints;
     [w[0], w[1], w[2], w[3]] = weights.to_array();
-    (defect, most)
+    (defect, Some(largest_of(joints)))
 }
 
-/// [`renormalize_four`] of one vertex's four joints and weights, without a branch but the rare
-/// repair's: the joints (zero-weight ones pointed at joint 0), the weights, whether they needed
-/// repair and the largest weighted joint.
+/// [`renormalize_four`] of one vertex's four joints ([`laned`]) and weights: the joints
+/// (zero-weight ones pointed at joint 0), the weights and whether they needed repair. At least one weight is
+/// nonzero afterwards (the largest is at least a quarter of the sum it is divided by). Weights
+/// that are all at least zero and sum to 1 within the tolerance (every vertex of a sound file)
+/// take one test and a division; any others go to [`repair_weights`].
 #[inline(always)]
-fn renormalized(joints: [u16; 4], v: Vec4) -> ([u16; 4], Vec4, bool, Option<u16>) {
-    let bad = !v.is_finite_mask() | v.cmplt(Vec4::ZERO);
-    let v = Vec4::select(bad, Vec4::ZERO, v);
+fn renormalized(joints: u64, v: Vec4) -> (u64, Vec4, bool) {
     let sum = v.x + v.y + v.z + v.w;
-    let (v, defect) = if sum > 0.0 && sum.is_finite() {
-        (v / sum, bad.any() | ((sum - 1.0).abs() > WEIGHT_SUM_TOLERANCE))
+    // No lane is NaN or negative, and none is infinite: the sum would be.
+    let (v, defect) = if v.cmpge(Vec4::ZERO).all() && (sum - 1.0).abs() <= WEIGHT_SUM_TOLERANCE {
+        (v / sum, false)
     } else {
-        (Vec4::X, true)
+        repair_weights(v)
     };
     let weighted = v.cmpne(Vec4::ZERO).bitmask();
-    let keep = |i: u32, joint: u16| if weighted & (1 << i) != 0 { joint } else { 0 };
-    let joints = [keep(0, joints[0]), keep(1, joints[1]), keep(2, joints[2]), keep(3, joints[3])];
-    let most = joints[0].max(joints[1]).max(joints[2].max(joints[3]));
-    (joints, v, defect, (weighted != 0).then_some(most))
+    (joints & KEPT_LANES[(weighted & 15) as usize], v, defect)
+}
+
+/// The weights of [`renormalized`] that need repair: negative and non-finite ones zeroed and
+/// the rest divided by their sum, or all zero: bound to the first joint.
+#[cold]
+#[inline(never)]
+fn repair_weights(v: Vec4) -> (Vec4, bool) {
+    let v = Vec4::select(!v.is_finite_mask() | v.cmplt(Vec4::ZERO), Vec4::ZERO, v);
+    let sum = v.x + v.y + v.z + v.w;
+    if sum > 0.0 && sum.is_finite() { (v / sum, true) } else { (Vec4::X, true) }
 }
 
 /// Renormalizes one vertex's eight weights (negative or non-finite ones zeroed; all zero:
@@ -538,7 +605,17 @@ mod tests {
     fn four_weights_renormalize_as_eight_with_four_zero() {
         // Sums whose rounding depends on their order (left to right in both) among them.
         let q = |x: u8| f32::from(x) / 255.0;
-        let cases: [[f32; 4]; 13] = [
+        // Sums just inside and just outside the tolerance, either side of 1.
+        let (above, below) = (1.0 + WEIGHT_SUM_TOLERANCE, 1.0 - WEIGHT_SUM_TOLERANCE);
+        let cases: [[f32; 4]; 21] = [
+            [above, 0.0, 0.0, 0.0],
+            [f32::from_bits(above.to_bits() + 1), 0.0, 0.0, 0.0],
+            [below, 0.0, 0.0, 0.0],
+            [f32::from_bits(below.to_bits() - 1), 0.0, 0.0, 0.0],
+            [0.5, 0.5, 0.004, 0.003],
+            [0.5, 0.5, 0.005, 0.005],
+            [0.5, 0.5, 0.01, -1e-30],
+            [1.0, f32::MIN_POSITIVE / 4.0, 0.0, 0.0],
             [0.5, 0.25, 0.125, 0.125],
             [0.3, 0.3, 0.3, 0.3],
             [0.1, 0.2, 0.3, 0.4],
