@@ -98,7 +98,7 @@ fn asin_small(x: Vec4, z: Vec4) -> Vec4 {
 pub(crate) fn acos_unit(d: Vec4) -> Vec4 {
     let big = d.cmpge(Vec4::splat(0.5));
     let half_gap = (Vec4::ONE - d) * Vec4::splat(0.5);
-    let x = Vec4::select(big, half_gap.sqrt(), d);
+    let x = Vec4::select(big, crate::math::sqrt4(half_gap), d);
     let z = Vec4::select(big, half_gap, d * d);
     let a = asin_small(x, z);
     Vec4::select(big, a + a, Vec4::splat(std::f32::consts::FRAC_PI_2) - a)
@@ -119,7 +119,7 @@ pub(crate) fn sinc(x: Vec4) -> Vec4 {
 /// Unit length per lane; lanes of zero or non-finite length take `fallback`.
 fn normalize_or(q: &Quat4, fallback: &Quat4) -> Quat4 {
     let len2 = q.dot(q);
-    let inv = Vec4::ONE / len2.sqrt();
+    let inv = Vec4::ONE / crate::math::sqrt4(len2);
     let ok = len2.cmpgt(Vec4::ZERO) & inv.cmplt(Vec4::INFINITY);
     Quat4::select(ok, &q.scale(inv), fallback)
 }

@@ -349,7 +349,7 @@ fn lbs_block<S: RowSource, const NORMALS: bool>(
             let (x, y, z) = (normal(0), normal(1), normal(2));
             let len2 = x * x + y * y + z * z;
             let valid = len2.cmpgt(Vec4::ZERO) & len2.is_finite_mask();
-            let inv = Vec4::select(valid, len2.sqrt().recip(), Vec4::ZERO);
+            let inv = Vec4::select(valid, crate::math::sqrt4(len2).recip(), Vec4::ZERO);
             let inv = Vec4::select(det.cmplt(Vec4::ZERO), -inv, inv);
             from_lanes([x * inv, y * inv, z * inv], &mut out_n[g..]);
         }
