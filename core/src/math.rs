@@ -59,16 +59,8 @@ pub(crate) fn all_finite(xs: &[f32]) -> bool {
     lanes.all() & rest.iter().fold(true, |ok, x| ok & x.is_finite())
 }
 
-/// The square root of each lane, correctly rounded: one `f32x4.sqrt` as wasm with SIMD, where
-/// glam takes the lanes one at a time; glam's elsewhere.
-#[inline(always)]
-pub(crate) fn sqrt4(v: Vec4) -> Vec4 {
-    #[cfg(all(target_arch = "wasm32", target_feature = "simd128"))]
-    let root = Vec4::from(core::arch::wasm32::f32x4_sqrt(v.into()));
-    #[cfg(not(all(target_arch = "wasm32", target_feature = "simd128")))]
-    let root = v.sqrt();
-    root
-}
+/// The square root of each lane, correctly rounded (one `f32x4.sqrt` as wasm with SIMD).
+pub(crate) use kloub_meshopt::sqrt4;
 
 /// `v` divided by its length, and that length; `None` when the length is zero, tiny or not
 /// finite ([`QuatExt::try_normalize_quat`]'s test).

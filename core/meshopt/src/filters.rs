@@ -5,7 +5,7 @@
 //! is per element.
 
 use super::Filter;
-use super::lanes::V;
+use super::lanes::{V, sqrt4};
 use glam::Vec4;
 
 /// Applies `filter` to `out`, elements of `stride` bytes (checked by `super::check`).
@@ -105,7 +105,7 @@ fn octahedral(x: Vec4, y: Vec4, one: Vec4, max: f32) -> [Vec4; 3] {
     let z = one - x.abs() - y.abs();
     let t = z.min(Vec4::ZERO);
     let (x, y) = (x - t.copysign(x), y - t.copysign(y));
-    let s = Vec4::splat(max) / (x * x + y * y + z * z).sqrt();
+    let s = Vec4::splat(max) / sqrt4(x * x + y * y + z * z);
     [x * s, y * s, z * s]
 }
 
@@ -120,7 +120,7 @@ fn quaternion(b: &mut [u8; 32]) {
     let one = w.or(V::splat32(3)).to_f32();
     let (x, y, z) = (low16(xy), xy.sar32::<16>().to_f32(), low16(zw));
     let ww = (one * one + one * one) - (x * x + (y * y + z * z));
-    let ww = ww.max(Vec4::ZERO).sqrt();
+    let ww = sqrt4(ww.max(Vec4::ZERO));
     let scale = Vec4::splat(32767.0 * std::f32::consts::FRAC_1_SQRT_2) / one;
     let half = |c: Vec4| snap(c * scale).and(V::splat32(0xffff));
     let (xy, zw) = (half(x).or(half(y).shl32::<16>()), half(z).or(half(ww).shl32::<16>()));

@@ -9,6 +9,18 @@ pub(super) use wasm::V;
 #[cfg(not(all(target_arch = "wasm32", target_feature = "simd128")))]
 pub(super) use array::V;
 
+/// The square root of each lane, correctly rounded: one `f32x4.sqrt` as wasm with SIMD, where
+/// glam's `Vec4::sqrt` takes the lanes one at a time; glam's elsewhere. The filters' roots, and
+/// kloub-core's four-lane ones.
+#[inline(always)]
+pub fn sqrt4(v: glam::Vec4) -> glam::Vec4 {
+    #[cfg(all(target_arch = "wasm32", target_feature = "simd128"))]
+    let root = glam::Vec4::from(core::arch::wasm32::f32x4_sqrt(v.into()));
+    #[cfg(not(all(target_arch = "wasm32", target_feature = "simd128")))]
+    let root = v.sqrt();
+    root
+}
+
 #[cfg(all(target_arch = "wasm32", target_feature = "simd128"))]
 #[allow(unsafe_code)]
 mod wasm {

@@ -12,6 +12,7 @@
 
 mod filters;
 mod lanes;
+pub use lanes::sqrt4;
 mod vertex;
 
 /// How a view's bytes were compressed (the extension's `mode`).
