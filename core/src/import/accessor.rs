@@ -259,7 +259,9 @@ fn decompress(
         return Ok(None);
     };
     let khr = name == super::meshopt::EXTENSIONS[0];
-    let xptr = format!("{ptr}/extensions/{name}");
+    // Written out only for a message.
+    let extensions = Ptr::member(ptr, "extensions");
+    let xptr = Ptr::member(&extensions, name);
     let buffer = req_index(x, "buffer", &xptr, buffers.len(), "buffer")? as usize;
     let offset = opt_u64(x, "byteOffset", &xptr)?.unwrap_or(0);
     let size = req_u64(x, "byteLength", &xptr)?;
@@ -271,10 +273,10 @@ fn decompress(
     let filter_name = super::json::opt_str(x, "filter", &xptr)?.unwrap_or("NONE");
     let filter = super::meshopt::Filter::parse(filter_name)
         .ok_or_else(|| member_error(&xptr, "filter", format!("unknown filter '{filter_name}'")))?;
-    super::meshopt::check(mode, filter, count, stride, khr).map_err(|e| ImportError::new(&xptr, e))?;
+    super::meshopt::check(mode, filter, count, stride, khr).map_err(|e| ImportError::new(xptr, e))?;
     if count.checked_mul(stride) != Some(length) {
         return Err(ImportError::new(
-            &xptr,
+            xptr,
             format!("count {count} × byteStride {stride} is not the view's byteLength {length}"),
         ));
     }
@@ -286,16 +288,16 @@ fn decompress(
         .and_then(|end| data.get(usize::try_from(offset).ok()?..usize::try_from(end).ok()?))
         .ok_or_else(|| {
             ImportError::new(
-                &xptr,
+                xptr,
                 format!("byteOffset {offset} + byteLength {size} does not fit buffer {buffer} ({} bytes)", data.len()),
             )
         })?;
-    budget.take(Some(length), &xptr, &format!("decompressed view of {length} bytes"))?;
-    let length = usize::try_from(length).map_err(|_| ImportError::new(&xptr, "the view is too large"))?;
+    budget.take(Some(length), &xptr, &format_args!("decompressed view of {length} bytes"))?;
+    let length = usize::try_from(length).map_err(|_| ImportError::new(xptr, "the view is too large"))?;
     let mut out = vec![0u8; length];
     // `check` and the length test above hold, so the sizes fit a usize.
     super::meshopt::decode(mode, filter, count as usize, stride as usize, src, &mut out, khr)
-        .map_err(|e| ImportError::new(&xptr, e))?;
+        .map_err(|e| ImportError::new(xptr, e))?;
     let cost = crate::asset::CompressedView {
         view: 0,
         extension: name.to_owned(),

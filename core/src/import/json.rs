@@ -240,7 +240,8 @@ pub(crate) fn extension<'a>(
     ptr: &(impl Display + ?Sized),
 ) -> Result<Option<&'a Obj<'a>>, ImportError> {
     match opt_object(obj, "extensions", ptr)? {
-        Some(ext) => opt_object(ext, extension, &child(ptr, "extensions")),
+        // The pointer is written out only for an error.
+        Some(ext) => opt_object(ext, extension, &format_args!("{ptr}/extensions")),
         None => Ok(None),
     }
 }

@@ -171,13 +171,14 @@ pub(crate) fn scenes(cx: &mut Cx<'_>, nodes: &[Node]) -> Result<(Vec<Scene>, Opt
 pub(crate) fn skins(cx: &mut Cx<'_>, node_count: usize) -> Result<Vec<Skin>, ImportError> {
     let mut skins = Vec::new();
     for (skin, ptr) in objects(cx.root, "skins", "")? {
-        let joints_ptr = child(&ptr, "joints");
+        // The pointers are written out only for an error.
+        let joints_ptr = Ptr::member(&ptr, "joints");
         let joints = array(skin, "joints", &ptr)?
             .iter()
             .enumerate()
             .map(|(i, v)| {
-                let p = child(&joints_ptr, i);
-                let index = super::json::as_u64(v).ok_or_else(|| ImportError::new(&p, "expected a node index"))?;
+                let p = Ptr::element(&ptr, "joints", i);
+                let index = super::json::as_u64(v).ok_or_else(|| ImportError::new(p, "expected a node index"))?;
                 check_index(index, node_count, "node", &p)
             })
             .collect::<Result<Vec<_>, _>>()?;
@@ -187,7 +188,7 @@ pub(crate) fn skins(cx: &mut Cx<'_>, node_count: usize) -> Result<Vec<Skin>, Imp
         let inverse_bind = match opt_index(skin, "inverseBindMatrices", &ptr, cx.accessors.len(), "accessor")? {
             None => vec![Mat4::IDENTITY; joints.len()],
             Some(a) => {
-                let p = child(&ptr, "inverseBindMatrices");
+                let p = Ptr::member(&ptr, "inverseBindMatrices");
                 let m = cx.accessors.read_f32::<16>(a, &p, &["MAT4"], true, &mut cx.budget)?;
                 if m.len() < joints.len() {
                     return Err(ImportError::new(p, format!("{} matrices for {} joints", m.len(), joints.len())));
