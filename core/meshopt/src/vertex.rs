@@ -89,13 +89,28 @@ pub(super) fn decode_vertices(
         // position, written straight into the elements).
         let elements = &mut out[first * stride..(first + block) * stride];
         let row = |k: usize| &deltas[k * groups..(k + 1) * groups];
+        let rows_of = |at: usize| -> [&[[u8; 16]]; 4] { std::array::from_fn(|k| row(at + k)) };
+        let kind_of = |channel: usize| Channel::of(channels.get(channel).copied().unwrap_or(0));
+        let value_of = |last: &[u8; 256], at: usize| [last[at], last[at + 1], last[at + 2], last[at + 3]];
+        // Two channels an element (stride 8): both summed at once and written as whole elements.
+        let paired = (lanes && stride == 8).then(|| {
+            let mut values = [value_of(&last, 0), value_of(&last, 4)];
+            let done = sums_pair([rows_of(0), rows_of(4)], [kind_of(0), kind_of(1)], block, &mut values, elements);
+            (done, values)
+        });
         for channel in 0..stride / 4 {
             let at = channel * 4;
-            let mode = channels.get(channel).copied().unwrap_or(0);
-            let rows: [&[[u8; 16]]; 4] = std::array::from_fn(|k| row(at + k));
-            let kind = Channel::of(mode);
-            let mut value = [last[at], last[at + 1], last[at + 2], last[at + 3]];
-            let done = if lanes { sums_lanes(rows, kind, stride, at, block, &mut value, elements) } else { 0 };
+            let rows = rows_of(at);
+            let kind = kind_of(channel);
+            let mut value = value_of(&last, at);
+            let done = match paired {
+                Some((done, values)) => {
+                    value = values[channel & 1];
+                    done
+                }
+                None if lanes => sums_lanes(rows, kind, stride, at, block, &mut value, elements),
+                None => 0,
+            };
             let delta = |i: usize, k: usize| rows[k].as_flattened().get(i).copied().unwrap_or(0);
             for (i, element) in elements.chunks_exact_mut(stride).enumerate().skip(done) {
                 match kind {
@@ -290,42 +305,16 @@ fn sums_lanes(
     elements: &mut [u8],
 ) -> usize {
     let mut running = V::splat32(u32::from_le_bytes(*value));
-    let (one8, one16) = (V::splat(1), V::splat16(1));
     let mut done = 0;
     // Stops where the rows or the elements end (neither does for a well-formed block): the
     // scalar steps go on from `done` and the running value.
     'groups: for group in 0..block.div_ceil(16) {
-        let (Some(r0), Some(r1), Some(r2), Some(r3)) =
-            (rows[0].get(group), rows[1].get(group), rows[2].get(group), rows[3].get(group))
-        else {
-            break;
-        };
-        let (r0, r1, r2, r3) = (V::load(r0), V::load(r1), V::load(r2), V::load(r3));
-        let (t0, t1) = (V::unpack_lo8(r0, r1), V::unpack_hi8(r0, r1));
-        let (t2, t3) = (V::unpack_lo8(r2, r3), V::unpack_hi8(r2, r3));
-        let quads = [V::unpack_lo16(t0, t2), V::unpack_hi16(t0, t2), V::unpack_lo16(t1, t3), V::unpack_hi16(t1, t3)];
+        let Some(quads) = quads(rows, group) else { break };
         for quad in quads {
             if done >= block {
                 break 'groups;
             }
-            let sums = match kind {
-                // Unzigzag: v >> 1, all bits flipped where v is odd; then sums lane by lane.
-                Channel::Bytes => {
-                    let d = quad.shr8::<1>().xor(quad.and(one8).eq8(one8));
-                    let d = d.add8(d.shift_up4());
-                    d.add8(d.shift_up8()).add8(running)
-                }
-                Channel::Shorts => {
-                    let d = quad.shr16::<1>().xor(quad.and(one16).eq16(one16));
-                    let d = d.add16(d.shift_up4());
-                    d.add16(d.shift_up8()).add16(running)
-                }
-                Channel::Xor(rotate) => {
-                    let d = quad.rotr32(rotate);
-                    let d = d.xor(d.shift_up4());
-                    d.xor(d.shift_up8()).xor(running)
-                }
-            };
+            let sums = accumulate(quad, kind, running);
             let first = done * stride;
             let n = (block - done).min(4);
             if stride == 4 && n == 4 {
@@ -348,6 +337,77 @@ fn sums_lanes(
         }
     }
     *value = running.lanes32()[0].to_le_bytes();
+    done
+}
+
+/// Group `group` of a channel's four byte rows transposed into elements: four vectors of four
+/// elements, an element a 32-bit lane. `None` where a row is short.
+#[inline(always)]
+fn quads(rows: [&[[u8; 16]]; 4], group: usize) -> Option<[V; 4]> {
+    let (Some(r0), Some(r1), Some(r2), Some(r3)) =
+        (rows[0].get(group), rows[1].get(group), rows[2].get(group), rows[3].get(group))
+    else {
+        return None;
+    };
+    let (r0, r1, r2, r3) = (V::load(r0), V::load(r1), V::load(r2), V::load(r3));
+    let (t0, t1) = (V::unpack_lo8(r0, r1), V::unpack_hi8(r0, r1));
+    let (t2, t3) = (V::unpack_lo8(r2, r3), V::unpack_hi8(r2, r3));
+    Some([V::unpack_lo16(t0, t2), V::unpack_hi16(t0, t2), V::unpack_lo16(t1, t3), V::unpack_hi16(t1, t3)])
+}
+
+/// Four elements' deltas of a channel (`quad`, an element a 32-bit lane) decoded as `kind` and
+/// accumulated along the elements onto `running` (the value before them, in every lane): two
+/// shifted steps within the four lanes, then the running value.
+#[inline(always)]
+fn accumulate(quad: V, kind: Channel, running: V) -> V {
+    match kind {
+        // Unzigzag: v >> 1, all bits flipped where v is odd; then sums lane by lane.
+        Channel::Bytes => {
+            let one = V::splat(1);
+            let d = quad.shr8::<1>().xor(quad.and(one).eq8(one));
+            let d = d.add8(d.shift_up4());
+            d.add8(d.shift_up8()).add8(running)
+        }
+        Channel::Shorts => {
+            let one = V::splat16(1);
+            let d = quad.shr16::<1>().xor(quad.and(one).eq16(one));
+            let d = d.add16(d.shift_up4());
+            d.add16(d.shift_up8()).add16(running)
+        }
+        Channel::Xor(rotate) => {
+            let d = quad.rotr32(rotate);
+            let d = d.xor(d.shift_up4());
+            d.xor(d.shift_up8()).xor(running)
+        }
+    }
+}
+
+/// [`sums_lanes`] of both channels of 8-byte elements at once: four elements' two channels
+/// interleaved into 32 bytes and stored whole. Stops before a last partial four (the scalar
+/// steps finish it from the returned count and `values`, each channel's running value).
+#[inline(always)]
+fn sums_pair(
+    rows: [[&[[u8; 16]]; 4]; 2],
+    kinds: [Channel; 2],
+    block: usize,
+    values: &mut [[u8; 4]; 2],
+    elements: &mut [u8],
+) -> usize {
+    let mut running = values.map(|v| V::splat32(u32::from_le_bytes(v)));
+    let mut done = 0;
+    'groups: for group in 0..block.div_ceil(16) {
+        let (Some(a), Some(b)) = (quads(rows[0], group), quads(rows[1], group)) else { break };
+        for (qa, qb) in a.into_iter().zip(b) {
+            let Some(out) = elements.get_mut(done * 8..done * 8 + 32) else { break 'groups };
+            let [low, high] = out.as_chunks_mut::<16>().0 else { break 'groups };
+            let (sa, sb) = (accumulate(qa, kinds[0], running[0]), accumulate(qb, kinds[1], running[1]));
+            V::unpack_lo32(sa, sb).store(low);
+            V::unpack_hi32(sa, sb).store(high);
+            running = [sa.splat_last32(), sb.splat_last32()];
+            done += 4;
+        }
+    }
+    *values = running.map(|r| r.lanes32()[0].to_le_bytes());
     done
 }
 
