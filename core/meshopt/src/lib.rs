@@ -115,7 +115,7 @@ pub fn decode(
         return Err("the output does not hold count × byteStride bytes".to_owned());
     }
     match mode {
-        Mode::Attributes => vertex::decode_vertices(out, count, stride, src, khr, true)?,
+        Mode::Attributes => vertex::decode_vertices(out, count, stride, src, khr, vertex::Steps::BEST)?,
         Mode::Triangles => decode_triangles(out, count, stride, src)?,
         Mode::Indices => decode_indices(out, stride, src)?,
     }
