@@ -3,8 +3,9 @@
 //! Its parser ([`parse`]) reads and refuses what serde_json does, with its messages' words and
 //! positions, and is written for this tree alone. The tree replaces `serde_json::Value`, which
 //! allocated a `String` for every key and string and a B-tree for every object: for a 2 MB JSON
-//! chunk (KayKit's Knight, 8,839 accessors) that was most of the import's time. Objects are sorted by key with duplicates resolved to the last
-//! (the reads and iteration order of `serde_json::Map`), and looked up by binary search.
+//! chunk (KayKit's Knight, 8,839 accessors) that was most of the import's time. Objects are
+//! sorted by key with duplicates resolved to the last (the reads and iteration order of
+//! `serde_json::Map`), and looked up by binary search.
 //!
 //! The tree lives in an [`Arena`] the caller keeps beside the bytes: each array and object is
 //! one exact-size slice in it and each escaped string a copy, so parsing makes no allocation of

@@ -153,8 +153,8 @@ pub(super) enum Steps {
     /// 16 bytes at once through [`V`].
     Lanes,
     /// As `Lanes`, with 8-byte elements' two channels summed and stored together
-    /// ([`sums_pair`]): faster with wasm's `v128`, ~10 % slower with the plain array `V` is
-    /// natively.
+    /// ([`sums_pair`]): faster with wasm's `v128`, ~10 % slower with the plain array that `V`
+    /// is natively.
     Paired,
 }
 

@@ -486,14 +486,15 @@ fn renormalize_four(j: &mut [u16; 8], w: &mut [f32; 8]) -> (bool, Option<u16>) {
 }
 
 /// [`renormalize_four`] of one vertex's four joints ([`laned`]) and weights: the joints
-/// (zero-weight ones pointed at joint 0), the weights and whether they needed repair. At least one weight is
-/// nonzero afterwards (the largest is at least a quarter of the sum it is divided by). Weights
-/// that are all at least zero and sum to 1 within the tolerance (every vertex of a sound file)
-/// take one test and a division; any others go to [`repair_weights`].
+/// (zero-weight ones pointed at joint 0), the weights and whether they needed repair. At least
+/// one weight is nonzero afterwards (the largest is at least a quarter of the sum it is divided
+/// by). Weights that are all at least zero and sum to 1 within the tolerance (every vertex of a
+/// sound file) take one test and a division; any others go to [`repair_weights`].
 #[inline(always)]
 fn renormalized(joints: u64, v: Vec4) -> (u64, Vec4, bool) {
     let sum = v.x + v.y + v.z + v.w;
-    // No lane is NaN or negative, and none is infinite: the sum would be.
+    // Every lane at least zero (so none is NaN) and the sum near 1 (so none is infinite): as
+    // `repair_weights` would leave them, and sound.
     let (v, defect) = if v.cmpge(Vec4::ZERO).all() && (sum - 1.0).abs() <= WEIGHT_SUM_TOLERANCE {
         (v / sum, false)
     } else {
